@@ -1,0 +1,17 @@
+//! The 8-DOF full car with driver seat of the thesis (ch. 3–4), corrected per SPEC.md §1.
+//!
+//! * [`params`]: parameters, their units, admissible ranges and the documented defaults;
+//! * [`model`]: the element-Jacobian derivation of `M, C, K`, the 16-state model and the
+//!   physical outputs;
+//! * [`polytope`]: the vertex and COG forms over the sprung mass;
+//! * [`exact`]: exact discretisation used by the plant FMU and the tests.
+//!
+//! Nothing here knows about FMI.
+
+pub mod exact;
+pub mod model;
+pub mod params;
+pub mod polytope;
+
+pub use model::{MechanicalModel, StateSpace};
+pub use params::VehicleParams;
