@@ -1,0 +1,437 @@
+//! The variable table of an FMU — the single source of truth — and the `modelDescription.xml`
+//! derived from it (FMI 2.0.4 §2.2, Co-Simulation only).
+
+use crate::logger::Category;
+use std::collections::BTreeSet;
+use std::fmt::Write;
+
+pub type ValueReference = u32;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Causality {
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variability {
+    Fixed,
+    Tunable,
+    Continuous,
+    Discrete,
+}
+
+/// The value type of a variable, with its start value where it has one.
+#[derive(Debug, Clone, PartialEq)]
+pub enum VarType {
+    Real { unit: &'static str, start: Option<f64>, min: Option<f64>, max: Option<f64> },
+    Integer { start: Option<i32> },
+    Boolean { start: Option<bool> },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum BaseType {
+    Real,
+    Integer,
+    Boolean,
+}
+
+impl VarType {
+    pub fn base(&self) -> BaseType {
+        match self {
+            VarType::Real { .. } => BaseType::Real,
+            VarType::Integer { .. } => BaseType::Integer,
+            VarType::Boolean { .. } => BaseType::Boolean,
+        }
+    }
+}
+
+/// One `ScalarVariable`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variable {
+    pub name: String,
+    pub value_reference: ValueReference,
+    pub description: String,
+    pub causality: Causality,
+    pub variability: Variability,
+    pub kind: VarType,
+    /// For outputs: the inputs (by name) the output depends on directly (feed-through).
+    pub depends_on: Vec<String>,
+}
+
+impl Variable {
+    pub fn real(name: impl Into<String>, vr: ValueReference, causality: Causality, unit: &'static str, description: impl Into<String>) -> Self {
+        let variability = match causality {
+            Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
+            Causality::Input | Causality::Output => Variability::Continuous,
+        };
+        Variable {
+            name: name.into(),
+            value_reference: vr,
+            description: description.into(),
+            causality,
+            variability,
+            kind: VarType::Real { unit, start: None, min: None, max: None },
+            depends_on: Vec::new(),
+        }
+    }
+
+    pub fn with_start(mut self, value: f64) -> Self {
+        if let VarType::Real { start, .. } = &mut self.kind {
+            *start = Some(value);
+        }
+        self
+    }
+
+    pub fn with_min(mut self, value: f64) -> Self {
+        if let VarType::Real { min, .. } = &mut self.kind {
+            *min = Some(value);
+        }
+        self
+    }
+
+    pub fn with_max(mut self, value: f64) -> Self {
+        if let VarType::Real { max, .. } = &mut self.kind {
+            *max = Some(value);
+        }
+        self
+    }
+
+    pub fn with_variability(mut self, variability: Variability) -> Self {
+        self.variability = variability;
+        self
+    }
+
+    pub fn depending_on(mut self, inputs: Vec<String>) -> Self {
+        self.depends_on = inputs;
+        self
+    }
+
+    pub fn unit(&self) -> Option<&'static str> {
+        match &self.kind {
+            VarType::Real { unit, .. } if !unit.is_empty() => Some(unit),
+            _ => None,
+        }
+    }
+
+    /// May this variable be set in state `initialising` (Instantiated / InitializationMode)
+    /// or, if false, in StepComplete? (FMI 2.0.4 §4.2.4 and the variability rules of §2.2.7.)
+    pub fn settable(&self, initialising: bool) -> bool {
+        match self.causality {
+            Causality::Input => true,
+            Causality::Parameter => initialising || self.variability == Variability::Tunable,
+            Causality::CalculatedParameter | Causality::Output => false,
+        }
+    }
+}
+
+/// Capability flags of `<CoSimulation>`. They must tell the truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Capabilities {
+    pub can_handle_variable_communication_step_size: bool,
+    pub can_interpolate_inputs: bool,
+    pub max_output_derivative_order: u32,
+    pub can_get_and_set_fmu_state: bool,
+    pub can_serialize_fmu_state: bool,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct DefaultExperiment {
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub step_size: f64,
+}
+
+/// Everything `modelDescription.xml` says.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelDescription {
+    pub model_name: String,
+    pub model_identifier: String,
+    pub guid: String,
+    pub description: String,
+    pub version: String,
+    pub capabilities: Capabilities,
+    pub default_experiment: DefaultExperiment,
+    pub variables: Vec<Variable>,
+}
+
+/// Base-unit exponents (kg, m, s, A, K, mol, cd, rad) of every unit our FMUs use.
+fn base_unit(unit: &str) -> Option<[i32; 8]> {
+    Some(match unit {
+        "m" => [0, 1, 0, 0, 0, 0, 0, 0],
+        "m/s" => [0, 1, -1, 0, 0, 0, 0, 0],
+        "m/s2" => [0, 1, -2, 0, 0, 0, 0, 0],
+        "rad" => [0, 0, 0, 0, 0, 0, 0, 1],
+        "rad/s" => [0, 0, -1, 0, 0, 0, 0, 1],
+        "rad/s2" => [0, 0, -2, 0, 0, 0, 0, 1],
+        "kg" => [1, 0, 0, 0, 0, 0, 0, 0],
+        "kg.m2" => [1, 2, 0, 0, 0, 0, 0, 0],
+        "N" => [1, 1, -2, 0, 0, 0, 0, 0],
+        "N/m" => [1, 0, -2, 0, 0, 0, 0, 0],
+        "N.s/m" => [1, 0, -1, 0, 0, 0, 0, 0],
+        "s" => [0, 0, 1, 0, 0, 0, 0, 0],
+        "Hz" => [0, 0, -1, 0, 0, 0, 0, 0],
+        "1" => [0; 8],
+        _ => return None,
+    })
+}
+
+/// Why a description is not a valid FMI 2.0 description.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DescriptionError(pub String);
+
+impl std::fmt::Display for DescriptionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl ModelDescription {
+    pub fn variable(&self, name: &str) -> Option<&Variable> {
+        self.variables.iter().find(|v| v.name == name)
+    }
+
+    /// Rules of FMI 2.0.4 §2.2.7 that a table could break: unique names and value references
+    /// per type, start values where required and forbidden, known units, dependencies on
+    /// existing inputs.
+    pub fn check(&self) -> Result<(), DescriptionError> {
+        let err = |s: String| Err(DescriptionError(s));
+        let mut names = BTreeSet::new();
+        let mut refs = BTreeSet::new();
+        for v in &self.variables {
+            if !names.insert(v.name.as_str()) {
+                return err(format!("duplicate variable name '{}'", v.name));
+            }
+            if !refs.insert((v.kind.base(), v.value_reference)) {
+                return err(format!("duplicate value reference {} ({:?})", v.value_reference, v.kind.base()));
+            }
+            let has_start = match &v.kind {
+                VarType::Real { start, unit, .. } => {
+                    if !unit.is_empty() && base_unit(unit).is_none() {
+                        return err(format!("variable '{}' has unknown unit '{unit}'", v.name));
+                    }
+                    start.is_some()
+                }
+                VarType::Integer { start } => start.is_some(),
+                VarType::Boolean { start } => start.is_some(),
+            };
+            let needs_start = matches!(v.causality, Causality::Parameter | Causality::Input);
+            if needs_start != has_start {
+                return err(format!("variable '{}' ({:?}) must {}have a start value", v.name, v.causality, if needs_start { "" } else { "not " }));
+            }
+            for d in &v.depends_on {
+                match self.variable(d) {
+                    Some(i) if i.causality == Causality::Input => {}
+                    _ => return err(format!("output '{}' depends on '{d}', which is not an input", v.name)),
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The `modelDescription.xml` text. Deterministic (no date), so the checked-in copy in
+    /// `modelDescription/` can be compared byte for byte.
+    pub fn to_xml(&self) -> String {
+        let mut x = String::new();
+        let c = &self.capabilities;
+        let e = &self.default_experiment;
+        let b = |v: bool| if v { "true" } else { "false" };
+        writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#).unwrap();
+        writeln!(x, "<!-- Generated from the variable table in Rust; do not edit. Regenerate with `make descriptions`. -->").unwrap();
+        writeln!(
+            x,
+            r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" version="{}" generationTool="suspension-fmus (fmu-core)" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
+            esc(&self.model_name), esc(&self.guid), esc(&self.description), esc(&self.version)
+        )
+        .unwrap();
+        writeln!(
+            x,
+            r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="{}" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="false"/>"#,
+            esc(&self.model_identifier),
+            b(c.can_handle_variable_communication_step_size),
+            b(c.can_interpolate_inputs),
+            c.max_output_derivative_order,
+            b(c.can_get_and_set_fmu_state),
+            b(c.can_serialize_fmu_state)
+        )
+        .unwrap();
+        let units: BTreeSet<&str> = self.variables.iter().filter_map(|v| v.unit()).collect();
+        if !units.is_empty() {
+            writeln!(x, "  <UnitDefinitions>").unwrap();
+            for u in units {
+                let exps = base_unit(u).expect("units are checked");
+                let attrs: String = ["kg", "m", "s", "A", "K", "mol", "cd", "rad"]
+                    .iter()
+                    .zip(exps)
+                    .filter(|(_, e)| *e != 0)
+                    .map(|(n, e)| format!(r#" {n}="{e}""#))
+                    .collect();
+                writeln!(x, r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#, esc(u)).unwrap();
+            }
+            writeln!(x, "  </UnitDefinitions>").unwrap();
+        }
+        writeln!(x, "  <LogCategories>").unwrap();
+        for cat in Category::ALL {
+            writeln!(x, r#"    <Category name="{}" description="{}"/>"#, cat.name(), esc(cat.description())).unwrap();
+        }
+        writeln!(x, "  </LogCategories>").unwrap();
+        writeln!(x, r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#, num(e.start_time), num(e.stop_time), num(e.step_size)).unwrap();
+        writeln!(x, "  <ModelVariables>").unwrap();
+        for (i, v) in self.variables.iter().enumerate() {
+            let causality = match v.causality {
+                Causality::Parameter => "parameter",
+                Causality::CalculatedParameter => "calculatedParameter",
+                Causality::Input => "input",
+                Causality::Output => "output",
+            };
+            let variability = match v.variability {
+                Variability::Fixed => "fixed",
+                Variability::Tunable => "tunable",
+                Variability::Continuous => "continuous",
+                Variability::Discrete => "discrete",
+            };
+            let initial = match v.causality {
+                Causality::Parameter => r#" initial="exact""#,
+                Causality::CalculatedParameter | Causality::Output => r#" initial="calculated""#,
+                Causality::Input => "",
+            };
+            writeln!(x, "    <!-- index {} -->", i + 1).unwrap();
+            writeln!(
+                x,
+                r#"    <ScalarVariable name="{}" valueReference="{}" description="{}" causality="{causality}" variability="{variability}"{initial}>"#,
+                esc(&v.name), v.value_reference, esc(&v.description)
+            )
+            .unwrap();
+            match &v.kind {
+                VarType::Real { unit, start, min, max } => {
+                    let mut attrs = String::new();
+                    if !unit.is_empty() {
+                        write!(attrs, r#" unit="{}""#, esc(unit)).unwrap();
+                    }
+                    if let Some(m) = min {
+                        write!(attrs, r#" min="{}""#, num(*m)).unwrap();
+                    }
+                    if let Some(m) = max {
+                        write!(attrs, r#" max="{}""#, num(*m)).unwrap();
+                    }
+                    if let Some(s) = start {
+                        write!(attrs, r#" start="{}""#, num(*s)).unwrap();
+                    }
+                    writeln!(x, "      <Real{attrs}/>").unwrap();
+                }
+                VarType::Integer { start } => match start {
+                    Some(s) => writeln!(x, r#"      <Integer start="{s}"/>"#).unwrap(),
+                    None => writeln!(x, "      <Integer/>").unwrap(),
+                },
+                VarType::Boolean { start } => match start {
+                    Some(s) => writeln!(x, r#"      <Boolean start="{}"/>"#, b(*s)).unwrap(),
+                    None => writeln!(x, "      <Boolean/>").unwrap(),
+                },
+            }
+            writeln!(x, "    </ScalarVariable>").unwrap();
+        }
+        writeln!(x, "  </ModelVariables>").unwrap();
+        let index = |name: &str| self.variables.iter().position(|v| v.name == name).expect("checked") + 1;
+        writeln!(x, "  <ModelStructure>").unwrap();
+        let outputs: Vec<(usize, &Variable)> = self.variables.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).collect();
+        if !outputs.is_empty() {
+            writeln!(x, "    <Outputs>").unwrap();
+            for (i, v) in &outputs {
+                let mut deps: Vec<usize> = v.depends_on.iter().map(|d| index(d)).collect();
+                deps.sort_unstable();
+                let list: Vec<String> = deps.iter().map(|d| d.to_string()).collect();
+                writeln!(x, r#"      <Unknown index="{}" dependencies="{}"/>"#, i + 1, list.join(" ")).unwrap();
+            }
+            writeln!(x, "    </Outputs>").unwrap();
+        }
+        // Initial unknowns: outputs and calculated parameters. Their `dependencies` attribute is
+        // left out, which FMI 2.0.4 §2.2.8 defines as "depends on all knowns" — true here,
+        // because at initialisation they depend on the parameters as well as the inputs.
+        let initial: Vec<usize> = self
+            .variables
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| matches!(v.causality, Causality::Output | Causality::CalculatedParameter))
+            .map(|(i, _)| i + 1)
+            .collect();
+        if !initial.is_empty() {
+            writeln!(x, "    <InitialUnknowns>").unwrap();
+            for i in initial {
+                writeln!(x, r#"      <Unknown index="{i}"/>"#).unwrap();
+            }
+            writeln!(x, "    </InitialUnknowns>").unwrap();
+        }
+        writeln!(x, "  </ModelStructure>").unwrap();
+        writeln!(x, "</fmiModelDescription>").unwrap();
+        x
+    }
+}
+
+/// Shortest decimal that round-trips (Rust's `{}` for f64), with an exponent kept XML-friendly.
+fn num(v: f64) -> String {
+    let s = format!("{v:?}");
+    s.replace("e", "E")
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> ModelDescription {
+        ModelDescription {
+            model_name: "sample".into(),
+            model_identifier: "sample".into(),
+            guid: "{x}".into(),
+            description: "a <test> & \"quotes\"".into(),
+            version: "1".into(),
+            capabilities: Capabilities {
+                can_handle_variable_communication_step_size: true,
+                can_interpolate_inputs: false,
+                max_output_derivative_order: 0,
+                can_get_and_set_fmu_state: true,
+                can_serialize_fmu_state: true,
+            },
+            default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 1.0, step_size: 1e-3 },
+            variables: vec![
+                Variable::real("k", 0, Causality::Parameter, "N/m", "gain").with_start(2.5),
+                Variable::real("u", 1, Causality::Input, "N", "force").with_start(0.0),
+                Variable::real("y", 2, Causality::Output, "m", "position"),
+                Variable::real("a", 3, Causality::Output, "m/s2", "acceleration").depending_on(vec!["u".into()]),
+            ],
+        }
+    }
+
+    #[test]
+    fn xml_lists_outputs_with_their_input_dependencies_by_index() {
+        let xml = sample().to_xml();
+        assert!(xml.contains(r#"<Unknown index="3" dependencies=""/>"#), "{xml}");
+        assert!(xml.contains(r#"<Unknown index="4" dependencies="2"/>"#), "{xml}");
+        assert!(xml.contains(r#"<Unit name="N/m"><BaseUnit kg="1" s="-2"/></Unit>"#), "{xml}");
+        assert!(xml.contains("a &lt;test&gt; &amp; &quot;quotes&quot;"));
+        assert!(xml.contains(r#"start="2.5""#));
+        assert!(xml.contains(r#"stepSize="0.001""#));
+    }
+
+    #[test]
+    fn check_rejects_broken_tables() {
+        assert!(sample().check().is_ok());
+        let mut d = sample();
+        d.variables[1].value_reference = 0;
+        assert!(d.check().unwrap_err().0.contains("duplicate value reference"));
+        let mut d = sample();
+        d.variables[2] = Variable::real("y", 2, Causality::Output, "m", "").with_start(1.0);
+        assert!(d.check().unwrap_err().0.contains("must not have a start"));
+        let mut d = sample();
+        d.variables[3].depends_on = vec!["k".into()];
+        assert!(d.check().unwrap_err().0.contains("not an input"));
+        let mut d = sample();
+        d.variables[0] = Variable::real("k", 0, Causality::Parameter, "furlong", "").with_start(1.0);
+        assert!(d.check().unwrap_err().0.contains("unknown unit"));
+    }
+}

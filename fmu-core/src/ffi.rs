@@ -1,0 +1,444 @@
+//! The C ABI: one generic function per FMI 2.0 call. Each converts the C arguments, checks the
+//! state machine, calls the safe [`Instance`] method, turns an `Err` into `fmi2Error` plus a
+//! log line naming the function and the cause, and never lets a panic cross `extern "C"`.
+//! [`crate::export_fmi2!`] instantiates all 34 of them for one model type.
+
+use crate::instance::{FmuStateBox, Instance, INSTANCE_MAGIC};
+use crate::logger::Logger;
+use crate::model::Model;
+use crate::state_machine::{self as sm, FmiState, Mask};
+use crate::types::*;
+use std::ffi::CStr;
+use std::os::raw::c_char;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+/// `n` elements at `ptr`, or an error naming the argument if it is NULL while `n > 0`.
+unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
+    if n == 0 {
+        Ok(&[])
+    } else if ptr.is_null() {
+        Err(format!("argument '{what}' is NULL but {n} elements were announced"))
+    } else {
+        Ok(std::slice::from_raw_parts(ptr, n))
+    }
+}
+
+unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
+    if n == 0 {
+        Ok(&mut [])
+    } else if ptr.is_null() {
+        Err(format!("argument '{what}' is NULL but {n} elements were announced"))
+    } else {
+        Ok(std::slice::from_raw_parts_mut(ptr, n))
+    }
+}
+
+unsafe fn out_ptr<'a, T>(ptr: *mut T, what: &str) -> Result<&'a mut T, String> {
+    ptr.as_mut().ok_or_else(|| format!("argument '{what}' is NULL"))
+}
+
+/// The instance behind `c`, if `c` points at a live instance of this model.
+unsafe fn instance<'a, M: Model>(c: Fmi2Component) -> Option<&'a mut Instance<M>> {
+    let inst = (c as *mut Instance<M>).as_mut()?;
+    (inst.magic == INSTANCE_MAGIC).then_some(inst)
+}
+
+/// Run `body` on the instance if the call is legal in its state; log and enter `Error`
+/// otherwise. A panic becomes `fmi2Error` (the instance can still be reset or freed).
+unsafe fn call<M: Model>(c: Fmi2Component, func: &str, mask: Mask, body: impl FnOnce(&mut Instance<M>) -> Result<Status, String>) -> Fmi2Status {
+    let Some(inst) = instance::<M>(c) else {
+        return Status::Error as Fmi2Status;
+    };
+    if !inst.state.is_in(mask) {
+        let msg = format!("{func}: illegal call in state {}", inst.state.name());
+        inst.logger.error(&msg);
+        if inst.state != FmiState::Fatal {
+            inst.state = FmiState::Error;
+        }
+        return Status::Error as Fmi2Status;
+    }
+    match catch_unwind(AssertUnwindSafe(|| body(inst))) {
+        Ok(Ok(status)) => status as Fmi2Status,
+        Ok(Err(msg)) => {
+            inst.logger.error(&format!("{func}: {msg}"));
+            inst.state = FmiState::Error;
+            Status::Error as Fmi2Status
+        }
+        Err(payload) => {
+            // The instance may be half-updated: only reset, free or a saved state can help.
+            inst.logger.error(&format!("{func}: internal error: {}", panic_message(&*payload)));
+            inst.state = FmiState::Error;
+            Status::Error as Fmi2Status
+        }
+    }
+}
+
+unsafe fn c_str<'a>(p: Fmi2String) -> Option<Result<&'a str, String>> {
+    (!p.is_null()).then(|| CStr::from_ptr(p).to_str().map_err(|_| "string argument is not valid UTF-8".to_string()))
+}
+
+pub fn types_platform() -> *const c_char {
+    c"default".as_ptr()
+}
+
+pub fn version() -> *const c_char {
+    c"2.0".as_ptr()
+}
+
+pub unsafe fn instantiate<M: Model>(
+    instance_name: Fmi2String,
+    fmu_type: Fmi2Type,
+    guid: Fmi2String,
+    resource_location: Fmi2String,
+    functions: *const CallbackFunctions,
+    _visible: Fmi2Boolean,
+    logging_on: Fmi2Boolean,
+) -> Fmi2Component {
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        // Without callbacks there is nobody to tell; the standard requires them.
+        let callbacks = *functions.as_ref()?;
+        let fail = |logger: &Logger, msg: &str| {
+            logger.error(&format!("fmi2Instantiate: {msg}"));
+            None
+        };
+        let name = match c_str(instance_name) {
+            Some(Ok(n)) => n.to_string(),
+            Some(Err(e)) => return fail(&Logger::new(&callbacks, "", true), &format!("instanceName: {e}")),
+            None => return fail(&Logger::new(&callbacks, "", true), "instanceName is NULL"),
+        };
+        let texts = (c_str(guid).transpose(), c_str(resource_location).transpose());
+        let (guid, location) = match texts {
+            (Ok(g), Ok(l)) => (g, l),
+            (Err(e), _) | (_, Err(e)) => return fail(&Logger::new(&callbacks, &name, true), &e),
+        };
+        match Instance::<M>::instantiate(&name, fmu_type, guid, location, &callbacks, logging_on != FMI2_FALSE) {
+            Ok(inst) => Some(Box::into_raw(inst) as Fmi2Component),
+            Err((logger, msg)) => fail(&logger, &msg),
+        }
+    }));
+    result.ok().flatten().unwrap_or(std::ptr::null_mut())
+}
+
+pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
+    let _ = catch_unwind(AssertUnwindSafe(|| {
+        let Some(inst) = instance::<M>(c) else { return };
+        if !inst.state.is_in(sm::FREE_INSTANCE) {
+            inst.logger.error(&format!("fmi2FreeInstance: illegal call in state {}", inst.state.name()));
+        }
+        // Free the FMU states the importer did not free: they belong to this instance.
+        for addr in inst.fmu_states.drain() {
+            drop(Box::from_raw(addr as *mut FmuStateBox));
+        }
+        inst.magic = 0;
+        drop(Box::from_raw(c as *mut Instance<M>));
+    }));
+}
+
+pub unsafe fn set_debug_logging<M: Model>(c: Fmi2Component, logging_on: Fmi2Boolean, n: usize, categories: *const Fmi2String) -> Fmi2Status {
+    call::<M>(c, "fmi2SetDebugLogging", sm::SET_DEBUG_LOGGING, |inst| {
+        let ptrs = slice(categories, n, "categories")?;
+        let mut names = Vec::with_capacity(n);
+        for p in ptrs {
+            names.push(c_str(*p).ok_or("a category is NULL")??);
+        }
+        inst.set_debug_logging(logging_on != FMI2_FALSE, &names)
+    })
+}
+
+pub unsafe fn setup_experiment<M: Model>(c: Fmi2Component, tol_defined: Fmi2Boolean, tol: f64, start: f64, stop_defined: Fmi2Boolean, stop: f64) -> Fmi2Status {
+    call::<M>(c, "fmi2SetupExperiment", sm::SETUP_EXPERIMENT, |inst| {
+        inst.setup_experiment((tol_defined != FMI2_FALSE).then_some(tol), start, (stop_defined != FMI2_FALSE).then_some(stop))
+    })
+}
+
+pub unsafe fn enter_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M>(c, "fmi2EnterInitializationMode", sm::ENTER_INITIALIZATION_MODE, |inst| inst.enter_initialization_mode())
+}
+
+pub unsafe fn exit_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M>(c, "fmi2ExitInitializationMode", sm::EXIT_INITIALIZATION_MODE, |inst| inst.exit_initialization_mode())
+}
+
+pub unsafe fn terminate<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M>(c, "fmi2Terminate", sm::TERMINATE, |inst| inst.terminate())
+}
+
+pub unsafe fn reset<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M>(c, "fmi2Reset", sm::RESET, |inst| inst.reset())
+}
+
+pub unsafe fn get_real<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut f64) -> Fmi2Status {
+    call::<M>(c, "fmi2GetReal", sm::GET_VALUES, |inst| inst.get_real(slice(vr, n, "vr")?, slice_mut(value, n, "value")?))
+}
+
+pub unsafe fn set_real<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const f64) -> Fmi2Status {
+    call::<M>(c, "fmi2SetReal", sm::SET_VALUES, |inst| inst.set_real(slice(vr, n, "vr")?, slice(value, n, "value")?))
+}
+
+pub unsafe fn get_integer<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2Integer) -> Fmi2Status {
+    call::<M>(c, "fmi2GetInteger", sm::GET_VALUES, |inst| inst.get_integer(slice(vr, n, "vr")?, slice_mut(value, n, "value")?))
+}
+
+pub unsafe fn set_integer<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2Integer) -> Fmi2Status {
+    call::<M>(c, "fmi2SetInteger", sm::SET_VALUES, |inst| inst.set_integer(slice(vr, n, "vr")?, slice(value, n, "value")?))
+}
+
+pub unsafe fn get_boolean<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2Boolean) -> Fmi2Status {
+    call::<M>(c, "fmi2GetBoolean", sm::GET_VALUES, |inst| {
+        let vrs = slice(vr, n, "vr")?;
+        let out = slice_mut(value, n, "value")?;
+        let mut tmp = vec![false; n];
+        let status = inst.get_boolean(vrs, &mut tmp)?;
+        for (o, b) in out.iter_mut().zip(tmp) {
+            *o = if b { FMI2_TRUE } else { FMI2_FALSE };
+        }
+        Ok(status)
+    })
+}
+
+pub unsafe fn set_boolean<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2Boolean) -> Fmi2Status {
+    call::<M>(c, "fmi2SetBoolean", sm::SET_VALUES, |inst| {
+        let values: Vec<bool> = slice(value, n, "value")?.iter().map(|v| *v != FMI2_FALSE).collect();
+        inst.set_boolean(slice(vr, n, "vr")?, &values)
+    })
+}
+
+pub unsafe fn get_string<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2String) -> Fmi2Status {
+    call::<M>(c, "fmi2GetString", sm::GET_VALUES, |inst| {
+        slice_mut(value, n, "value")?;
+        inst.check_string_refs(slice(vr, n, "vr")?)
+    })
+}
+
+pub unsafe fn set_string<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2String) -> Fmi2Status {
+    call::<M>(c, "fmi2SetString", sm::SET_VALUES, |inst| {
+        slice(value, n, "value")?;
+        inst.check_string_refs(slice(vr, n, "vr")?)
+    })
+}
+
+/// Is `state` an FMU state this instance handed out and has not freed?
+fn owned_state<M: Model>(inst: &Instance<M>, state: Fmi2FmuState) -> Result<&'static mut FmuStateBox, String> {
+    if state.is_null() {
+        return Err("FMU state is NULL".into());
+    }
+    if !inst.fmu_states.contains(&(state as usize)) {
+        return Err("FMU state was not created by this instance or was already freed".into());
+    }
+    // SAFETY: the address is one of our live `Box<FmuStateBox>` allocations.
+    Ok(unsafe { &mut *(state as *mut FmuStateBox) })
+}
+
+fn new_state<M: Model>(inst: &mut Instance<M>, bytes: Vec<u8>) -> Fmi2FmuState {
+    let ptr = Box::into_raw(Box::new(FmuStateBox { bytes })) as Fmi2FmuState;
+    inst.fmu_states.insert(ptr as usize);
+    ptr
+}
+
+pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
+    call::<M>(c, "fmi2GetFMUstate", sm::FMU_STATE, |inst| {
+        let out = out_ptr(state, "FMUstate")?;
+        let bytes = inst.save_state();
+        if out.is_null() {
+            *out = new_state(inst, bytes);
+        } else {
+            // FMI 2.0.4 §2.1.8: a non-NULL *FMUstate is a previous state to be overwritten.
+            owned_state(inst, *out)?.bytes = bytes;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
+    call::<M>(c, "fmi2SetFMUstate", sm::FMU_STATE, |inst| {
+        let bytes = owned_state(inst, state)?.bytes.clone();
+        inst.restore_state(&bytes)
+    })
+}
+
+pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
+    call::<M>(c, "fmi2FreeFMUstate", sm::FMU_STATE, |inst| {
+        let slot = out_ptr(state, "FMUstate")?;
+        if slot.is_null() {
+            return Ok(Status::Ok);
+        }
+        owned_state(inst, *slot)?;
+        inst.fmu_states.remove(&(*slot as usize));
+        drop(Box::from_raw(*slot as *mut FmuStateBox));
+        *slot = std::ptr::null_mut();
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn serialized_fmu_state_size<M: Model>(c: Fmi2Component, state: Fmi2FmuState, size: *mut usize) -> Fmi2Status {
+    call::<M>(c, "fmi2SerializedFMUstateSize", sm::FMU_STATE, |inst| {
+        *out_ptr(size, "size")? = owned_state(inst, state)?.bytes.len();
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn serialize_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState, bytes: *mut Fmi2Byte, size: usize) -> Fmi2Status {
+    call::<M>(c, "fmi2SerializeFMUstate", sm::FMU_STATE, |inst| {
+        let src = &owned_state(inst, state)?.bytes;
+        if size < src.len() {
+            return Err(format!("buffer of {size} bytes is smaller than the serialized state ({} bytes)", src.len()));
+        }
+        let dst = slice_mut(bytes as *mut u8, src.len(), "serializedState")?;
+        dst.copy_from_slice(src);
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn deserialize_fmu_state<M: Model>(c: Fmi2Component, bytes: *const Fmi2Byte, size: usize, state: *mut Fmi2FmuState) -> Fmi2Status {
+    call::<M>(c, "fmi2DeSerializeFMUstate", sm::FMU_STATE, |inst| {
+        let out = out_ptr(state, "FMUstate")?;
+        let data = slice(bytes as *const u8, size, "serializedState")?.to_vec();
+        inst.check_state(&data)?;
+        if out.is_null() {
+            *out = new_state(inst, data);
+        } else {
+            owned_state(inst, *out)?.bytes = data;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn get_directional_derivative<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M>(c, "fmi2GetDirectionalDerivative", sm::DIRECTIONAL_DERIVATIVE, |_| {
+        Err("not provided (providesDirectionalDerivative = false)".into())
+    })
+}
+
+pub unsafe fn set_real_input_derivatives<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, order: *const Fmi2Integer, value: *const f64) -> Fmi2Status {
+    call::<M>(c, "fmi2SetRealInputDerivatives", sm::SET_REAL_INPUT_DERIVATIVES, |inst| {
+        inst.set_real_input_derivatives(slice(vr, n, "vr")?, slice(order, n, "order")?, slice(value, n, "value")?)
+    })
+}
+
+pub unsafe fn get_real_output_derivatives<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M>(c, "fmi2GetRealOutputDerivatives", sm::GET_REAL_OUTPUT_DERIVATIVES, |_| {
+        Err("not provided (maxOutputDerivativeOrder = 0)".into())
+    })
+}
+
+pub unsafe fn do_step<M: Model>(c: Fmi2Component, current: f64, step: f64, _no_prior: Fmi2Boolean) -> Fmi2Status {
+    call::<M>(c, "fmi2DoStep", sm::DO_STEP, |inst| inst.do_step(current, step))
+}
+
+pub unsafe fn cancel_step<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M>(c, "fmi2CancelStep", sm::CANCEL_STEP, |_| Ok(Status::Ok))
+}
+
+pub unsafe fn get_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Status) -> Fmi2Status {
+    call::<M>(c, "fmi2GetStatus", sm::GET_STATUS, |inst| {
+        let out = out_ptr(value, "value")?;
+        let (status, v) = inst.get_status(kind)?;
+        *out = v as Fmi2Status;
+        Ok(status)
+    })
+}
+
+pub unsafe fn get_real_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut f64) -> Fmi2Status {
+    call::<M>(c, "fmi2GetRealStatus", sm::GET_STATUS, |inst| {
+        let out = out_ptr(value, "value")?;
+        let (status, v) = inst.get_real_status(kind)?;
+        *out = v;
+        Ok(status)
+    })
+}
+
+pub unsafe fn get_integer_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Integer) -> Fmi2Status {
+    call::<M>(c, "fmi2GetIntegerStatus", sm::GET_STATUS, |inst| {
+        out_ptr(value, "value")?;
+        inst.logger.log(Status::Discard, crate::logger::Category::StatusWarning, &format!("fmi2GetIntegerStatus: status kind {kind} is not available"));
+        Ok(Status::Discard)
+    })
+}
+
+pub unsafe fn get_boolean_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Boolean) -> Fmi2Status {
+    call::<M>(c, "fmi2GetBooleanStatus", sm::GET_STATUS, |inst| {
+        let out = out_ptr(value, "value")?;
+        let (status, v) = inst.get_boolean_status(kind)?;
+        *out = if v { FMI2_TRUE } else { FMI2_FALSE };
+        Ok(status)
+    })
+}
+
+pub unsafe fn get_string_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2String) -> Fmi2Status {
+    call::<M>(c, "fmi2GetStringStatus", sm::GET_STATUS, |inst| {
+        let out = out_ptr(value, "value")?;
+        *out = c"".as_ptr();
+        inst.logger.log(Status::Discard, crate::logger::Category::StatusWarning, &format!("fmi2GetStringStatus: status kind {kind} is not available"));
+        Ok(Status::Discard)
+    })
+}
+
+/// Export the 34 FMI 2.0 common and Co-Simulation functions for one [`Model`] type.
+/// Use once per `cdylib`: `fmu_core::export_fmi2!(MyModel);`.
+#[macro_export]
+macro_rules! export_fmi2 {
+    ($model:ty) => {
+        mod fmi2_exports {
+            use super::*;
+            use std::os::raw::c_char;
+            use $crate::ffi;
+            use $crate::types::*;
+            type M = $model;
+
+            #[no_mangle] pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char { ffi::types_platform() }
+            #[no_mangle] pub extern "C" fn fmi2GetVersion() -> *const c_char { ffi::version() }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SetDebugLogging(c: Fmi2Component, on: Fmi2Boolean, n: usize, cats: *const Fmi2String) -> Fmi2Status { ffi::set_debug_logging::<M>(c, on, n, cats) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2Instantiate(name: Fmi2String, ty: Fmi2Type, guid: Fmi2String, res: Fmi2String, f: *const CallbackFunctions, visible: Fmi2Boolean, log: Fmi2Boolean) -> Fmi2Component { ffi::instantiate::<M>(name, ty, guid, res, f, visible, log) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2FreeInstance(c: Fmi2Component) { ffi::free_instance::<M>(c) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SetupExperiment(c: Fmi2Component, td: Fmi2Boolean, tol: f64, start: f64, sd: Fmi2Boolean, stop: f64) -> Fmi2Status { ffi::setup_experiment::<M>(c, td, tol, start, sd, stop) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Fmi2Component) -> Fmi2Status { ffi::enter_initialization_mode::<M>(c) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Fmi2Component) -> Fmi2Status { ffi::exit_initialization_mode::<M>(c) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2Terminate(c: Fmi2Component) -> Fmi2Status { ffi::terminate::<M>(c) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2Reset(c: Fmi2Component) -> Fmi2Status { ffi::reset::<M>(c) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetReal(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *mut f64) -> Fmi2Status { ffi::get_real::<M>(c, vr, n, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetInteger(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *mut Fmi2Integer) -> Fmi2Status { ffi::get_integer::<M>(c, vr, n, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetBoolean(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *mut Fmi2Boolean) -> Fmi2Status { ffi::get_boolean::<M>(c, vr, n, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetString(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *mut Fmi2String) -> Fmi2Status { ffi::get_string::<M>(c, vr, n, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SetReal(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *const f64) -> Fmi2Status { ffi::set_real::<M>(c, vr, n, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SetInteger(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *const Fmi2Integer) -> Fmi2Status { ffi::set_integer::<M>(c, vr, n, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SetBoolean(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *const Fmi2Boolean) -> Fmi2Status { ffi::set_boolean::<M>(c, vr, n, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SetString(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *const Fmi2String) -> Fmi2Status { ffi::set_string::<M>(c, vr, n, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetFMUstate(c: Fmi2Component, s: *mut Fmi2FmuState) -> Fmi2Status { ffi::get_fmu_state::<M>(c, s) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SetFMUstate(c: Fmi2Component, s: Fmi2FmuState) -> Fmi2Status { ffi::set_fmu_state::<M>(c, s) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2FreeFMUstate(c: Fmi2Component, s: *mut Fmi2FmuState) -> Fmi2Status { ffi::free_fmu_state::<M>(c, s) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: Fmi2Component, s: Fmi2FmuState, size: *mut usize) -> Fmi2Status { ffi::serialized_fmu_state_size::<M>(c, s, size) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SerializeFMUstate(c: Fmi2Component, s: Fmi2FmuState, b: *mut Fmi2Byte, size: usize) -> Fmi2Status { ffi::serialize_fmu_state::<M>(c, s, b, size) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2DeSerializeFMUstate(c: Fmi2Component, b: *const Fmi2Byte, size: usize, s: *mut Fmi2FmuState) -> Fmi2Status { ffi::deserialize_fmu_state::<M>(c, b, size, s) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetDirectionalDerivative(c: Fmi2Component, _u: *const Fmi2ValueReference, _nu: usize, _z: *const Fmi2ValueReference, _nz: usize, _dv: *const f64, _dz: *mut f64) -> Fmi2Status { ffi::get_directional_derivative::<M>(c) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2SetRealInputDerivatives(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, o: *const Fmi2Integer, v: *const f64) -> Fmi2Status { ffi::set_real_input_derivatives::<M>(c, vr, n, o, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(c: Fmi2Component, _vr: *const Fmi2ValueReference, _n: usize, _o: *const Fmi2Integer, _v: *mut f64) -> Fmi2Status { ffi::get_real_output_derivatives::<M>(c) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2DoStep(c: Fmi2Component, t: f64, h: f64, np: Fmi2Boolean) -> Fmi2Status { ffi::do_step::<M>(c, t, h, np) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2CancelStep(c: Fmi2Component) -> Fmi2Status { ffi::cancel_step::<M>(c) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2Status) -> Fmi2Status { ffi::get_status::<M>(c, k, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetRealStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut f64) -> Fmi2Status { ffi::get_real_status::<M>(c, k, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetIntegerStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2Integer) -> Fmi2Status { ffi::get_integer_status::<M>(c, k, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetBooleanStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2Boolean) -> Fmi2Status { ffi::get_boolean_status::<M>(c, k, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmi2GetStringStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2String) -> Fmi2Status { ffi::get_string_status::<M>(c, k, v) }
+        }
+        pub use fmi2_exports::*;
+    };
+}
+
+/// The 34 FMI 2.0 function names every FMU of ours exports (checked against the `.so`).
+pub const EXPORTED_FUNCTIONS: [&str; 34] = [
+    "fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate", "fmi2FreeInstance",
+    "fmi2SetupExperiment", "fmi2EnterInitializationMode", "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset",
+    "fmi2GetReal", "fmi2GetInteger", "fmi2GetBoolean", "fmi2GetString", "fmi2SetReal", "fmi2SetInteger",
+    "fmi2SetBoolean", "fmi2SetString", "fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate",
+    "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate", "fmi2GetDirectionalDerivative",
+    "fmi2SetRealInputDerivatives", "fmi2GetRealOutputDerivatives", "fmi2DoStep", "fmi2CancelStep", "fmi2GetStatus",
+    "fmi2GetRealStatus", "fmi2GetIntegerStatus", "fmi2GetBooleanStatus", "fmi2GetStringStatus",
+];

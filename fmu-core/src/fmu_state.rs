@@ -1,0 +1,192 @@
+//! FMU state by value: `fmi2GetFMUstate` serialises the whole instance into a byte string,
+//! `fmi2SetFMUstate` parses and checks it. The same bytes are what `fmi2SerializeFMUstate`
+//! hands out, so a state restored into a different instance continues bit-identically.
+//!
+//! Layout (little-endian): magic `"SUSPFMU1"`, GUID (u64 length + bytes), FMI state (u8),
+//! time (f64), model payload (u64 length + bytes), FNV-1a 64 checksum of everything before it.
+//! A truncated, altered or foreign byte string is rejected before anything is changed.
+
+use crate::state_machine::FmiState;
+
+const MAGIC: &[u8; 8] = b"SUSPFMU1";
+
+/// Appends values to a model's payload.
+#[derive(Default)]
+pub struct StateWriter {
+    bytes: Vec<u8>,
+}
+
+impl StateWriter {
+    pub fn f64(&mut self, v: f64) {
+        self.bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn u64(&mut self, v: u64) {
+        self.bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn bool(&mut self, v: bool) {
+        self.bytes.push(v as u8);
+    }
+    /// A length-prefixed slice.
+    pub fn f64s(&mut self, v: &[f64]) {
+        self.u64(v.len() as u64);
+        for x in v {
+            self.f64(*x);
+        }
+    }
+    fn bytes(&mut self, v: &[u8]) {
+        self.u64(v.len() as u64);
+        self.bytes.extend_from_slice(v);
+    }
+    pub fn into_bytes(self) -> Vec<u8> {
+        self.bytes
+    }
+}
+
+/// Reads a model's payload back, with bounds checks.
+pub struct StateReader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> StateReader<'a> {
+    pub fn new(bytes: &'a [u8]) -> Self {
+        StateReader { bytes, pos: 0 }
+    }
+    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+        let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or("FMU state is truncated")?;
+        let s = &self.bytes[self.pos..end];
+        self.pos = end;
+        Ok(s)
+    }
+    pub fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_le_bytes(self.take(8)?.try_into().unwrap()))
+    }
+    pub fn u64(&mut self) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap()))
+    }
+    pub fn bool(&mut self) -> Result<bool, String> {
+        match self.take(1)?[0] {
+            0 => Ok(false),
+            1 => Ok(true),
+            b => Err(format!("FMU state has invalid boolean byte {b}")),
+        }
+    }
+    pub fn f64s(&mut self) -> Result<Vec<f64>, String> {
+        let n = self.u64()? as usize;
+        if n > (self.bytes.len() - self.pos) / 8 {
+            return Err("FMU state is truncated".into());
+        }
+        (0..n).map(|_| self.f64()).collect()
+    }
+    /// A slice of exactly `n` values.
+    pub fn f64s_exact(&mut self, n: usize, what: &str) -> Result<Vec<f64>, String> {
+        let v = self.f64s()?;
+        if v.len() != n {
+            return Err(format!("FMU state has {} values for {what}, expected {n}", v.len()));
+        }
+        Ok(v)
+    }
+    fn bytes(&mut self) -> Result<&'a [u8], String> {
+        let n = self.u64()? as usize;
+        self.take(n)
+    }
+    pub fn finish(&self) -> Result<(), String> {
+        if self.pos == self.bytes.len() {
+            Ok(())
+        } else {
+            Err(format!("FMU state has {} unexpected trailing bytes", self.bytes.len() - self.pos))
+        }
+    }
+}
+
+/// FNV-1a, 64 bit: detects corruption (not tampering; nothing here is secret).
+fn checksum(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ *b as u64).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+/// A decoded FMU state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    pub state: FmiState,
+    pub time: f64,
+    pub payload: Vec<u8>,
+}
+
+pub fn encode(guid: &str, snapshot: &Snapshot) -> Vec<u8> {
+    let mut w = StateWriter::default();
+    w.bytes.extend_from_slice(MAGIC);
+    w.bytes(guid.as_bytes());
+    w.bytes.push(snapshot.state as u8);
+    w.f64(snapshot.time);
+    w.bytes(&snapshot.payload);
+    let sum = checksum(&w.bytes);
+    w.u64(sum);
+    w.into_bytes()
+}
+
+pub fn decode(guid: &str, bytes: &[u8]) -> Result<Snapshot, String> {
+    if bytes.len() < MAGIC.len() + 8 || &bytes[..MAGIC.len()] != MAGIC {
+        return Err("byte string is not an FMU state of this project (bad magic)".into());
+    }
+    let (body, sum) = bytes.split_at(bytes.len() - 8);
+    if checksum(body) != u64::from_le_bytes(sum.try_into().unwrap()) {
+        return Err("FMU state is corrupted (checksum mismatch)".into());
+    }
+    let mut r = StateReader::new(&body[MAGIC.len()..]);
+    let stored_guid = r.bytes()?;
+    if stored_guid != guid.as_bytes() {
+        return Err(format!("FMU state belongs to GUID {}, not {guid}", String::from_utf8_lossy(stored_guid)));
+    }
+    let state_byte = r.take(1)?[0];
+    let state = FmiState::from_u8(state_byte).ok_or_else(|| format!("FMU state has invalid FMI state {state_byte}"))?;
+    let time = r.f64()?;
+    if !time.is_finite() {
+        return Err("FMU state has a non-finite time".into());
+    }
+    let payload = r.bytes()?.to_vec();
+    r.finish()?;
+    Ok(Snapshot { state, time, payload })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Vec<u8> {
+        let mut w = StateWriter::default();
+        w.f64s(&[1.0, -2.5, f64::MIN_POSITIVE]);
+        w.bool(true);
+        encode("{g}", &Snapshot { state: FmiState::StepComplete, time: 0.125, payload: w.into_bytes() })
+    }
+
+    #[test]
+    fn round_trip_is_exact() {
+        let s = decode("{g}", &sample()).unwrap();
+        assert_eq!(s.state, FmiState::StepComplete);
+        assert_eq!(s.time, 0.125);
+        let mut r = StateReader::new(&s.payload);
+        assert_eq!(r.f64s().unwrap(), vec![1.0, -2.5, f64::MIN_POSITIVE]);
+        assert!(r.bool().unwrap());
+        r.finish().unwrap();
+    }
+
+    #[test]
+    fn every_single_byte_corruption_and_every_truncation_is_rejected() {
+        let good = sample();
+        for i in 0..good.len() {
+            let mut bad = good.clone();
+            bad[i] ^= 0x40;
+            assert!(decode("{g}", &bad).is_err(), "flipping byte {i} was accepted");
+            assert!(decode("{g}", &good[..i]).is_err(), "truncation to {i} bytes was accepted");
+        }
+        assert!(decode("{other}", &good).unwrap_err().contains("GUID"));
+    }
+
+    #[test]
+    fn payload_reader_rejects_impossible_lengths() {
+        let mut w = StateWriter::default();
+        w.u64(u64::MAX);
+        let bytes = w.into_bytes();
+        assert!(StateReader::new(&bytes).f64s().is_err());
+    }
+}

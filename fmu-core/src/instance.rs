@@ -1,0 +1,362 @@
+//! One FMU instance and the FMI 2.0 Co-Simulation semantics of every call, in safe Rust.
+//! The C ABI layer ([`crate::ffi`]) only converts pointers and catches panics.
+
+use crate::description::{BaseType, Causality, ModelDescription, ValueReference, VarType, Variable};
+use crate::fmu_state::{self, Snapshot, StateReader, StateWriter};
+use crate::logger::{Category, Logger};
+use crate::model::Model;
+use crate::state_machine::FmiState;
+use crate::types::{status_kind, CallbackFunctions, Fmi2StatusKind, Fmi2Type, Status, FMI2_CO_SIMULATION};
+use crate::uri;
+use std::collections::HashSet;
+use std::path::PathBuf;
+
+/// Marks a live instance, so a stray pointer (an FMU state, a freed instance) is caught.
+pub(crate) const INSTANCE_MAGIC: u64 = 0x5355_5350_494e_5354;
+
+/// Relative tolerance when comparing the master's communication point with our time.
+const TIME_TOLERANCE: f64 = 1e-9;
+
+pub struct Instance<M: Model> {
+    pub(crate) magic: u64,
+    description: ModelDescription,
+    /// Value reference → index into `description.variables`, per base type.
+    index: [Vec<Option<usize>>; 3],
+    model: M,
+    pub(crate) state: FmiState,
+    time: f64,
+    start_time: f64,
+    stop_time: Option<f64>,
+    resources: Option<PathBuf>,
+    pub(crate) logger: Logger,
+    /// Addresses of the FMU states this instance handed out and has not freed.
+    pub(crate) fmu_states: HashSet<usize>,
+}
+
+/// An FMU state as handed to the importer: the serialised instance.
+pub struct FmuStateBox {
+    pub(crate) bytes: Vec<u8>,
+}
+
+fn base_slot(b: BaseType) -> usize {
+    match b {
+        BaseType::Real => 0,
+        BaseType::Integer => 1,
+        BaseType::Boolean => 2,
+    }
+}
+
+impl<M: Model> Instance<M> {
+    /// `fmi2Instantiate`. On failure the logger is returned so the caller can report why.
+    pub fn instantiate(
+        instance_name: &str,
+        fmu_type: Fmi2Type,
+        guid: Option<&str>,
+        resource_location: Option<&str>,
+        callbacks: &CallbackFunctions,
+        logging_on: bool,
+    ) -> Result<Box<Self>, (Logger, String)> {
+        let logger = Logger::new(callbacks, instance_name, logging_on);
+        let description = M::description();
+        if fmu_type != FMI2_CO_SIMULATION {
+            return Err((logger, format!("fmuType {fmu_type} requested, but this FMU supports Co-Simulation (1) only")));
+        }
+        match guid {
+            Some(g) if g == description.guid => {}
+            Some(g) => return Err((logger, format!("GUID mismatch: this binary is {}, the importer passed {g}", description.guid))),
+            None => return Err((logger, "fmuGUID is NULL".into())),
+        }
+        let resources = match resource_location {
+            None => None,
+            Some(loc) => match uri::resource_path(loc) {
+                Ok(p) => Some(p),
+                Err(e) => return Err((logger, e.to_string())),
+            },
+        };
+        let model = match M::instantiate(resources.as_deref()) {
+            Ok(m) => m,
+            Err(e) => return Err((logger, e)),
+        };
+        let mut index: [Vec<Option<usize>>; 3] = Default::default();
+        for (i, v) in description.variables.iter().enumerate() {
+            let slot = &mut index[base_slot(v.kind.base())];
+            let vr = v.value_reference as usize;
+            if slot.len() <= vr {
+                slot.resize(vr + 1, None);
+            }
+            slot[vr] = Some(i);
+        }
+        logger.event(&format!(
+            "fmi2Instantiate: {} instantiated (resources: {})",
+            description.model_identifier,
+            resources.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "none".into())
+        ));
+        Ok(Box::new(Instance {
+            magic: INSTANCE_MAGIC,
+            description,
+            index,
+            model,
+            state: FmiState::Instantiated,
+            time: 0.0,
+            start_time: 0.0,
+            stop_time: None,
+            resources,
+            logger,
+            fmu_states: HashSet::new(),
+        }))
+    }
+
+    pub fn state(&self) -> FmiState {
+        self.state
+    }
+
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn set_debug_logging(&mut self, logging_on: bool, categories: &[&str]) -> Result<Status, String> {
+        self.logger.configure(logging_on, categories)?;
+        Ok(Status::Ok)
+    }
+
+    pub fn setup_experiment(&mut self, _tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> Result<Status, String> {
+        if !start_time.is_finite() {
+            return Err(format!("startTime must be finite, got {start_time}"));
+        }
+        if let Some(stop) = stop_time {
+            if !(stop >= start_time) {
+                return Err(format!("stopTime {stop} is before startTime {start_time}"));
+            }
+        }
+        self.start_time = start_time;
+        self.time = start_time;
+        self.stop_time = stop_time;
+        Ok(Status::Ok)
+    }
+
+    pub fn enter_initialization_mode(&mut self) -> Result<Status, String> {
+        self.state = FmiState::InitializationMode;
+        Ok(Status::Ok)
+    }
+
+    pub fn exit_initialization_mode(&mut self) -> Result<Status, String> {
+        self.model.exit_initialization(self.start_time)?;
+        self.state = FmiState::StepComplete;
+        self.logger.event(&format!("fmi2ExitInitializationMode: initialised at t = {}", self.time));
+        Ok(Status::Ok)
+    }
+
+    pub fn terminate(&mut self) -> Result<Status, String> {
+        self.state = FmiState::Terminated;
+        Ok(Status::Ok)
+    }
+
+    /// `fmi2Reset`: back to the state right after `fmi2Instantiate`, start values included.
+    pub fn reset(&mut self) -> Result<Status, String> {
+        self.model = M::instantiate(self.resources.as_deref())?;
+        self.state = FmiState::Instantiated;
+        self.time = 0.0;
+        self.start_time = 0.0;
+        self.stop_time = None;
+        Ok(Status::Ok)
+    }
+
+    fn variable(&self, base: BaseType, vr: ValueReference) -> Result<&Variable, String> {
+        self.index[base_slot(base)]
+            .get(vr as usize)
+            .copied()
+            .flatten()
+            .map(|i| &self.description.variables[i])
+            .ok_or_else(|| format!("unknown value reference {vr} for type {base:?}"))
+    }
+
+    fn initialising(&self) -> bool {
+        matches!(self.state, FmiState::Instantiated | FmiState::InitializationMode)
+    }
+
+    /// Check that every `vr` may be set now; nothing is changed if one may not.
+    fn check_settable(&self, base: BaseType, vrs: &[ValueReference]) -> Result<(), String> {
+        let initialising = self.initialising();
+        for &vr in vrs {
+            let v = self.variable(base, vr)?;
+            if !v.settable(initialising) {
+                let when = if initialising { "" } else { " after initialisation" };
+                return Err(format!("variable '{}' ({:?}, {:?}) cannot be set{when}", v.name, v.causality, v.variability));
+            }
+        }
+        Ok(())
+    }
+
+    pub fn get_real(&mut self, vrs: &[ValueReference], values: &mut [f64]) -> Result<Status, String> {
+        for &vr in vrs {
+            self.variable(BaseType::Real, vr)?;
+        }
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            *out = self.model.get_real(*vr);
+        }
+        Ok(Status::Ok)
+    }
+
+    pub fn set_real(&mut self, vrs: &[ValueReference], values: &[f64]) -> Result<Status, String> {
+        self.check_settable(BaseType::Real, vrs)?;
+        for (&vr, &value) in vrs.iter().zip(values) {
+            let name = &self.variable(BaseType::Real, vr)?.name;
+            if !value.is_finite() {
+                return Err(format!("value of '{name}' must be finite, got {value}"));
+            }
+            if let VarType::Real { min, max, .. } = &self.variable(BaseType::Real, vr)?.kind {
+                if min.is_some_and(|m| value < m) || max.is_some_and(|m| value > m) {
+                    return Err(format!("value {value} of '{name}' is outside [{}, {}]", min.unwrap_or(f64::NEG_INFINITY), max.unwrap_or(f64::INFINITY)));
+                }
+            }
+            self.model.check_real(vr, value).map_err(|e| format!("rejected value for '{name}': {e}"))?;
+        }
+        for (&vr, &value) in vrs.iter().zip(values) {
+            self.model.set_real(vr, value);
+        }
+        Ok(Status::Ok)
+    }
+
+    pub fn get_integer(&mut self, vrs: &[ValueReference], values: &mut [i32]) -> Result<Status, String> {
+        for &vr in vrs {
+            self.variable(BaseType::Integer, vr)?;
+        }
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            *out = self.model.get_integer(*vr);
+        }
+        Ok(Status::Ok)
+    }
+
+    pub fn set_integer(&mut self, vrs: &[ValueReference], values: &[i32]) -> Result<Status, String> {
+        self.check_settable(BaseType::Integer, vrs)?;
+        for (&vr, &value) in vrs.iter().zip(values) {
+            self.model.set_integer(vr, value);
+        }
+        Ok(Status::Ok)
+    }
+
+    pub fn get_boolean(&mut self, vrs: &[ValueReference], values: &mut [bool]) -> Result<Status, String> {
+        for &vr in vrs {
+            self.variable(BaseType::Boolean, vr)?;
+        }
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            *out = self.model.get_boolean(*vr);
+        }
+        Ok(Status::Ok)
+    }
+
+    pub fn set_boolean(&mut self, vrs: &[ValueReference], values: &[bool]) -> Result<Status, String> {
+        self.check_settable(BaseType::Boolean, vrs)?;
+        for (&vr, &value) in vrs.iter().zip(values) {
+            self.model.set_boolean(vr, value);
+        }
+        Ok(Status::Ok)
+    }
+
+    /// Our FMUs have no String variables: any value reference is unknown.
+    pub fn check_string_refs(&self, vrs: &[ValueReference]) -> Result<Status, String> {
+        match vrs.first() {
+            Some(vr) => Err(format!("unknown value reference {vr} for type String (this FMU has no String variables)")),
+            None => Ok(Status::Ok),
+        }
+    }
+
+    pub fn set_real_input_derivatives(&mut self, vrs: &[ValueReference], orders: &[i32], values: &[f64]) -> Result<Status, String> {
+        if !self.description.capabilities.can_interpolate_inputs {
+            return Err("this FMU cannot interpolate inputs (canInterpolateInputs = false)".into());
+        }
+        for ((&vr, &order), &value) in vrs.iter().zip(orders).zip(values) {
+            let v = self.variable(BaseType::Real, vr)?;
+            if v.causality != Causality::Input {
+                return Err(format!("variable '{}' is not an input", v.name));
+            }
+            if order != 1 {
+                return Err(format!("derivative order {order} for '{}' not supported (only 1)", v.name));
+            }
+            if !value.is_finite() {
+                return Err(format!("derivative of '{}' must be finite, got {value}", v.name));
+            }
+        }
+        for (&vr, &value) in vrs.iter().zip(values) {
+            self.model.set_input_derivative(vr, value);
+        }
+        Ok(Status::Ok)
+    }
+
+    pub fn do_step(&mut self, current: f64, step: f64) -> Result<Status, String> {
+        if !(step > 0.0) || !step.is_finite() {
+            return Err(format!("communicationStepSize must be a finite number > 0, got {step}"));
+        }
+        if !current.is_finite() || (current - self.time).abs() > TIME_TOLERANCE * current.abs().max(1.0) {
+            return Err(format!("currentCommunicationPoint {current} does not match the FMU's time {}", self.time));
+        }
+        if let Some(stop) = self.stop_time {
+            if current + step > stop + TIME_TOLERANCE * stop.abs().max(1.0) {
+                return Err(format!("step to {} goes beyond stopTime {stop}", current + step));
+            }
+        }
+        self.model.do_step(current, step)?;
+        self.time = current + step;
+        Ok(Status::Ok)
+    }
+
+    pub fn get_status(&self, kind: Fmi2StatusKind) -> Result<(Status, Status), String> {
+        match kind {
+            status_kind::DO_STEP_STATUS => Ok((Status::Ok, Status::Ok)),
+            _ => {
+                self.logger.log(Status::Discard, Category::StatusWarning, &format!("fmi2GetStatus: status kind {kind} is not available (steps are synchronous)"));
+                Ok((Status::Discard, Status::Ok))
+            }
+        }
+    }
+
+    pub fn get_real_status(&self, kind: Fmi2StatusKind) -> Result<(Status, f64), String> {
+        match kind {
+            status_kind::LAST_SUCCESSFUL_TIME => Ok((Status::Ok, self.time)),
+            _ => {
+                self.logger.log(Status::Discard, Category::StatusWarning, &format!("fmi2GetRealStatus: status kind {kind} is not available"));
+                Ok((Status::Discard, 0.0))
+            }
+        }
+    }
+
+    pub fn get_boolean_status(&self, kind: Fmi2StatusKind) -> Result<(Status, bool), String> {
+        match kind {
+            status_kind::TERMINATED => Ok((Status::Ok, false)),
+            _ => {
+                self.logger.log(Status::Discard, Category::StatusWarning, &format!("fmi2GetBooleanStatus: status kind {kind} is not available"));
+                Ok((Status::Discard, false))
+            }
+        }
+    }
+
+    /// The whole instance as bytes (FMU state by value).
+    pub fn save_state(&self) -> Vec<u8> {
+        let mut w = StateWriter::default();
+        self.model.save(&mut w);
+        fmu_state::encode(
+            &self.description.guid,
+            &Snapshot { state: self.state, time: self.time, payload: w.into_bytes() },
+        )
+    }
+
+    /// Check bytes without changing anything.
+    pub fn check_state(&self, bytes: &[u8]) -> Result<(), String> {
+        fmu_state::decode(&self.description.guid, bytes).map(|_| ())
+    }
+
+    /// Restore from bytes; on error nothing changes.
+    pub fn restore_state(&mut self, bytes: &[u8]) -> Result<Status, String> {
+        let snap = fmu_state::decode(&self.description.guid, bytes)?;
+        let mut reader = StateReader::new(&snap.payload);
+        self.model.restore(&mut reader)?;
+        self.state = snap.state;
+        self.time = snap.time;
+        self.logger.event(&format!("fmi2SetFMUstate: restored state at t = {}", self.time));
+        Ok(Status::Ok)
+    }
+}

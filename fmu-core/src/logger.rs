@@ -1,0 +1,144 @@
+//! Logging through the importer's `fmi2CallbackLogger`, honouring `loggingOn` and the log
+//! categories (FMI 2.0.4 §2.1.5). The message is always passed as the argument of a `"%s"`
+//! format, so a `%` in a message can never be interpreted by the importer's `printf`.
+
+use crate::types::{CallbackFunctions, Fmi2ComponentEnvironment, LoggerFn, Status};
+use std::ffi::CString;
+
+/// The log categories every FMU of this project declares in its `modelDescription.xml`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Category {
+    /// Calls that return `fmi2Error` or `fmi2Fatal`, with the reason. On by default, even
+    /// with `loggingOn = false`, so that an importer always learns why a call failed.
+    StatusError,
+    /// Calls that return `fmi2Warning` or `fmi2Discard`.
+    StatusWarning,
+    /// Noteworthy events: instantiation, initialisation, step-size changes, FMU state use.
+    Events,
+}
+
+impl Category {
+    pub const ALL: [Category; 3] = [Category::StatusError, Category::StatusWarning, Category::Events];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Category::StatusError => "logStatusError",
+            Category::StatusWarning => "logStatusWarning",
+            Category::Events => "logEvents",
+        }
+    }
+
+    pub fn description(self) -> &'static str {
+        match self {
+            Category::StatusError => "Why a call returned fmi2Error (logged even when loggingOn is false)",
+            Category::StatusWarning => "Why a call returned fmi2Warning or fmi2Discard",
+            Category::Events => "Instantiation, initialisation, FMU state save/restore and other events",
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize
+    }
+
+    pub fn from_name(name: &str) -> Option<Category> {
+        Category::ALL.into_iter().find(|c| c.name() == name)
+    }
+}
+
+/// One instance's logger. Owns a copy of the instance name.
+pub struct Logger {
+    callback: Option<LoggerFn>,
+    environment: Fmi2ComponentEnvironment,
+    instance_name: CString,
+    logging_on: bool,
+    enabled: [bool; 3],
+}
+
+// The environment pointer is the importer's opaque token; FMI lets an instance be used from
+// any thread (one at a time), so the logger moves with its instance.
+unsafe impl Send for Logger {}
+
+impl Logger {
+    pub fn new(callbacks: &CallbackFunctions, instance_name: &str, logging_on: bool) -> Self {
+        Logger {
+            callback: callbacks.logger,
+            environment: callbacks.component_environment,
+            instance_name: to_cstring(instance_name),
+            logging_on,
+            enabled: [true; 3],
+        }
+    }
+
+    /// A logger that drops everything (for models used outside an FMU, e.g. in tests).
+    pub fn silent() -> Self {
+        Logger {
+            callback: None,
+            environment: std::ptr::null_mut(),
+            instance_name: CString::default(),
+            logging_on: false,
+            enabled: [false; 3],
+        }
+    }
+
+    /// `fmi2SetDebugLogging`: no categories means all of them.
+    pub fn configure(&mut self, logging_on: bool, categories: &[&str]) -> Result<(), String> {
+        let mut enabled = [categories.is_empty(); 3];
+        for name in categories {
+            let c = Category::from_name(name).ok_or_else(|| {
+                let known: Vec<_> = Category::ALL.iter().map(|c| c.name()).collect();
+                format!("unknown log category '{name}', expected one of {known:?}")
+            })?;
+            enabled[c.index()] = true;
+        }
+        self.logging_on = logging_on;
+        self.enabled = enabled;
+        Ok(())
+    }
+
+    pub fn is_enabled(&self, category: Category) -> bool {
+        let on = self.enabled[category.index()];
+        match category {
+            Category::StatusError => on,
+            _ => on && self.logging_on,
+        }
+    }
+
+    pub fn log(&self, status: Status, category: Category, message: &str) {
+        if !self.is_enabled(category) {
+            return;
+        }
+        if let Some(callback) = self.callback {
+            let category_c = to_cstring(category.name());
+            let message_c = to_cstring(message);
+            // SAFETY: the importer gave us this callback for exactly this signature; every
+            // pointer is a valid NUL-terminated string for the duration of the call.
+            unsafe {
+                callback(
+                    self.environment,
+                    self.instance_name.as_ptr(),
+                    status as i32,
+                    category_c.as_ptr(),
+                    c"%s".as_ptr(),
+                    message_c.as_ptr(),
+                );
+            }
+        }
+    }
+
+    pub fn error(&self, message: &str) {
+        self.log(Status::Error, Category::StatusError, message);
+    }
+
+    pub fn event(&self, message: &str) {
+        self.log(Status::Ok, Category::Events, message);
+    }
+
+    pub fn instance_name(&self) -> &str {
+        self.instance_name.to_str().unwrap_or("")
+    }
+}
+
+/// A C string from any Rust string: interior NULs (which C cannot carry) become spaces.
+pub fn to_cstring(s: &str) -> CString {
+    CString::new(s.replace('\0', " ")).expect("interior NULs were replaced")
+}

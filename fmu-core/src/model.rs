@@ -1,0 +1,53 @@
+//! What a model provides to the runtime. The runtime does everything FMI: it checks the
+//! state machine, value references, causality, finiteness of inputs, step sizes, and calls
+//! the model only with legal, checked arguments.
+
+use crate::description::{ModelDescription, ValueReference};
+use crate::fmu_state::{StateReader, StateWriter};
+use std::path::Path;
+
+pub trait Model: Sized + Send + 'static {
+    /// The variable table and metadata. Called once per instance and by the packager.
+    fn description() -> ModelDescription;
+
+    /// A new model with every variable at its start value. `resources` is the unpacked
+    /// `resources/` directory, if the importer gave one.
+    fn instantiate(resources: Option<&Path>) -> Result<Self, String>;
+
+    /// Check a value for a settable Real variable before anything is changed (e.g. a negative
+    /// mass). Finite-ness is already checked by the runtime.
+    fn check_real(&self, _vr: ValueReference, _value: f64) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Set a settable Real variable; `value` has passed [`Model::check_real`].
+    fn set_real(&mut self, vr: ValueReference, value: f64);
+
+    /// The value of any Real variable.
+    fn get_real(&mut self, vr: ValueReference) -> f64;
+
+    fn set_integer(&mut self, _vr: ValueReference, _value: i32) {}
+    fn get_integer(&mut self, _vr: ValueReference) -> i32 {
+        0
+    }
+    fn set_boolean(&mut self, _vr: ValueReference, _value: bool) {}
+    fn get_boolean(&mut self, _vr: ValueReference) -> bool {
+        false
+    }
+
+    /// First time derivative of a Real input, valid for the next `fmi2DoStep` only
+    /// (only called if the description says `canInterpolateInputs`).
+    fn set_input_derivative(&mut self, _vr: ValueReference, _value: f64) {}
+
+    /// End of initialisation: check the parameters together and build what the steps need.
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;
+
+    /// Advance from `time` by `step` (> 0). On error the model must be left unchanged.
+    fn do_step(&mut self, time: f64, step: f64) -> Result<(), String>;
+
+    /// Write everything needed to continue bit-identically in another instance.
+    fn save(&self, out: &mut StateWriter);
+
+    /// Restore what [`Model::save`] wrote. On error the model must be left unchanged.
+    fn restore(&mut self, input: &mut StateReader) -> Result<(), String>;
+}

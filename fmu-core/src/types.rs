@@ -1,0 +1,63 @@
+//! The C types of `fmi2TypesPlatform.h` and `fmi2FunctionTypes.h` (FMI 2.0.4, §2.1).
+
+use std::os::raw::{c_char, c_int, c_uint, c_void};
+
+pub type Fmi2Component = *mut c_void;
+pub type Fmi2ComponentEnvironment = *mut c_void;
+pub type Fmi2FmuState = *mut c_void;
+pub type Fmi2ValueReference = c_uint;
+pub type Fmi2Real = f64;
+pub type Fmi2Integer = c_int;
+pub type Fmi2Boolean = c_int;
+pub type Fmi2String = *const c_char;
+pub type Fmi2Byte = c_char;
+pub type Fmi2Status = c_int;
+pub type Fmi2Type = c_int;
+pub type Fmi2StatusKind = c_int;
+
+pub const FMI2_TRUE: Fmi2Boolean = 1;
+pub const FMI2_FALSE: Fmi2Boolean = 0;
+pub const FMI2_MODEL_EXCHANGE: Fmi2Type = 0;
+pub const FMI2_CO_SIMULATION: Fmi2Type = 1;
+
+/// `fmi2Status`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[repr(i32)]
+pub enum Status {
+    Ok = 0,
+    Warning = 1,
+    Discard = 2,
+    Error = 3,
+    Fatal = 4,
+    Pending = 5,
+}
+
+/// `fmi2StatusKind`.
+pub mod status_kind {
+    use super::Fmi2StatusKind;
+    pub const DO_STEP_STATUS: Fmi2StatusKind = 0;
+    pub const PENDING_STATUS: Fmi2StatusKind = 1;
+    pub const LAST_SUCCESSFUL_TIME: Fmi2StatusKind = 2;
+    pub const TERMINATED: Fmi2StatusKind = 3;
+}
+
+/// `fmi2CallbackLogger`: a C variadic function. We always call it with `"%s"` as the format.
+pub type LoggerFn = unsafe extern "C" fn(
+    Fmi2ComponentEnvironment,
+    Fmi2String,
+    Fmi2Status,
+    Fmi2String,
+    Fmi2String,
+    ...
+);
+
+/// `fmi2CallbackFunctions`.
+#[repr(C)]
+#[derive(Clone, Copy)]
+pub struct CallbackFunctions {
+    pub logger: Option<LoggerFn>,
+    pub allocate_memory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
+    pub free_memory: Option<unsafe extern "C" fn(*mut c_void)>,
+    pub step_finished: Option<unsafe extern "C" fn(Fmi2ComponentEnvironment, Fmi2Status)>,
+    pub component_environment: Fmi2ComponentEnvironment,
+}
