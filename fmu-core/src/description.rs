@@ -189,6 +189,21 @@ impl std::fmt::Display for DescriptionError {
 }
 
 impl ModelDescription {
+    /// Set the GUID to a hash of everything else the description says, so the GUID changes
+    /// exactly when the interface (or a default) changes, and a binary refuses a
+    /// `modelDescription.xml` it was not built with.
+    pub fn with_derived_guid(mut self) -> Self {
+        self.guid = String::new();
+        let xml = self.to_xml();
+        let h = |seed: u64| xml.bytes().fold(seed, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3));
+        let (a, b) = (h(0xcbf2_9ce4_8422_2325), h(0x8422_2325_cbf2_9ce4));
+        self.guid = format!(
+            "{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}",
+            a >> 32, (a >> 16) & 0xffff, a & 0xffff, b >> 48, b & 0xffff_ffff_ffff
+        );
+        self
+    }
+
     pub fn variable(&self, name: &str) -> Option<&Variable> {
         self.variables.iter().find(|v| v.name == name)
     }

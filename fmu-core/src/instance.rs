@@ -209,8 +209,11 @@ impl<M: Model> Instance<M> {
                 return Err(format!("value of '{name}' must be finite, got {value}"));
             }
             if let VarType::Real { min, max, .. } = &self.variable(BaseType::Real, vr)?.kind {
-                if min.is_some_and(|m| value < m) || max.is_some_and(|m| value > m) {
-                    return Err(format!("value {value} of '{name}' is outside [{}, {}]", min.unwrap_or(f64::NEG_INFINITY), max.unwrap_or(f64::INFINITY)));
+                if let Some(m) = min.filter(|m| value < *m) {
+                    return Err(format!("value {value} of '{name}' is below its minimum {m}"));
+                }
+                if let Some(m) = max.filter(|m| value > *m) {
+                    return Err(format!("value {value} of '{name}' is above its maximum {m}"));
                 }
             }
             self.model.check_real(vr, value).map_err(|e| format!("rejected value for '{name}': {e}"))?;

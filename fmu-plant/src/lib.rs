@@ -1,0 +1,323 @@
+//! The plant FMU (`dist/plant.fmu`): the 8-DOF full car with driver seat of the `vehicle` crate
+//! and its actuators, as an FMI 2.0 Co-Simulation slave (SPEC §2).
+//!
+//! This file is the FMI face only: the variable table (the single source of truth for
+//! `modelDescription.xml`) and the mapping of value references to the [`Simulator`].
+//! The physics is in `vehicle`, the exact stepping in [`simulator`].
+
+pub mod simulator;
+
+use fmu_core::fmu_state::{StateReader, StateWriter};
+use fmu_core::{Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable};
+use simulator::{ActuatorParams, Simulator};
+use std::path::Path;
+use vehicle::model::{physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS, N_ROAD, N_STATES, STATES};
+use vehicle::params::PARAMETERS;
+use vehicle::VehicleParams;
+
+/// Value-reference ranges, one per kind of variable.
+pub mod vr {
+    /// Vehicle parameters, in the order of `vehicle::params::PARAMETERS`.
+    pub const VEHICLE: u32 = 0;
+    /// Actuator parameters, in the order of `ACTUATOR_PARAMETERS`.
+    pub const ACTUATOR: u32 = 20;
+    /// Calculated static values.
+    pub const STATIC: u32 = 40;
+    /// Inputs: `road_z_*`, `road_v_*`, `u_*`.
+    pub const INPUT: u32 = 100;
+    /// `x[1]`…`x[16]`.
+    pub const STATE: u32 = 200;
+    /// Physical outputs, in the order of `vehicle::model::physical_outputs`.
+    pub const OUTPUT: u32 = 300;
+    /// `f_*`: forces actually applied.
+    pub const FORCE: u32 = 400;
+}
+
+struct ActuatorSpec {
+    name: &'static str,
+    unit: &'static str,
+    description: &'static str,
+    min: f64,
+    max: Option<f64>,
+    /// Must the value be strictly above `min`?
+    strict: bool,
+    get: fn(&ActuatorParams) -> f64,
+    set: fn(&mut ActuatorParams, f64),
+}
+
+macro_rules! act {
+    ($name:literal, $unit:literal, $min:expr, $max:expr, $strict:expr, $desc:literal, |$p:ident| $field:expr) => {
+        ActuatorSpec {
+            name: $name, unit: $unit, description: $desc, min: $min, max: $max, strict: $strict,
+            get: |$p| $field,
+            set: |$p, v| $field = v,
+        }
+    };
+}
+
+/// Actuator parameters (SPEC §2): limits, delay, bandwidth and the fault profile.
+const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
+    act!("u_max", "N", 0.0, None, true, "Force limit of each corner actuator (saturation)", |p| p.u_max),
+    act!("u_max_seat", "N", 0.0, None, true, "Force limit of the seat actuator (saturation)", |p| p.u_max_seat),
+    act!("tau", "s", 0.0, Some(1.0), false, "Transport delay between force command and actuator (0 = none)", |p| p.tau),
+    act!("actuator_bandwidth", "Hz", 0.0, None, false, "Bandwidth of the first-order actuator lag (0 = ideal actuator)", |p| p.bandwidth),
+    act!("fault_time", "s", f64::NEG_INFINITY, None, false, "Time at which the actuator faults start (thesis fig. 8.2)", |p| p.fault_time),
+    act!("fault_loss_fl", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the FL actuator after fault_time (0 = healthy, 1 = dead)", |p| p.fault_loss[0]),
+    act!("fault_loss_fr", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the FR actuator after fault_time", |p| p.fault_loss[1]),
+    act!("fault_loss_rl", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the RL actuator after fault_time", |p| p.fault_loss[2]),
+    act!("fault_loss_rr", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the RR actuator after fault_time", |p| p.fault_loss[3]),
+    act!("fault_loss_seat", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the seat actuator after fault_time", |p| p.fault_loss[4]),
+];
+
+/// Names of the 13 inputs in value-reference order.
+pub fn input_names() -> Vec<String> {
+    let mut names: Vec<String> = CORNERS.iter().map(|c| format!("road_z_{c}")).collect();
+    names.extend(CORNERS.iter().map(|c| format!("road_v_{c}")));
+    names.extend(ACTUATORS.iter().map(|a| format!("u_{a}")));
+    names
+}
+
+const N_STATIC: usize = 13;
+
+fn static_values(p: &VehicleParams) -> [f64; N_STATIC] {
+    let s = StaticEquilibrium::new(p);
+    let mut v = [0.0; N_STATIC];
+    v[..4].copy_from_slice(&s.stroke);
+    v[4] = s.stroke_seat;
+    v[5..9].copy_from_slice(&s.tire_defl);
+    v[9..].copy_from_slice(&s.tire_load);
+    v
+}
+
+fn static_variables() -> Vec<Variable> {
+    let mut v = Vec::new();
+    let mut push = |name: String, unit, desc: String| {
+        let vr = vr::STATIC + v.len() as u32;
+        v.push(Variable::real(name, vr, Causality::CalculatedParameter, unit, desc));
+    };
+    for c in CORNERS {
+        push(format!("static_stroke_{c}"), "m", format!("Suspension stroke {} at static equilibrium under gravity (negative = compressed)", c.to_uppercase()));
+    }
+    push("static_stroke_seat".into(), "m", "Seat stroke at static equilibrium under gravity".into());
+    for c in CORNERS {
+        push(format!("static_tire_defl_{c}"), "m", format!("Tyre deflection {} at static equilibrium (negative = compressed)", c.to_uppercase()));
+    }
+    for c in CORNERS {
+        push(format!("static_tire_load_{c}"), "N", format!("Tyre load {} at static equilibrium", c.to_uppercase()));
+    }
+    v
+}
+
+/// The plant as an FMI model.
+pub struct Plant {
+    sim: Simulator,
+    outputs: Vec<f64>,
+    outputs_valid: bool,
+}
+
+impl Plant {
+    fn invalidate_outputs(&mut self) {
+        self.outputs_valid = false;
+    }
+}
+
+impl Model for Plant {
+    fn description() -> ModelDescription {
+        let defaults = VehicleParams::default();
+        let act_defaults = ActuatorParams::default();
+        let mut vars = Vec::new();
+        for (i, s) in PARAMETERS.iter().enumerate() {
+            vars.push(Variable::real(s.name, vr::VEHICLE + i as u32, Causality::Parameter, s.unit, s.description).with_start((s.get)(&defaults)).with_min(0.0));
+        }
+        // The seat offsets may be negative; only the others have a lower bound.
+        for v in vars.iter_mut().filter(|v| v.name == "s1" || v.name == "s2") {
+            if let fmu_core::VarType::Real { min, .. } = &mut v.kind {
+                *min = None;
+            }
+        }
+        for (i, s) in ACTUATOR_PARAMETERS.iter().enumerate() {
+            let mut v = Variable::real(s.name, vr::ACTUATOR + i as u32, Causality::Parameter, s.unit, s.description).with_start((s.get)(&act_defaults));
+            if s.min.is_finite() {
+                v = v.with_min(s.min);
+            }
+            if let Some(m) = s.max {
+                v = v.with_max(m);
+            }
+            vars.push(v);
+        }
+        vars.extend(static_variables());
+        for (i, name) in input_names().into_iter().enumerate() {
+            let (unit, desc) = match i {
+                0..4 => ("m", format!("Road height under the {} wheel", CORNERS[i].to_uppercase())),
+                4..8 => ("m/s", format!("Road vertical velocity under the {} wheel (time derivative of road_z_{})", CORNERS[i - 4].to_uppercase(), CORNERS[i - 4])),
+                _ => ("N", format!("Force command of the {} actuator (positive extends it)", ACTUATORS[i - 8].to_uppercase())),
+            };
+            vars.push(Variable::real(name, vr::INPUT + i as u32, Causality::Input, unit, desc).with_start(0.0));
+        }
+        for (k, (name, unit, desc)) in STATES.iter().enumerate() {
+            vars.push(Variable::real(format!("x[{}]", k + 1), vr::STATE + k as u32, Causality::Output, unit, format!("State {name}: {desc}, from static equilibrium")));
+        }
+        // Direct feed-through, for the worst case of the actuator model (no delay, no lag).
+        let inputs = input_names();
+        for (k, row) in physical_outputs(&defaults).iter().enumerate() {
+            let mut deps: Vec<String> = Vec::new();
+            deps.extend((0..N_ROAD).filter(|&j| row.d_r[j] != 0.0).map(|j| inputs[j].clone()));
+            deps.extend((0..N_ACTUATORS).filter(|&j| row.d_u[j] != 0.0).map(|j| inputs[N_ROAD + j].clone()));
+            vars.push(Variable::real(row.name.clone(), vr::OUTPUT + k as u32, Causality::Output, row.unit, row.description.clone()).depending_on(deps));
+        }
+        for (i, a) in ACTUATORS.iter().enumerate() {
+            vars.push(
+                Variable::real(format!("f_{a}"), vr::FORCE + i as u32, Causality::Output, "N", format!("Force actually applied by the {} actuator (after delay, saturation, fault and lag)", a.to_uppercase()))
+                    .depending_on(vec![inputs[N_ROAD + i].clone()]),
+            );
+        }
+        ModelDescription {
+            model_name: "plant".into(),
+            model_identifier: "plant".into(),
+            guid: String::new(),
+            description: "8-DOF full car with driver seat and active suspension actuators (saturation, delay, bandwidth, faults), stepped exactly".into(),
+            version: env!("CARGO_PKG_VERSION").into(),
+            capabilities: Capabilities {
+                can_handle_variable_communication_step_size: true,
+                can_interpolate_inputs: true,
+                max_output_derivative_order: 0,
+                can_get_and_set_fmu_state: true,
+                can_serialize_fmu_state: true,
+            },
+            default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+            variables: vars,
+        }
+        .with_derived_guid()
+    }
+
+    fn instantiate(_resources: Option<&Path>) -> Result<Self, String> {
+        Ok(Plant { sim: Simulator::new(VehicleParams::default(), ActuatorParams::default()), outputs: vec![0.0; 20], outputs_valid: false })
+    }
+
+    fn check_real(&self, vr: ValueReference, value: f64) -> Result<(), String> {
+        if let Some(spec) = vehicle_param(vr) {
+            let mut p = self.sim.params;
+            return p.set(spec.name, value).map_err(|e| e.to_string());
+        }
+        if let Some(spec) = actuator_param(vr) {
+            let below = if spec.strict { value <= spec.min } else { value < spec.min };
+            if below || spec.max.is_some_and(|m| value > m) {
+                let lower = if spec.strict { format!("> {}", spec.min) } else { format!(">= {}", spec.min) };
+                let upper = spec.max.map(|m| format!(" and <= {m}")).unwrap_or_default();
+                return Err(format!("{} must be {lower}{upper} {}, got {value}", spec.name, spec.unit));
+            }
+        }
+        Ok(())
+    }
+
+    fn set_real(&mut self, vr: ValueReference, value: f64) {
+        self.invalidate_outputs();
+        if let Some(spec) = vehicle_param(vr) {
+            (spec.set)(&mut self.sim.params, value);
+            self.sim.invalidate();
+        } else if let Some(spec) = actuator_param(vr) {
+            (spec.set)(&mut self.sim.actuator, value);
+            self.sim.invalidate();
+        } else if let Some(k) = input_index(vr) {
+            if k < N_ROAD {
+                self.sim.road[k] = value;
+            } else {
+                self.sim.command[k - N_ROAD] = value;
+            }
+        }
+    }
+
+    fn get_real(&mut self, vr: ValueReference) -> f64 {
+        if let Some(spec) = vehicle_param(vr) {
+            (spec.get)(&self.sim.params)
+        } else if let Some(spec) = actuator_param(vr) {
+            (spec.get)(&self.sim.actuator)
+        } else if (vr::STATIC..vr::STATIC + N_STATIC as u32).contains(&vr) {
+            static_values(&self.sim.params)[(vr - vr::STATIC) as usize]
+        } else if let Some(k) = input_index(vr) {
+            if k < N_ROAD { self.sim.road[k] } else { self.sim.command[k - N_ROAD] }
+        } else if (vr::STATE..vr::STATE + N_STATES as u32).contains(&vr) {
+            self.sim.state()[(vr - vr::STATE) as usize]
+        } else if (vr::OUTPUT..vr::OUTPUT + 20).contains(&vr) {
+            if !self.outputs_valid {
+                self.sim.physical_outputs(&mut self.outputs);
+                self.outputs_valid = true;
+            }
+            self.outputs[(vr - vr::OUTPUT) as usize]
+        } else {
+            self.sim.applied_force()[(vr - vr::FORCE) as usize]
+        }
+    }
+
+    fn set_input_derivative(&mut self, vr: ValueReference, value: f64) {
+        if let Some(k) = input_index(vr) {
+            if k < N_ROAD {
+                self.sim.road_slope[k] = value;
+            } else {
+                self.sim.command_slope[k - N_ROAD] = value;
+            }
+        }
+    }
+
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
+        self.sim.params.validate().map_err(|e| e.to_string())?;
+        self.sim.start(start_time);
+        self.invalidate_outputs();
+        Ok(())
+    }
+
+    fn do_step(&mut self, time: f64, step: f64) -> Result<(), String> {
+        self.invalidate_outputs();
+        self.sim.step(time, step).map_err(|e| e.to_string())
+    }
+
+    fn save(&self, out: &mut StateWriter) {
+        let params: Vec<f64> = PARAMETERS.iter().map(|s| (s.get)(&self.sim.params)).collect();
+        let act: Vec<f64> = ACTUATOR_PARAMETERS.iter().map(|s| (s.get)(&self.sim.actuator)).collect();
+        out.f64s(&params);
+        out.f64s(&act);
+        out.f64s(&self.sim.save());
+    }
+
+    fn restore(&mut self, input: &mut StateReader) -> Result<(), String> {
+        let params = input.f64s_exact(PARAMETERS.len(), "vehicle parameters")?;
+        let act = input.f64s_exact(ACTUATOR_PARAMETERS.len(), "actuator parameters")?;
+        let data = input.f64s()?;
+        input.finish()?;
+        let mut p = VehicleParams::default();
+        for (s, v) in PARAMETERS.iter().zip(&params) {
+            p.set(s.name, *v).map_err(|e| format!("FMU state: {e}"))?;
+        }
+        let mut a = ActuatorParams::default();
+        for (s, v) in ACTUATOR_PARAMETERS.iter().zip(&act) {
+            (s.set)(&mut a, *v);
+        }
+        let mut sim = Simulator::new(p, a);
+        sim.restore(&data)?;
+        let same = p == self.sim.params && a == self.sim.actuator;
+        if same {
+            // Same parameters: keep the cached discretisations (they would be recomputed
+            // bit-identically anyway, this only saves the matrix exponentials).
+            std::mem::swap(&mut self.sim, &mut sim);
+            self.sim.adopt_system(&mut sim);
+        } else {
+            self.sim = sim;
+        }
+        self.invalidate_outputs();
+        Ok(())
+    }
+}
+
+fn vehicle_param(vr: ValueReference) -> Option<&'static vehicle::params::ParamSpec> {
+    vr.checked_sub(vr::VEHICLE).and_then(|i| PARAMETERS.get(i as usize)).filter(|_| vr < vr::ACTUATOR)
+}
+
+fn actuator_param(vr: ValueReference) -> Option<&'static ActuatorSpec> {
+    vr.checked_sub(vr::ACTUATOR).and_then(|i| ACTUATOR_PARAMETERS.get(i as usize))
+}
+
+fn input_index(vr: ValueReference) -> Option<usize> {
+    vr.checked_sub(vr::INPUT).map(|k| k as usize).filter(|&k| k < N_ROAD + N_ACTUATORS)
+}
+
+fmu_core::export_fmi2!(Plant);

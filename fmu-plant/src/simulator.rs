@@ -1,0 +1,419 @@
+//! The plant without FMI: the car of the `vehicle` crate driven through its actuators, stepped
+//! exactly (SPEC §2).
+//!
+//! Actuator chain, per actuator `i` (corners, then seat):
+//! `command u_i(t)` → transport delay `τ` → saturation at `±u_max` (`u_max_seat` for the seat)
+//! → effectiveness `ρ_i(t)` (`1` before `fault_time`, `1 − fault_loss_i` after; thesis fig. 8.2)
+//! → optional first-order lag of bandwidth `f_a` (`ḟ = 2π f_a (v − f)`) → force on the car.
+//! Before the start time the command is taken as zero: the car starts at rest in static
+//! equilibrium and no actuator has pushed yet.
+//!
+//! Every input is piecewise linear in time (held, or ramped when the importer gives input
+//! derivatives), so the actuator output `v(t)` is piecewise linear too, with breakpoints where
+//! a delayed command segment starts, where the fault starts and where a ramp crosses the force
+//! limit. The step is cut at those breakpoints and each piece is integrated with the exact
+//! triangle-hold discretisation of [`vehicle::exact`]; nothing is approximated.
+
+use nalgebra::{DMatrix, DVector};
+use std::collections::VecDeque;
+use vehicle::exact::{discretize, Discretization};
+use vehicle::model::{physical_outputs, StateSpace, N_ACTUATORS, N_ROAD, N_STATES};
+use vehicle::VehicleParams;
+
+/// Number of inputs of the linear part: road heights and velocities, then actuator outputs.
+const N_INPUTS: usize = N_ROAD + N_ACTUATORS;
+/// How many step sizes keep their discretisation.
+const CACHE_SIZE: usize = 16;
+
+/// Actuator model parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ActuatorParams {
+    /// Force limit of each corner actuator [N].
+    pub u_max: f64,
+    /// Force limit of the seat actuator [N].
+    pub u_max_seat: f64,
+    /// Input transport delay [s].
+    pub tau: f64,
+    /// Bandwidth of the first-order actuator lag [Hz]; 0 = ideal actuator.
+    pub bandwidth: f64,
+    /// Time at which the fault starts [s].
+    pub fault_time: f64,
+    /// Loss of effectiveness after the fault, per actuator (FL, FR, RL, RR, seat) [1].
+    pub fault_loss: [f64; N_ACTUATORS],
+}
+
+impl Default for ActuatorParams {
+    fn default() -> Self {
+        ActuatorParams { u_max: 2500.0, u_max_seat: 1000.0, tau: 0.0, bandwidth: 0.0, fault_time: 2.0, fault_loss: [0.0; N_ACTUATORS] }
+    }
+}
+
+impl ActuatorParams {
+    fn limit(&self, i: usize) -> f64 {
+        if i < 4 { self.u_max } else { self.u_max_seat }
+    }
+
+    fn effectiveness(&self, i: usize, t: f64) -> f64 {
+        if t >= self.fault_time { 1.0 - self.fault_loss[i] } else { 1.0 }
+    }
+}
+
+/// A command held or ramped from `start` on: `value + slope (t − start)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Segment {
+    start: f64,
+    value: [f64; N_ACTUATORS],
+    slope: [f64; N_ACTUATORS],
+}
+
+impl Segment {
+    const ZERO: Segment = Segment { start: f64::NEG_INFINITY, value: [0.0; N_ACTUATORS], slope: [0.0; N_ACTUATORS] };
+
+    fn at(&self, i: usize, t: f64) -> f64 {
+        if self.slope[i] == 0.0 { self.value[i] } else { self.value[i] + self.slope[i] * (t - self.start) }
+    }
+}
+
+/// Matrices derived from the parameters.
+struct System {
+    /// State dimension: 16, plus 5 actuator-lag states when the bandwidth is finite.
+    n: usize,
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
+    /// Physical outputs `y = C x + D_r r + D_u f`.
+    out_c: DMatrix<f64>,
+    out_dr: DMatrix<f64>,
+    out_du: DMatrix<f64>,
+    cache: VecDeque<Discretization>,
+}
+
+impl System {
+    fn new(p: &VehicleParams, act: &ActuatorParams) -> Self {
+        let ss = StateSpace::new(p);
+        let lag = act.bandwidth > 0.0;
+        let n = if lag { N_STATES + N_ACTUATORS } else { N_STATES };
+        let mut a = DMatrix::zeros(n, n);
+        let mut b = DMatrix::zeros(n, N_INPUTS);
+        a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
+        b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&ss.b_r);
+        if lag {
+            let w = 2.0 * std::f64::consts::PI * act.bandwidth;
+            a.view_mut((0, N_STATES), (N_STATES, N_ACTUATORS)).copy_from(&ss.b_u);
+            for i in 0..N_ACTUATORS {
+                a[(N_STATES + i, N_STATES + i)] = -w;
+                b[(N_STATES + i, N_ROAD + i)] = w;
+            }
+        } else {
+            b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS)).copy_from(&ss.b_u);
+        }
+        let rows = physical_outputs(p);
+        let ny = rows.len();
+        System {
+            n,
+            a,
+            b,
+            out_c: DMatrix::from_fn(ny, N_STATES, |r, k| rows[r].c[k]),
+            out_dr: DMatrix::from_fn(ny, N_ROAD, |r, k| rows[r].d_r[k]),
+            out_du: DMatrix::from_fn(ny, N_ACTUATORS, |r, k| rows[r].d_u[k]),
+            cache: VecDeque::with_capacity(CACHE_SIZE),
+        }
+    }
+
+    /// The discretisation for step `h`, from the cache or computed (matrix exponential).
+    fn discretization(&mut self, h: f64) -> &Discretization {
+        if let Some(pos) = self.cache.iter().position(|d| d.step.to_bits() == h.to_bits()) {
+            return &self.cache[pos];
+        }
+        if self.cache.len() == CACHE_SIZE {
+            self.cache.pop_front();
+        }
+        self.cache.push_back(discretize(&self.a, &self.b, h));
+        self.cache.back().unwrap()
+    }
+}
+
+/// The plant's complete dynamic state and inputs.
+pub struct Simulator {
+    pub params: VehicleParams,
+    pub actuator: ActuatorParams,
+    /// Road heights then velocities, as set at the last communication point.
+    pub road: [f64; N_ROAD],
+    pub road_slope: [f64; N_ROAD],
+    /// Actuator commands (FL, FR, RL, RR, seat) [N].
+    pub command: [f64; N_ACTUATORS],
+    pub command_slope: [f64; N_ACTUATORS],
+    /// `[x; f_lag]` (the lag states only with a finite bandwidth).
+    xi: DVector<f64>,
+    history: VecDeque<Segment>,
+    time: f64,
+    system: Option<System>,
+    breaks: Vec<f64>,
+}
+
+/// Why a step could not be taken.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StepError {
+    NonFinite(f64),
+}
+
+impl std::fmt::Display for StepError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self {
+            StepError::NonFinite(t) => write!(f, "the state became non-finite at t = {t}; the step was discarded"),
+        }
+    }
+}
+
+impl Simulator {
+    pub fn new(params: VehicleParams, actuator: ActuatorParams) -> Self {
+        Simulator {
+            params,
+            actuator,
+            road: [0.0; N_ROAD],
+            road_slope: [0.0; N_ROAD],
+            command: [0.0; N_ACTUATORS],
+            command_slope: [0.0; N_ACTUATORS],
+            xi: DVector::zeros(N_STATES),
+            history: VecDeque::new(),
+            time: 0.0,
+            system: None,
+            breaks: Vec::with_capacity(16),
+        }
+    }
+
+    /// Start at `t0` in static equilibrium (all dynamic states zero).
+    pub fn start(&mut self, t0: f64) {
+        self.time = t0;
+        self.system = Some(System::new(&self.params, &self.actuator));
+        self.xi = DVector::zeros(self.system.as_ref().unwrap().n);
+        self.history.clear();
+    }
+
+    /// Parameters changed: rebuild the matrices before the next use.
+    pub fn invalidate(&mut self) {
+        self.system = None;
+    }
+
+    fn system(&mut self) -> &mut System {
+        if self.system.is_none() {
+            let sys = System::new(&self.params, &self.actuator);
+            if self.xi.len() != sys.n {
+                self.xi = DVector::zeros(sys.n);
+            }
+            self.system = Some(sys);
+        }
+        self.system.as_mut().unwrap()
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The 16 vehicle states.
+    pub fn state(&self) -> &[f64] {
+        &self.xi.as_slice()[..N_STATES]
+    }
+
+    /// The command segment in force at time `s` (zero before the first step).
+    fn segment_at(&self, s: f64) -> Segment {
+        self.history.iter().rev().find(|g| g.start <= s).copied().unwrap_or(Segment::ZERO)
+    }
+
+    /// Actuator output before the lag, from the command segment `seg`, at time `t`.
+    fn actuator_output(&self, seg: &Segment, i: usize, t: f64, rho_time: f64) -> f64 {
+        let lim = self.actuator.limit(i);
+        self.actuator.effectiveness(i, rho_time) * seg.at(i, t - self.actuator.tau).clamp(-lim, lim)
+    }
+
+    /// The force each actuator applies now [N].
+    pub fn applied_force(&mut self) -> [f64; N_ACTUATORS] {
+        let n = self.system().n;
+        if n > N_STATES {
+            return std::array::from_fn(|i| self.xi[N_STATES + i]);
+        }
+        let now = self.time;
+        // With no delay the current (just set) command acts at once.
+        let seg = if self.actuator.tau == 0.0 {
+            Segment { start: now, value: self.command, slope: [0.0; N_ACTUATORS] }
+        } else {
+            self.segment_at(now - self.actuator.tau)
+        };
+        std::array::from_fn(|i| self.actuator_output(&seg, i, now, now))
+    }
+
+    /// Physical outputs (the rows of [`vehicle::model::physical_outputs`]) now.
+    pub fn physical_outputs(&mut self, out: &mut [f64]) {
+        let f = DVector::from_row_slice(&self.applied_force());
+        let r = DVector::from_row_slice(&self.road);
+        let x = DVector::from_row_slice(self.state());
+        let sys = self.system();
+        let y = &sys.out_c * x + &sys.out_dr * r + &sys.out_du * f;
+        out.copy_from_slice(y.as_slice());
+    }
+
+    /// Advance from `t` by `h` with the current inputs and slopes. Afterwards the inputs hold
+    /// their values at `t + h` and the slopes are zero. On error nothing changes.
+    pub fn step(&mut self, t: f64, h: f64) -> Result<(), StepError> {
+        self.system();
+        let tau = self.actuator.tau;
+        let end = t + h;
+        self.history.push_back(Segment { start: t, value: self.command, slope: self.command_slope });
+
+        // Breakpoints: delayed segment starts, the fault, then limit crossings inside pieces.
+        let mut breaks = std::mem::take(&mut self.breaks);
+        breaks.clear();
+        breaks.extend([t, end]);
+        if tau > 0.0 {
+            breaks.extend(self.history.iter().map(|g| g.start + tau).filter(|&s| s > t && s < end));
+        }
+        if self.actuator.fault_time > t && self.actuator.fault_time < end {
+            breaks.push(self.actuator.fault_time);
+        }
+        breaks.sort_by(f64::total_cmp);
+        let pieces = breaks.len() - 1;
+        for k in 0..pieces {
+            let (a, b) = (breaks[k], breaks[k + 1]);
+            let seg = self.segment_at(0.5 * (a + b) - tau);
+            for i in 0..N_ACTUATORS {
+                if seg.slope[i] == 0.0 {
+                    continue;
+                }
+                let lim = self.actuator.limit(i);
+                for level in [-lim, lim] {
+                    // seg.at(i, s − τ) = level
+                    let s = seg.start + tau + (level - seg.value[i]) / seg.slope[i];
+                    if s > a && s < b {
+                        breaks.push(s);
+                    }
+                }
+            }
+        }
+        if breaks.len() > pieces + 1 {
+            breaks.sort_by(f64::total_cmp);
+        }
+        breaks.dedup();
+
+        let mut xi = self.xi.clone();
+        let mut wa = DVector::zeros(N_INPUTS);
+        let mut dw = DVector::zeros(N_INPUTS);
+        for k in 0..breaks.len() - 1 {
+            let (a, b) = (breaks[k], breaks[k + 1]);
+            let mid = 0.5 * (a + b);
+            let seg = self.segment_at(mid - tau);
+            let mut ramp = false;
+            for j in 0..N_ROAD {
+                wa[j] = self.road[j] + self.road_slope[j] * (a - t);
+                dw[j] = self.road_slope[j] * (b - a);
+                ramp |= dw[j] != 0.0;
+            }
+            for i in 0..N_ACTUATORS {
+                let va = self.actuator_output(&seg, i, a, mid);
+                let vb = self.actuator_output(&seg, i, b, mid);
+                wa[N_ROAD + i] = va;
+                dw[N_ROAD + i] = vb - va;
+                ramp |= vb != va;
+            }
+            let d = self.system.as_mut().unwrap().discretization(b - a);
+            let mut next = &d.phi * &xi;
+            next.gemv(1.0, &d.gamma_hold, &wa, 1.0);
+            if ramp {
+                next.gemv(1.0, &d.gamma_ramp, &dw, 1.0);
+            }
+            xi = next;
+        }
+        self.breaks = breaks;
+        if !xi.iter().all(|v| v.is_finite()) {
+            self.history.pop_back();
+            return Err(StepError::NonFinite(end));
+        }
+
+        self.xi = xi;
+        self.time = end;
+        for j in 0..N_ROAD {
+            self.road[j] += self.road_slope[j] * h;
+        }
+        for i in 0..N_ACTUATORS {
+            self.command[i] += self.command_slope[i] * h;
+        }
+        self.road_slope = [0.0; N_ROAD];
+        self.command_slope = [0.0; N_ACTUATORS];
+        // Forget segments that no future step can reach: the next step needs times ≥ end − τ.
+        while self.history.len() > 1 && self.history[1].start <= end - tau {
+            self.history.pop_front();
+        }
+        Ok(())
+    }
+
+    /// Everything needed to continue bit-identically, as numbers.
+    pub fn save(&self) -> Vec<f64> {
+        let mut v = Vec::with_capacity(64 + 11 * self.history.len());
+        v.push(self.time);
+        v.extend_from_slice(&self.road);
+        v.extend_from_slice(&self.road_slope);
+        v.extend_from_slice(&self.command);
+        v.extend_from_slice(&self.command_slope);
+        v.push(self.xi.len() as f64);
+        v.extend(self.xi.iter());
+        v.push(self.history.len() as f64);
+        for g in &self.history {
+            v.push(g.start);
+            v.extend_from_slice(&g.value);
+            v.extend_from_slice(&g.slope);
+        }
+        v
+    }
+
+    /// Restore what [`Simulator::save`] wrote, for the current parameters.
+    pub fn restore(&mut self, v: &[f64]) -> Result<(), String> {
+        let mut it = v.iter().copied();
+        let mut next = || it.next().ok_or_else(|| "plant state is truncated".to_string());
+        let time = next()?;
+        let mut arr = |n: usize| -> Result<Vec<f64>, String> { (0..n).map(|_| next()).collect() };
+        let road = arr(N_ROAD)?;
+        let road_slope = arr(N_ROAD)?;
+        let command = arr(N_ACTUATORS)?;
+        let command_slope = arr(N_ACTUATORS)?;
+        let n = arr(1)?[0];
+        let expected = if self.actuator.bandwidth > 0.0 { N_STATES + N_ACTUATORS } else { N_STATES };
+        if n != expected as f64 {
+            return Err(format!("plant state has {n} states, the parameters need {expected}"));
+        }
+        let xi = arr(expected)?;
+        let count = arr(1)?[0];
+        if !(count >= 0.0 && count.fract() == 0.0 && count * 11.0 <= v.len() as f64) {
+            return Err(format!("plant state has an invalid history length {count}"));
+        }
+        let mut history = VecDeque::with_capacity(count as usize);
+        for _ in 0..count as usize {
+            let g = arr(11)?;
+            history.push_back(Segment {
+                start: g[0],
+                value: std::array::from_fn(|i| g[1 + i]),
+                slope: std::array::from_fn(|i| g[6 + i]),
+            });
+        }
+        if next().is_ok() {
+            return Err("plant state has trailing values".into());
+        }
+        if !v.iter().all(|x| x.is_finite()) {
+            return Err("plant state contains non-finite values".into());
+        }
+        self.time = time;
+        self.road.copy_from_slice(&road);
+        self.road_slope.copy_from_slice(&road_slope);
+        self.command.copy_from_slice(&command);
+        self.command_slope.copy_from_slice(&command_slope);
+        self.xi = DVector::from_vec(xi);
+        self.history = history;
+        Ok(())
+    }
+}
+
+impl Simulator {
+    /// Take `other`'s derived matrices and cache (same parameters assumed by the caller).
+    pub fn adopt_system(&mut self, other: &mut Simulator) {
+        if self.system.is_none() {
+            self.system = other.system.take();
+        }
+    }
+}

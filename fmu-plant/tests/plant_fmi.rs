@@ -1,0 +1,396 @@
+//! The plant FMU through its exported C functions. Each physical effect of the actuator chain
+//! is checked against an independent construction of the same trajectory (a delayed copy, a
+//! step split at the breakpoint, a closed form), so the sub-stepping logic cannot hide.
+
+use fmi_test_logger::LogCapture;
+use fmu_core::types::*;
+use fmu_core::Model;
+use fmu_plant::*;
+use std::ffi::CString;
+use std::ptr::{null, null_mut};
+
+const OK: i32 = 0;
+const ERROR: i32 = 3;
+
+struct Plant<'a> {
+    c: Fmi2Component,
+    desc: fmu_core::ModelDescription,
+    _log: &'a LogCapture,
+    _cb: Box<fmi_test_logger::Callbacks>,
+}
+
+impl<'a> Plant<'a> {
+    fn new(log: &'a LogCapture) -> Self {
+        let desc = fmu_plant::Plant::description();
+        let cb = Box::new(log.callbacks());
+        let name = CString::new("plant").unwrap();
+        let guid = CString::new(desc.guid.clone()).unwrap();
+        let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), null(), &*cb as *const _ as *const CallbackFunctions, 0, 0) };
+        assert!(!c.is_null(), "{:?}", log.messages());
+        Plant { c, desc, _log: log, _cb: cb }
+    }
+    fn vr(&self, name: &str) -> u32 {
+        self.desc.variable(name).unwrap_or_else(|| panic!("no variable {name}")).value_reference
+    }
+    fn set(&self, name: &str, v: f64) -> i32 {
+        let vr = self.vr(name);
+        unsafe { fmi2SetReal(self.c, &vr, 1, &v) }
+    }
+    fn der(&self, name: &str, v: f64) -> i32 {
+        let vr = self.vr(name);
+        unsafe { fmi2SetRealInputDerivatives(self.c, &vr, 1, &1, &v) }
+    }
+    fn get(&self, name: &str) -> f64 {
+        let vr = self.vr(name);
+        let mut v = f64::NAN;
+        assert_eq!(unsafe { fmi2GetReal(self.c, &vr, 1, &mut v) }, OK);
+        v
+    }
+    fn states(&self) -> Vec<f64> {
+        (1..=16).map(|k| self.get(&format!("x[{k}]"))).collect()
+    }
+    fn init(&self, t0: f64) {
+        unsafe {
+            assert_eq!(fmi2SetupExperiment(self.c, 0, 0.0, t0, 0, 0.0), OK);
+            assert_eq!(fmi2EnterInitializationMode(self.c), OK);
+            assert_eq!(fmi2ExitInitializationMode(self.c), OK);
+        }
+    }
+    fn step(&self, t: f64, h: f64) -> i32 {
+        unsafe { fmi2DoStep(self.c, t, h, 1) }
+    }
+}
+
+impl Drop for Plant<'_> {
+    fn drop(&mut self) {
+        unsafe { fmi2FreeInstance(self.c) }
+    }
+}
+
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
+
+fn max_abs(a: &[f64]) -> f64 {
+    a.iter().map(|x| x.abs()).fold(0.0, f64::max)
+}
+
+#[test]
+fn checked_in_model_description_is_not_stale() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../modelDescription/plant.xml");
+    let on_disk = std::fs::read_to_string(path).expect("modelDescription/plant.xml exists");
+    assert!(on_disk == fmu_plant::Plant::description().to_xml(), "modelDescription/plant.xml is stale: run `make descriptions` and commit it");
+}
+
+#[test]
+fn description_has_every_variable_the_issue_names_with_units() {
+    let d = fmu_plant::Plant::description();
+    d.check().unwrap();
+    let unit = |n: &str| d.variable(n).unwrap_or_else(|| panic!("missing {n}")).unit().unwrap();
+    for c in ["fl", "fr", "rl", "rr"] {
+        assert_eq!(unit(&format!("road_z_{c}")), "m");
+        assert_eq!(unit(&format!("road_v_{c}")), "m/s");
+        assert_eq!(unit(&format!("u_{c}")), "N");
+        assert_eq!(unit(&format!("stroke_{c}")), "m");
+        assert_eq!(unit(&format!("tire_defl_{c}")), "m");
+        assert_eq!(unit(&format!("tire_load_{c}")), "N");
+        assert_eq!(unit(&format!("f_{c}")), "N");
+        assert_eq!(unit(&format!("fault_loss_{c}")), "1");
+    }
+    for (n, u) in [("u_seat", "N"), ("a_seat", "m/s2"), ("a_body", "m/s2"), ("alpha_roll", "rad/s2"), ("alpha_pitch", "rad/s2"),
+        ("stroke_seat", "m"), ("f_seat", "N"), ("u_max", "N"), ("tau", "s"), ("fault_time", "s"), ("actuator_bandwidth", "Hz"),
+        ("m_s", "kg"), ("I_x", "kg.m2"), ("k_t", "N/m"), ("c_t", "N.s/m"), ("x[1]", "m"), ("x[2]", "rad"), ("x[16]", "m/s")] {
+        assert_eq!(unit(n), u, "{n}");
+    }
+    // a_seat feeds through from the seat actuator command only, not from the road.
+    let a_seat = d.variable("a_seat").unwrap();
+    assert_eq!(a_seat.depends_on, vec!["u_seat".to_string()]);
+    assert!(d.variable("x[1]").unwrap().depends_on.is_empty());
+}
+
+#[test]
+fn flat_road_and_zero_force_nothing_moves() {
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    p.init(0.0);
+    for k in 0..1000 {
+        assert_eq!(p.step(k as f64 * 0.01, 0.01), OK);
+    }
+    assert!(p.states().iter().all(|&v| v == 0.0));
+    assert_eq!(p.get("a_seat"), 0.0);
+    // The static values are there for the engineer.
+    assert!(p.get("static_stroke_fl") < -0.05 && p.get("static_tire_load_fl") > 3000.0);
+}
+
+/// Run the plant with a force-command profile `cmd(t)` applied to the FL actuator, held over
+/// each communication step, returning the states after every step.
+fn run_fl(setup: &[(&str, f64)], h: f64, steps: usize, cmd: impl Fn(f64) -> f64) -> Vec<Vec<f64>> {
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    for (n, v) in setup {
+        assert_eq!(p.set(n, *v), OK, "{n}");
+    }
+    p.init(0.0);
+    let mut out = Vec::new();
+    for k in 0..steps {
+        let t = k as f64 * h;
+        p.set("u_fl", cmd(t));
+        assert_eq!(p.step(t, h), OK, "{:?}", log.messages());
+        out.push(p.states());
+    }
+    out
+}
+
+#[test]
+fn delay_shifts_the_response_by_tau() {
+    let h = 1e-3;
+    let cmd = |t: f64| if t >= 0.05 { 1500.0 * (1.0 + (7.0 * t).sin()) } else { 0.0 };
+    let plain = run_fl(&[], h, 400, cmd);
+    // τ a whole number of steps: the trajectory is the plain one, delayed.
+    let delayed = run_fl(&[("tau", 0.02)], h, 400, cmd);
+    for k in 20..400 {
+        assert!(max_diff(&delayed[k], &plain[k - 20]) < 1e-12 * max_abs(&plain[k - 20]).max(1e-9), "step {k}");
+    }
+    // τ between steps: cut into two pieces per step. The same physics at half the step, with
+    // the command changing only every other half step, is an independent construction.
+    let half = run_fl(&[("tau", 0.0205)], h, 400, cmd);
+    let fine = run_fl(&[("tau", 0.0205)], h / 2.0, 800, |t| cmd((t / h).floor() * h));
+    let scale = max_abs(&fine[799]);
+    for k in 0..400 {
+        assert!(max_diff(&half[k], &fine[2 * k + 1]) < 1e-10 * scale, "step {k}: {}", max_diff(&half[k], &fine[2 * k + 1]));
+    }
+    assert!(max_diff(&half[399], &delayed[399]) > 1e-6 * scale, "a half-step more delay must show");
+}
+
+#[test]
+fn saturation_clips_the_command_and_ramps_are_cut_where_they_cross_the_limit() {
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    p.set("u_max", 2500.0);
+    p.init(0.0);
+    p.set("u_fl", 5000.0);
+    p.set("u_seat", -3000.0);
+    assert_eq!(p.get("f_fl"), 2500.0);
+    assert_eq!(p.get("f_seat"), -1000.0, "seat limit u_max_seat = 1 kN");
+
+    // One step with a ramp crossing the limit at t = 0.25 s …
+    let a = Plant::new(&log);
+    a.init(0.0);
+    a.set("u_fl", 0.0);
+    a.der("u_fl", 10_000.0);
+    assert_eq!(a.step(0.0, 0.5), OK);
+    // … equals a ramp up to the limit, then the limit held.
+    let b = Plant::new(&log);
+    b.init(0.0);
+    b.set("u_fl", 0.0);
+    b.der("u_fl", 10_000.0);
+    assert_eq!(b.step(0.0, 0.25), OK);
+    b.set("u_fl", 2500.0);
+    assert_eq!(b.step(0.25, 0.25), OK);
+    let (xa, xb) = (a.states(), b.states());
+    assert!(max_diff(&xa, &xb) < 1e-13 * max_abs(&xb), "{}", max_diff(&xa, &xb));
+    // Without the cut (an unsaturated ramp to 5 kN) the answer is clearly different.
+    let c = Plant::new(&log);
+    c.set("u_max", 1e9);
+    c.init(0.0);
+    c.der("u_fl", 10_000.0);
+    c.step(0.0, 0.5);
+    assert!(max_diff(&c.states(), &xb) > 1e-3 * max_abs(&xb));
+}
+
+#[test]
+fn fault_halves_the_force_from_fault_time_even_inside_a_step() {
+    let setup = [("fault_time", 0.2), ("fault_loss_fl", 0.5)];
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    for (n, v) in setup {
+        p.set(n, v);
+    }
+    p.init(0.0);
+    p.set("u_fl", 1000.0);
+    assert_eq!(p.get("f_fl"), 1000.0);
+    p.step(0.0, 0.15);
+    p.step(0.15, 0.15); // crosses t = 0.2
+    assert_eq!(p.get("f_fl"), 500.0);
+    let across = p.states();
+    // Independent construction: stop at the fault time exactly.
+    let q = Plant::new(&log);
+    for (n, v) in setup {
+        q.set(n, v);
+    }
+    q.init(0.0);
+    q.set("u_fl", 1000.0);
+    q.step(0.0, 0.15);
+    q.step(0.15, 0.05);
+    q.step(0.2, 0.1);
+    assert!(max_diff(&across, &q.states()) < 1e-13 * max_abs(&across));
+}
+
+#[test]
+fn actuator_bandwidth_is_a_first_order_lag() {
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    let f_a = 5.0;
+    p.set("actuator_bandwidth", f_a);
+    p.init(0.0);
+    p.set("u_seat", 800.0);
+    assert_eq!(p.get("f_seat"), 0.0, "a lag starts from rest");
+    for k in 0..50 {
+        p.step(k as f64 * 0.002, 0.002);
+    }
+    let expected = 800.0 * (1.0 - (-2.0 * std::f64::consts::PI * f_a * 0.1).exp());
+    assert!((p.get("f_seat") - expected).abs() < 1e-9, "{} vs {expected}", p.get("f_seat"));
+}
+
+#[test]
+fn input_derivatives_ramp_the_road_exactly() {
+    let log = LogCapture::default();
+    let one = Plant::new(&log);
+    one.init(0.0);
+    one.der("road_z_fl", 0.1);
+    one.der("road_v_fl", 0.0);
+    one.set("road_v_fl", 0.1);
+    one.step(0.0, 0.2);
+    let z = one.get("road_z_fl");
+    assert!((z - 0.02).abs() < 1e-15, "inputs move to their value at t + h");
+    let two = Plant::new(&log);
+    two.init(0.0);
+    two.set("road_v_fl", 0.1);
+    two.der("road_z_fl", 0.1);
+    two.step(0.0, 0.1);
+    two.der("road_z_fl", 0.1);
+    two.step(0.1, 0.1);
+    assert!(max_diff(&one.states(), &two.states()) < 1e-13 * max_abs(&one.states()));
+    // Derivatives hold for one step only: a third step keeps the road at 2 cm.
+    one.step(0.2, 0.1);
+    assert_eq!(one.get("road_z_fl"), z);
+}
+
+#[test]
+fn variable_step_sizes_agree_with_uniform_ones() {
+    let cmd = |t: f64| 800.0 * (t * 3.0).cos();
+    let uniform = run_fl(&[("tau", 0.013)], 0.01, 100, cmd);
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    p.set("tau", 0.013);
+    p.init(0.0);
+    // Same communication points, each reached in two uneven halves with the same held command.
+    for k in 0..100 {
+        let t = k as f64 * 0.01;
+        p.set("u_fl", cmd(t));
+        p.step(t, 0.003);
+        p.step(t + 0.003, 0.007);
+    }
+    let last = p.states();
+    assert!(max_diff(&last, &uniform[99]) < 1e-11 * max_abs(&last));
+}
+
+#[test]
+fn inadmissible_parameters_are_refused_with_a_message() {
+    let log = LogCapture::default();
+    for (name, value, msg) in [
+        ("m_s", -1500.0, "fmi2SetReal: value -1500 of 'm_s' is below its minimum 0"),
+        ("k_t", 0.0, "fmi2SetReal: rejected value for 'k_t': parameter 'k_t' must be a number > 0, got 0"),
+        ("I_y", 0.0, "parameter 'I_y' must be a number > 0, got 0"),
+        ("c_seat", -1.0, "below its minimum 0"),
+        ("u_max", 0.0, "u_max must be > 0 N, got 0"),
+        ("tau", -0.01, "value -0.01 of 'tau' is below its minimum 0"),
+        ("fault_loss_rr", 1.5, "value 1.5 of 'fault_loss_rr' is above its maximum 1"),
+    ] {
+        let p = Plant::new(&log);
+        let default = match p.desc.variable(name).unwrap().kind {
+            fmu_core::VarType::Real { start, .. } => start.unwrap(),
+            _ => unreachable!(),
+        };
+        assert_eq!(p.set(name, value), ERROR, "{name}");
+        assert!(log.contains(msg), "{name}: {:?}", log.messages());
+        // The instance is now in Error, where GetReal is legal: the parameter is unchanged.
+        assert_eq!(p.get(name), default, "{name} unchanged");
+    }
+}
+
+#[test]
+fn serialized_state_with_delay_history_continues_bit_identically_in_another_instance() {
+    let log = LogCapture::default();
+    let setup = [("tau", 0.0237), ("actuator_bandwidth", 12.0), ("fault_time", 0.3), ("fault_loss_seat", 0.7), ("m_s", 1650.0)];
+    let a = Plant::new(&log);
+    for (n, v) in setup {
+        a.set(n, v);
+    }
+    a.init(0.0);
+    let cmd = |t: f64| 900.0 * (11.0 * t).sin();
+    for k in 0..137 {
+        let t = k as f64 * 1e-3;
+        a.set("u_fl", cmd(t));
+        a.set("u_seat", -cmd(t));
+        a.set("road_z_rl", 0.01 * t);
+        a.step(t, 1e-3);
+    }
+    let mut s: Fmi2FmuState = null_mut();
+    assert_eq!(unsafe { fmi2GetFMUstate(a.c, &mut s) }, OK);
+    let mut size = 0;
+    unsafe { fmi2SerializedFMUstateSize(a.c, s, &mut size) };
+    let mut bytes = vec![0 as Fmi2Byte; size];
+    assert_eq!(unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) }, OK);
+
+    // A fresh instance with default parameters takes the whole state, parameters included.
+    let b = Plant::new(&log);
+    let mut sb: Fmi2FmuState = null_mut();
+    assert_eq!(unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) }, OK);
+    assert_eq!(unsafe { fmi2SetFMUstate(b.c, sb) }, OK);
+    assert_eq!(b.get("m_s"), 1650.0);
+    for k in 137..400 {
+        let t = k as f64 * 1e-3;
+        for p in [&a, &b] {
+            p.set("u_fl", cmd(t));
+            p.set("u_seat", -cmd(t));
+            p.set("road_z_rl", 0.01 * t);
+            assert_eq!(p.step(t, 1e-3), OK);
+        }
+        let (xa, xb) = (a.states(), b.states());
+        assert!(xa.iter().zip(&xb).all(|(x, y)| x.to_bits() == y.to_bits()), "diverged at step {k}");
+        assert_eq!(a.get("f_seat").to_bits(), b.get("f_seat").to_bits());
+    }
+    assert!(max_abs(&a.states()) > 0.0);
+}
+
+#[test]
+fn nan_road_input_is_refused_and_the_state_is_unchanged() {
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    p.init(0.0);
+    p.set("road_z_fl", 0.01);
+    p.step(0.0, 0.01);
+    let before = p.states();
+    assert_eq!(p.set("road_z_fl", f64::NAN), ERROR);
+    assert!(log.contains("fmi2SetReal: value of 'road_z_fl' must be finite, got NaN"));
+    assert_eq!(p.get("road_z_fl"), 0.01);
+    assert_eq!(p.states(), before);
+    assert_eq!(p.der("u_fl", f64::INFINITY), ERROR);
+}
+
+#[test]
+fn two_instances_on_two_threads_give_identical_results() {
+    let run = || {
+        let log = LogCapture::default();
+        let p = Plant::new(&log);
+        p.set("tau", 0.005);
+        p.init(0.0);
+        for k in 0..3000 {
+            let t = k as f64 * 1e-3;
+            p.set("road_z_fl", 0.02 * (8.0 * t).sin());
+            p.set("road_v_fl", 0.16 * (8.0 * t).cos());
+            p.set("u_seat", 300.0 * (3.0 * t).sin());
+            assert_eq!(p.step(t, 1e-3), OK);
+        }
+        p.states()
+    };
+    let (a, b) = std::thread::scope(|s| {
+        let a = s.spawn(run);
+        let b = s.spawn(run);
+        (a.join().unwrap(), b.join().unwrap())
+    });
+    assert_eq!(a, b);
+    assert_eq!(a, run(), "same as on the main thread");
+    assert!(max_abs(&a) > 1e-4);
+}
