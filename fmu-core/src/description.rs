@@ -384,6 +384,37 @@ impl ModelDescription {
     }
 }
 
+impl ModelDescription {
+    /// The variable table as Markdown (for the README): name, causality, unit, start, meaning.
+    pub fn to_markdown_table(&self) -> String {
+        let mut t = String::from("| variable | causality | unit | default | description |\n|---|---|---|---|---|\n");
+        for v in &self.variables {
+            let causality = match v.causality {
+                Causality::Parameter => "parameter",
+                Causality::CalculatedParameter => "calculated parameter",
+                Causality::Input => "input",
+                Causality::Output => "output",
+            };
+            let start = match &v.kind {
+                VarType::Real { start: Some(s), .. } => num(*s),
+                _ => String::new(),
+            };
+            let desc = v.description.replace('|', "\\|");
+            writeln!(t, "| `{}` | {causality} | {} | {start} | {desc} |", v.name, v.unit().unwrap_or("")).unwrap();
+        }
+        t
+    }
+
+    /// Replace the text between `<!-- {tag}:begin -->` and `<!-- {tag}:end -->` in `doc`.
+    pub fn splice_into(doc: &str, tag: &str, content: &str) -> Result<String, DescriptionError> {
+        let begin = format!("<!-- {tag}:begin -->\n");
+        let end = format!("<!-- {tag}:end -->");
+        let i = doc.find(&begin).ok_or_else(|| DescriptionError(format!("marker '{begin}' not found")))? + begin.len();
+        let j = doc[i..].find(&end).ok_or_else(|| DescriptionError(format!("marker '{end}' not found")))? + i;
+        Ok(format!("{}{}{}", &doc[..i], content, &doc[j..]))
+    }
+}
+
 /// Shortest decimal that round-trips (Rust's `{}` for f64), with an exponent kept XML-friendly.
 fn num(v: f64) -> String {
     let s = format!("{v:?}");

@@ -30,6 +30,10 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Rewrite the variable tables in the README (between `<!-- <name>-variables:begin/end -->`).
+    Readme {
+        path: PathBuf,
+    },
     /// Write modelDescription/<name>.xml for every FMU.
     Descriptions {
         #[arg(long, default_value = "modelDescription")]
@@ -69,6 +73,15 @@ fn run(cli: Cli) -> Result<(), String> {
             check_exports(&lib)?;
             fmu_core::package::write_fmu(&out, &description, &lib, &[])?;
             println!("wrote {} (GUID {})", out.display(), description.guid);
+            Ok(())
+        }
+        Command::Readme { path } => {
+            let mut doc = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            for (name, d) in descriptions() {
+                doc = ModelDescription::splice_into(&doc, &format!("{name}-variables"), &d.to_markdown_table()).map_err(|e| e.to_string())?;
+            }
+            std::fs::write(&path, doc).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            println!("updated {}", path.display());
             Ok(())
         }
         Command::Descriptions { dir } => {

@@ -83,6 +83,15 @@ fn checked_in_model_description_is_not_stale() {
 }
 
 #[test]
+fn readme_variable_table_is_not_stale() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
+    let readme = std::fs::read_to_string(path).expect("README.md exists");
+    let table = fmu_plant::Plant::description().to_markdown_table();
+    let expected = fmu_core::ModelDescription::splice_into(&readme, "plant-variables", &table).expect("README has the plant-variables markers");
+    assert!(readme == expected, "README.md's plant variable table is stale: run `make descriptions` and commit it");
+}
+
+#[test]
 fn description_has_every_variable_the_issue_names_with_units() {
     let d = fmu_plant::Plant::description();
     d.check().unwrap();

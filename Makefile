@@ -1,0 +1,84 @@
+# `make`       build every FMU into dist/ and validate it (later: synthesise and compare)
+# `make test`  every test: Rust (unit + integration, incl. the fmi crate loading dist/) and pytest
+# `make bench` benchmarks (criterion)
+# Everything the commands need is installed here: Debian packages and a .venv with FMPy.
+
+SHELL := /bin/bash
+.DEFAULT_GOAL := all
+
+CARGO  ?= cargo
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := .make
+# libclang-dev + clang: bindgen in the fmi crate's fmi-sys; pkg-config, libopenblas-dev, gfortran:
+# clarabel's SDP support linked to Debian's OpenBLAS (synthesis).
+APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+FMUS := plant
+FMU_FILES := $(FMUS:%=dist/%.fmu)
+RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-pack -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
+
+.PHONY: all setup fmus validate test test-rust test-python bench descriptions readme clean
+
+all: fmus validate
+	@echo
+	@echo "Built: $(FMU_FILES)"
+
+setup: $(STAMP)/apt $(STAMP)/venv
+
+$(STAMP)/apt:
+	@mkdir -p $(STAMP)
+	@missing=$$(for p in $(APT_PACKAGES); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "Installing Debian packages: $$missing"; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
+	fi
+	@if ! $(PYTHON) -c 'import venv, ensurepip' 2>/dev/null; then \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq python3-venv; fi
+	@touch $@
+
+$(STAMP)/venv: tests/python/requirements.txt | $(STAMP)/apt
+	@mkdir -p $(STAMP)
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -r tests/python/requirements.txt
+	@touch $@
+
+fmus: $(FMU_FILES)
+
+# One cargo build for all FMU libraries and the packager; then one fmu-pack call per FMU.
+$(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
+	@mkdir -p $(STAMP)
+	$(CARGO) build --release -p fmu-plant -p fmu-pack
+	@touch $@
+
+dist/%.fmu: $(STAMP)/release
+	./target/release/fmu-pack fmu $* --lib target/release/libfmu_$*.so --out $@
+
+validate: $(FMU_FILES) $(STAMP)/venv
+	@for f in $(FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
+
+# Regenerate the checked-in modelDescription/*.xml and the README's variable table after a
+# change of a variable table (a test fails until you do and commit them).
+descriptions: $(STAMP)/release
+	./target/release/fmu-pack descriptions --dir modelDescription
+	./target/release/fmu-pack readme README.md
+
+readme: descriptions
+
+test: test-rust test-python
+
+test-rust: $(FMU_FILES) | $(STAMP)/apt
+	$(CARGO) test --workspace
+
+test-python: $(FMU_FILES) $(STAMP)/venv
+	$(PY) -m pytest tests/python -q
+
+bench: $(STAMP)/apt
+	$(CARGO) bench -p fmu-plant --bench do_step
+
+clean:
+	rm -rf dist $(STAMP)
+	$(CARGO) clean
