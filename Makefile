@@ -16,9 +16,10 @@ STAMP  := .make
 APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-FMUS := plant
+CONTROLLERS := hinf_sf
+FMUS := plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
-RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-pack -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
+RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-pack synth -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
 .PHONY: all setup fmus validate test test-rust test-python bench descriptions readme clean
 
@@ -51,11 +52,19 @@ fmus: $(FMU_FILES)
 # One cargo build for all FMU libraries and the packager; then one fmu-pack call per FMU.
 $(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
 	@mkdir -p $(STAMP)
-	$(CARGO) build --release -p fmu-plant -p fmu-pack
+	$(CARGO) build --release -p fmu-plant -p fmu-controller -p fmu-pack -p synth
 	@touch $@
 
-dist/%.fmu: $(STAMP)/release
-	./target/release/fmu-pack fmu $* --lib target/release/libfmu_$*.so --out $@
+dist/plant.fmu: $(STAMP)/release
+	./target/release/fmu-pack fmu --lib target/release/libfmu_plant.so --out $@
+
+# Synthesise and certify every controller (a failed certificate stops here: no FMU).
+$(STAMP)/synth: $(STAMP)/release synth/designs/default.json
+	./target/release/synth --design synth/designs/default.json --out dist $(CONTROLLERS)
+	@touch $@
+
+dist/hinf_%.fmu: $(STAMP)/synth
+	./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/hinf_$* --out $@
 
 validate: $(FMU_FILES) $(STAMP)/venv
 	@for f in $(FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
@@ -63,8 +72,7 @@ validate: $(FMU_FILES) $(STAMP)/venv
 # Regenerate the checked-in modelDescription/*.xml and the README's variable table after a
 # change of a variable table (a test fails until you do and commit them).
 descriptions: $(STAMP)/release
-	./target/release/fmu-pack descriptions --dir modelDescription
-	./target/release/fmu-pack readme README.md
+	./target/release/fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
 
 readme: descriptions
 

@@ -381,6 +381,37 @@ pub unsafe fn get_string_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind
     })
 }
 
+/// The model's description document for a resource directory (NULL = none): `format` 0 gives
+/// `modelDescription.xml`, 1 the Markdown variable table. The packager loads the built library
+/// and calls this, so the XML in an FMU always comes from the binary beside it. The string is
+/// freed with [`free_string`]; NULL on error (message on stderr: this is a build-time tool call).
+pub unsafe fn description_document<M: Model>(resources: *const c_char, format: std::os::raw::c_int) -> *mut c_char {
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        let dir = match c_str(resources) {
+            None => None,
+            Some(Ok(p)) => Some(std::path::PathBuf::from(p)),
+            Some(Err(e)) => return Err(e),
+        };
+        let d = M::description(dir.as_deref())?;
+        d.check().map_err(|e| e.to_string())?;
+        Ok(if format == 1 { d.to_markdown_table() } else { d.to_xml() })
+    }));
+    match result {
+        Ok(Ok(text)) => crate::logger::to_cstring(&text).into_raw(),
+        Ok(Err(e)) => {
+            eprintln!("fmuCoreDescription: {e}");
+            std::ptr::null_mut()
+        }
+        Err(_) => std::ptr::null_mut(),
+    }
+}
+
+pub unsafe fn free_string(s: *mut c_char) {
+    if !s.is_null() {
+        drop(std::ffi::CString::from_raw(s));
+    }
+}
+
 /// Export the 34 FMI 2.0 common and Co-Simulation functions for one [`Model`] type.
 /// Use once per `cdylib`: `fmu_core::export_fmi2!(MyModel);`.
 #[macro_export]
@@ -426,6 +457,8 @@ macro_rules! export_fmi2 {
             #[no_mangle] pub unsafe extern "C" fn fmi2GetRealStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut f64) -> Fmi2Status { ffi::get_real_status::<M>(c, k, v) }
             #[no_mangle] pub unsafe extern "C" fn fmi2GetIntegerStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2Integer) -> Fmi2Status { ffi::get_integer_status::<M>(c, k, v) }
             #[no_mangle] pub unsafe extern "C" fn fmi2GetBooleanStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2Boolean) -> Fmi2Status { ffi::get_boolean_status::<M>(c, k, v) }
+            #[no_mangle] pub unsafe extern "C" fn fmuCoreDescription(resources: *const c_char, format: std::os::raw::c_int) -> *mut c_char { ffi::description_document::<M>(resources, format) }
+            #[no_mangle] pub unsafe extern "C" fn fmuCoreFreeString(s: *mut c_char) { ffi::free_string(s) }
             #[no_mangle] pub unsafe extern "C" fn fmi2GetStringStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2String) -> Fmi2Status { ffi::get_string_status::<M>(c, k, v) }
         }
         pub use fmi2_exports::*;

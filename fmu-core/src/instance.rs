@@ -57,14 +57,8 @@ impl<M: Model> Instance<M> {
         logging_on: bool,
     ) -> Result<Box<Self>, (Logger, String)> {
         let logger = Logger::new(callbacks, instance_name, logging_on);
-        let description = M::description();
         if fmu_type != FMI2_CO_SIMULATION {
             return Err((logger, format!("fmuType {fmu_type} requested, but this FMU supports Co-Simulation (1) only")));
-        }
-        match guid {
-            Some(g) if g == description.guid => {}
-            Some(g) => return Err((logger, format!("GUID mismatch: this binary is {}, the importer passed {g}", description.guid))),
-            None => return Err((logger, "fmuGUID is NULL".into())),
         }
         let resources = match resource_location {
             None => None,
@@ -73,6 +67,15 @@ impl<M: Model> Instance<M> {
                 Err(e) => return Err((logger, e.to_string())),
             },
         };
+        let description = match M::description(resources.as_deref()) {
+            Ok(d) => d,
+            Err(e) => return Err((logger, e)),
+        };
+        match guid {
+            Some(g) if g == description.guid => {}
+            Some(g) => return Err((logger, format!("GUID mismatch: this binary is {}, the importer passed {g}", description.guid))),
+            None => return Err((logger, "fmuGUID is NULL".into())),
+        }
         let model = match M::instantiate(resources.as_deref()) {
             Ok(m) => m,
             Err(e) => return Err((logger, e)),

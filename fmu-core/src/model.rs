@@ -7,8 +7,10 @@ use crate::fmu_state::{StateReader, StateWriter};
 use std::path::Path;
 
 pub trait Model: Sized + Send + 'static {
-    /// The variable table and metadata. Called once per instance and by the packager.
-    fn description() -> ModelDescription;
+    /// The variable table and metadata for the unpacked `resources/` directory (if any).
+    /// Called once per instance, before the GUID check: a model whose interface comes from a
+    /// resource file (the controllers) derives its description, and so its GUID, from it.
+    fn description(resources: Option<&Path>) -> Result<ModelDescription, String>;
 
     /// A new model with every variable at its start value. `resources` is the unpacked
     /// `resources/` directory, if the importer gave one.

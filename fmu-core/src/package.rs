@@ -1,7 +1,6 @@
 //! Writing a `.fmu` archive (FMI 2.0.4 §2.3): `modelDescription.xml`, the shared library as
 //! `binaries/<platform>/<modelIdentifier>.so`, and `resources/`.
 
-use crate::description::ModelDescription;
 use std::io::Write;
 use std::path::Path;
 
@@ -16,10 +15,9 @@ pub fn platform_folder() -> Result<&'static str, String> {
     }
 }
 
-/// Write `out` from the description, the compiled library and resource files
-/// (`(path inside resources/, contents)`).
-pub fn write_fmu(out: &Path, description: &ModelDescription, library: &Path, resources: &[(String, Vec<u8>)]) -> Result<(), String> {
-    description.check().map_err(|e| format!("invalid description of {}: {e}", description.model_identifier))?;
+/// Write `out` from the `modelDescription.xml` text, the compiled library (stored as
+/// `<model_identifier>.so`) and resource files (`(path inside resources/, contents)`).
+pub fn write_fmu(out: &Path, xml: &str, model_identifier: &str, library: &Path, resources: &[(String, Vec<u8>)]) -> Result<(), String> {
     let binary = std::fs::read(library).map_err(|e| format!("cannot read {}: {e}", library.display()))?;
     if let Some(parent) = out.parent() {
         std::fs::create_dir_all(parent).map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
@@ -32,8 +30,8 @@ pub fn write_fmu(out: &Path, description: &ModelDescription, library: &Path, res
     let io = |e: std::io::Error| format!("writing {}: {e}", tmp.display());
     let zerr = |e: zip::result::ZipError| format!("writing {}: {e}", tmp.display());
     zip.start_file("modelDescription.xml", options).map_err(zerr)?;
-    zip.write_all(description.to_xml().as_bytes()).map_err(io)?;
-    let so = format!("binaries/{}/{}.so", platform_folder()?, description.model_identifier);
+    zip.write_all(xml.as_bytes()).map_err(io)?;
+    let so = format!("binaries/{}/{}.so", platform_folder()?, model_identifier);
     zip.start_file(so, options.unix_permissions(0o755)).map_err(zerr)?;
     zip.write_all(&binary).map_err(io)?;
     zip.add_directory("resources/", options).map_err(zerr)?;

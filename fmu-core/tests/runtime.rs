@@ -26,8 +26,8 @@ const VR_U_ECHO: u32 = 3;
 const GUID: &str = "{00000000-lag0-0000-0000-000000000001}";
 
 impl Model for Lag {
-    fn description() -> ModelDescription {
-        ModelDescription {
+    fn description(_resources: Option<&Path>) -> Result<ModelDescription, String> {
+        Ok(ModelDescription {
             model_name: "lag".into(),
             model_identifier: "lag".into(),
             guid: GUID.into(),
@@ -47,7 +47,7 @@ impl Model for Lag {
                 Variable::real("y", VR_Y, Causality::Output, "1", "output"),
                 Variable::real("u_echo", VR_U_ECHO, Causality::Output, "1", "input echo").depending_on(vec!["u".into()]),
             ],
-        }
+        })
     }
     fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
         Ok(Lag { time_constant: 0.5, u: 0.0, y: 0.0, resources_seen: resources.map(|p| p.display().to_string()) })

@@ -1,13 +1,19 @@
-//! `fmu-pack`: package FMUs and write their `modelDescription.xml` from the variable tables.
+//! `fmu-pack`: package the project's FMUs. It links no model: it loads each built library and
+//! asks it (`fmuCoreDescription`) for its `modelDescription.xml`, so the description inside an
+//! FMU always comes from the binary packaged beside it, and checks that the library exports all
+//! 34 FMI 2.0 functions (`fmpy validate` never loads the binary).
 //!
 //! ```text
-//! fmu-pack fmu plant --lib target/release/libfmu_plant.so --out dist/plant.fmu
-//! fmu-pack descriptions --dir modelDescription
+//! fmu-pack fmu --lib target/release/libfmu_plant.so --out dist/plant.fmu
+//! fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/hinf_sf --out dist/hinf_sf.fmu
+//! fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
 //! ```
 
 use clap::{Parser, Subcommand};
 use fmu_core::ffi::EXPORTED_FUNCTIONS;
-use fmu_core::{Model, ModelDescription};
+use fmu_core::ModelDescription;
+use std::ffi::{CStr, CString};
+use std::os::raw::{c_char, c_int};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -20,77 +26,114 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Build one .fmu from its compiled shared library.
+    /// Build one .fmu from a compiled FMU library and (optionally) its resource directory.
     Fmu {
-        /// Which FMU: plant.
-        name: String,
         /// The cdylib cargo built (lib<crate>.so).
         #[arg(long)]
         lib: PathBuf,
+        /// Directory whose files become resources/ (e.g. dist/hinf_sf with controller.json).
+        #[arg(long)]
+        resources: Option<PathBuf>,
         #[arg(long)]
         out: PathBuf,
     },
-    /// Rewrite the variable tables in the README (between `<!-- <name>-variables:begin/end -->`).
-    Readme {
-        path: PathBuf,
-    },
-    /// Write modelDescription/<name>.xml for every FMU.
-    Descriptions {
-        #[arg(long, default_value = "modelDescription")]
-        dir: PathBuf,
+    /// Write a library's modelDescription.xml and/or splice its variable table into a README.
+    Description {
+        #[arg(long)]
+        lib: PathBuf,
+        #[arg(long)]
+        resources: Option<PathBuf>,
+        #[arg(long)]
+        xml: Option<PathBuf>,
+        #[arg(long)]
+        readme: Option<PathBuf>,
+        /// Marker name in the README: `<!-- TAG:begin -->` … `<!-- TAG:end -->`.
+        #[arg(long)]
+        tag: Option<String>,
     },
 }
 
-/// Every FMU the project ships, by name.
-fn descriptions() -> Vec<(&'static str, ModelDescription)> {
-    vec![("plant", fmu_plant::Plant::description())]
-}
+struct Library(libloading::Library);
 
-/// Load the library and check it exports all 34 FMI 2.0 functions: `fmpy validate` never
-/// loads the binary, so a missing symbol would otherwise be found by a user.
-fn check_exports(lib: &Path) -> Result<(), String> {
-    // SAFETY: loading our own freshly built library, which has no initialisers with effects.
-    let library = unsafe { libloading::Library::new(lib) }.map_err(|e| format!("cannot load {}: {e}", lib.display()))?;
-    let missing: Vec<&str> = EXPORTED_FUNCTIONS
-        .iter()
-        .copied()
-        .filter(|name| unsafe { library.get::<*const ()>(name.as_bytes()) }.is_err())
-        .collect();
-    if missing.is_empty() {
-        Ok(())
-    } else {
-        Err(format!("{} does not export {missing:?}", lib.display()))
+impl Library {
+    fn load(path: &Path) -> Result<Self, String> {
+        // SAFETY: our own freshly built library, without initialisers that have effects.
+        let lib = unsafe { libloading::Library::new(path) }.map_err(|e| format!("cannot load {}: {e}", path.display()))?;
+        let missing: Vec<&str> = EXPORTED_FUNCTIONS.iter().copied().filter(|n| unsafe { lib.get::<*const ()>(n.as_bytes()) }.is_err()).collect();
+        if !missing.is_empty() {
+            return Err(format!("{} does not export {missing:?}", path.display()));
+        }
+        Ok(Library(lib))
     }
+
+    /// `format` 0: modelDescription.xml, 1: Markdown variable table.
+    fn document(&self, resources: Option<&Path>, format: c_int) -> Result<String, String> {
+        type Describe = unsafe extern "C" fn(*const c_char, c_int) -> *mut c_char;
+        type Free = unsafe extern "C" fn(*mut c_char);
+        let dir = resources.map(|p| CString::new(p.to_string_lossy().as_bytes()).unwrap());
+        unsafe {
+            let describe = self.0.get::<Describe>(b"fmuCoreDescription").map_err(|e| format!("library has no fmuCoreDescription: {e}"))?;
+            let free = self.0.get::<Free>(b"fmuCoreFreeString").map_err(|e| format!("library has no fmuCoreFreeString: {e}"))?;
+            let p = describe(dir.as_ref().map_or(std::ptr::null(), |d| d.as_ptr()), format);
+            if p.is_null() {
+                return Err("the library could not describe itself (see the message above)".into());
+            }
+            let text = CStr::from_ptr(p).to_string_lossy().into_owned();
+            free(p);
+            Ok(text)
+        }
+    }
+}
+
+/// `modelIdentifier` from the XML the library produced.
+fn model_identifier(xml: &str) -> Result<String, String> {
+    let key = "modelIdentifier=\"";
+    let i = xml.find(key).ok_or("modelDescription.xml has no modelIdentifier")? + key.len();
+    let j = xml[i..].find('"').ok_or("unterminated modelIdentifier")? + i;
+    Ok(xml[i..j].to_string())
+}
+
+fn read_dir_files(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, String> {
+    let mut files = Vec::new();
+    let entries = std::fs::read_dir(dir).map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
+    for entry in entries {
+        let path = entry.map_err(|e| e.to_string())?.path();
+        if path.is_file() {
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            files.push((name, std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?));
+        }
+    }
+    files.sort();
+    Ok(files)
 }
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
-        Command::Fmu { name, lib, out } => {
-            let (_, description) = descriptions()
-                .into_iter()
-                .find(|(n, _)| *n == name)
-                .ok_or_else(|| format!("unknown FMU '{name}'"))?;
-            check_exports(&lib)?;
-            fmu_core::package::write_fmu(&out, &description, &lib, &[])?;
-            println!("wrote {} (GUID {})", out.display(), description.guid);
+        Command::Fmu { lib, resources, out } => {
+            let library = Library::load(&lib)?;
+            let xml = library.document(resources.as_deref(), 0)?;
+            let id = model_identifier(&xml)?;
+            let files = match &resources {
+                Some(dir) => read_dir_files(dir)?,
+                None => Vec::new(),
+            };
+            fmu_core::package::write_fmu(&out, &xml, &id, &lib, &files)?;
+            println!("wrote {} (modelIdentifier {id}, {} resource file(s))", out.display(), files.len());
             Ok(())
         }
-        Command::Readme { path } => {
-            let mut doc = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-            for (name, d) in descriptions() {
-                doc = ModelDescription::splice_into(&doc, &format!("{name}-variables"), &d.to_markdown_table()).map_err(|e| e.to_string())?;
-            }
-            std::fs::write(&path, doc).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-            println!("updated {}", path.display());
-            Ok(())
-        }
-        Command::Descriptions { dir } => {
-            std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-            for (name, d) in descriptions() {
-                d.check().map_err(|e| format!("{name}: {e}"))?;
-                let path = dir.join(format!("{name}.xml"));
-                std::fs::write(&path, d.to_xml()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        Command::Description { lib, resources, xml, readme, tag } => {
+            let library = Library::load(&lib)?;
+            if let Some(path) = xml {
+                std::fs::write(&path, library.document(resources.as_deref(), 0)?).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
                 println!("wrote {}", path.display());
+            }
+            if let Some(path) = readme {
+                let tag = tag.ok_or("--readme needs --tag")?;
+                let doc = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+                let table = library.document(resources.as_deref(), 1)?;
+                let doc = ModelDescription::splice_into(&doc, &tag, &table).map_err(|e| e.to_string())?;
+                std::fs::write(&path, doc).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                println!("updated {} ({tag})", path.display());
             }
             Ok(())
         }

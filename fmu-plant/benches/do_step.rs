@@ -3,7 +3,6 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use fmu_core::types::*;
-use fmu_core::Model;
 use fmu_plant::*;
 use std::ffi::CString;
 use std::hint::black_box;
@@ -15,7 +14,7 @@ struct Instance {
 }
 
 fn instance(setup: &[(&str, f64)]) -> Instance {
-    let d = Plant::description();
+    let d = Plant::model_description();
     let cb = Box::new(CallbackFunctions { logger: None, allocate_memory: None, free_memory: None, step_finished: None, component_environment: std::ptr::null_mut() });
     let name = CString::new("bench").unwrap();
     let guid = CString::new(d.guid.clone()).unwrap();
@@ -34,7 +33,7 @@ fn instance(setup: &[(&str, f64)]) -> Instance {
 
 fn bench(c: &mut Criterion) {
     let h = 1e-3;
-    let d = Plant::description();
+    let d = Plant::model_description();
     let inputs: Vec<u32> = input_names().iter().map(|n| d.variable(n).unwrap().value_reference).collect();
     let outputs: Vec<u32> = d.variables.iter().filter(|v| v.causality == fmu_core::Causality::Output).map(|v| v.value_reference).collect();
 

@@ -121,8 +121,9 @@ impl Plant {
     }
 }
 
-impl Model for Plant {
-    fn description() -> ModelDescription {
+impl Plant {
+    /// The plant's variable table and metadata (it has no resources).
+    pub fn model_description() -> ModelDescription {
         let defaults = VehicleParams::default();
         let act_defaults = ActuatorParams::default();
         let mut vars = Vec::new();
@@ -188,6 +189,12 @@ impl Model for Plant {
             variables: vars,
         }
         .with_derived_guid()
+    }
+}
+
+impl Model for Plant {
+    fn description(_resources: Option<&Path>) -> Result<ModelDescription, String> {
+        Ok(Self::model_description())
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, String> {

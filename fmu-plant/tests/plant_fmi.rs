@@ -4,7 +4,6 @@
 
 use fmi_test_logger::LogCapture;
 use fmu_core::types::*;
-use fmu_core::Model;
 use fmu_plant::*;
 use std::ffi::CString;
 use std::ptr::{null, null_mut};
@@ -21,7 +20,7 @@ struct Plant<'a> {
 
 impl<'a> Plant<'a> {
     fn new(log: &'a LogCapture) -> Self {
-        let desc = fmu_plant::Plant::description();
+        let desc = fmu_plant::Plant::model_description();
         let cb = Box::new(log.callbacks());
         let name = CString::new("plant").unwrap();
         let guid = CString::new(desc.guid.clone()).unwrap();
@@ -79,21 +78,21 @@ fn max_abs(a: &[f64]) -> f64 {
 fn checked_in_model_description_is_not_stale() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../modelDescription/plant.xml");
     let on_disk = std::fs::read_to_string(path).expect("modelDescription/plant.xml exists");
-    assert!(on_disk == fmu_plant::Plant::description().to_xml(), "modelDescription/plant.xml is stale: run `make descriptions` and commit it");
+    assert!(on_disk == fmu_plant::Plant::model_description().to_xml(), "modelDescription/plant.xml is stale: run `make descriptions` and commit it");
 }
 
 #[test]
 fn readme_variable_table_is_not_stale() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
     let readme = std::fs::read_to_string(path).expect("README.md exists");
-    let table = fmu_plant::Plant::description().to_markdown_table();
+    let table = fmu_plant::Plant::model_description().to_markdown_table();
     let expected = fmu_core::ModelDescription::splice_into(&readme, "plant-variables", &table).expect("README has the plant-variables markers");
     assert!(readme == expected, "README.md's plant variable table is stale: run `make descriptions` and commit it");
 }
 
 #[test]
 fn description_has_every_variable_the_issue_names_with_units() {
-    let d = fmu_plant::Plant::description();
+    let d = fmu_plant::Plant::model_description();
     d.check().unwrap();
     let unit = |n: &str| d.variable(n).unwrap_or_else(|| panic!("missing {n}")).unit().unwrap();
     for c in ["fl", "fr", "rl", "rr"] {

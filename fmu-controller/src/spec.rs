@@ -1,0 +1,115 @@
+//! `resources/controller.json`, written by `synth`: the controller `ẋc = A xc + B y`,
+//! `u = C xc + D y` in the plant's units, and the names and units of its inputs (plant outputs)
+//! and outputs (plant inputs `u_*`).
+
+use nalgebra::DMatrix;
+use serde::Deserialize;
+
+pub const FORMAT: &str = "suspension-controller/1";
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Signal {
+    pub name: String,
+    pub unit: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Raw {
+    format: String,
+    variant: String,
+    description: String,
+    gamma: f64,
+    inputs: Vec<Signal>,
+    outputs: Vec<Signal>,
+    #[serde(rename = "A")]
+    a: Vec<Vec<f64>>,
+    #[serde(rename = "B")]
+    b: Vec<Vec<f64>>,
+    #[serde(rename = "C")]
+    c: Vec<Vec<f64>>,
+    #[serde(rename = "D")]
+    d: Vec<Vec<f64>>,
+}
+
+/// A checked controller description.
+#[derive(Debug, Clone)]
+pub struct Spec {
+    pub variant: String,
+    pub description: String,
+    pub gamma: f64,
+    pub inputs: Vec<Signal>,
+    pub outputs: Vec<Signal>,
+    pub a: DMatrix<f64>,
+    pub b: DMatrix<f64>,
+    pub c: DMatrix<f64>,
+    pub d: DMatrix<f64>,
+    /// FNV-1a of the file's bytes: enters the version string, hence the GUID.
+    pub content_hash: u64,
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SpecError {
+    #[error("controller.json is not valid: {0}")]
+    Syntax(String),
+    #[error("controller.json has format '{0}', expected '{FORMAT}'")]
+    Format(String),
+    #[error("controller.json: matrix {name} should be {rows}×{cols}, found {found}")]
+    Shape { name: &'static str, rows: usize, cols: usize, found: String },
+    #[error("controller.json: matrix {0} contains a non-finite number")]
+    NonFinite(&'static str),
+    #[error("controller.json: {0}")]
+    Invalid(String),
+}
+
+fn matrix(name: &'static str, rows: &[Vec<f64>], r: usize, c: usize) -> Result<DMatrix<f64>, SpecError> {
+    // An empty dimension may be written as [] (no rows) or as rows of [] (no columns).
+    let ok = rows.len() == r && rows.iter().all(|row| row.len() == c) || (r == 0 && rows.is_empty()) || (c == 0 && rows.iter().all(|row| row.is_empty()) && rows.len() == r);
+    if !ok {
+        let found = format!("{} rows of lengths {:?}", rows.len(), rows.iter().map(|x| x.len()).collect::<Vec<_>>());
+        return Err(SpecError::Shape { name, rows: r, cols: c, found });
+    }
+    if rows.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(SpecError::NonFinite(name));
+    }
+    Ok(DMatrix::from_fn(r, c, |i, j| rows[i][j]))
+}
+
+impl Spec {
+    pub fn from_json(text: &str) -> Result<Spec, SpecError> {
+        let raw: Raw = serde_json::from_str(text).map_err(|e| SpecError::Syntax(e.to_string()))?;
+        if raw.format != FORMAT {
+            return Err(SpecError::Format(raw.format));
+        }
+        if raw.variant.is_empty() || !raw.variant.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(SpecError::Invalid(format!("variant '{}' is not a valid model identifier", raw.variant)));
+        }
+        if raw.inputs.is_empty() || raw.outputs.is_empty() {
+            return Err(SpecError::Invalid("a controller needs inputs and outputs".into()));
+        }
+        let (n, ny, nu) = (raw.a.len(), raw.inputs.len(), raw.outputs.len());
+        let spec = Spec {
+            a: matrix("A", &raw.a, n, n)?,
+            b: matrix("B", &raw.b, n, ny)?,
+            c: matrix("C", &raw.c, nu, n)?,
+            d: matrix("D", &raw.d, nu, ny)?,
+            variant: raw.variant,
+            description: raw.description,
+            gamma: raw.gamma,
+            inputs: raw.inputs,
+            outputs: raw.outputs,
+            content_hash: text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)),
+        };
+        let mut names: Vec<&str> = spec.inputs.iter().chain(&spec.outputs).map(|s| s.name.as_str()).collect();
+        names.sort_unstable();
+        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+            return Err(SpecError::Invalid(format!("signal name '{}' appears twice", w[0])));
+        }
+        Ok(spec)
+    }
+
+    pub fn order(&self) -> usize {
+        self.a.nrows()
+    }
+}

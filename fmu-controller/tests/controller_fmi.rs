@@ -1,0 +1,112 @@
+//! The generic controller FMU through its exported C functions: a missing, corrupt or
+//! mismatched `controller.json` is refused at `fmi2Instantiate` with a message; a dynamic
+//! controller is stepped exactly; outputs feed through `D`.
+
+use fmi_test_logger::LogCapture;
+use fmu_controller::spec::Spec;
+use fmu_controller::*;
+use fmu_core::types::*;
+use std::ffi::CString;
+use std::path::{Path, PathBuf};
+use std::ptr::null;
+
+/// A first-order controller: ẋc = −2 xc + y1, u_a = 3 xc + 0.5 y2, u_b = −y1.
+const SPEC: &str = r#"{
+  "format": "suspension-controller/1", "variant": "test_ctrl", "description": "test", "gamma": 1.5,
+  "inputs": [{"name": "stroke_fl", "unit": "m"}, {"name": "v_body", "unit": "m/s"}],
+  "outputs": [{"name": "u_fl", "unit": "N"}, {"name": "u_fr", "unit": "N"}],
+  "A": [[-2.0]], "B": [[1.0, 0.0]], "C": [[3.0], [0.0]], "D": [[0.0, 0.5], [-1.0, 0.0]]
+}"#;
+
+fn dir_with(name: &str, content: Option<&str>) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fmu-controller-test-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let f = d.join("controller.json");
+    match content {
+        Some(c) => std::fs::write(&f, c).unwrap(),
+        None => {
+            let _ = std::fs::remove_file(&f);
+        }
+    }
+    d
+}
+
+fn instantiate(log: &LogCapture, guid: &str, resources: Option<&Path>) -> (Fmi2Component, Box<fmi_test_logger::Callbacks>) {
+    let cb = Box::new(log.callbacks());
+    let name = CString::new("ctrl").unwrap();
+    let guid = CString::new(guid).unwrap();
+    let uri = resources.map(|p| CString::new(format!("file://{}", p.display())).unwrap());
+    let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), uri.as_ref().map_or(null(), |u| u.as_ptr()), &*cb as *const _ as *const CallbackFunctions, 0, 0) };
+    (c, cb)
+}
+
+fn guid_of(spec: &str) -> String {
+    description_for(&Spec::from_json(spec).unwrap()).guid
+}
+
+#[test]
+fn dynamic_controller_is_stepped_exactly_with_feedthrough() {
+    let log = LogCapture::default();
+    let dir = dir_with("good", Some(SPEC));
+    let (c, _cb) = instantiate(&log, &guid_of(SPEC), Some(&dir));
+    assert!(!c.is_null(), "{:?}", log.messages());
+    unsafe {
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        fmi2ExitInitializationMode(c);
+        let inputs = [vr::INPUT, vr::INPUT + 1];
+        assert_eq!(fmi2SetReal(c, inputs.as_ptr(), 2, [0.2, 4.0].as_ptr()), 0);
+        let outs = [vr::OUTPUT, vr::OUTPUT + 1];
+        let mut u = [0.0; 2];
+        fmi2GetReal(c, outs.as_ptr(), 2, u.as_mut_ptr());
+        assert_eq!(u, [2.0, -0.2], "direct feed-through before any step");
+        for k in 0..10 {
+            assert_eq!(fmi2DoStep(c, k as f64 * 0.1, 0.1, 1), 0);
+        }
+        fmi2GetReal(c, outs.as_ptr(), 2, u.as_mut_ptr());
+        // xc(1) = 0.2 (1 − e^{−2})/2 with y1 held at 0.2.
+        let xc = 0.1 * (1.0 - (-2.0f64).exp());
+        assert!((u[0] - (3.0 * xc + 2.0)).abs() < 1e-14, "{u:?}");
+        let mut gamma = 0.0;
+        fmi2GetReal(c, &vr::GAMMA, 1, &mut gamma);
+        assert_eq!(gamma, 1.5);
+        fmi2FreeInstance(c);
+    }
+}
+
+#[test]
+fn missing_corrupt_or_mismatched_controller_json_gives_null_with_a_message() {
+    let log = LogCapture::default();
+    let guid = guid_of(SPEC);
+    let (c, _cb) = instantiate(&log, &guid, Some(&dir_with("missing", None)));
+    assert!(c.is_null());
+    assert!(log.contains("cannot read") && log.contains("controller.json"), "{:?}", log.messages());
+
+    let (c, _cb) = instantiate(&log, &guid, Some(&dir_with("corrupt", Some("{\"format\": \"suspension-controller/1\", \"A\": [[1, 2]"))));
+    assert!(c.is_null());
+    assert!(log.contains("controller.json is not valid"), "{:?}", log.messages());
+
+    let bad_shape = SPEC.replace(r#""D": [[0.0, 0.5], [-1.0, 0.0]]"#, r#""D": [[0.0, 0.5]]"#);
+    let (c, _cb) = instantiate(&log, &guid, Some(&dir_with("shape", Some(&bad_shape))));
+    assert!(c.is_null());
+    assert!(log.contains("matrix D should be 2×2"), "{:?}", log.messages());
+
+    // Same interface, other gains: the GUID the importer read from modelDescription.xml no
+    // longer matches the controller.json beside the binary.
+    let other = SPEC.replace("\"A\": [[-2.0]]", "\"A\": [[-3.0]]");
+    let (c, _cb) = instantiate(&log, &guid, Some(&dir_with("mismatch", Some(&other))));
+    assert!(c.is_null());
+    assert!(log.contains("GUID mismatch"), "{:?}", log.messages());
+
+    let (c, _cb) = instantiate(&log, &guid, None);
+    assert!(c.is_null());
+    assert!(log.contains("passed no resource location"));
+}
+
+#[test]
+fn spec_rejects_non_finite_numbers_duplicates_and_bad_identifiers() {
+    assert!(matches!(Spec::from_json(&SPEC.replace("1.5", "NaN")), Err(spec::SpecError::Syntax(_))));
+    assert!(matches!(Spec::from_json(&SPEC.replace("\"v_body\"", "\"stroke_fl\"")), Err(spec::SpecError::Invalid(_))));
+    assert!(matches!(Spec::from_json(&SPEC.replace("test_ctrl", "test ctrl")), Err(spec::SpecError::Invalid(_))));
+    assert!(matches!(Spec::from_json(&SPEC.replace("suspension-controller/1", "other/2")), Err(spec::SpecError::Format(_))));
+}

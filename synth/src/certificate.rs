@@ -1,0 +1,118 @@
+//! Certificates: every design is checked independently of its LMI solution before it may
+//! become an FMU — closed-loop eigenvalues and the closed-loop H∞ norm by Hamiltonian bisection
+//! ([`crate::hinf_norm`]), which must not exceed the claimed γ by more than 1e-6 relative.
+//! The JSON written beside the FMU holds everything needed to re-check the claim elsewhere.
+
+use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
+use crate::hinf_norm::{Lti, NormError};
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// Relative slack allowed between the certified norm and the claimed γ.
+pub const NORM_TOLERANCE: f64 = 1e-6;
+
+/// A controller in the plant's units: `ẋc = Ac xc + Bc y`, `u [N] = Cc xc + Dc y`
+/// (a static gain has no states).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Controller {
+    pub a: DMatrix<f64>,
+    pub b: DMatrix<f64>,
+    pub c: DMatrix<f64>,
+    pub d: DMatrix<f64>,
+}
+
+impl Controller {
+    pub fn static_gain(d: DMatrix<f64>) -> Self {
+        let (m, p) = d.shape();
+        Controller { a: DMatrix::zeros(0, 0), b: DMatrix::zeros(0, p), c: DMatrix::zeros(m, 0), d }
+    }
+    pub fn order(&self) -> usize {
+        self.a.nrows()
+    }
+}
+
+/// The closed loop of the generalised plant with `controller` on the measurement `C_meas x +
+/// D_meas w` (the full state for state feedback), in the scaled `w → z` channels.
+pub fn closed_loop(g: &GeneralizedPlant, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, k: &Controller) -> Lti {
+    let (n, nc) = (g.n(), k.order());
+    // In ũ (kN) units.
+    let cc = &k.c / FORCE_UNIT;
+    let dc = &k.d / FORCE_UNIT;
+    let mut a = DMatrix::zeros(n + nc, n + nc);
+    a.view_mut((0, 0), (n, n)).copy_from(&(&g.a + &g.b_u * &dc * c_meas));
+    a.view_mut((0, n), (n, nc)).copy_from(&(&g.b_u * &cc));
+    a.view_mut((n, 0), (nc, n)).copy_from(&(&k.b * c_meas));
+    a.view_mut((n, n), (nc, nc)).copy_from(&k.a);
+    let mut b = DMatrix::zeros(n + nc, g.b_w.ncols());
+    b.view_mut((0, 0), (n, g.b_w.ncols())).copy_from(&(&g.b_w + &g.b_u * &dc * d_meas));
+    b.view_mut((n, 0), (nc, g.b_w.ncols())).copy_from(&(&k.b * d_meas));
+    let mut c = DMatrix::zeros(g.c_z.nrows(), n + nc);
+    c.view_mut((0, 0), (g.c_z.nrows(), n)).copy_from(&(&g.c_z + &g.d_zu * &dc * c_meas));
+    c.view_mut((0, n), (g.c_z.nrows(), nc)).copy_from(&(&g.d_zu * &cc));
+    let d = &g.d_zw + &g.d_zu * &dc * d_meas;
+    Lti::new(a, b, c, d)
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Certificate {
+    pub variant: String,
+    pub gamma: f64,
+    pub norm_lower: f64,
+    pub norm_upper: f64,
+    pub peak_frequency_rad_s: f64,
+    pub spectral_abscissa: f64,
+    pub closed_loop_poles: Vec<[f64; 2]>,
+    pub scaling: serde_json::Value,
+    pub generalized_plant: serde_json::Value,
+    pub controller: serde_json::Value,
+    pub measurements: Vec<String>,
+    pub notes: Vec<String>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CertificateError {
+    #[error("{variant}: closed loop is not stable: {source}")]
+    Unstable { variant: String, source: NormError },
+    #[error("{variant}: certified closed-loop norm {norm:.9} exceeds the claimed γ = {gamma:.9} by more than {NORM_TOLERANCE:e} relative")]
+    NormAboveGamma { variant: String, norm: f64, gamma: f64 },
+}
+
+pub fn matrix_json(m: &DMatrix<f64>) -> serde_json::Value {
+    serde_json::Value::Array((0..m.nrows()).map(|i| serde_json::json!((0..m.ncols()).map(|j| m[(i, j)]).collect::<Vec<_>>())).collect())
+}
+
+/// Certify `controller` against the claimed `gamma`; an error is never an FMU.
+pub fn certify(variant: &str, g: &GeneralizedPlant, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, measurements: Vec<String>, k: &Controller, gamma: f64, notes: Vec<String>) -> Result<Certificate, CertificateError> {
+    let cl = closed_loop(g, c_meas, d_meas, k);
+    let norm = cl.hinf_norm(1e-9).map_err(|source| CertificateError::Unstable { variant: variant.into(), source })?;
+    if norm.upper > gamma * (1.0 + NORM_TOLERANCE) {
+        return Err(CertificateError::NormAboveGamma { variant: variant.into(), norm: norm.upper, gamma });
+    }
+    let poles = cl.a.complex_eigenvalues();
+    let mut poles: Vec<[f64; 2]> = poles.iter().map(|l| [l.re, l.im]).collect();
+    poles.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    Ok(Certificate {
+        variant: variant.into(),
+        gamma,
+        norm_lower: norm.lower,
+        norm_upper: norm.upper,
+        peak_frequency_rad_s: norm.peak_frequency,
+        spectral_abscissa: cl.spectral_abscissa(),
+        closed_loop_poles: poles,
+        scaling: serde_json::json!({
+            "w": "road heights / road_height_scale (4), then road velocities / road_velocity_scale (4)",
+            "road_scale": g.road_scale,
+            "u": format!("actuator forces in units of {FORCE_UNIT} N inside the generalised plant; the controller below is in N"),
+        }),
+        generalized_plant: serde_json::json!({
+            "A": matrix_json(&g.a), "B_w": matrix_json(&g.b_w), "B_u": matrix_json(&g.b_u),
+            "C_z": matrix_json(&g.c_z), "D_zw": matrix_json(&g.d_zw), "D_zu": matrix_json(&g.d_zu),
+            "C_y": matrix_json(c_meas), "D_yw": matrix_json(d_meas),
+        }),
+        controller: serde_json::json!({
+            "A": matrix_json(&k.a), "B": matrix_json(&k.b), "C": matrix_json(&k.c), "D": matrix_json(&k.d),
+        }),
+        measurements,
+        notes,
+    })
+}

@@ -1,0 +1,32 @@
+//! `controller.json`, the resource every controller FMU reads: the controller in the plant's
+//! units, and the plant outputs it reads (its inputs) by name, with units.
+
+use crate::certificate::{matrix_json, Controller};
+use serde_json::json;
+
+/// Unit of a plant output by name (states `x[k]`, physical outputs).
+pub fn plant_output_unit(name: &str) -> &'static str {
+    if let Some(k) = name.strip_prefix("x[").and_then(|s| s.strip_suffix(']')).and_then(|s| s.parse::<usize>().ok()) {
+        return vehicle::model::STATES[k - 1].1;
+    }
+    vehicle::model::physical_outputs(&vehicle::VehicleParams::default())
+        .into_iter()
+        .find(|r| r.name == name)
+        .map(|r| r.unit)
+        .unwrap_or_else(|| panic!("the plant has no output {name}"))
+}
+
+pub fn controller_json(variant: &str, description: &str, gamma: f64, inputs: &[String], k: &Controller) -> serde_json::Value {
+    json!({
+        "format": "suspension-controller/1",
+        "variant": variant,
+        "description": description,
+        "gamma": gamma,
+        "inputs": inputs.iter().map(|n| json!({"name": n, "unit": plant_output_unit(n)})).collect::<Vec<_>>(),
+        "outputs": vehicle::model::ACTUATORS.iter().map(|a| json!({"name": format!("u_{a}"), "unit": "N"})).collect::<Vec<_>>(),
+        "A": matrix_json(&k.a),
+        "B": matrix_json(&k.b),
+        "C": matrix_json(&k.c),
+        "D": matrix_json(&k.d),
+    })
+}

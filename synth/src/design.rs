@@ -1,0 +1,143 @@
+//! The design file: every weight, scale and limit of a synthesis, JSON, defaults checked in at
+//! `synth/designs/default.json`.
+
+use serde::{Deserialize, Serialize};
+
+pub const DEFAULT_DESIGN_FILE: &str = include_str!("../designs/default.json");
+
+/// The bump whose energy bounds the disturbance in the peak (constraint) LMIs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bump {
+    /// [m]
+    pub height: f64,
+    /// [m]
+    pub length: f64,
+    /// Vehicle speed [m/s].
+    pub speed: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Design {
+    #[serde(default)]
+    pub description: String,
+    /// Road height giving a unit disturbance [m].
+    pub road_height_scale: f64,
+    /// Road vertical velocity giving a unit disturbance [m/s].
+    pub road_velocity_scale: f64,
+    /// Weight of the seat heave acceleration in z [per m/s²].
+    pub weight_a_seat: f64,
+    /// Weight of the body roll acceleration in z [per rad/s²].
+    pub weight_alpha_roll: f64,
+    /// Weight of the body pitch acceleration in z [per rad/s²].
+    pub weight_alpha_pitch: f64,
+    /// Weight of the body heave acceleration in z [per m/s²] (keeps the body no worse than passive).
+    pub weight_a_body: f64,
+    /// Weight of each suspension stroke relative to `stroke_max` in z (a soft stroke limit).
+    pub weight_stroke: f64,
+    /// Weight of each actuator force relative to its limit, `ρ u_i / u_max,i`, in z.
+    pub control_penalty: f64,
+    /// Corner actuator force limit [N].
+    pub u_max: f64,
+    /// Seat actuator force limit [N].
+    pub u_max_seat: f64,
+    /// Suspension stroke limit [m].
+    pub stroke_max: f64,
+    /// Impose the force and stroke limits as energy-to-peak LMIs.
+    pub constraints: bool,
+    pub design_bump: Bump,
+    /// Strictness margin ε of every LMI.
+    pub lmi_margin: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    #[error("design file is not valid: {0}")]
+    Syntax(String),
+    #[error("design value '{name}' must be {expected}, got {value}")]
+    Value { name: &'static str, expected: &'static str, value: f64 },
+}
+
+impl Default for Design {
+    fn default() -> Self {
+        Design::from_json(DEFAULT_DESIGN_FILE).expect("the checked-in default design is valid (tested)")
+    }
+}
+
+impl Design {
+    pub fn from_json(json: &str) -> Result<Self, DesignError> {
+        let d: Design = serde_json::from_str(json).map_err(|e| DesignError::Syntax(e.to_string()))?;
+        d.validate()?;
+        Ok(d)
+    }
+
+    pub fn validate(&self) -> Result<(), DesignError> {
+        let positive = [
+            ("road_height_scale", self.road_height_scale),
+            ("road_velocity_scale", self.road_velocity_scale),
+            ("control_penalty", self.control_penalty),
+            ("u_max", self.u_max),
+            ("u_max_seat", self.u_max_seat),
+            ("stroke_max", self.stroke_max),
+            ("design_bump.height", self.design_bump.height),
+            ("design_bump.length", self.design_bump.length),
+            ("design_bump.speed", self.design_bump.speed),
+            ("lmi_margin", self.lmi_margin),
+        ];
+        for (name, value) in positive {
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(DesignError::Value { name, expected: "a finite number > 0", value });
+            }
+        }
+        for (name, value) in [("weight_a_seat", self.weight_a_seat), ("weight_alpha_roll", self.weight_alpha_roll), ("weight_alpha_pitch", self.weight_alpha_pitch), ("weight_a_body", self.weight_a_body), ("weight_stroke", self.weight_stroke)] {
+            if !(value >= 0.0 && value.is_finite()) {
+                return Err(DesignError::Value { name, expected: "a finite number >= 0", value });
+            }
+        }
+        Ok(())
+    }
+
+    /// `∫ ‖w‖² dt` of the design bump on the two left wheels (rear delayed), in scaled units:
+    /// the disturbance energy the peak LMIs guarantee the limits for. Closed form of
+    /// `∫ (h/2)²(1 − cos)²` and `∫ (h/2 · 2π/L · V)² sin²` over the bump's duration `L/V`.
+    pub fn design_energy(&self) -> f64 {
+        let b = &self.design_bump;
+        let duration = b.length / b.speed;
+        let height = (0.5 * b.height).powi(2) * 1.5 * duration / self.road_height_scale.powi(2);
+        let amp = 0.5 * b.height * 2.0 * std::f64::consts::PI / b.length * b.speed;
+        let velocity = amp * amp * 0.5 * duration / self.road_velocity_scale.powi(2);
+        2.0 * (height + velocity)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_design_parses_and_bad_values_are_rejected() {
+        let d = Design::default();
+        assert_eq!(d.u_max, 2500.0);
+        let bad = DEFAULT_DESIGN_FILE.replace("\"stroke_max\": 0.08", "\"stroke_max\": -0.08");
+        assert!(matches!(Design::from_json(&bad), Err(DesignError::Value { name: "stroke_max", .. })));
+        assert!(matches!(Design::from_json("{\"u_max\": 1}"), Err(DesignError::Syntax(_))));
+    }
+
+    #[test]
+    fn design_energy_matches_quadrature() {
+        let d = Design::default();
+        let b = d.design_bump;
+        let n = 200_000;
+        let dt = b.length / b.speed / n as f64;
+        let w = 2.0 * std::f64::consts::PI / b.length;
+        let mut e = 0.0;
+        for k in 0..n {
+            let x = b.speed * (k as f64 + 0.5) * dt;
+            let z = 0.5 * b.height * (1.0 - (w * x).cos()) / d.road_height_scale;
+            let v = 0.5 * b.height * w * b.speed * (w * x).sin() / d.road_velocity_scale;
+            e += 2.0 * (z * z + v * v) * dt;
+        }
+        assert!((e - d.design_energy()).abs() < 1e-8 * e, "{e} vs {}", d.design_energy());
+    }
+}

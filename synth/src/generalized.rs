@@ -1,0 +1,133 @@
+//! The generalised plant of the H∞ designs, built from the `vehicle` crate's model (never a
+//! second copy of the matrices), scaled so the LMIs are well conditioned.
+//!
+//! `ẋ = A x + B_w w + B_u ũ`, `z = C_z x + D_zw w + D_zu ũ`, `y = C_y x + D_yw w`, with
+//! * `x` the plant's 16 states (m, rad, m/s, rad/s), `ũ` the actuator forces in kN;
+//! * `w` the road: heights over `road_height_scale`, velocities over `road_velocity_scale`;
+//! * `z` = weighted seat heave, roll, pitch and body heave accelerations, the four strokes over
+//!   `stroke_max` (a soft stroke limit), then `ρ ũᵢ / ũ_max,i`;
+//! * `y` = the output-feedback measurements: four suspension strokes, seat stroke, body heave
+//!   velocity, roll rate, pitch rate (plant outputs `stroke_*`, `v_body`, `omega_*`);
+//! * constraint outputs `c` = forces over their limits and strokes over the stroke limit,
+//!   without feed-through from `w` (an energy-to-peak bound needs none).
+
+use crate::design::Design;
+use nalgebra::DMatrix;
+use vehicle::model::{physical_outputs, OutputRow, StateSpace, N_ACTUATORS, N_ROAD, N_STATES};
+use vehicle::VehicleParams;
+
+/// Newtons per unit of `ũ`.
+pub const FORCE_UNIT: f64 = 1000.0;
+
+/// Names of the plant outputs the output-feedback designs measure, in the order of `y`.
+pub const MEASUREMENTS: [&str; 8] = ["stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr", "stroke_seat", "v_body", "omega_roll", "omega_pitch"];
+
+#[derive(Debug, Clone)]
+pub struct GeneralizedPlant {
+    pub a: DMatrix<f64>,
+    pub b_w: DMatrix<f64>,
+    pub b_u: DMatrix<f64>,
+    pub c_z: DMatrix<f64>,
+    pub d_zw: DMatrix<f64>,
+    pub d_zu: DMatrix<f64>,
+    pub c_y: DMatrix<f64>,
+    pub d_yw: DMatrix<f64>,
+    /// Constraint outputs (limit = 1 each).
+    pub c_c: DMatrix<f64>,
+    pub d_cu: DMatrix<f64>,
+    pub constraint_names: Vec<String>,
+    /// `diag` of the road scaling: `r = W_r w`.
+    pub road_scale: Vec<f64>,
+}
+
+fn row<'a>(rows: &'a [OutputRow], name: &str) -> &'a OutputRow {
+    rows.iter().find(|r| r.name == name).unwrap_or_else(|| panic!("vehicle has no output {name}"))
+}
+
+impl GeneralizedPlant {
+    pub fn new(p: &VehicleParams, d: &Design) -> Self {
+        let ss = StateSpace::new(p);
+        let rows = physical_outputs(p);
+        let road_scale: Vec<f64> = (0..N_ROAD).map(|k| if k < 4 { d.road_height_scale } else { d.road_velocity_scale }).collect();
+        let w_r = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(road_scale.clone()));
+        let limits = [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat];
+
+        let perf = [
+            ("a_seat", d.weight_a_seat),
+            ("alpha_roll", d.weight_alpha_roll),
+            ("alpha_pitch", d.weight_alpha_pitch),
+            ("a_body", d.weight_a_body),
+            ("stroke_fl", d.weight_stroke / d.stroke_max),
+            ("stroke_fr", d.weight_stroke / d.stroke_max),
+            ("stroke_rl", d.weight_stroke / d.stroke_max),
+            ("stroke_rr", d.weight_stroke / d.stroke_max),
+        ];
+        let nz = perf.len() + N_ACTUATORS;
+        let mut c_z = DMatrix::zeros(nz, N_STATES);
+        let mut d_zw = DMatrix::zeros(nz, N_ROAD);
+        let mut d_zu = DMatrix::zeros(nz, N_ACTUATORS);
+        for (i, (name, weight)) in perf.iter().enumerate() {
+            let r = row(&rows, name);
+            for k in 0..N_STATES {
+                c_z[(i, k)] = weight * r.c[k];
+            }
+            for k in 0..N_ROAD {
+                d_zw[(i, k)] = weight * r.d_r[k] * road_scale[k];
+            }
+            for k in 0..N_ACTUATORS {
+                d_zu[(i, k)] = weight * r.d_u[k] * FORCE_UNIT;
+            }
+        }
+        for k in 0..N_ACTUATORS {
+            d_zu[(perf.len() + k, k)] = d.control_penalty * FORCE_UNIT / limits[k];
+        }
+
+        let c_y = DMatrix::from_fn(MEASUREMENTS.len(), N_STATES, |i, k| row(&rows, MEASUREMENTS[i]).c[k]);
+        let d_yw = DMatrix::from_fn(MEASUREMENTS.len(), N_ROAD, |i, k| row(&rows, MEASUREMENTS[i]).d_r[k] * road_scale[k]);
+
+        let mut names = Vec::new();
+        let mut c_c = DMatrix::zeros(0, N_STATES);
+        let mut d_cu = DMatrix::zeros(0, N_ACTUATORS);
+        if d.constraints {
+            for (k, a) in vehicle::model::ACTUATORS.iter().enumerate() {
+                names.push(format!("force_{a}"));
+                let mut du = DMatrix::zeros(1, N_ACTUATORS);
+                du[(0, k)] = FORCE_UNIT / limits[k];
+                c_c = stack(&c_c, &DMatrix::zeros(1, N_STATES));
+                d_cu = stack(&d_cu, &du);
+            }
+            for c in vehicle::model::CORNERS {
+                let name = format!("stroke_{c}");
+                let r = row(&rows, &name);
+                c_c = stack(&c_c, &DMatrix::from_fn(1, N_STATES, |_, k| r.c[k] / d.stroke_max));
+                d_cu = stack(&d_cu, &DMatrix::zeros(1, N_ACTUATORS));
+                names.push(name);
+            }
+        }
+        GeneralizedPlant {
+            a: ss.a.clone(),
+            b_w: &ss.b_r * &w_r,
+            b_u: &ss.b_u * FORCE_UNIT,
+            c_z,
+            d_zw,
+            d_zu,
+            c_y,
+            d_yw,
+            c_c,
+            d_cu,
+            constraint_names: names,
+            road_scale,
+        }
+    }
+
+    pub fn n(&self) -> usize {
+        self.a.nrows()
+    }
+}
+
+fn stack(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut m = DMatrix::zeros(top.nrows() + bottom.nrows(), top.ncols());
+    m.view_mut((0, 0), top.shape()).copy_from(top);
+    m.view_mut((top.nrows(), 0), bottom.shape()).copy_from(bottom);
+    m
+}
