@@ -38,6 +38,12 @@ pub struct Design {
     pub weight_stroke: f64,
     /// Weight of each actuator force relative to its limit, `ρ u_i / u_max,i`, in z.
     pub control_penalty: f64,
+    /// Output feedback: sensor noise on the measured strokes [m], a regularisation that makes the
+    /// filtering problem non-singular (the measurements have no road feed-through otherwise).
+    pub noise_stroke: f64,
+    /// Output feedback: sensor noise on the measured body heave velocity and roll/pitch rates
+    /// [m/s, rad/s].
+    pub noise_rate: f64,
     /// Corner actuator force limit [N].
     pub u_max: f64,
     /// Seat actuator force limit [N].
@@ -84,6 +90,8 @@ impl Design {
             ("design_bump.length", self.design_bump.length),
             ("design_bump.speed", self.design_bump.speed),
             ("lmi_margin", self.lmi_margin),
+            ("noise_stroke", self.noise_stroke),
+            ("noise_rate", self.noise_rate),
         ];
         for (name, value) in positive {
             if !(value > 0.0 && value.is_finite()) {

@@ -123,6 +123,24 @@ impl GeneralizedPlant {
     pub fn n(&self) -> usize {
         self.a.nrows()
     }
+
+    /// The plant the output-feedback designs use: `w` extended by one sensor-noise channel per
+    /// measurement (`y += noise_k · w_noise,k`), which enters nothing else. This regularises the
+    /// otherwise singular filtering problem (`D_yw` has full row rank).
+    pub fn with_sensor_noise(&self, d: &Design) -> GeneralizedPlant {
+        let (n, nw, ny, nz) = (self.n(), self.b_w.ncols(), self.c_y.nrows(), self.c_z.nrows());
+        let mut g = self.clone();
+        g.b_w = DMatrix::zeros(n, nw + ny);
+        g.b_w.view_mut((0, 0), (n, nw)).copy_from(&self.b_w);
+        g.d_zw = DMatrix::zeros(nz, nw + ny);
+        g.d_zw.view_mut((0, 0), (nz, nw)).copy_from(&self.d_zw);
+        g.d_yw = DMatrix::zeros(ny, nw + ny);
+        g.d_yw.view_mut((0, 0), (ny, nw)).copy_from(&self.d_yw);
+        for (k, name) in MEASUREMENTS.iter().enumerate() {
+            g.d_yw[(k, nw + k)] = if name.starts_with("stroke") { d.noise_stroke } else { d.noise_rate };
+        }
+        g
+    }
 }
 
 fn stack(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {

@@ -11,6 +11,7 @@ pub mod design;
 pub mod generalized;
 pub mod hinf_norm;
 pub mod lmi;
+pub mod output_feedback;
 pub mod state_feedback;
 pub mod variants;
 

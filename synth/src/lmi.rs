@@ -233,6 +233,7 @@ impl Problem {
 
     /// Solve with Clarabel and check every LMI at the returned point.
     pub fn solve(&self) -> Result<Solution, LmiError> {
+        let t0 = std::time::Instant::now();
         let n = self.n_vars;
         let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
         let mut b = Vec::new();
@@ -279,7 +280,11 @@ impl Problem {
             .build()
             .map_err(|e| LmiError::Setup(e.to_string()))?;
         let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).map_err(|e| LmiError::Setup(format!("{e:?}")))?;
+        let t1 = std::time::Instant::now();
         solver.solve();
+        if std::env::var_os("LMI_TIMING").is_some() {
+            eprintln!("lmi: {n} vars, {row0} cone rows: assembly {:?}, solve {:?} ({} iterations)", t1 - t0, t1.elapsed(), solver.info.iterations);
+        }
         let status = format!("{:?}", solver.solution.status);
         if !matches!(solver.solution.status, SolverStatus::Solved | SolverStatus::AlmostSolved) {
             return Err(LmiError::NotSolved { status, cost: solver.solution.obj_val });

@@ -119,3 +119,16 @@ fn cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
     let ratio = errors[1] / errors[0];
     assert!((0.35..0.65).contains(&ratio), "error should halve with the step (first order in h), ratio {ratio}");
 }
+
+#[test]
+fn hinf_of_beats_the_passive_car_on_the_bump_within_limits() {
+    let (passive, active) = compare("bump", "hinf_of", &Bump::default(), 4.0);
+    assert_comfort_targets(&passive, &active, 0.5);
+}
+
+#[test]
+fn hinf_of_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
+    let road = IsoRoad::new(256e-6, 20.0, 7);
+    let (passive, active) = compare("ISO C 20 m/s", "hinf_of", &road, 10.0);
+    assert_comfort_targets(&passive, &active, 0.5);
+}
