@@ -67,6 +67,9 @@ pub struct Certificate {
     pub controller: serde_json::Value,
     pub measurements: Vec<String>,
     pub notes: Vec<String>,
+    /// Variant-specific figures (e.g. the output-feedback optimum γ*).
+    #[serde(skip_serializing_if = "serde_json::Value::is_null")]
+    pub details: serde_json::Value,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -114,5 +117,6 @@ pub fn certify(variant: &str, g: &GeneralizedPlant, c_meas: &DMatrix<f64>, d_mea
         }),
         measurements,
         notes,
+        details: serde_json::Value::Null,
     })
 }

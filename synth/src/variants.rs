@@ -54,7 +54,15 @@ pub fn synthesise(variant: &str, params: &VehicleParams, design: &Design) -> Res
                 format!("w is extended by one sensor-noise channel per measurement (strokes {} m, rates {}), which regularises the filtering problem.", design.noise_stroke, design.noise_rate),
                 format!("Stage 1 optimum gamma* = {:.6}; reconstruction at gamma = (1 + {OF_GAMMA_BACKOFF}) gamma* with X, Y <= {OF_XY_BOUND} I and coupling margin t = {:.3e}; cond(I - XY) = {:.3e}.", of.gamma_opt, of.coupling_margin, of.coupling_condition),
             ];
-            let certificate = certify(variant, &g, &g.c_y, &g.d_yw, inputs.clone(), &of.controller, of.gamma, notes)?;
+            let mut certificate = certify(variant, &g, &g.c_y, &g.d_yw, inputs.clone(), &of.controller, of.gamma, notes)?;
+            certificate.details = serde_json::json!({
+                "gamma_opt": of.gamma_opt,
+                "gamma_backoff": OF_GAMMA_BACKOFF,
+                "xy_bound": OF_XY_BOUND,
+                "coupling_margin": of.coupling_margin,
+                "coupling_condition": of.coupling_condition,
+                "controller_spectral_abscissa": crate::hinf_norm::Lti::new(of.controller.a.clone(), of.controller.b.clone(), of.controller.c.clone(), of.controller.d.clone()).spectral_abscissa(),
+            });
             let json = controller_json(variant, "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)", of.gamma, &inputs, &of.controller);
             Ok(Synthesised { controller: of.controller, certificate, controller_json: json })
         }
