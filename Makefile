@@ -84,8 +84,15 @@ test-rust: $(FMU_FILES) | $(STAMP)/apt
 test-python: $(FMU_FILES) $(STAMP)/venv
 	$(PY) -m pytest tests/python -q
 
-bench: $(STAMP)/apt
+$(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
+	$(PY) -m pip install -q -r bench/requirements.txt
+	@touch $@
+
+# Benchmarks: one fmi2DoStep of the plant (criterion), and each synthesis against the same LMIs
+# in CVXPY + Clarabel (Python), in the same run.
+bench: $(FMU_FILES) $(STAMP)/venv-bench
 	$(CARGO) bench -p fmu-plant --bench do_step
+	$(PY) bench/synth_vs_cvxpy.py
 
 clean:
 	rm -rf dist $(STAMP)

@@ -72,37 +72,55 @@ fn hinf_sf_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
     assert_comfort_targets(&passive, &active, 0.4);
 }
 
-/// The co-simulation (controller output held over each step) against the continuous closed
-/// loop built from the certificate's matrices and simulated exactly: the difference is the
-/// sampling of `u`, so it is O(h) and halves with the step.
-#[test]
-fn cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
-    let cert: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dist().join("hinf_sf.certificate.json")).unwrap()).unwrap();
-    let m = |v: &serde_json::Value| {
+/// The continuous closed loop of the certificate's generalised plant and controller, in the
+/// plant's states (first 16) and the controller's: `(A_cl, B_cl)` driven by the scaled road `w`.
+fn certified_closed_loop(variant: &str) -> (DMatrix<f64>, DMatrix<f64>, Vec<f64>) {
+    let cert: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dist().join(format!("{variant}.certificate.json"))).unwrap()).unwrap();
+    let m = |v: &serde_json::Value, cols: usize| {
         let rows: Vec<Vec<f64>> = serde_json::from_value(v.clone()).unwrap();
-        let c = rows.first().map_or(0, |r| r.len());
-        DMatrix::from_fn(rows.len(), c, |i, j| rows[i][j])
+        DMatrix::from_fn(rows.len(), cols, |i, j| rows[i][j])
     };
     let g = &cert["generalized_plant"];
-    let (a, b_w, b_u) = (m(&g["A"]), m(&g["B_w"]), m(&g["B_u"]));
-    let k = m(&cert["controller"]["D"]) / 1000.0; // N → the certificate's kN input unit
+    let a = m(&g["A"], 16);
+    let b_w = m(&g["B_w"], 8 + if variant == "hinf_of" { 8 } else { 0 }).columns(0, 8).into_owned(); // road channels only
+    let b_u = m(&g["B_u"], 5);
+    let c_y = m(&g["C_y"], 16);
+    let k = &cert["controller"];
+    let nc = k["A"].as_array().unwrap().len();
+    let ny = c_y.nrows();
+    let (ak, bk, ck, dk) = (m(&k["A"], nc), m(&k["B"], ny), m(&k["C"], nc) / 1000.0, m(&k["D"], ny) / 1000.0); // N → kN
+    let n = 16 + nc;
+    let mut acl = DMatrix::zeros(n, n);
+    acl.view_mut((0, 0), (16, 16)).copy_from(&(&a + &b_u * &dk * &c_y));
+    acl.view_mut((0, 16), (16, nc)).copy_from(&(&b_u * &ck));
+    acl.view_mut((16, 0), (nc, 16)).copy_from(&(&bk * &c_y));
+    acl.view_mut((16, 16), (nc, nc)).copy_from(&ak);
+    let mut bcl = DMatrix::zeros(n, 8);
+    bcl.view_mut((0, 0), (16, 8)).copy_from(&b_w);
     let scale: Vec<f64> = serde_json::from_value(cert["scaling"]["road_scale"].clone()).unwrap();
+    (acl, bcl, scale)
+}
+
+/// The co-simulation (measurements and commands held over each step) against the continuous
+/// closed loop built from the certificate's matrices and simulated exactly: the difference is
+/// the sampling, so it is O(h) and halves with the step.
+fn cosimulation_matches_certificate(variant: &str) {
+    let (a_cl, b_cl, scale) = certified_closed_loop(variant);
     let road = Bump::default();
-    let a_cl = &a + &b_u * &k;
     let exact = |h: f64, steps: usize| {
-        let d = vehicle::exact::discretize(&a_cl, &b_w, h);
+        let d = vehicle::exact::discretize(&a_cl, &b_cl, h);
         let w = |t: f64| DVector::from_iterator(8, road.at(t).iter().zip(&scale).map(|(r, s)| r / s));
-        let mut x = DVector::zeros(16);
+        let mut x = DVector::zeros(a_cl.nrows());
         let mut out = Vec::new();
         for i in 0..steps {
             let t = i as f64 * h;
             x = &d.phi * &x + &d.gamma_hold * w(t) + &d.gamma_ramp * (w(t + h) - w(t));
-            out.push(x.clone());
+            out.push(x.rows(0, 16).into_owned());
         }
         out
     };
     let plant = load("plant");
-    let ctrl = load("hinf_sf");
+    let ctrl = load(variant);
     let states: Vec<String> = (1..=16).map(|i| format!("x[{i}]")).collect();
     let names: Vec<&str> = states.iter().map(|s| s.as_str()).collect();
     let mut errors = Vec::new();
@@ -112,12 +130,22 @@ fn cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
         let reference = exact(h, steps);
         let scale: f64 = reference.iter().map(|x| x.amax()).fold(0.0, f64::max);
         let err = cosim.iter().zip(&reference).map(|(c, r)| c.iter().zip(r.iter()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)).fold(0.0, f64::max) / scale;
-        eprintln!("h = {h}: max relative deviation from the certified continuous closed loop {err:.3e}");
+        eprintln!("{variant}, h = {h}: max relative deviation from the certified continuous closed loop {err:.3e}");
         errors.push(err);
     }
     assert!(errors[0] < 0.05, "co-simulation too far from the certified closed loop: {}", errors[0]);
     let ratio = errors[1] / errors[0];
     assert!((0.35..0.65).contains(&ratio), "error should halve with the step (first order in h), ratio {ratio}");
+}
+
+#[test]
+fn hinf_sf_cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
+    cosimulation_matches_certificate("hinf_sf");
+}
+
+#[test]
+fn hinf_of_cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
+    cosimulation_matches_certificate("hinf_of");
 }
 
 #[test]
