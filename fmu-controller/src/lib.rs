@@ -51,13 +51,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         guid: String::new(),
         description: spec.description.clone(),
         version: format!("{}+{:016x}", env!("CARGO_PKG_VERSION"), spec.content_hash),
-        capabilities: Capabilities {
-            can_handle_variable_communication_step_size: true,
-            can_interpolate_inputs: false,
-            max_output_derivative_order: 0,
-            can_get_and_set_fmu_state: true,
-            can_serialize_fmu_state: true,
-        },
+        capabilities: Capabilities::exact_stepping(false),
         default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
         variables: vars,
     }

@@ -137,6 +137,20 @@ pub struct Capabilities {
     pub can_serialize_fmu_state: bool,
 }
 
+impl Capabilities {
+    /// What every FMU of this project can do: variable step sizes, FMU state get/set and
+    /// serialisation; no output derivatives. Input interpolation as given.
+    pub fn exact_stepping(can_interpolate_inputs: bool) -> Self {
+        Capabilities {
+            can_handle_variable_communication_step_size: true,
+            can_interpolate_inputs,
+            max_output_derivative_order: 0,
+            can_get_and_set_fmu_state: true,
+            can_serialize_fmu_state: true,
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct DefaultExperiment {
     pub start_time: f64,
@@ -436,13 +450,7 @@ mod tests {
             guid: "{x}".into(),
             description: "a <test> & \"quotes\"".into(),
             version: "1".into(),
-            capabilities: Capabilities {
-                can_handle_variable_communication_step_size: true,
-                can_interpolate_inputs: false,
-                max_output_derivative_order: 0,
-                can_get_and_set_fmu_state: true,
-                can_serialize_fmu_state: true,
-            },
+            capabilities: Capabilities::exact_stepping(false),
             default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 1.0, step_size: 1e-3 },
             variables: vec![
                 Variable::real("k", 0, Causality::Parameter, "N/m", "gain").with_start(2.5),

@@ -33,13 +33,7 @@ impl Model for Lag {
             guid: GUID.into(),
             description: "first-order lag".into(),
             version: "1".into(),
-            capabilities: Capabilities {
-                can_handle_variable_communication_step_size: true,
-                can_interpolate_inputs: false,
-                max_output_derivative_order: 0,
-                can_get_and_set_fmu_state: true,
-                can_serialize_fmu_state: true,
-            },
+            capabilities: Capabilities::exact_stepping(false),
             default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 1.0, step_size: 0.01 },
             variables: vec![
                 Variable::real("T", VR_T, Causality::Parameter, "s", "time constant").with_start(0.5),

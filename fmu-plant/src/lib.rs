@@ -178,13 +178,7 @@ impl Plant {
             guid: String::new(),
             description: "8-DOF full car with driver seat and active suspension actuators (saturation, delay, bandwidth, faults), stepped exactly".into(),
             version: env!("CARGO_PKG_VERSION").into(),
-            capabilities: Capabilities {
-                can_handle_variable_communication_step_size: true,
-                can_interpolate_inputs: true,
-                max_output_derivative_order: 0,
-                can_get_and_set_fmu_state: true,
-                can_serialize_fmu_state: true,
-            },
+            capabilities: Capabilities::exact_stepping(true),
             default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
             variables: vars,
         }

@@ -36,6 +36,9 @@ pub struct Design {
     pub weight_a_body: f64,
     /// Weight of each suspension stroke relative to `stroke_max` in z (a soft stroke limit).
     pub weight_stroke: f64,
+    /// Weight of each dynamic tyre load relative to its static load in z (road holding: the
+    /// thesis's "dynamic tyre load < static load", as a soft limit).
+    pub weight_tyre_load: f64,
     /// Weight of each actuator force relative to its limit, `ρ u_i / u_max,i`, in z.
     pub control_penalty: f64,
     /// Output feedback: sensor noise on the measured strokes [m], a regularisation that makes the
@@ -98,7 +101,7 @@ impl Design {
                 return Err(DesignError::Value { name, expected: "a finite number > 0", value });
             }
         }
-        for (name, value) in [("weight_a_seat", self.weight_a_seat), ("weight_alpha_roll", self.weight_alpha_roll), ("weight_alpha_pitch", self.weight_alpha_pitch), ("weight_a_body", self.weight_a_body), ("weight_stroke", self.weight_stroke)] {
+        for (name, value) in [("weight_a_seat", self.weight_a_seat), ("weight_alpha_roll", self.weight_alpha_roll), ("weight_alpha_pitch", self.weight_alpha_pitch), ("weight_a_body", self.weight_a_body), ("weight_stroke", self.weight_stroke), ("weight_tyre_load", self.weight_tyre_load)] {
             if !(value >= 0.0 && value.is_finite()) {
                 return Err(DesignError::Value { name, expected: "a finite number >= 0", value });
             }

@@ -5,7 +5,8 @@
 //! * `x` the plant's 16 states (m, rad, m/s, rad/s), `ũ` the actuator forces in kN;
 //! * `w` the road: heights over `road_height_scale`, velocities over `road_velocity_scale`;
 //! * `z` = weighted seat heave, roll, pitch and body heave accelerations, the four strokes over
-//!   `stroke_max` (a soft stroke limit), then `ρ ũᵢ / ũ_max,i`;
+//!   `stroke_max` (a soft stroke limit), the four dynamic tyre loads over their static loads
+//!   (road holding), then `ρ ũᵢ / ũ_max,i`;
 //! * `y` = the output-feedback measurements: four suspension strokes, seat stroke, body heave
 //!   velocity, roll rate, pitch rate (plant outputs `stroke_*`, `v_body`, `omega_*`);
 //! * constraint outputs `c` = forces over their limits and strokes over the stroke limit,
@@ -52,6 +53,7 @@ impl GeneralizedPlant {
         let w_r = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(road_scale.clone()));
         let limits = [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat];
 
+        let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
         let perf = [
             ("a_seat", d.weight_a_seat),
             ("alpha_roll", d.weight_alpha_roll),
@@ -61,6 +63,10 @@ impl GeneralizedPlant {
             ("stroke_fr", d.weight_stroke / d.stroke_max),
             ("stroke_rl", d.weight_stroke / d.stroke_max),
             ("stroke_rr", d.weight_stroke / d.stroke_max),
+            ("tire_load_fl", d.weight_tyre_load / static_load[0]),
+            ("tire_load_fr", d.weight_tyre_load / static_load[1]),
+            ("tire_load_rl", d.weight_tyre_load / static_load[2]),
+            ("tire_load_rr", d.weight_tyre_load / static_load[3]),
         ];
         let nz = perf.len() + N_ACTUATORS;
         let mut c_z = DMatrix::zeros(nz, N_STATES);

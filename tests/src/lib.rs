@@ -121,15 +121,27 @@ impl IsoRoad {
     }
 }
 
+/// Fade-in time of the random road [s]: the car starts in equilibrium on a flat road, so the
+/// profile is brought in smoothly (`½(1 − cos)` window) instead of as a step at t = 0.
+pub const FADE_IN: f64 = 1.0;
+
 impl Road for IsoRoad {
     fn at(&self, t: f64) -> [f64; 8] {
+        let (w, dw) = if t >= FADE_IN {
+            (1.0, 0.0)
+        } else {
+            let a = std::f64::consts::PI / FADE_IN;
+            (0.5 * (1.0 - (a * t).cos()), 0.5 * a * (a * t).sin())
+        };
         let xf = self.speed * t + self.wheelbase;
         let xr = self.speed * t;
-        let (zfl, vfl) = self.track(0, xf);
-        let (zfr, vfr) = self.track(1, xf);
-        let (zrl, vrl) = self.track(0, xr);
-        let (zrr, vrr) = self.track(1, xr);
-        [zfl, zfr, zrl, zrr, vfl, vfr, vrl, vrr]
+        let tracks = [self.track(0, xf), self.track(1, xf), self.track(0, xr), self.track(1, xr)];
+        let mut r = [0.0; 8];
+        for (i, (z, v)) in tracks.iter().enumerate() {
+            r[i] = w * z;
+            r[4 + i] = w * v + dw * z;
+        }
+        r
     }
 }
 

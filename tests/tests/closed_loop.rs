@@ -5,7 +5,10 @@
 use integration_tests::*;
 use nalgebra::{DMatrix, DVector};
 
-const RECORD: [&str; 13] = ["a_seat", "alpha_roll", "alpha_pitch", "a_body", "stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr", "f_fl", "f_fr", "f_rl", "f_rr", "f_seat"];
+const RECORD: [&str; 17] = [
+    "a_seat", "alpha_roll", "alpha_pitch", "a_body", "stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr", "f_fl", "f_fr", "f_rl", "f_rr", "f_seat",
+    "tire_load_fl", "tire_load_fr", "tire_load_rl", "tire_load_rr",
+];
 
 struct Figures {
     seat: f64,
@@ -15,6 +18,8 @@ struct Figures {
     stroke: f64,
     corner_force: f64,
     seat_force: f64,
+    /// max over corners and time of |dynamic tyre load| / static tyre load.
+    tyre_load_ratio: f64,
 }
 
 fn figures(log: &[Vec<f64>]) -> Figures {
@@ -26,6 +31,10 @@ fn figures(log: &[Vec<f64>]) -> Figures {
         stroke: (4..8).map(|c| peak(log, c)).fold(0.0, f64::max),
         corner_force: (8..12).map(|c| peak(log, c)).fold(0.0, f64::max),
         seat_force: peak(log, 12),
+        tyre_load_ratio: {
+            let st = vehicle::model::StaticEquilibrium::new(&vehicle::VehicleParams::default());
+            (0..4).map(|i| peak(log, 13 + i) / st.tire_load[i]).fold(0.0, f64::max)
+        },
     }
 }
 
@@ -38,10 +47,10 @@ fn compare(label: &str, variant: &str, road: &dyn Road, seconds: f64) -> (Figure
     let active = figures(&run_loop(&plant, Some(&ctrl), road, h, steps, &RECORD));
     let pct = |a: f64, p: f64| 100.0 * (1.0 - a / p);
     eprintln!(
-        "{label} {variant}: RMS seat {:.4} vs {:.4} m/s² ({:.1} % lower), roll {:.4} vs {:.4} rad/s² ({:.1} %), pitch {:.4} vs {:.4} ({:.1} %), body {:.4} vs {:.4} m/s² ({:.1} %); max stroke {:.4} m (passive {:.4}); peak force corners {:.0} N, seat {:.0} N",
+        "{label} {variant}: RMS seat {:.4} vs {:.4} m/s² ({:.1} % lower), roll {:.4} vs {:.4} rad/s² ({:.1} %), pitch {:.4} vs {:.4} ({:.1} %), body {:.4} vs {:.4} m/s² ({:.1} %); max stroke {:.4} m (passive {:.4}); peak force corners {:.0} N, seat {:.0} N; max dynamic/static tyre load {:.2} (passive {:.2})",
         active.seat, passive.seat, pct(active.seat, passive.seat), active.roll, passive.roll, pct(active.roll, passive.roll),
         active.pitch, passive.pitch, pct(active.pitch, passive.pitch), active.body, passive.body, pct(active.body, passive.body),
-        active.stroke, passive.stroke, active.corner_force, active.seat_force
+        active.stroke, passive.stroke, active.corner_force, active.seat_force, active.tyre_load_ratio, passive.tyre_load_ratio
     );
     (passive, active)
 }
@@ -55,6 +64,7 @@ fn assert_comfort_targets(passive: &Figures, active: &Figures, roll_reduction: f
     assert!(active.body <= passive.body, "body RMS {} worse than passive {}", active.body, passive.body);
     assert!(active.stroke < 0.08, "stroke {} beyond 8 cm", active.stroke);
     assert!(active.corner_force < 2500.0 && active.seat_force < 1000.0, "forces saturate: {} / {}", active.corner_force, active.seat_force);
+    assert!(active.tyre_load_ratio < 1.0, "dynamic tyre load reaches {} of the static load: the wheel lifts", active.tyre_load_ratio);
 }
 
 #[test]
@@ -67,9 +77,9 @@ fn hinf_sf_beats_the_passive_car_on_the_bump_within_limits() {
 fn hinf_sf_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
     let road = IsoRoad::new(256e-6, 20.0, 7);
     let (passive, active) = compare("ISO C 20 m/s", "hinf_sf", &road, 10.0);
-    // Measured 45.7 % roll reduction: short of the 50 % target. Weightings that reach 50 % here
-    // saturate the corner actuators on the bump (see the issue 3 note); guard what is achieved.
-    assert_comfort_targets(&passive, &active, 0.4);
+    // Measured 42.0 % roll reduction: short of the 50 % target. Weightings that reach 50 % here
+    // saturate the corner actuators on the bump or lift a wheel; guard what is achieved.
+    assert_comfort_targets(&passive, &active, 0.35);
 }
 
 /// The continuous closed loop of the certificate's generalised plant and controller, in the
