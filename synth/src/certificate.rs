@@ -120,3 +120,41 @@ pub fn certify(variant: &str, g: &GeneralizedPlant, c_meas: &DMatrix<f64>, d_mea
         details: serde_json::Value::Null,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::Design;
+    use crate::state_feedback::hinf_sf;
+    use nalgebra::DMatrix;
+
+    fn sf() -> (GeneralizedPlant, Controller, f64) {
+        let d = Design::default();
+        let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d);
+        let s = hinf_sf(&g, d.lmi_margin, None).unwrap();
+        (g, Controller::static_gain(s.k), s.gamma)
+    }
+
+    fn certify_sf(g: &GeneralizedPlant, k: &Controller, gamma: f64) -> Result<Certificate, CertificateError> {
+        certify("test", g, &DMatrix::identity(16, 16), &DMatrix::zeros(16, 8), vec![], k, gamma, vec![])
+    }
+
+    #[test]
+    fn a_true_claim_is_certified_and_an_overclaim_is_refused() {
+        let (g, k, gamma) = sf();
+        let c = certify_sf(&g, &k, gamma).expect("the LMI's own claim holds");
+        assert!(c.norm_upper <= gamma * (1.0 + NORM_TOLERANCE) && c.spectral_abscissa < 0.0);
+        // Claiming 1 % less than the true norm must fail.
+        match certify_sf(&g, &k, c.norm_lower * 0.99) {
+            Err(CertificateError::NormAboveGamma { norm, .. }) => assert!((norm - c.norm_upper).abs() < 1e-9 * norm),
+            other => panic!("expected NormAboveGamma, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_destabilising_controller_is_refused() {
+        let (g, k, gamma) = sf();
+        let bad = Controller::static_gain(-&k.d * 50.0);
+        assert!(matches!(certify_sf(&g, &bad, gamma), Err(CertificateError::Unstable { .. })));
+    }
+}
