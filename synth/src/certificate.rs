@@ -11,25 +11,9 @@ use serde::Serialize;
 /// Relative slack allowed between the certified norm and the claimed γ.
 pub const NORM_TOLERANCE: f64 = 1e-6;
 
-/// A controller in the plant's units: `ẋc = Ac xc + Bc y`, `u [N] = Cc xc + Dc y`
-/// (a static gain has no states).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Controller {
-    pub a: DMatrix<f64>,
-    pub b: DMatrix<f64>,
-    pub c: DMatrix<f64>,
-    pub d: DMatrix<f64>,
-}
-
-impl Controller {
-    pub fn static_gain(d: DMatrix<f64>) -> Self {
-        let (m, p) = d.shape();
-        Controller { a: DMatrix::zeros(0, 0), b: DMatrix::zeros(0, p), c: DMatrix::zeros(m, 0), d }
-    }
-    pub fn order(&self) -> usize {
-        self.a.nrows()
-    }
-}
+/// A controller in the plant's units: `ẋc = Ac xc + Bc y`, `u [N] = Cc xc + Dc y` — an LTI
+/// system like any other ([`Lti::static_gain`] for one without states).
+pub type Controller = Lti;
 
 /// The closed loop of the generalised plant with `controller` on the measurement `C_meas x +
 /// D_meas w` (the full state for state feedback), in the scaled `w → z` channels.

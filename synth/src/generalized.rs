@@ -130,6 +130,20 @@ impl GeneralizedPlant {
         self.a.nrows()
     }
 
+    /// The matrices as the output-feedback LMI names them (`B₁ = B_w`, `C₁ = C_z`, …).
+    pub fn of_plant(&self) -> crate::output_feedback::OfPlant<'_> {
+        crate::output_feedback::OfPlant {
+            a: &self.a,
+            b1: &self.b_w,
+            b2: &self.b_u,
+            c1: &self.c_z,
+            d11: &self.d_zw,
+            d12: &self.d_zu,
+            c2: &self.c_y,
+            d21: &self.d_yw,
+        }
+    }
+
     /// The plant the output-feedback designs use: `w` extended by one sensor-noise channel per
     /// measurement (`y += noise_k · w_noise,k`), which enters nothing else. This regularises the
     /// otherwise singular filtering problem (`D_yw` has full row rank).

@@ -43,6 +43,17 @@ impl Lti {
         Lti { a, b, c, d }
     }
 
+    /// `y = D u`: no states.
+    pub fn static_gain(d: DMatrix<f64>) -> Self {
+        let (m, p) = d.shape();
+        Lti { a: DMatrix::zeros(0, 0), b: DMatrix::zeros(0, p), c: DMatrix::zeros(m, 0), d }
+    }
+
+    /// Number of states.
+    pub fn order(&self) -> usize {
+        self.a.nrows()
+    }
+
     /// Largest real part of the eigenvalues of `A`.
     pub fn spectral_abscissa(&self) -> f64 {
         self.a.complex_eigenvalues().iter().map(|l| l.re).fold(f64::NEG_INFINITY, f64::max)

@@ -59,7 +59,6 @@ struct Vars {
 }
 
 fn hinf_lmi(p: &OfPlant, v: &Vars, gamma: &Affine) -> Affine {
-    let n = p.a.nrows();
     let (nw, nz) = (p.b1.ncols(), p.c1.nrows());
     let (x, y, ah, bh, ch, dh) = (v.x.expr(), v.y.expr(), v.ah.expr(), v.bh.expr(), v.ch.expr(), v.dh.expr());
     let b2_dh = dh.left(p.b2); // B₂D̂ (n × ny)
@@ -72,7 +71,6 @@ fn hinf_lmi(p: &OfPlant, v: &Vars, gamma: &Affine) -> Affine {
     let m24 = dh.left(p.d12).right(p.c2).add(&Affine::constant(p.c1.clone())).t();
     let m34 = dh.left(p.d12).right(p.d21).add(&Affine::constant(p.d11.clone())).t();
     let minus = |k: usize| gamma.map_scalar(&(-DMatrix::identity(k, k)));
-    let _ = n;
     Affine::symmetric_blocks(&[
         vec![Some(m11), Some(m12), Some(m13), Some(m14)],
         vec![None, Some(m22), Some(m23), Some(m24)],
@@ -254,7 +252,7 @@ fn reconstruct(p: &OfPlant, x: &DMatrix<f64>, y: &DMatrix<f64>, ah: &DMatrix<f64
     let bk = bh - y * p.b2 * &dk;
     let ak = (ah - &bk * p.c2 * x - y * p.b2 * &ck * m.transpose() - y * (p.a + p.b2 * &dk * p.c2) * x) * &mt_inv;
     Ok(OutputFeedback {
-        controller: Controller { a: ak, b: bk, c: ck * FORCE_UNIT, d: dk * FORCE_UNIT },
+        controller: Controller::new(ak, bk, ck * FORCE_UNIT, dk * FORCE_UNIT),
         gamma,
         gamma_opt,
         coupling_margin: margin,
@@ -317,7 +315,7 @@ mod tests {
     fn projected_and_one_shot_formulations_agree_and_both_controllers_certify() {
         let d = Design::default();
         let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d).with_sensor_noise(&d);
-        let p = OfPlant { a: &g.a, b1: &g.b_w, b2: &g.b_u, c1: &g.c_z, d11: &g.d_zw, d12: &g.d_zu, c2: &g.c_y, d21: &g.d_yw };
+        let p = g.of_plant();
         let projected = optimal_gamma(&p, d.lmi_margin).unwrap();
         let one_shot = optimal_gamma_one_shot(&p, d.lmi_margin).unwrap();
         let rel = (projected - one_shot).abs() / one_shot;

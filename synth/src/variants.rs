@@ -4,7 +4,7 @@ use crate::certificate::{certify, Certificate, Controller};
 use crate::controller_file::controller_json;
 use crate::design::Design;
 use crate::generalized::{GeneralizedPlant, MEASUREMENTS};
-use crate::output_feedback::{hinf_of, OfPlant};
+use crate::output_feedback::hinf_of;
 use crate::state_feedback::hinf_sf;
 use crate::SynthError;
 use nalgebra::DMatrix;
@@ -45,8 +45,7 @@ pub fn synthesise(variant: &str, params: &VehicleParams, design: &Design) -> Res
         }
         "hinf_of" => {
             let g = g.with_sensor_noise(design);
-            let plant = OfPlant { a: &g.a, b1: &g.b_w, b2: &g.b_u, c1: &g.c_z, d11: &g.d_zw, d12: &g.d_zu, c2: &g.c_y, d21: &g.d_yw };
-            let of = hinf_of(&plant, design.lmi_margin, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(|e| SynthError::Lmi(variant.into(), e))?;
+            let of = hinf_of(&g.of_plant(), design.lmi_margin, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(|e| SynthError::Lmi(variant.into(), e))?;
             let inputs: Vec<String> = MEASUREMENTS.iter().map(|s| s.to_string()).collect();
             let notes = vec![
                 "Thesis Th. 5.2 (eq. 5.9, which lacks blocks) replaced by the Scherer-Gahinet-Chilali / Gahinet-Apkarian LMI; controller rebuilt as in Remark 5.1 with M = I - XY, N = I.".to_string(),
@@ -61,7 +60,7 @@ pub fn synthesise(variant: &str, params: &VehicleParams, design: &Design) -> Res
                 "xy_bound": OF_XY_BOUND,
                 "coupling_margin": of.coupling_margin,
                 "coupling_condition": of.coupling_condition,
-                "controller_spectral_abscissa": crate::hinf_norm::Lti::new(of.controller.a.clone(), of.controller.b.clone(), of.controller.c.clone(), of.controller.d.clone()).spectral_abscissa(),
+                "controller_spectral_abscissa": of.controller.spectral_abscissa(),
             });
             let json = controller_json(variant, "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)", of.gamma, &inputs, &of.controller);
             Ok(Synthesised { controller: of.controller, certificate, controller_json: json })
