@@ -2,29 +2,29 @@
 //! `dist/<variant>.certificate.json` and `dist/<variant>/controller.json` (the FMU's resource).
 //! A design that fails its certificate stops the run with an error: it never becomes an FMU.
 
+use clap::Parser;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use synth::design::Design;
 use synth::{variants, SynthError};
 use vehicle::VehicleParams;
 
-fn run() -> Result<(), SynthError> {
-    let mut args = std::env::args().skip(1);
-    let mut design_path = PathBuf::from("synth/designs/default.json");
-    let mut out = PathBuf::from("dist");
-    let mut only: Vec<String> = Vec::new();
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--design" => design_path = args.next().ok_or(SynthError::Usage("--design needs a path".into()))?.into(),
-            "--out" => out = args.next().ok_or(SynthError::Usage("--out needs a directory".into()))?.into(),
-            "-h" | "--help" => {
-                println!("usage: synth [--design FILE] [--out DIR] [VARIANT ...]\nvariants: {}", variants::ALL.join(", "));
-                return Ok(());
-            }
-            v if !v.starts_with('-') => only.push(v.to_string()),
-            other => return Err(SynthError::Usage(format!("unknown option {other}"))),
-        }
-    }
+#[derive(Parser)]
+#[command(about = "Synthesise and certify the H-infinity controllers")]
+struct Cli {
+    /// Design file (weights, scales, limits).
+    #[arg(long, default_value = "synth/designs/default.json")]
+    design: PathBuf,
+    /// Output directory for the certificates and controller.json files.
+    #[arg(long, default_value = "dist")]
+    out: PathBuf,
+    /// Variants to synthesise (all when none is given).
+    #[arg(value_parser = clap::builder::PossibleValuesParser::new(variants::ALL))]
+    variants: Vec<String>,
+}
+
+fn run(cli: Cli) -> Result<(), SynthError> {
+    let Cli { design: design_path, out, variants: only } = cli;
     let text = std::fs::read_to_string(&design_path).map_err(|e| SynthError::Io(format!("{}: {e}", design_path.display())))?;
     let design = Design::from_json(&text)?;
     let params = VehicleParams::default();
@@ -51,7 +51,7 @@ fn run() -> Result<(), SynthError> {
 }
 
 fn main() -> ExitCode {
-    match run() {
+    match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("synth: {e}");
