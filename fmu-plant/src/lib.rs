@@ -12,7 +12,7 @@ use fmu_core::{Capabilities, Causality, DefaultExperiment, Model, ModelDescripti
 use simulator::{ActuatorParams, Simulator};
 use std::path::Path;
 use vehicle::model::{physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS, N_ROAD, N_STATES, STATES};
-use vehicle::params::PARAMETERS;
+use vehicle::params::{Admissible, PARAMETERS};
 use vehicle::VehicleParams;
 
 /// Value-reference ranges, one per kind of variable.
@@ -79,8 +79,7 @@ pub fn input_names() -> Vec<String> {
 
 const N_STATIC: usize = 13;
 
-fn static_values(p: &VehicleParams) -> [f64; N_STATIC] {
-    let s = StaticEquilibrium::new(p);
+fn static_values(s: &StaticEquilibrium) -> [f64; N_STATIC] {
     let mut v = [0.0; N_STATIC];
     v[..4].copy_from_slice(&s.stroke);
     v[4] = s.stroke_seat;
@@ -128,13 +127,10 @@ impl Plant {
         let act_defaults = ActuatorParams::default();
         let mut vars = Vec::new();
         for (i, s) in PARAMETERS.iter().enumerate() {
-            vars.push(Variable::real(s.name, vr::VEHICLE + i as u32, Causality::Parameter, s.unit, s.description).with_start((s.get)(&defaults)).with_min(0.0));
-        }
-        // The seat offsets may be negative; only the others have a lower bound.
-        for v in vars.iter_mut().filter(|v| v.name == "s1" || v.name == "s2") {
-            if let fmu_core::VarType::Real { min, .. } = &mut v.kind {
-                *min = None;
-            }
+            let v = Variable::real(s.name, vr::VEHICLE + i as u32, Causality::Parameter, s.unit, s.description).with_start((s.get)(&defaults));
+            // XML `min` is inclusive: 0 for positive and non-negative parameters (check_real
+            // refuses 0 where it must), none for the seat offsets, which may be negative.
+            vars.push(if s.admissible == Admissible::Finite { v } else { v.with_min(0.0) });
         }
         for (i, s) in ACTUATOR_PARAMETERS.iter().enumerate() {
             let mut v = Variable::real(s.name, vr::ACTUATOR + i as u32, Causality::Parameter, s.unit, s.description).with_start((s.get)(&act_defaults));
@@ -234,7 +230,7 @@ impl Model for Plant {
         } else if let Some(spec) = actuator_param(vr) {
             (spec.get)(&self.sim.actuator)
         } else if (vr::STATIC..vr::STATIC + N_STATIC as u32).contains(&vr) {
-            static_values(&self.sim.params)[(vr - vr::STATIC) as usize]
+            static_values(self.sim.static_equilibrium())[(vr - vr::STATIC) as usize]
         } else if let Some(k) = input_index(vr) {
             if k < N_ROAD { self.sim.road[k] } else { self.sim.command[k - N_ROAD] }
         } else if (vr::STATE..vr::STATE + N_STATES as u32).contains(&vr) {

@@ -17,7 +17,7 @@
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
 use vehicle::exact::{discretize, Discretization};
-use vehicle::model::{physical_outputs, StateSpace, N_ACTUATORS, N_ROAD, N_STATES};
+use vehicle::model::{physical_outputs, StateSpace, StaticEquilibrium, N_ACTUATORS, N_ROAD, N_STATES};
 use vehicle::VehicleParams;
 
 /// Number of inputs of the linear part: road heights and velocities, then actuator outputs.
@@ -84,6 +84,8 @@ struct System {
     out_c: DMatrix<f64>,
     out_dr: DMatrix<f64>,
     out_du: DMatrix<f64>,
+    /// Static deflections and loads under gravity.
+    statics: StaticEquilibrium,
     cache: VecDeque<Discretization>,
 }
 
@@ -115,6 +117,7 @@ impl System {
             out_c: DMatrix::from_fn(ny, N_STATES, |r, k| rows[r].c[k]),
             out_dr: DMatrix::from_fn(ny, N_ROAD, |r, k| rows[r].d_r[k]),
             out_du: DMatrix::from_fn(ny, N_ACTUATORS, |r, k| rows[r].d_u[k]),
+            statics: StaticEquilibrium::new(p),
             cache: VecDeque::with_capacity(CACHE_SIZE),
         }
     }
@@ -207,6 +210,18 @@ impl Simulator {
 
     pub fn time(&self) -> f64 {
         self.time
+    }
+
+    /// Static values under gravity for the current parameters (computed with the matrices).
+    pub fn static_equilibrium(&mut self) -> &StaticEquilibrium {
+        &self.system().statics
+    }
+
+    /// Take `other`'s derived matrices and cache (same parameters assumed by the caller).
+    pub fn adopt_system(&mut self, other: &mut Simulator) {
+        if self.system.is_none() {
+            self.system = other.system.take();
+        }
     }
 
     /// The 16 vehicle states.
@@ -406,14 +421,5 @@ impl Simulator {
         self.xi = DVector::from_vec(xi);
         self.history = history;
         Ok(())
-    }
-}
-
-impl Simulator {
-    /// Take `other`'s derived matrices and cache (same parameters assumed by the caller).
-    pub fn adopt_system(&mut self, other: &mut Simulator) {
-        if self.system.is_none() {
-            self.system = other.system.take();
-        }
     }
 }
