@@ -340,7 +340,7 @@ pub unsafe fn cancel_step<M: Model>(c: Fmi2Component) -> Fmi2Status {
 pub unsafe fn get_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Status) -> Fmi2Status {
     call::<M>(c, "fmi2GetStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
-        let (status, v) = inst.get_status(kind)?;
+        let (status, v) = inst.get_status(kind);
         *out = v as Fmi2Status;
         Ok(status)
     })
@@ -349,7 +349,7 @@ pub unsafe fn get_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value
 pub unsafe fn get_real_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut f64) -> Fmi2Status {
     call::<M>(c, "fmi2GetRealStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
-        let (status, v) = inst.get_real_status(kind)?;
+        let (status, v) = inst.get_real_status(kind);
         *out = v;
         Ok(status)
     })
@@ -358,15 +358,14 @@ pub unsafe fn get_real_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, 
 pub unsafe fn get_integer_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Integer) -> Fmi2Status {
     call::<M>(c, "fmi2GetIntegerStatus", sm::GET_STATUS, |inst| {
         out_ptr(value, "value")?;
-        inst.logger.log(Status::Discard, crate::logger::Category::StatusWarning, &format!("fmi2GetIntegerStatus: status kind {kind} is not available"));
-        Ok(Status::Discard)
+        Ok(inst.status_unavailable("fmi2GetIntegerStatus", kind))
     })
 }
 
 pub unsafe fn get_boolean_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Boolean) -> Fmi2Status {
     call::<M>(c, "fmi2GetBooleanStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
-        let (status, v) = inst.get_boolean_status(kind)?;
+        let (status, v) = inst.get_boolean_status(kind);
         *out = if v { FMI2_TRUE } else { FMI2_FALSE };
         Ok(status)
     })
@@ -376,8 +375,7 @@ pub unsafe fn get_string_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind
     call::<M>(c, "fmi2GetStringStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         *out = c"".as_ptr();
-        inst.logger.log(Status::Discard, crate::logger::Category::StatusWarning, &format!("fmi2GetStringStatus: status kind {kind} is not available"));
-        Ok(Status::Discard)
+        Ok(inst.status_unavailable("fmi2GetStringStatus", kind))
     })
 }
 

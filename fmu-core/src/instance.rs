@@ -310,33 +310,30 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
-    pub fn get_status(&self, kind: Fmi2StatusKind) -> Result<(Status, Status), String> {
+    /// `fmi2Discard`, logged, for a status kind this FMU has no value for.
+    pub fn status_unavailable(&self, func: &str, kind: Fmi2StatusKind) -> Status {
+        self.logger.log(Status::Discard, Category::StatusWarning, &format!("{func}: status kind {kind} is not available (steps are synchronous)"));
+        Status::Discard
+    }
+
+    pub fn get_status(&self, kind: Fmi2StatusKind) -> (Status, Status) {
         match kind {
-            status_kind::DO_STEP_STATUS => Ok((Status::Ok, Status::Ok)),
-            _ => {
-                self.logger.log(Status::Discard, Category::StatusWarning, &format!("fmi2GetStatus: status kind {kind} is not available (steps are synchronous)"));
-                Ok((Status::Discard, Status::Ok))
-            }
+            status_kind::DO_STEP_STATUS => (Status::Ok, Status::Ok),
+            _ => (self.status_unavailable("fmi2GetStatus", kind), Status::Ok),
         }
     }
 
-    pub fn get_real_status(&self, kind: Fmi2StatusKind) -> Result<(Status, f64), String> {
+    pub fn get_real_status(&self, kind: Fmi2StatusKind) -> (Status, f64) {
         match kind {
-            status_kind::LAST_SUCCESSFUL_TIME => Ok((Status::Ok, self.time)),
-            _ => {
-                self.logger.log(Status::Discard, Category::StatusWarning, &format!("fmi2GetRealStatus: status kind {kind} is not available"));
-                Ok((Status::Discard, 0.0))
-            }
+            status_kind::LAST_SUCCESSFUL_TIME => (Status::Ok, self.time),
+            _ => (self.status_unavailable("fmi2GetRealStatus", kind), 0.0),
         }
     }
 
-    pub fn get_boolean_status(&self, kind: Fmi2StatusKind) -> Result<(Status, bool), String> {
+    pub fn get_boolean_status(&self, kind: Fmi2StatusKind) -> (Status, bool) {
         match kind {
-            status_kind::TERMINATED => Ok((Status::Ok, false)),
-            _ => {
-                self.logger.log(Status::Discard, Category::StatusWarning, &format!("fmi2GetBooleanStatus: status kind {kind} is not available"));
-                Ok((Status::Discard, false))
-            }
+            status_kind::TERMINATED => (Status::Ok, false),
+            _ => (self.status_unavailable("fmi2GetBooleanStatus", kind), false),
         }
     }
 
