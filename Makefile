@@ -16,7 +16,7 @@ STAMP  := .make
 APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-CONTROLLERS := hinf_sf hinf_of
+CONTROLLERS := hinf_sf hinf_of robust_sf robust_of
 FMUS := plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
 RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-pack synth -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
@@ -63,8 +63,8 @@ $(STAMP)/synth: $(STAMP)/release synth/designs/default.json
 	./target/release/synth --design synth/designs/default.json --out dist $(CONTROLLERS)
 	@touch $@
 
-dist/hinf_%.fmu: $(STAMP)/synth
-	./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/hinf_$* --out $@
+$(CONTROLLERS:%=dist/%.fmu): dist/%.fmu: $(STAMP)/synth
+	./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/$* --out $@
 
 validate: $(FMU_FILES) $(STAMP)/venv
 	@for f in $(FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
@@ -88,11 +88,12 @@ $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
 	$(PY) -m pip install -q -r bench/requirements.txt
 	@touch $@
 
-# Benchmarks: one fmi2DoStep of the plant (criterion), and each synthesis against the same LMIs
-# in CVXPY + Clarabel (Python), in the same run.
+# Benchmarks: one fmi2DoStep of the plant (criterion), each synthesis against the same LMIs
+# in CVXPY + Clarabel (Python) in the same run, and every design together (wall time).
 bench: $(FMU_FILES) $(STAMP)/venv-bench
 	$(CARGO) bench -p fmu-plant --bench do_step
 	$(PY) bench/synth_vs_cvxpy.py
+	./target/release/synth --design synth/designs/default.json --out $(STAMP)/bench-synth
 
 clean:
 	rm -rf dist $(STAMP)

@@ -56,6 +56,12 @@ pub struct Design {
     /// Impose the force and stroke limits as energy-to-peak LMIs.
     pub constraints: bool,
     pub design_bump: Bump,
+    /// Robust designs (thesis ch. 6): lightest sprung mass [kg].
+    pub mass_min: f64,
+    /// Robust designs: heaviest sprung mass [kg].
+    pub mass_max: f64,
+    /// Robust certificates: number of masses of the uniform check grid over the range (≥ 61).
+    pub mass_grid_points: usize,
     /// Strictness margin ε of every LMI.
     pub lmi_margin: f64,
 }
@@ -100,6 +106,12 @@ impl Design {
             if !(value > 0.0 && value.is_finite()) {
                 return Err(DesignError::Value { name, expected: "a finite number > 0", value });
             }
+        }
+        if !(self.mass_min > 0.0 && self.mass_min < self.mass_max && self.mass_max.is_finite()) {
+            return Err(DesignError::Value { name: "mass_min, mass_max", expected: "0 < mass_min < mass_max < inf", value: self.mass_min });
+        }
+        if self.mass_grid_points < 2 {
+            return Err(DesignError::Value { name: "mass_grid_points", expected: "at least 2", value: self.mass_grid_points as f64 });
         }
         for (name, value) in [("weight_a_seat", self.weight_a_seat), ("weight_alpha_roll", self.weight_alpha_roll), ("weight_alpha_pitch", self.weight_alpha_pitch), ("weight_a_body", self.weight_a_body), ("weight_stroke", self.weight_stroke), ("weight_tyre_load", self.weight_tyre_load)] {
             if !(value >= 0.0 && value.is_finite()) {

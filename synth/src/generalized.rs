@@ -47,13 +47,20 @@ fn row<'a>(rows: &'a [OutputRow], name: &str) -> &'a OutputRow {
 
 impl GeneralizedPlant {
     pub fn new(p: &VehicleParams, d: &Design) -> Self {
+        Self::at_mass(p, d, p.m_s)
+    }
+
+    /// The plant of the car `p` with sprung mass `m_s`, weighted as the nominal car (the tyre
+    /// loads are normalised by the *nominal* static loads): the weights are design choices and
+    /// stay fixed, so the generalised plant is exactly affine in `1/m_s` like the model.
+    pub fn at_mass(p: &VehicleParams, d: &Design, m_s: f64) -> Self {
+        let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
+        let p = &VehicleParams { m_s, ..*p };
         let ss = StateSpace::new(p);
         let rows = physical_outputs(p);
         let road_scale: Vec<f64> = (0..N_ROAD).map(|k| if k < 4 { d.road_height_scale } else { d.road_velocity_scale }).collect();
         let w_r = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(road_scale.clone()));
         let limits = [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat];
-
-        let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
         let perf = [
             ("a_seat", d.weight_a_seat),
             ("alpha_roll", d.weight_alpha_roll),
@@ -141,6 +148,7 @@ impl GeneralizedPlant {
             d12: &self.d_zu,
             c2: &self.c_y,
             d21: &self.d_yw,
+            unit_channels: 0,
         }
     }
 

@@ -112,6 +112,14 @@ impl Affine {
     pub fn sub(&self, other: &Affine) -> Affine {
         self.add(&other.scale(-1.0))
     }
+    /// `F` placed at `(r, c)` of a `rows × cols` zero matrix.
+    pub fn embed(&self, rows: usize, cols: usize, r: usize, c: usize) -> Affine {
+        self.map(|f| {
+            let mut m = DMatrix::zeros(rows, cols);
+            m.view_mut((r, c), f.shape()).copy_from(f);
+            m
+        })
+    }
     /// `He(F) = F + Fᵀ`.
     pub fn he(&self) -> Affine {
         self.add(&self.t())
@@ -233,6 +241,7 @@ impl Problem {
 
     /// Solve with Clarabel and check every LMI at the returned point.
     pub fn solve(&self) -> Result<Solution, LmiError> {
+        crate::single_threaded_blas();
         let t0 = std::time::Instant::now();
         let n = self.n_vars;
         let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());

@@ -28,11 +28,11 @@ fn run(cli: Cli) -> Result<(), SynthError> {
     let text = std::fs::read_to_string(&design_path).map_err(|e| SynthError::Io(format!("{}: {e}", design_path.display())))?;
     let design = Design::from_json(&text)?;
     let params = VehicleParams::default();
+    let started = std::time::Instant::now();
     let names: Vec<&str> = if only.is_empty() { variants::ALL.to_vec() } else { only.iter().map(|s| s.as_str()).collect() };
-    for name in names {
-        let t = std::time::Instant::now();
-        let result = variants::synthesise(name, &params, &design)?;
-        let elapsed = t.elapsed().as_secs_f64();
+    let results = variants::synthesise_all(&names, &params, &design)?;
+    for (name, result) in &results {
+        let elapsed = result.seconds;
         let dir = out.join(name);
         std::fs::create_dir_all(&dir).map_err(|e| SynthError::Io(format!("{}: {e}", dir.display())))?;
         let write = |path: PathBuf, value: &serde_json::Value| {
@@ -47,6 +47,11 @@ fn run(cli: Cli) -> Result<(), SynthError> {
             result.certificate.gamma, result.certificate.norm_lower, result.certificate.norm_upper, result.certificate.spectral_abscissa
         );
     }
+    let wall = started.elapsed().as_secs_f64();
+    let table = variants::summary_table(&results, wall);
+    let path = out.join("synthesis.md");
+    std::fs::write(&path, &table).map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+    println!("\n{table}");
     Ok(())
 }
 

@@ -34,6 +34,38 @@ pub struct OfPlant<'a> {
     pub d12: &'a DMatrix<f64>,
     pub c2: &'a DMatrix<f64>,
     pub d21: &'a DMatrix<f64>,
+    /// The last `unit_channels` columns of `B₁`/`D₁₁` and rows of `C₁`/`D₁₁` are a normalised
+    /// uncertainty channel `p = δ q`, `|δ| ≤ 1` (S-procedure multiplier absorbed in their scaling):
+    /// their diagonal blocks are `−I` instead of `−γI` (robust designs; 0 otherwise).
+    pub unit_channels: usize,
+}
+
+/// The owned matrices of an [`OfPlant`] (for plants built on the fly, e.g. augmented ones).
+#[derive(Debug, Clone)]
+pub struct OfData {
+    pub a: DMatrix<f64>,
+    pub b1: DMatrix<f64>,
+    pub b2: DMatrix<f64>,
+    pub c1: DMatrix<f64>,
+    pub d11: DMatrix<f64>,
+    pub d12: DMatrix<f64>,
+    pub c2: DMatrix<f64>,
+    pub d21: DMatrix<f64>,
+    pub unit_channels: usize,
+}
+
+impl OfData {
+    pub fn plant(&self) -> OfPlant<'_> {
+        OfPlant { a: &self.a, b1: &self.b1, b2: &self.b2, c1: &self.c1, d11: &self.d11, d12: &self.d12, c2: &self.c2, d21: &self.d21, unit_channels: self.unit_channels }
+    }
+}
+
+/// `−diag(γ I_{k−r}, I_r)`: the diagonal block of `k` disturbance or performance channels of
+/// which the last `r` are a normalised uncertainty channel.
+fn gamma_block(gamma: &Affine, k: usize, r: usize) -> Affine {
+    let perf = DMatrix::from_fn(k, k, |i, j| if i == j && i < k - r { -1.0 } else { 0.0 });
+    let unit = DMatrix::from_fn(k, k, |i, j| if i == j && i >= k - r { -1.0 } else { 0.0 });
+    gamma.map_scalar(&perf).add(&Affine::constant(unit))
 }
 
 #[derive(Debug, Clone)]
@@ -59,8 +91,21 @@ struct Vars {
 }
 
 fn hinf_lmi(p: &OfPlant, v: &Vars, gamma: &Affine) -> Affine {
-    let (nw, nz) = (p.b1.ncols(), p.c1.nrows());
-    let (x, y, ah, bh, ch, dh) = (v.x.expr(), v.y.expr(), v.ah.expr(), v.bh.expr(), v.ch.expr(), v.dh.expr());
+    hinf_lmi_of(p, &VarExprs { x: v.x.expr(), y: v.y.expr(), ah: v.ah.expr(), bh: v.bh.expr(), ch: v.ch.expr(), dh: v.dh.expr() }, gamma)
+}
+
+/// The linearising variables as affine expressions (some may be constants).
+struct VarExprs {
+    x: Affine,
+    y: Affine,
+    ah: Affine,
+    bh: Affine,
+    ch: Affine,
+    dh: Affine,
+}
+
+fn hinf_lmi_of(p: &OfPlant, v: &VarExprs, gamma: &Affine) -> Affine {
+    let VarExprs { x, y, ah, bh, ch, dh } = v;
     let b2_dh = dh.left(p.b2); // B₂D̂ (n × ny)
     let m11 = x.left(p.a).add(&ch.left(p.b2)).he();
     let m12 = ah.t().add(&b2_dh.right(p.c2)).add(&Affine::constant(p.a.clone()));
@@ -70,12 +115,12 @@ fn hinf_lmi(p: &OfPlant, v: &Vars, gamma: &Affine) -> Affine {
     let m23 = y.right(p.b1).add(&bh.right(p.d21));
     let m24 = dh.left(p.d12).right(p.c2).add(&Affine::constant(p.c1.clone())).t();
     let m34 = dh.left(p.d12).right(p.d21).add(&Affine::constant(p.d11.clone())).t();
-    let minus = |k: usize| gamma.map_scalar(&(-DMatrix::identity(k, k)));
+    let minus = |k: usize| gamma_block(gamma, k, p.unit_channels);
     Affine::symmetric_blocks(&[
         vec![Some(m11), Some(m12), Some(m13), Some(m14)],
         vec![None, Some(m22), Some(m23), Some(m24)],
-        vec![None, None, Some(minus(nw)), Some(m34)],
-        vec![None, None, None, Some(minus(nz))],
+        vec![None, None, Some(minus(p.b1.ncols())), Some(m34)],
+        vec![None, None, None, Some(minus(p.c1.nrows()))],
     ])
 }
 
@@ -83,7 +128,7 @@ fn hinf_lmi(p: &OfPlant, v: &Vars, gamma: &Affine) -> Affine {
 /// `Ψ + Pᵀ Ω Q + Qᵀ Ωᵀ P` with `Pᵀ = [0 B₂; I 0; 0 0; 0 D₁₂]`, `Q = [I 0 0 0; 0 C₂ D₂₁ 0]`.
 fn psi(p: &OfPlant, x: &Affine, y: &Affine, gamma: &Affine) -> Affine {
     let (nw, nz) = (p.b1.ncols(), p.c1.nrows());
-    let minus = |k: usize| gamma.map_scalar(&(-DMatrix::identity(k, k)));
+    let minus = |k: usize| gamma_block(gamma, k, p.unit_channels);
     Affine::symmetric_blocks(&[
         vec![Some(x.left(p.a).he()), Some(Affine::constant(p.a.clone())), Some(Affine::constant(p.b1.clone())), Some(x.left(p.c1).t())],
         vec![None, Some(y.right(p.a).he()), Some(y.right(p.b1)), Some(Affine::constant(p.c1.transpose()))],
@@ -303,6 +348,54 @@ pub fn hinf_of(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result<OutputFee
     reconstruct(p, &x, &y, &ah, &bh, &ch, &dh, gamma, gamma_opt, t.value(&sol.x)[(0, 0)])
 }
 
+
+/// Robust output feedback at the vertices of a polytope with one `X, Y` (thesis Th. 6.2, vertex
+/// form). With plant-dependent `A, B₂` the linearising variable `Â` depends on the plant
+/// (`Â = … + Y(A + B₂D_K C₂)X + Y B₂ C_K Mᵀ`): the vertex conditions are bilinear in `Y` and
+/// `X, Ĉ`. Made tractable by fixing `X` and `Ĉ` to a robust state-feedback solution (the
+/// `(X, Ĉ)` block of the output-feedback LMI *is* the state-feedback LMI with `Q = X`,
+/// `Y_sf = Ĉ`) and `D̂ = 0`. Then `Â(vertex) = Â₀ + Y (A_i − A_c) X + Y (B₂,ᵢ − B₂,c) Ĉ` is
+/// affine in the unknowns `(Y, Â₀, B̂, γ)`, the vertex LMIs are exact congruences of the
+/// closed-loop bounded-real LMI with one Lyapunov matrix at each vertex, and, being affine in
+/// the plant data for fixed unknowns, they hold on the whole segment between the vertices. The
+/// controller (from `Â₀` and the centre plant `c`) does not depend on the vertex: the vertex
+/// terms cancel in the Remark 5.1 reconstruction. Sound, but conservative: `X` is not optimised
+/// for output feedback.
+#[allow(clippy::too_many_arguments)]
+pub fn hinf_of_common_x(vertices: &[OfPlant], center: &OfPlant, x: &DMatrix<f64>, ch: &DMatrix<f64>, eps: f64, delta: f64, beta: f64) -> Result<OutputFeedback, LmiError> {
+    let n = center.a.nrows();
+    let (ny, nu) = (center.c2.nrows(), center.b2.ncols());
+    let build = |prob: &mut Problem, gamma: &Affine, strict: f64| -> (Var, Var, Var) {
+        let (yv, ahv, bhv) = (prob.symmetric(n), prob.full(n, n), prob.full(n, ny));
+        for (i, v) in vertices.iter().enumerate() {
+            let y = yv.expr();
+            let shift = y.right(&((v.a - center.a) * x + (v.b2 - center.b2) * ch));
+            let e = VarExprs { x: Affine::constant(x.clone()), y, ah: ahv.expr().add(&shift), bh: bhv.expr(), ch: Affine::constant(ch.clone()), dh: Affine::zeros(nu, ny) };
+            prob.negative_definite(&format!("H∞ output-feedback LMI at vertex {i}"), hinf_lmi_of(v, &e, gamma), strict);
+        }
+        (yv, ahv, bhv)
+    };
+    let coupling_of = |y: &Var| Affine::symmetric_blocks(&[vec![Some(Affine::constant(x.clone())), Some(Affine::identity(n))], vec![None, Some(y.expr())]]);
+    // Stage 1: γ*.
+    let mut s1 = Problem::new();
+    let g1 = s1.scalar();
+    let (y1, _, _) = build(&mut s1, &g1.expr(), eps);
+    s1.positive_definite("[X I; I Y] ≻ 0", coupling_of(&y1), eps);
+    s1.minimise(&g1, 1.0);
+    let gamma_opt = g1.value(&s1.solve()?.x)[(0, 0)];
+    // Stage 2: γ fixed above γ*, Y bounded, coupling margin maximised.
+    let gamma = (1.0 + delta) * gamma_opt;
+    let mut s2 = Problem::new();
+    let (yv, ahv, bhv) = build(&mut s2, &Affine::constant(DMatrix::from_element(1, 1, gamma)), eps);
+    let t = s2.scalar();
+    s2.positive_definite("[X I; I Y] ⪰ tI", coupling_of(&yv).sub(&t.expr().map_scalar(&DMatrix::identity(2 * n, 2 * n))), 0.0);
+    s2.positive_definite("t ≥ 0", t.expr(), 0.0);
+    s2.positive_definite("Y ⪯ βI", Affine::identity(n).scale(beta).sub(&yv.expr()), 0.0);
+    s2.minimise(&t, -1.0);
+    let sol = s2.solve()?;
+    let (y, ah, bh) = (yv.value(&sol.x), ahv.value(&sol.x), bhv.value(&sol.x));
+    reconstruct(center, x, &y, &ah, &bh, ch, &DMatrix::zeros(nu, ny), gamma, gamma_opt, t.value(&sol.x)[(0, 0)])
+}
 
 #[cfg(test)]
 mod tests {

@@ -20,7 +20,7 @@ RECORD = ["a_seat", "alpha_roll", "alpha_pitch", "a_body", "stroke_fl", "stroke_
 
 
 class Fmu:
-    def __init__(self, name):
+    def __init__(self, name, parameters=None):
         path = str(ROOT / "dist" / f"{name}.fmu")
         self.md = read_model_description(path)
         self.dir = extract(path)
@@ -29,6 +29,8 @@ class Fmu:
         self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
                              modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate()
+        for k, v in (parameters or {}).items():
+            self.fmu.setReal([self.vr[k]], [v])
         self.fmu.setupExperiment(startTime=0.0)
         self.fmu.enterInitializationMode()
         self.fmu.exitInitializationMode()
@@ -74,8 +76,8 @@ def iso_road(g_d_n0, speed, seed):
     return at
 
 
-def run(controller, road, seconds, h=1e-3):
-    plant = Fmu("plant")
+def run(controller, road, seconds, h=1e-3, plant_parameters=None):
+    plant = Fmu("plant", plant_parameters)
     ctrl = Fmu(controller) if controller else None
     road_refs, force_refs, rec = plant.refs(ROAD), plant.refs(FORCES), plant.refs(RECORD)
     if ctrl:
@@ -136,3 +138,16 @@ def test_controller_against_passive(controller, road, seconds, roll_reduction, t
     static = np.array(plant.fmu.getReal(plant.refs([f"static_tire_load_{c}" for c in ("fl", "fr", "rl", "rr")])))
     plant.close()
     assert np.all(a["tyre_load_peak"] < tyre_limit * static), f"dynamic tyre load {a['tyre_load_peak'] / static} of static"
+
+
+@pytest.mark.parametrize("controller", ["robust_sf", "robust_of"])
+@pytest.mark.parametrize("mass", [1200.0, 1800.0])
+def test_robust_controller_on_the_lightest_and_heaviest_car(controller, mass):
+    """Thesis ch. 6: comfort and limits at both ends of the mass range, in FMPy."""
+    road = iso_road(256e-6, 20.0, 7)
+    p = figures(run(None, road, 10.0, plant_parameters={"m_s": mass}))
+    a = figures(run(controller, road, 10.0, plant_parameters={"m_s": mass}))
+    print(controller, mass, {k: (np.round(a[k], 4), np.round(p[k], 4)) for k in p})
+    assert a["seat"] <= 0.1 * p["seat"]
+    assert a["pitch"] <= p["pitch"] and a["body"] <= p["body"]
+    assert a["stroke"] < 0.08 and a["corner_force"] < 2500 and a["seat_force"] < 1000

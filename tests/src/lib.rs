@@ -152,8 +152,19 @@ pub const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
 /// `t_k` and its command is applied over `[t_k, t_k+1)`), recording `record` plant outputs
 /// after each step. `controller = None` is the passive car.
 pub fn run_loop(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: &dyn Road, h: f64, steps: usize, record: &[&str]) -> Vec<Vec<f64>> {
+    run_loop_with(plant, controller, road, h, steps, record, &[])
+}
+
+/// [`run_loop`] with plant parameters set before initialisation (e.g. `("m_s", 1800.0)`).
+pub fn run_loop_with(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: &dyn Road, h: f64, steps: usize, record: &[&str], plant_params: &[(&str, f64)]) -> Vec<Vec<f64>> {
     let start = |imp: &Fmi2Import, name: &str| {
         let mut i: Instance<CS> = imp.instantiate_cs(name, false, false).expect("instantiate");
+        if name == "plant" {
+            for (param, value) in plant_params {
+                let r = vr(imp, param).unwrap_or_else(|| panic!("plant has no parameter {param}"));
+                i.set_real(&[r], &[*value]).unwrap();
+            }
+        }
         i.setup_experiment(None, 0.0, None).unwrap();
         Common::enter_initialization_mode(&mut i).unwrap();
         Common::exit_initialization_mode(&mut i).unwrap();

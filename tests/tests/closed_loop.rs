@@ -39,12 +39,16 @@ fn figures(log: &[Vec<f64>]) -> Figures {
 }
 
 fn compare(label: &str, variant: &str, road: &dyn Road, seconds: f64) -> (Figures, Figures) {
+    compare_with(label, variant, road, seconds, &[])
+}
+
+fn compare_with(label: &str, variant: &str, road: &dyn Road, seconds: f64, plant_params: &[(&str, f64)]) -> (Figures, Figures) {
     let plant = load("plant");
     let ctrl = load(variant);
     let h = 1e-3;
     let steps = (seconds / h) as usize;
-    let passive = figures(&run_loop(&plant, None, road, h, steps, &RECORD));
-    let active = figures(&run_loop(&plant, Some(&ctrl), road, h, steps, &RECORD));
+    let passive = figures(&run_loop_with(&plant, None, road, h, steps, &RECORD, plant_params));
+    let active = figures(&run_loop_with(&plant, Some(&ctrl), road, h, steps, &RECORD, plant_params));
     let pct = |a: f64, p: f64| 100.0 * (1.0 - a / p);
     eprintln!(
         "{label} {variant}: RMS seat {:.4} vs {:.4} m/s² ({:.1} % lower), roll {:.4} vs {:.4} rad/s² ({:.1} %), pitch {:.4} vs {:.4} ({:.1} %), body {:.4} vs {:.4} m/s² ({:.1} %); max stroke {:.4} m (passive {:.4}); peak force corners {:.0} N, seat {:.0} N; max dynamic/static tyre load {:.2} (passive {:.2})",
@@ -92,7 +96,8 @@ fn certified_closed_loop(variant: &str) -> (DMatrix<f64>, DMatrix<f64>, Vec<f64>
     };
     let g = &cert["generalized_plant"];
     let a = m(&g["A"], 16);
-    let b_w = m(&g["B_w"], 8 + if variant == "hinf_of" { 8 } else { 0 }).columns(0, 8).into_owned(); // road channels only
+    let n_w = g["B_w"][0].as_array().unwrap().len(); // road, then sensor noise for output feedback
+    let b_w = m(&g["B_w"], n_w).columns(0, 8).into_owned(); // road channels only
     let b_u = m(&g["B_u"], 5);
     let c_y = m(&g["C_y"], 16);
     let k = &cert["controller"];
@@ -159,6 +164,16 @@ fn hinf_of_cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
 }
 
 #[test]
+fn robust_sf_cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
+    cosimulation_matches_certificate("robust_sf");
+}
+
+#[test]
+fn robust_of_cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
+    cosimulation_matches_certificate("robust_of");
+}
+
+#[test]
 fn hinf_of_beats_the_passive_car_on_the_bump_within_limits() {
     let (passive, active) = compare("bump", "hinf_of", &Bump::default(), 4.0);
     assert_comfort_targets(&passive, &active, 0.5);
@@ -169,4 +184,30 @@ fn hinf_of_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
     let road = IsoRoad::new(256e-6, 20.0, 7);
     let (passive, active) = compare("ISO C 20 m/s", "hinf_of", &road, 10.0);
     assert_comfort_targets(&passive, &active, 0.5);
+}
+
+/// Thesis ch. 6: the robust designs on the lightest and the heaviest car of the range, against
+/// the passive car of the same mass and the nominal design; every limit holds at both ends.
+fn robust_design_holds_over_the_mass_range(robust: &str, nominal: &str) {
+    let road = IsoRoad::new(256e-6, 20.0, 7);
+    for m in [1200.0, 1800.0] {
+        let label = format!("ISO C 20 m/s, m_s = {m} kg");
+        let (passive, active) = compare_with(&label, robust, &road, 10.0, &[("m_s", m)]);
+        let (_, nominal_figures) = compare_with(&label, nominal, &road, 10.0, &[("m_s", m)]);
+        eprintln!("{label}: seat RMS {robust} {:.4} vs {nominal} {:.4} m/s² ({:+.1} %)", active.seat, nominal_figures.seat, 100.0 * (active.seat / nominal_figures.seat - 1.0));
+        assert!(active.seat <= 0.1 * passive.seat, "{robust} at {m} kg: seat RMS {} not 90 % below passive {}", active.seat, passive.seat);
+        assert!(active.body <= passive.body && active.pitch <= passive.pitch, "{robust} at {m} kg: body or pitch worse than passive");
+        assert!(active.stroke < 0.08, "{robust} at {m} kg: stroke {}", active.stroke);
+        assert!(active.corner_force < 2500.0 && active.seat_force < 1000.0, "{robust} at {m} kg: forces saturate");
+    }
+}
+
+#[test]
+fn robust_sf_keeps_comfort_and_limits_from_1200_to_1800_kg() {
+    robust_design_holds_over_the_mass_range("robust_sf", "hinf_sf");
+}
+
+#[test]
+fn robust_of_keeps_comfort_and_limits_from_1200_to_1800_kg() {
+    robust_design_holds_over_the_mass_range("robust_of", "hinf_of");
 }
