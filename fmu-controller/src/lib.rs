@@ -17,11 +17,27 @@ use spec::Spec;
 use std::path::Path;
 use vehicle::exact::{discretize, Discretization};
 
-/// Value references: inputs from 0, outputs from 1000, `gamma` at 2000.
+/// Value references: inputs from 0, outputs from 1000, `gamma` at 2000, force limits of an
+/// anti-windup controller from 3000.
 pub mod vr {
     pub const INPUT: u32 = 0;
     pub const OUTPUT: u32 = 1000;
     pub const GAMMA: u32 = 2000;
+    pub const LIMIT: u32 = 3000;
+}
+
+/// An anti-windup controller's force-limit parameters, named like the plant's (`u_max` for the
+/// corner actuators, `u_max_seat` for the seat), so a master sets both by the same name.
+fn limit_groups(spec: &Spec) -> Vec<(&'static str, Vec<usize>)> {
+    let mut groups: Vec<(&'static str, Vec<usize>)> = Vec::new();
+    for (i, s) in spec.outputs.iter().enumerate() {
+        let name = if s.name.ends_with("seat") { "u_max_seat" } else { "u_max" };
+        match groups.iter_mut().find(|g| g.0 == name) {
+            Some(g) => g.1.push(i),
+            None => groups.push((name, vec![i])),
+        }
+    }
+    groups
 }
 
 pub const RESOURCE_FILE: &str = "controller.json";
@@ -45,6 +61,12 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         vars.push(Variable::real(s.name.clone(), vr::OUTPUT + i as u32, Causality::Output, unit(&s.unit), format!("Force command for plant input {}", s.name)).depending_on(deps));
     }
     vars.push(Variable::real("gamma", vr::GAMMA, Causality::CalculatedParameter, "1", "H-infinity level the synthesis guarantees (scaled w to z, see the certificate)"));
+    if let Some(aw) = &spec.anti_windup {
+        for (k, (name, outputs)) in limit_groups(spec).into_iter().enumerate() {
+            let what = outputs.iter().map(|&i| spec.outputs[i].name.as_str()).collect::<Vec<_>>().join(", ");
+            vars.push(Variable::real(name, vr::LIMIT + k as u32, Causality::Parameter, "N", format!("Force limit the anti-windup compensator saturates {what} at (set it equal to the plant's {name})")).with_start(aw.u_max[outputs[0]]));
+        }
+    }
     ModelDescription {
         model_name: spec.variant.clone(),
         model_identifier: spec.variant.clone(),
@@ -74,14 +96,51 @@ fn unit(u: &str) -> &'static str {
 
 pub struct Controller {
     spec: Spec,
-    xc: DVector<f64>,
+    /// The state: the controller's, then the anti-windup compensator's `η`.
+    x: DVector<f64>,
     y: DVector<f64>,
+    /// Force limit of each output (anti-windup only).
+    limits: Vec<f64>,
+    /// The stepped system `ẋ = A x + B v`, `v = y`, or `v = [y; u − y_c]` with anti-windup.
+    a: nalgebra::DMatrix<f64>,
+    b: nalgebra::DMatrix<f64>,
     cache: Option<Discretization>,
 }
 
+/// `(A, B)` of the stepped system: the controller alone, or with the anti-windup compensator
+/// `ẋc = A_K xc + B_K (y − C η)`, `η̇ = A_aw η + B_aw (u − y_c)`.
+fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>) {
+    let Some(aw) = &spec.anti_windup else { return (spec.a.clone(), spec.b.clone()) };
+    let (n, m, ny, nu) = (spec.order(), aw.a.nrows(), spec.inputs.len(), spec.outputs.len());
+    let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
+    a.view_mut((0, 0), (n, n)).copy_from(&spec.a);
+    a.view_mut((0, n), (n, m)).copy_from(&(-&spec.b * &aw.c));
+    a.view_mut((n, n), (m, m)).copy_from(&aw.a);
+    let mut b = nalgebra::DMatrix::zeros(n + m, ny + nu);
+    b.view_mut((0, 0), (n, ny)).copy_from(&spec.b);
+    b.view_mut((n, ny), (m, nu)).copy_from(&aw.b);
+    (a, b)
+}
+
 impl Controller {
-    fn output(&self, i: usize) -> f64 {
-        (self.spec.c.row(i) * &self.xc)[(0, 0)] + (self.spec.d.row(i) * &self.y)[(0, 0)]
+    /// `(y_c, u)`: the controller's own output and the command sent to the plant (`sat(y_c + F η)`
+    /// with anti-windup, `y_c` without).
+    fn command(&self) -> (DVector<f64>, DVector<f64>) {
+        let n = self.spec.order();
+        let xc = self.x.rows(0, n);
+        match &self.spec.anti_windup {
+            None => {
+                let yc = &self.spec.c * xc + &self.spec.d * &self.y;
+                (yc.clone(), yc)
+            }
+            Some(aw) => {
+                let eta = self.x.rows(n, aw.a.nrows());
+                let yc = &self.spec.c * xc + &self.spec.d * (&self.y - &aw.c * eta);
+                let u_lin = &yc + &aw.f * eta;
+                let u = DVector::from_iterator(u_lin.len(), u_lin.iter().zip(&self.limits).map(|(v, l)| v.clamp(-l, *l)));
+                (yc, u)
+            }
+        }
     }
 }
 
@@ -92,48 +151,70 @@ impl Model for Controller {
 
     fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
         let spec = load_spec(resources)?;
-        Ok(Controller { xc: DVector::zeros(spec.order()), y: DVector::zeros(spec.inputs.len()), spec, cache: None })
+        let (a, b) = stepped_system(&spec);
+        let limits = spec.anti_windup.as_ref().map(|aw| aw.u_max.clone()).unwrap_or_default();
+        Ok(Controller { x: DVector::zeros(a.nrows()), y: DVector::zeros(spec.inputs.len()), limits, a, b, spec, cache: None })
     }
 
     fn set_real(&mut self, vr: ValueReference, value: f64) {
-        if let Some(slot) = self.y.get_mut((vr - vr::INPUT) as usize) {
+        if vr >= vr::LIMIT {
+            if let Some((_, outputs)) = limit_groups(&self.spec).get((vr - vr::LIMIT) as usize) {
+                for &i in outputs {
+                    self.limits[i] = value;
+                }
+            }
+        } else if let Some(slot) = self.y.get_mut((vr - vr::INPUT) as usize) {
             *slot = value;
         }
     }
 
     fn get_real(&mut self, vr: ValueReference) -> f64 {
         match vr {
+            v if v >= vr::LIMIT => limit_groups(&self.spec).get((v - vr::LIMIT) as usize).map_or(f64::NAN, |(_, o)| self.limits[o[0]]),
             vr::GAMMA => self.spec.gamma,
-            v if v >= vr::OUTPUT => self.output((v - vr::OUTPUT) as usize),
+            v if v >= vr::OUTPUT => self.command().1[(v - vr::OUTPUT) as usize],
             v => self.y[(v - vr::INPUT) as usize],
         }
     }
 
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
-        self.xc.fill(0.0);
+        if let Some(bad) = self.limits.iter().find(|l| !(**l > 0.0 && l.is_finite())) {
+            return Err(format!("force limits must be finite and > 0, got {bad}"));
+        }
+        self.x.fill(0.0);
         Ok(())
     }
 
     fn do_step(&mut self, _time: f64, step: f64) -> Result<(), String> {
-        if self.spec.order() == 0 {
+        if self.a.nrows() == 0 {
             return Ok(());
         }
         if self.cache.as_ref().map(|d| d.step.to_bits()) != Some(step.to_bits()) {
-            self.cache = Some(discretize(&self.spec.a, &self.spec.b, step));
+            self.cache = Some(discretize(&self.a, &self.b, step));
         }
+        // Measurements held over the step; with anti-windup the saturation excess u − y_c too
+        // (evaluated at the start of the step, as a sampled-data implementation does).
+        let v = match &self.spec.anti_windup {
+            None => self.y.clone(),
+            Some(_) => {
+                let (yc, u) = self.command();
+                DVector::from_iterator(self.y.len() + u.len(), self.y.iter().copied().chain((u - yc).iter().copied()))
+            }
+        };
         let d = self.cache.as_ref().unwrap();
-        let next = &d.phi * &self.xc + &d.gamma_hold * &self.y;
+        let next = &d.phi * &self.x + &d.gamma_hold * v;
         if !next.iter().all(|v| v.is_finite()) {
             return Err("controller state became non-finite; the step was discarded".into());
         }
-        self.xc = next;
+        self.x = next;
         Ok(())
     }
 
     fn save(&self, out: &mut StateWriter) {
         out.u64(self.spec.content_hash);
-        out.f64s(self.xc.as_slice());
+        out.f64s(self.x.as_slice());
         out.f64s(self.y.as_slice());
+        out.f64s(&self.limits);
     }
 
     fn restore(&mut self, input: &mut StateReader) -> Result<(), String> {
@@ -141,11 +222,13 @@ impl Model for Controller {
         if hash != self.spec.content_hash {
             return Err("FMU state was saved with a different controller.json".into());
         }
-        let xc = input.f64s_exact(self.spec.order(), "controller states")?;
+        let x = input.f64s_exact(self.x.len(), "controller states")?;
         let y = input.f64s_exact(self.spec.inputs.len(), "controller inputs")?;
+        let limits = input.f64s_exact(self.limits.len(), "force limits")?;
         input.finish()?;
-        self.xc = DVector::from_vec(xc);
+        self.x = DVector::from_vec(x);
         self.y = DVector::from_vec(y);
+        self.limits = limits;
         Ok(())
     }
 }

@@ -31,6 +31,34 @@ struct Raw {
     c: Vec<Vec<f64>>,
     #[serde(rename = "D")]
     d: Vec<Vec<f64>>,
+    #[serde(default)]
+    anti_windup: Option<RawAntiWindup>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAntiWindup {
+    #[serde(rename = "A")]
+    a: Vec<Vec<f64>>,
+    #[serde(rename = "B")]
+    b: Vec<Vec<f64>>,
+    #[serde(rename = "C")]
+    c: Vec<Vec<f64>>,
+    #[serde(rename = "F")]
+    f: Vec<Vec<f64>>,
+    u_max: Vec<f64>,
+}
+
+/// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model `η̇ = A η + B (u − y_c)`
+/// with `u = sat(y_c + F η)`; the controller reads `y − C η`. Forces in N.
+#[derive(Debug, Clone)]
+pub struct AntiWindup {
+    pub a: DMatrix<f64>,
+    pub b: DMatrix<f64>,
+    pub c: DMatrix<f64>,
+    pub f: DMatrix<f64>,
+    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`).
+    pub u_max: Vec<f64>,
 }
 
 /// A checked controller description.
@@ -45,6 +73,7 @@ pub struct Spec {
     pub b: DMatrix<f64>,
     pub c: DMatrix<f64>,
     pub d: DMatrix<f64>,
+    pub anti_windup: Option<AntiWindup>,
     /// FNV-1a of the file's bytes: enters the version string, hence the GUID.
     pub content_hash: u64,
 }
@@ -89,7 +118,24 @@ impl Spec {
             return Err(SpecError::Invalid("a controller needs inputs and outputs".into()));
         }
         let (n, ny, nu) = (raw.a.len(), raw.inputs.len(), raw.outputs.len());
+        let anti_windup = match &raw.anti_windup {
+            None => None,
+            Some(aw) => {
+                let m = aw.a.len();
+                if aw.u_max.len() != nu || !aw.u_max.iter().all(|u| *u > 0.0 && u.is_finite()) {
+                    return Err(SpecError::Invalid(format!("anti_windup.u_max must hold {nu} finite limits > 0, found {:?}", aw.u_max)));
+                }
+                Some(AntiWindup {
+                    a: matrix("anti_windup.A", &aw.a, m, m)?,
+                    b: matrix("anti_windup.B", &aw.b, m, nu)?,
+                    c: matrix("anti_windup.C", &aw.c, ny, m)?,
+                    f: matrix("anti_windup.F", &aw.f, nu, m)?,
+                    u_max: aw.u_max.clone(),
+                })
+            }
+        };
         let spec = Spec {
+            anti_windup,
             a: matrix("A", &raw.a, n, n)?,
             b: matrix("B", &raw.b, n, ny)?,
             c: matrix("C", &raw.c, nu, n)?,

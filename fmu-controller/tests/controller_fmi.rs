@@ -110,3 +110,57 @@ fn spec_rejects_non_finite_numbers_duplicates_and_bad_identifiers() {
     assert!(matches!(Spec::from_json(&SPEC.replace("test_ctrl", "test ctrl")), Err(spec::SpecError::Invalid(_))));
     assert!(matches!(Spec::from_json(&SPEC.replace("suspension-controller/1", "other/2")), Err(spec::SpecError::Format(_))));
 }
+
+/// Static controller `y_c = [10 y; 0]` with a scalar anti-windup state: `η̇ = −η + (u_fl − y_c,fl)`,
+/// the controller reads `y − 0.5 η`, `u = sat(y_c + [0; 1] η)`.
+const AW_SPEC: &str = r#"{
+  "format": "suspension-controller/1", "variant": "test_aw", "description": "test", "gamma": 1.0,
+  "inputs": [{"name": "stroke_fl", "unit": "m"}],
+  "outputs": [{"name": "u_fl", "unit": "N"}, {"name": "u_seat", "unit": "N"}],
+  "A": [], "B": [], "C": [[], []], "D": [[10.0], [0.0]],
+  "anti_windup": {"A": [[-1.0]], "B": [[1.0, 0.0]], "C": [[0.5]], "F": [[0.0], [1.0]], "u_max": [4.0, 1000.0]}
+}"#;
+
+/// Run the anti-windup controller with `y = 1` for one step of 0.1 s after setting `u_max`;
+/// returns the commands before and after the step and the status of leaving initialisation.
+fn aw_step(u_max: Option<f64>) -> (Fmi2Status, [f64; 2], [f64; 2]) {
+    let log = LogCapture::default();
+    let dir = dir_with(&format!("aw-{u_max:?}"), Some(AW_SPEC));
+    let (c, _cb) = instantiate(&log, &guid_of(AW_SPEC), Some(&dir));
+    assert!(!c.is_null(), "{:?}", log.messages());
+    let outs = [vr::OUTPUT, vr::OUTPUT + 1];
+    let (mut before, mut after) = ([0.0; 2], [0.0; 2]);
+    unsafe {
+        if let Some(l) = u_max {
+            assert_eq!(fmi2SetReal(c, &vr::LIMIT, 1, &l), 0);
+        }
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        let status = fmi2ExitInitializationMode(c);
+        if status == 0 {
+            fmi2SetReal(c, &vr::INPUT, 1, &1.0);
+            fmi2GetReal(c, outs.as_ptr(), 2, before.as_mut_ptr());
+            assert_eq!(fmi2DoStep(c, 0.0, 0.1, 1), 0);
+            fmi2GetReal(c, outs.as_ptr(), 2, after.as_mut_ptr());
+        }
+        fmi2FreeInstance(c);
+        (status, before, after)
+    }
+}
+
+#[test]
+fn anti_windup_saturates_and_integrates_the_excess_exactly() {
+    // Saturated: u_fl = sat(10) = 4; the excess −6 drives η = −6 (1 − e^{−0.1}), seen on u_seat.
+    let (status, before, after) = aw_step(None);
+    assert_eq!(status, 0);
+    assert_eq!(before, [4.0, 0.0]);
+    let eta = -6.0 * (1.0 - (-0.1f64).exp());
+    assert!((after[1] - eta).abs() < 1e-14, "{after:?} vs η = {eta}");
+    // The controller now reads y − 0.5 η: y_c = 10 (1 − 0.5 η) > 4, still saturated.
+    assert_eq!(after[0], 4.0);
+    // With a limit that is never reached the compensator stays at rest: the linear controller.
+    let (_, before, after) = aw_step(Some(100.0));
+    assert_eq!((before, after), ([10.0, 0.0], [10.0, 0.0]));
+    // A non-positive limit is refused when initialisation ends.
+    assert_ne!(aw_step(Some(-1.0)).0, 0);
+}

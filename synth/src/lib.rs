@@ -5,6 +5,7 @@
 //! [`generalized`]; the state-feedback LMI [`state_feedback`]; the independent check
 //! [`hinf_norm`] and [`certificate`]; the shipped variants [`variants`].
 
+pub mod anti_windup;
 pub mod certificate;
 pub mod controller_file;
 pub mod design;

@@ -3,7 +3,9 @@
 //! A [`Synthesiser`] keeps every design it has made, so a robust variant compares itself with
 //! its nominal counterpart without synthesising it twice.
 
+use crate::anti_windup::{circle_check, mraw};
 use crate::certificate::{certify, matrix_json, Certificate, Controller};
+use crate::generalized::FORCE_UNIT;
 use crate::controller_file::controller_json;
 use crate::design::Design;
 use crate::generalized::{GeneralizedPlant, MEASUREMENTS};
@@ -16,7 +18,7 @@ use std::collections::BTreeMap;
 use vehicle::model::{N_ROAD, N_STATES, STATES};
 use vehicle::VehicleParams;
 
-pub const ALL: [&str; 4] = ["hinf_sf", "hinf_of", "robust_sf", "robust_of"];
+pub const ALL: [&str; 5] = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_sf", "robust_of"];
 
 /// Output feedback: relative γ back-off and bound on `X, Y` (SPEC §5).
 const OF_GAMMA_BACKOFF: f64 = 0.02;
@@ -61,10 +63,20 @@ pub fn nominal_of(variant: &str) -> Option<&'static str> {
 /// the same mass grid.
 pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design) -> Result<Vec<(String, Synthesised)>, SynthError> {
     use rayon::prelude::*;
-    let mut order: Vec<&str> = variants.to_vec();
+    // Independent designs first, in parallel (longest first); then those built on another.
+    let mut order: Vec<&str> = variants.iter().copied().filter(|v| *v != "hinf_of_aw").collect();
+    if variants.contains(&"hinf_of_aw") && !order.contains(&"hinf_of") {
+        order.push("hinf_of");
+    }
     order.sort_by_key(|v| std::cmp::Reverse(ALL.iter().position(|a| a == v)));
     let done: Vec<(String, Synthesised)> = order.par_iter().map(|v| synthesise(v, params, design).map(|s| (v.to_string(), s))).collect::<Result<_, _>>()?;
     let mut by_name: BTreeMap<String, Synthesised> = done.into_iter().collect();
+    if variants.contains(&"hinf_of_aw") {
+        let t = std::time::Instant::now();
+        let mut aw = hinf_of_aw(&by_name["hinf_of"], params, design)?;
+        aw.seconds = t.elapsed().as_secs_f64();
+        by_name.insert("hinf_of_aw".into(), aw);
+    }
     for v in variants {
         if let Some(n) = nominal_of(v) {
             if let Some(nominal) = by_name.get(n).map(|s| s.controller.clone()) {
@@ -155,10 +167,52 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
                 let json = controller_json(variant, "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)", of.gamma, &of_inputs(), &of.controller);
                 Ok(Synthesised { controller: of.controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
             }
+            "hinf_of_aw" => {
+                let of = synthesise("hinf_of", params, design)?;
+                hinf_of_aw(&of, params, design)
+            }
             "robust_sf" => robust_sf(params, design),
             "robust_of" => robust_of(params, design),
             other => Err(SynthError::Usage(format!("unknown variant '{other}', expected one of {ALL:?}"))),
         }
+}
+
+/// Thesis §5.1.4, Th. 5.3 (corrected): `hinf_of` plus a decoupled anti-windup compensator whose
+/// `F` comes from the sector LMI of [`crate::anti_windup`]; the linear behaviour (and so γ) is
+/// `hinf_of`'s whenever nothing saturates.
+fn hinf_of_aw(of: &Synthesised, params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
+    let variant = "hinf_of_aw";
+    let g = GeneralizedPlant::new(params, design);
+    let aw = mraw(&g, design.lmi_margin).map_err(|e| SynthError::Lmi(variant.into(), e))?;
+    let check = circle_check(&g.a, &g.b_u, &aw.f, &aw.w);
+    if !check.holds() {
+        return Err(SynthError::Certificate(crate::certificate::CertificateError::AntiWindup { variant: variant.into(), abscissa: check.spectral_abscissa, margin: check.min_margin }));
+    }
+    let mut certificate = of.certificate.clone();
+    certificate.variant = variant.into();
+    certificate.notes.insert(0, format!(
+        "Thesis Th. 5.3 corrected (eq. 5.15 mixes P and Q and puts Q^-1 on the wrong side of phi): decoupled model-recovery anti-windup, eta' = (A + B_u F) eta - B_u dz(u_lin), u = sat(u_lin), u_lin = y_c + F eta, the controller reads y - C_y eta. F from the generalised-sector LMI; L2 gain from the controller output to the saturation-induced performance deviation gamma_aw = {:.6}. Re-checked: A + B_u F spectral abscissa {:.4}, circle criterion with the LMI's multiplier holds on {} frequencies (min margin {:.4e}). The linear closed loop, and so the gamma below, is hinf_of's.",
+        aw.gamma, check.spectral_abscissa, check.frequencies, check.min_margin
+    ));
+    certificate.details["anti_windup"] = serde_json::json!({
+        "F": matrix_json(&(&aw.f * FORCE_UNIT)),
+        "gamma_aw": aw.gamma,
+        "sector_multiplier_W": aw.w.as_slice(),
+        "a_plus_bf_spectral_abscissa": check.spectral_abscissa,
+        "circle_criterion_min_margin": check.min_margin,
+        "circle_criterion_frequencies": check.frequencies,
+    });
+    let mut json = of.controller_json.clone();
+    json["variant"] = serde_json::json!(variant);
+    json["description"] = serde_json::json!("H-infinity output feedback with decoupled anti-windup (thesis Th. 5.3, corrected)");
+    json["anti_windup"] = serde_json::json!({
+        "A": matrix_json(&g.a),
+        "B": matrix_json(&(&g.b_u / FORCE_UNIT)),
+        "C": matrix_json(&g.c_y),
+        "F": matrix_json(&(&aw.f * FORCE_UNIT)),
+        "u_max": [design.u_max, design.u_max, design.u_max, design.u_max, design.u_max_seat],
+    });
+    Ok(Synthesised { controller: of.controller.clone(), certificate, controller_json: json, robust_to: "actuator saturation", seconds: 0.0 })
 }
 
 fn mass_range(design: &Design) -> String {

@@ -155,15 +155,19 @@ pub fn run_loop(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: &dyn 
     run_loop_with(plant, controller, road, h, steps, record, &[])
 }
 
-/// [`run_loop`] with plant parameters set before initialisation (e.g. `("m_s", 1800.0)`).
+/// [`run_loop`] with parameters set before initialisation (e.g. `("m_s", 1800.0)`): on the plant,
+/// which must have each, and on the controller where it has one of the same name (the force
+/// limits `u_max`, `u_max_seat` of an anti-windup controller).
 pub fn run_loop_with(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: &dyn Road, h: f64, steps: usize, record: &[&str], plant_params: &[(&str, f64)]) -> Vec<Vec<f64>> {
     let start = |imp: &Fmi2Import, name: &str| {
         let mut i: Instance<CS> = imp.instantiate_cs(name, false, false).expect("instantiate");
-        if name == "plant" {
-            for (param, value) in plant_params {
-                let r = vr(imp, param).unwrap_or_else(|| panic!("plant has no parameter {param}"));
-                i.set_real(&[r], &[*value]).unwrap();
-            }
+        for (param, value) in plant_params {
+            match vr(imp, param) {
+                Some(r) => {
+                    i.set_real(&[r], &[*value]).unwrap();
+                }
+                None => assert!(name != "plant", "plant has no parameter {param}"),
+            };
         }
         i.setup_experiment(None, 0.0, None).unwrap();
         Common::enter_initialization_mode(&mut i).unwrap();
