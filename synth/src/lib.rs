@@ -8,6 +8,7 @@
 pub mod anti_windup;
 pub mod certificate;
 pub mod controller_file;
+pub mod delay;
 pub mod design;
 pub mod generalized;
 pub mod hinf_norm;
