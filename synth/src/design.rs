@@ -60,6 +60,10 @@ pub struct Design {
     pub mass_min: f64,
     /// Robust designs: heaviest sprung mass [kg].
     pub mass_max: f64,
+    /// `delay_sf`: the actuator + processing delay the design must tolerate [s].
+    pub delay_tau: f64,
+    /// `delay_sf`: the descriptor multiplier `P₃ = ε P₂` of the Lyapunov–Krasovskii LMI.
+    pub delay_epsilon: f64,
     /// Robust certificates: number of masses of the uniform check grid over the range (≥ 61).
     pub mass_grid_points: usize,
     /// Strictness margin ε of every LMI.
@@ -101,6 +105,8 @@ impl Design {
             ("lmi_margin", self.lmi_margin),
             ("noise_stroke", self.noise_stroke),
             ("noise_rate", self.noise_rate),
+            ("delay_tau", self.delay_tau),
+            ("delay_epsilon", self.delay_epsilon),
         ];
         for (name, value) in positive {
             if !(value > 0.0 && value.is_finite()) {

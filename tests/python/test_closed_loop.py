@@ -168,3 +168,15 @@ def test_anti_windup_recovers_comfort_where_output_feedback_winds_up():
     # and is clearly more comfortable (measured -28 % against hinf_of, -45 % against passive).
     assert plain_cmd > 1e6 and aw_cmd <= 300.0 + 1e-9
     assert aw["seat"] < 0.8 * plain["seat"] and aw["seat"] < 0.6 * p["seat"]
+
+
+@pytest.mark.parametrize("tau", [0.02, 0.06])
+def test_delay_sf_settles_with_the_plant_delay(tau):
+    """Thesis ch. 7 in FMPy: delay_sf with the plant's transport delay at and beyond its design 20 ms."""
+    log = run("delay_sf", bump, 8.0, plant_parameters={"tau": tau})
+    p = figures(run(None, bump, 8.0))
+    a = figures(log)
+    tail = np.abs(log[-1000:, 0]).max()
+    print(tau, a["seat"], p["seat"], tail)
+    assert a["seat"] < 0.5 * p["seat"] and tail < 1e-4 * np.abs(log[:, 0]).max()
+    assert a["stroke"] < 0.08 and a["corner_force"] < 2500 and a["seat_force"] < 1000
