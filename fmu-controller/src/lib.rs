@@ -99,8 +99,9 @@ pub struct Controller {
     /// The state: the controller's, then the anti-windup compensator's `η`.
     x: DVector<f64>,
     y: DVector<f64>,
-    /// Force limit of each output (anti-windup only).
+    /// Force limit of each output (anti-windup only), and the parameters that set them.
     limits: Vec<f64>,
+    limit_groups: Vec<(&'static str, Vec<usize>)>,
     /// The stepped system `ẋ = A x + B v`, `v = y`, or `v = [y; u − y_c]` with anti-windup.
     a: nalgebra::DMatrix<f64>,
     b: nalgebra::DMatrix<f64>,
@@ -123,23 +124,22 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
 }
 
 impl Controller {
-    /// `(y_c, u)`: the controller's own output and the command sent to the plant (`sat(y_c + F η)`
-    /// with anti-windup, `y_c` without).
-    fn command(&self) -> (DVector<f64>, DVector<f64>) {
+    /// With anti-windup: `(y_c, u)`, the controller's own output and the command sent to the
+    /// plant, `u = sat(y_c + F η)`, the controller reading `y − C η`.
+    fn anti_windup_command(&self, aw: &spec::AntiWindup) -> (DVector<f64>, DVector<f64>) {
         let n = self.spec.order();
-        let xc = self.x.rows(0, n);
+        let (xc, eta) = (self.x.rows(0, n), self.x.rows(n, aw.a.nrows()));
+        let yc = &self.spec.c * xc + &self.spec.d * (&self.y - &aw.c * eta);
+        let u_lin = &yc + &aw.f * eta;
+        let u = DVector::from_iterator(u_lin.len(), u_lin.iter().zip(&self.limits).map(|(v, l)| v.clamp(-l, *l)));
+        (yc, u)
+    }
+
+    /// Command `i` sent to the plant.
+    fn output(&self, i: usize) -> f64 {
         match &self.spec.anti_windup {
-            None => {
-                let yc = &self.spec.c * xc + &self.spec.d * &self.y;
-                (yc.clone(), yc)
-            }
-            Some(aw) => {
-                let eta = self.x.rows(n, aw.a.nrows());
-                let yc = &self.spec.c * xc + &self.spec.d * (&self.y - &aw.c * eta);
-                let u_lin = &yc + &aw.f * eta;
-                let u = DVector::from_iterator(u_lin.len(), u_lin.iter().zip(&self.limits).map(|(v, l)| v.clamp(-l, *l)));
-                (yc, u)
-            }
+            None => (self.spec.c.row(i) * &self.x)[(0, 0)] + (self.spec.d.row(i) * &self.y)[(0, 0)],
+            Some(aw) => self.anti_windup_command(aw).1[i],
         }
     }
 }
@@ -153,12 +153,13 @@ impl Model for Controller {
         let spec = load_spec(resources)?;
         let (a, b) = stepped_system(&spec);
         let limits = spec.anti_windup.as_ref().map(|aw| aw.u_max.clone()).unwrap_or_default();
-        Ok(Controller { x: DVector::zeros(a.nrows()), y: DVector::zeros(spec.inputs.len()), limits, a, b, spec, cache: None })
+        let limit_groups = if spec.anti_windup.is_some() { limit_groups(&spec) } else { Vec::new() };
+        Ok(Controller { x: DVector::zeros(a.nrows()), y: DVector::zeros(spec.inputs.len()), limits, limit_groups, a, b, spec, cache: None })
     }
 
     fn set_real(&mut self, vr: ValueReference, value: f64) {
         if vr >= vr::LIMIT {
-            if let Some((_, outputs)) = limit_groups(&self.spec).get((vr - vr::LIMIT) as usize) {
+            if let Some((_, outputs)) = self.limit_groups.get((vr - vr::LIMIT) as usize) {
                 for &i in outputs {
                     self.limits[i] = value;
                 }
@@ -170,9 +171,9 @@ impl Model for Controller {
 
     fn get_real(&mut self, vr: ValueReference) -> f64 {
         match vr {
-            v if v >= vr::LIMIT => limit_groups(&self.spec).get((v - vr::LIMIT) as usize).map_or(f64::NAN, |(_, o)| self.limits[o[0]]),
+            v if v >= vr::LIMIT => self.limit_groups.get((v - vr::LIMIT) as usize).map_or(f64::NAN, |(_, o)| self.limits[o[0]]),
             vr::GAMMA => self.spec.gamma,
-            v if v >= vr::OUTPUT => self.command().1[(v - vr::OUTPUT) as usize],
+            v if v >= vr::OUTPUT => self.output((v - vr::OUTPUT) as usize),
             v => self.y[(v - vr::INPUT) as usize],
         }
     }
@@ -196,8 +197,8 @@ impl Model for Controller {
         // (evaluated at the start of the step, as a sampled-data implementation does).
         let v = match &self.spec.anti_windup {
             None => self.y.clone(),
-            Some(_) => {
-                let (yc, u) = self.command();
+            Some(aw) => {
+                let (yc, u) = self.anti_windup_command(aw);
                 DVector::from_iterator(self.y.len() + u.len(), self.y.iter().copied().chain((u - yc).iter().copied()))
             }
         };

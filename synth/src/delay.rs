@@ -64,10 +64,8 @@ fn loop_gain(a: &DMatrix<f64>, b: &DMatrix<f64>, k: &DMatrix<f64>, omega: f64) -
 }
 
 fn eigenvalues(m: DMatrix<Complex<f64>>) -> Vec<Complex<f64>> {
-    m.eigenvalues().map(|e| e.iter().copied().collect()).unwrap_or_else(|| {
-        // nalgebra's complex eigenvalues need a Schur form; fall back to it explicitly.
-        nalgebra::Schur::new(m).eigenvalues().map(|e| e.iter().copied().collect()).unwrap_or_default()
-    })
+    // The complex Schur form is triangular: its diagonal is always available.
+    nalgebra::Schur::new(m).eigenvalues().map(|e| e.iter().copied().collect()).unwrap_or_default()
 }
 
 fn count_outside_unit_circle(a: &DMatrix<f64>, b: &DMatrix<f64>, k: &DMatrix<f64>, omega: f64) -> usize {

@@ -40,26 +40,6 @@ pub struct OfPlant<'a> {
     pub unit_channels: usize,
 }
 
-/// The owned matrices of an [`OfPlant`] (for plants built on the fly, e.g. augmented ones).
-#[derive(Debug, Clone)]
-pub struct OfData {
-    pub a: DMatrix<f64>,
-    pub b1: DMatrix<f64>,
-    pub b2: DMatrix<f64>,
-    pub c1: DMatrix<f64>,
-    pub d11: DMatrix<f64>,
-    pub d12: DMatrix<f64>,
-    pub c2: DMatrix<f64>,
-    pub d21: DMatrix<f64>,
-    pub unit_channels: usize,
-}
-
-impl OfData {
-    pub fn plant(&self) -> OfPlant<'_> {
-        OfPlant { a: &self.a, b1: &self.b1, b2: &self.b2, c1: &self.c1, d11: &self.d11, d12: &self.d12, c2: &self.c2, d21: &self.d21, unit_channels: self.unit_channels }
-    }
-}
-
 /// `−diag(γ I_{k−r}, I_r)`: the diagonal block of `k` disturbance or performance channels of
 /// which the last `r` are a normalised uncertainty channel.
 fn gamma_block(gamma: &Affine, k: usize, r: usize) -> Affine {
@@ -165,8 +145,23 @@ fn null_space(m: &DMatrix<f64>) -> DMatrix<f64> {
     DMatrix::from_columns(&basis)
 }
 
-fn coupling(v: &Vars, n: usize) -> Affine {
-    Affine::symmetric_blocks(&[vec![Some(v.x.expr()), Some(Affine::identity(n))], vec![None, Some(v.y.expr())]])
+/// `[X I; I Y]`.
+fn coupling(x: &Affine, y: &Affine) -> Affine {
+    Affine::symmetric_blocks(&[vec![Some(x.clone()), Some(Affine::identity(x.nrows()))], vec![None, Some(y.clone())]])
+}
+
+/// Stage 2's conditioning (SPEC §5): `[X I; I Y] ⪰ tI`, `t ≥ 0`, each of `bounded` `⪯ βI`, and
+/// `t` maximised. Returns `t`.
+fn maximise_coupling_margin(prob: &mut Problem, x: &Affine, y: &Affine, bounded: &[(&str, &Affine)], beta: f64) -> Var {
+    let n = x.nrows();
+    let t = prob.scalar();
+    prob.positive_definite("[X I; I Y] ⪰ tI", coupling(x, y).sub(&t.expr().map_scalar(&DMatrix::identity(2 * n, 2 * n))), 0.0);
+    prob.positive_definite("t ≥ 0", t.expr(), 0.0);
+    for (name, v) in bounded {
+        prob.positive_definite(name, Affine::identity(n).scale(beta).sub(v), 0.0);
+    }
+    prob.minimise(&t, -1.0);
+    t
 }
 
 fn new_vars(p: &mut Problem, n: usize, ny: usize, nu: usize) -> Vars {
@@ -243,7 +238,7 @@ pub fn optimal_gamma(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
     let mut s1 = Problem::new();
     let (x1, y1, g1) = (s1.symmetric(n), s1.symmetric(n), s1.scalar());
     projected(p, &mut s1, &x1, &y1, &g1.expr(), eps);
-    s1.positive_definite("[X I; I Y] ≻ 0", Affine::symmetric_blocks(&[vec![Some(x1.expr()), Some(Affine::identity(n))], vec![None, Some(y1.expr())]]), eps);
+    s1.positive_definite("[X I; I Y] ≻ 0", coupling(&x1.expr(), &y1.expr()), eps);
     s1.minimise(&g1, 1.0);
     Ok(g1.value(&s1.solve()?.x)[(0, 0)])
 }
@@ -259,17 +254,13 @@ pub fn hinf_of_projected(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result
 
     let gamma = (1.0 + delta) * gamma_opt;
     let mut s2 = Problem::new();
-    let (xv, yv, t) = (s2.symmetric(n), s2.symmetric(n), s2.scalar());
+    let (xv, yv) = (s2.symmetric(n), s2.symmetric(n));
     // A real strictness margin here: the explicit reconstruction below needs room (maximising
     // the coupling margin otherwise drives the projected LMIs onto their boundary).
     let strict = (RECONSTRUCTION_MARGIN * gamma).max(eps);
     projected(p, &mut s2, &xv, &yv, &Affine::constant(DMatrix::from_element(1, 1, gamma)), strict);
-    let coupling = Affine::symmetric_blocks(&[vec![Some(xv.expr()), Some(Affine::identity(n))], vec![None, Some(yv.expr())]]);
-    s2.positive_definite("[X I; I Y] ⪰ tI", coupling.sub(&t.expr().map_scalar(&DMatrix::identity(2 * n, 2 * n))), 0.0);
-    s2.positive_definite("t ≥ 0", t.expr(), 0.0);
-    s2.positive_definite("X ⪯ βI", Affine::identity(n).scale(beta).sub(&xv.expr()), 0.0);
-    s2.positive_definite("Y ⪯ βI", Affine::identity(n).scale(beta).sub(&yv.expr()), 0.0);
-    s2.minimise(&t, -1.0);
+    let (xe, ye) = (xv.expr(), yv.expr());
+    let t = maximise_coupling_margin(&mut s2, &xe, &ye, &[("X ⪯ βI", &xe), ("Y ⪯ βI", &ye)], beta);
     let sol = s2.solve()?;
     let (x, y) = (xv.value(&sol.x), yv.value(&sol.x));
 
@@ -281,7 +272,7 @@ pub fn hinf_of_projected(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result
     let bh = omega.view((0, n), (n, ny)).into_owned();
     let ch = omega.view((n, 0), (nu, n)).into_owned();
     let dh = omega.view((n, n), (nu, ny)).into_owned();
-    Ok(reconstruct(p, &x, &y, &ah, &bh, &ch, &dh, gamma, gamma_opt, t.value(&sol.x)[(0, 0)])?)
+    reconstruct(p, &x, &y, &ah, &bh, &ch, &dh, gamma, gamma_opt, t.value(&sol.x)[(0, 0)])
 }
 
 /// Remark 5.1: controller from `X, Y` and the linearising variables, `N = I`, `M = I − XY`.
@@ -314,7 +305,7 @@ pub fn optimal_gamma_one_shot(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
     let v1 = new_vars(&mut s1, n, ny, nu);
     let g1 = s1.scalar();
     s1.negative_definite("H∞ output-feedback LMI", hinf_lmi(p, &v1, &g1.expr()), eps);
-    s1.positive_definite("[X I; I Y] ≻ 0", coupling(&v1, n), eps);
+    s1.positive_definite("[X I; I Y] ≻ 0", coupling(&v1.x.expr(), &v1.y.expr()), eps);
     s1.minimise(&g1, 1.0);
     Ok(g1.value(&s1.solve()?.x)[(0, 0)])
 }
@@ -331,16 +322,10 @@ pub fn hinf_of(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result<OutputFee
     let gamma = (1.0 + delta) * gamma_opt;
     let mut s2 = Problem::new();
     let v = new_vars(&mut s2, n, ny, nu);
-    let t = s2.scalar();
     let gconst = Affine::constant(DMatrix::from_element(1, 1, gamma));
     s2.negative_definite("H∞ output-feedback LMI at fixed γ", hinf_lmi(p, &v, &gconst), eps);
-    let tn = t.expr().map_scalar(&DMatrix::identity(2 * n, 2 * n));
-    s2.positive_definite("[X I; I Y] ⪰ tI", coupling(&v, n).sub(&tn), 0.0);
-    s2.positive_definite("t ≥ 0", t.expr(), 0.0);
-    for (name, var) in [("X ⪯ βI", v.x), ("Y ⪯ βI", v.y)] {
-        s2.positive_definite(name, Affine::identity(n).scale(beta).sub(&var.expr()), 0.0);
-    }
-    s2.minimise(&t, -1.0);
+    let (xe, ye) = (v.x.expr(), v.y.expr());
+    let t = maximise_coupling_margin(&mut s2, &xe, &ye, &[("X ⪯ βI", &xe), ("Y ⪯ βI", &ye)], beta);
     let sol = s2.solve()?;
     let val = |var: &Var| var.value(&sol.x);
     let (x, y, ah, bh, ch, dh) = (val(&v.x), val(&v.y), val(&v.ah), val(&v.bh), val(&v.ch), val(&v.dh));
@@ -375,23 +360,20 @@ pub fn hinf_of_common_x(vertices: &[OfPlant], center: &OfPlant, x: &DMatrix<f64>
         }
         (yv, ahv, bhv)
     };
-    let coupling_of = |y: &Var| Affine::symmetric_blocks(&[vec![Some(Affine::constant(x.clone())), Some(Affine::identity(n))], vec![None, Some(y.expr())]]);
+    let xc = Affine::constant(x.clone());
     // Stage 1: γ*.
     let mut s1 = Problem::new();
     let g1 = s1.scalar();
     let (y1, _, _) = build(&mut s1, &g1.expr(), eps);
-    s1.positive_definite("[X I; I Y] ≻ 0", coupling_of(&y1), eps);
+    s1.positive_definite("[X I; I Y] ≻ 0", coupling(&xc, &y1.expr()), eps);
     s1.minimise(&g1, 1.0);
     let gamma_opt = g1.value(&s1.solve()?.x)[(0, 0)];
     // Stage 2: γ fixed above γ*, Y bounded, coupling margin maximised.
     let gamma = (1.0 + delta) * gamma_opt;
     let mut s2 = Problem::new();
     let (yv, ahv, bhv) = build(&mut s2, &Affine::constant(DMatrix::from_element(1, 1, gamma)), eps);
-    let t = s2.scalar();
-    s2.positive_definite("[X I; I Y] ⪰ tI", coupling_of(&yv).sub(&t.expr().map_scalar(&DMatrix::identity(2 * n, 2 * n))), 0.0);
-    s2.positive_definite("t ≥ 0", t.expr(), 0.0);
-    s2.positive_definite("Y ⪯ βI", Affine::identity(n).scale(beta).sub(&yv.expr()), 0.0);
-    s2.minimise(&t, -1.0);
+    let ye = yv.expr();
+    let t = maximise_coupling_margin(&mut s2, &xc, &ye, &[("Y ⪯ βI", &ye)], beta);
     let sol = s2.solve()?;
     let (y, ah, bh) = (yv.value(&sol.x), ahv.value(&sol.x), bhv.value(&sol.x));
     reconstruct(center, x, &y, &ah, &bh, ch, &DMatrix::zeros(nu, ny), gamma, gamma_opt, t.value(&sol.x)[(0, 0)])

@@ -47,6 +47,11 @@ fn system_matrix(g: &GeneralizedPlant) -> DMatrix<f64> {
     s
 }
 
+fn plant_at(p: &VehicleParams, d: &Design, sensor_noise: bool, m: f64) -> GeneralizedPlant {
+    let g = GeneralizedPlant::at_mass(p, d, m);
+    if sensor_noise { g.with_sensor_noise(d) } else { g }
+}
+
 impl MassUncertainty {
     pub fn new(p: &VehicleParams, d: &Design) -> Self {
         Self::build(p, d, false)
@@ -58,10 +63,7 @@ impl MassUncertainty {
     }
 
     fn build(p: &VehicleParams, d: &Design, sensor_noise: bool) -> Self {
-        let at = |m: f64| {
-            let g = GeneralizedPlant::at_mass(p, d, m);
-            if sensor_noise { g.with_sensor_noise(d) } else { g }
-        };
+        let at = |m: f64| plant_at(p, d, sensor_noise, m);
         let (m_min, m_max) = (d.mass_min, d.mass_max);
         let vertices = [at(m_min), at(m_max)];
         let center = at(2.0 / (1.0 / m_min + 1.0 / m_max));
@@ -79,8 +81,7 @@ impl MassUncertainty {
 
     /// The plant at mass `m` (exact, not interpolated).
     pub fn at(&self, m: f64) -> GeneralizedPlant {
-        let g = GeneralizedPlant::at_mass(&self.params, &self.design, m);
-        if self.sensor_noise { g.with_sensor_noise(&self.design) } else { g }
+        plant_at(&self.params, &self.design, self.sensor_noise, m)
     }
 
     /// The uniform check grid of the design file, endpoints included.

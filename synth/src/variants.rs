@@ -10,7 +10,7 @@ use crate::generalized::FORCE_UNIT;
 use crate::controller_file::controller_json;
 use crate::design::Design;
 use crate::generalized::{GeneralizedPlant, MEASUREMENTS};
-use crate::output_feedback::{hinf_of, hinf_of_common_x, optimal_gamma, OfData, OutputFeedback};
+use crate::output_feedback::{hinf_of, hinf_of_common_x, optimal_gamma, OfPlant, OutputFeedback};
 use crate::robust::{mass_grid_certificate, MassGrid, MassUncertainty};
 use crate::state_feedback::{hinf_sf, hinf_sf_robust, StateFeedback};
 use crate::SynthError;
@@ -38,6 +38,11 @@ pub struct Synthesised {
     pub seconds: f64,
 }
 
+/// The state-feedback "measurement": `y = x`, no `w` feed-through.
+fn full_state() -> (DMatrix<f64>, DMatrix<f64>) {
+    (DMatrix::identity(N_STATES, N_STATES), DMatrix::zeros(N_STATES, N_ROAD))
+}
+
 fn sf_inputs() -> Vec<String> {
     (1..=N_STATES).map(|k| format!("x[{k}]")).collect()
 }
@@ -61,8 +66,8 @@ pub fn nominal_of(variant: &str) -> Option<&'static str> {
 }
 
 /// Synthesise and certify each of `variants`, in parallel (longest first), then record in each
-/// robust design's certificate how its nominal counterpart, when also synthesised, fares over
-/// the same mass grid.
+/// robust design's certificate how its nominal counterpart, when also synthesised, fares against
+/// the same uncertainty ([`nominal_comparison`]).
 pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design) -> Result<Vec<(String, Synthesised)>, SynthError> {
     use rayon::prelude::*;
     // Independent designs first, in parallel; then those built on another.
@@ -84,17 +89,10 @@ pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design
     for v in variants {
         if let Some(n) = nominal_of(v) {
             if let Some(nominal) = by_name.get(n).map(|s| s.controller.clone()) {
-                let robust = by_name.get_mut(*v).expect("synthesised above");
-                if *v == "delay_sf" {
-                    let g = GeneralizedPlant::new(params, design);
-                    let margin = delay_margin(&g.a, &(&g.b_u / FORCE_UNIT), &nominal.d).ok();
-                    robust.certificate.details["nominal_design"] = serde_json::json!(n);
-                    robust.certificate.details["nominal_delay_margin_s"] = serde_json::json!(margin);
-                    continue;
-                }
-                let grid = nominal_over_masses(&robust.controller, &nominal, params, design);
-                robust.certificate.details["nominal_design"] = serde_json::json!(n);
-                robust.certificate.details["nominal_design_over_masses"] = serde_json::to_value(grid).expect("serialisable");
+                let (key, value) = nominal_comparison(v, &nominal, params, design);
+                let details = &mut by_name.get_mut(*v).expect("synthesised above").certificate.details;
+                details["nominal_design"] = serde_json::json!(n);
+                details[key] = value;
             }
         }
     }
@@ -134,15 +132,22 @@ pub fn summary_table(results: &[(String, Synthesised)], wall_seconds: f64) -> St
     t
 }
 
-/// The nominal controller over the robust design's mass grid (state or output feedback, like
-/// the robust one).
-fn nominal_over_masses(robust: &Controller, nominal: &Controller, params: &VehicleParams, design: &Design) -> MassGrid {
-    let unc = MassUncertainty::new(params, design);
-    if robust.b.ncols() == N_STATES {
-        MassGrid::evaluate(&unc, &DMatrix::identity(N_STATES, N_STATES), &DMatrix::zeros(N_STATES, N_ROAD), nominal)
-    } else {
-        let unc = unc.with_sensor_noise();
-        MassGrid::evaluate(&unc, &unc.center.c_y, &unc.center.d_yw, nominal)
+/// How the nominal design fares against the uncertainty `variant` is certified for: its delay
+/// margin, or its norm over the mass grid (full state or the output-feedback measurements).
+fn nominal_comparison(variant: &str, nominal: &Controller, params: &VehicleParams, design: &Design) -> (&'static str, serde_json::Value) {
+    match variant {
+        "delay_sf" => {
+            let g = GeneralizedPlant::new(params, design);
+            ("nominal_delay_margin_s", serde_json::json!(delay_margin(&g.a, &(&g.b_u / FORCE_UNIT), &nominal.d).ok()))
+        }
+        "robust_of" => {
+            let unc = MassUncertainty::new(params, design).with_sensor_noise();
+            ("nominal_design_over_masses", serde_json::to_value(MassGrid::evaluate(&unc, &unc.center.c_y, &unc.center.d_yw, nominal)).expect("serialisable"))
+        }
+        _ => {
+            let (c_meas, d_meas) = full_state();
+            ("nominal_design_over_masses", serde_json::to_value(MassGrid::evaluate(&MassUncertainty::new(params, design), &c_meas, &d_meas, nominal)).expect("serialisable"))
+        }
     }
 }
 
@@ -155,48 +160,49 @@ pub fn synthesise(variant: &str, params: &VehicleParams, design: &Design) -> Res
 }
 
 fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
-        let lmi = |e| SynthError::Lmi(variant.into(), e);
-        match variant {
-            "hinf_sf" => {
-                let g = GeneralizedPlant::new(params, design);
-                let energy = design.constraints.then(|| design.design_energy());
-                let sf = hinf_sf(&g, design.lmi_margin, energy).map_err(lmi)?;
-                let mut notes = vec![
-                    "Thesis Th. 5.1 (eq. 5.4) corrected: the D_zu Y term (accelerations respond directly to the actuator forces) is included.".to_string(),
-                    state_order_note(),
-                    format!("LMI solver status {} after {} iterations", sf.solver_status, sf.iterations),
-                ];
-                for (name, bound) in &sf.peak_bounds {
-                    notes.push(format!("guaranteed peak of {name} for the design bump energy: {bound:.4} of its limit"));
-                }
-                let controller = Controller::static_gain(sf.k.clone());
-                let certificate = certify(variant, &g, &DMatrix::identity(N_STATES, N_STATES), &DMatrix::zeros(N_STATES, N_ROAD), sf_inputs(), &controller, sf.gamma, notes)?;
-                let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected)", sf.gamma, &sf_inputs(), &controller);
-                Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
+    let lmi = |e| SynthError::Lmi(variant.into(), e);
+    match variant {
+        "hinf_sf" => {
+            let g = GeneralizedPlant::new(params, design);
+            let energy = design.constraints.then(|| design.design_energy());
+            let sf = hinf_sf(&g, design.lmi_margin, energy).map_err(lmi)?;
+            let mut notes = vec![
+                "Thesis Th. 5.1 (eq. 5.4) corrected: the D_zu Y term (accelerations respond directly to the actuator forces) is included.".to_string(),
+                state_order_note(),
+                format!("LMI solver status {} after {} iterations", sf.solver_status, sf.iterations),
+            ];
+            for (name, bound) in &sf.peak_bounds {
+                notes.push(format!("guaranteed peak of {name} for the design bump energy: {bound:.4} of its limit"));
             }
-            "hinf_of" => {
-                let g = GeneralizedPlant::new(params, design).with_sensor_noise(design);
-                let of = hinf_of(&g.of_plant(), design.lmi_margin, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
-                let notes = vec![
-                    "Thesis Th. 5.2 (eq. 5.9, which lacks blocks) replaced by the Scherer-Gahinet-Chilali / Gahinet-Apkarian LMI; controller rebuilt as in Remark 5.1 with M = I - XY, N = I.".to_string(),
-                    format!("Measurements: {} (plant outputs of the same names).", MEASUREMENTS.join(", ")),
-                    format!("w is extended by one sensor-noise channel per measurement (strokes {} m, rates {}), which regularises the filtering problem.", design.noise_stroke, design.noise_rate),
-                    reconstruction_note(&of),
-                ];
-                let mut certificate = certify(variant, &g, &g.c_y, &g.d_yw, of_inputs(), &of.controller, of.gamma, notes)?;
-                certificate.details = of_details(&of);
-                let json = controller_json(variant, "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)", of.gamma, &of_inputs(), &of.controller);
-                Ok(Synthesised { controller: of.controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
-            }
-            "hinf_of_aw" => {
-                let of = synthesise("hinf_of", params, design)?;
-                hinf_of_aw(&of, params, design)
-            }
-            "robust_sf" => robust_sf(params, design),
-            "delay_sf" => delay_sf_variant(params, design),
-            "robust_of" => robust_of(params, design),
-            other => Err(SynthError::Usage(format!("unknown variant '{other}', expected one of {ALL:?}"))),
+            let controller = Controller::static_gain(sf.k.clone());
+            let (c_meas, d_meas) = full_state();
+            let certificate = certify(variant, &g, &c_meas, &d_meas, sf_inputs(), &controller, sf.gamma, notes)?;
+            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected)", sf.gamma, &sf_inputs(), &controller);
+            Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
         }
+        "hinf_of" => {
+            let g = GeneralizedPlant::new(params, design).with_sensor_noise(design);
+            let of = hinf_of(&g.of_plant(), design.lmi_margin, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
+            let notes = vec![
+                "Thesis Th. 5.2 (eq. 5.9, which lacks blocks) replaced by the Scherer-Gahinet-Chilali / Gahinet-Apkarian LMI; controller rebuilt as in Remark 5.1 with M = I - XY, N = I.".to_string(),
+                format!("Measurements: {} (plant outputs of the same names).", MEASUREMENTS.join(", ")),
+                format!("w is extended by one sensor-noise channel per measurement (strokes {} m, rates {}), which regularises the filtering problem.", design.noise_stroke, design.noise_rate),
+                reconstruction_note(&of),
+            ];
+            let mut certificate = certify(variant, &g, &g.c_y, &g.d_yw, of_inputs(), &of.controller, of.gamma, notes)?;
+            certificate.details = of_details(&of);
+            let json = controller_json(variant, "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)", of.gamma, &of_inputs(), &of.controller);
+            Ok(Synthesised { controller: of.controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
+        }
+        "hinf_of_aw" => {
+            let of = synthesise("hinf_of", params, design)?;
+            hinf_of_aw(&of, params, design)
+        }
+        "robust_sf" => robust_sf(params, design),
+        "delay_sf" => delay_sf_variant(params, design),
+        "robust_of" => robust_of(params, design),
+        other => Err(SynthError::Usage(format!("unknown variant '{other}', expected one of {ALL:?}"))),
+    }
 }
 
 /// Thesis §5.1.4, Th. 5.3 (corrected): `hinf_of` plus a decoupled anti-windup compensator whose
@@ -244,13 +250,14 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
     let g = GeneralizedPlant::new(params, design);
     let (tau, epsilon) = (design.delay_tau, design.delay_epsilon);
     let sf = delay_sf(&g, tau, epsilon, design.lmi_margin).map_err(|e| SynthError::Lmi(variant.into(), e))?;
-    let margin = delay_margin(&g.a, &(&g.b_u / FORCE_UNIT), &sf.k).map_err(|e| SynthError::Certificate(crate::certificate::CertificateError::Delay { variant: variant.into(), reason: e }))?;
+    let fail = |reason: String| SynthError::Certificate(crate::certificate::CertificateError::Delay { variant: variant.into(), reason });
+    let margin = delay_margin(&g.a, &(&g.b_u / FORCE_UNIT), &sf.k).map_err(fail)?;
     if margin < tau {
-        return Err(SynthError::Certificate(crate::certificate::CertificateError::Delay { variant: variant.into(), reason: format!("delay margin {margin} s is below the design delay {tau} s") }));
+        return Err(fail(format!("delay margin {margin} s is below the design delay {tau} s")));
     }
     let delayed_norm = delayed_hinf_sweep(&g, &sf.k, tau);
     if delayed_norm > sf.gamma * (1.0 + crate::certificate::NORM_TOLERANCE) {
-        return Err(SynthError::Certificate(crate::certificate::CertificateError::Delay { variant: variant.into(), reason: format!("H-infinity norm {delayed_norm} with the delay exceeds gamma {}", sf.gamma) }));
+        return Err(fail(format!("H-infinity norm {delayed_norm} with the delay exceeds gamma {}", sf.gamma)));
     }
     let controller = Controller::static_gain(sf.k.clone());
     let notes = vec![
@@ -258,7 +265,8 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
         format!("Certified with the delay e^(-s tau): delay margin {margin:.6} s >= {tau} s (unit-modulus eigenvalues of K (jwI - A)^-1 B_u); H-infinity norm of the delayed loop by frequency sweep {delayed_norm:.6} <= gamma. The norm fields below are those of the loop without delay."),
         state_order_note(),
     ];
-    let mut certificate = certify(variant, &g, &DMatrix::identity(N_STATES, N_STATES), &DMatrix::zeros(N_STATES, N_ROAD), sf_inputs(), &controller, sf.gamma, notes)?;
+    let (c_meas, d_meas) = full_state();
+    let mut certificate = certify(variant, &g, &c_meas, &d_meas, sf_inputs(), &controller, sf.gamma, notes)?;
     certificate.details = serde_json::json!({
         "design_delay_s": tau,
         "descriptor_epsilon": epsilon,
@@ -273,109 +281,119 @@ fn mass_range(design: &Design) -> String {
     format!("m_s in [{}, {}] kg", design.mass_min, design.mass_max)
 }
 
-    /// Thesis Th. 6.1: both formulations, the less conservative shipped.
-    fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
-        let variant = "robust_sf";
-        let lmi = |e| SynthError::Lmi(variant.into(), e);
-        let unc = MassUncertainty::new(params, design);
-        let energy = design.constraints.then(|| design.design_energy());
-        let vertex = hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, design.lmi_margin, energy).map_err(lmi)?;
-        let nb = hinf_sf_robust(&[&unc.center], Some(&unc.norm_bounded), design.lmi_margin, None).map_err(lmi)?;
-        let (shipped, name): (&StateFeedback, &str) = if vertex.gamma <= nb.gamma { (&vertex, "vertex") } else { (&nb, "norm-bounded") };
-        let controller = Controller::static_gain(shipped.k.clone());
-        let (c_meas, d_meas) = (DMatrix::identity(N_STATES, N_STATES), DMatrix::zeros(N_STATES, N_ROAD));
-        let grid = mass_grid_certificate(variant, &unc, &c_meas, &d_meas, &controller, shipped.gamma)?;
-        let notes = vec![
-            format!("Thesis Th. 6.1, robust to {}. Vertex form: the corrected Th. 5.1 LMI at both vertices with one (Q, Y): gamma = {:.6}. Norm-bounded (COG) form, thesis Lemma 1 with epsilon a decision variable (the thesis fixes it): gamma = {:.6}. Shipped: {name}.", mass_range(design), vertex.gamma, nb.gamma),
-            "Not a BMI: for state feedback B_u(m) Y is affine in 1/m for the common Y = K Q, so each vertex LMI is linear and, affine in the plant data, holds between the vertices.".to_string(),
-            state_order_note(),
-        ];
-        let certificate = robust_certificate(variant, params, &unc, &c_meas, &d_meas, &controller, shipped.gamma, notes, &grid, serde_json::json!({"vertex_gamma": vertex.gamma, "norm_bounded_gamma": nb.gamma, "shipped": name}))?;
-        let json = controller_json(variant, "H-infinity state feedback robust to the sprung mass (thesis Th. 6.1)", shipped.gamma, &sf_inputs(), &controller);
-        Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "sprung mass", seconds: 0.0 })
-    }
+/// Thesis Th. 6.1: both formulations, the less conservative shipped.
+fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
+    let variant = "robust_sf";
+    let lmi = |e| SynthError::Lmi(variant.into(), e);
+    let unc = MassUncertainty::new(params, design);
+    let energy = design.constraints.then(|| design.design_energy());
+    let vertex = hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, design.lmi_margin, energy).map_err(lmi)?;
+    let nb = hinf_sf_robust(&[&unc.center], Some(&unc.norm_bounded), design.lmi_margin, None).map_err(lmi)?;
+    let (shipped, name): (&StateFeedback, &str) = if vertex.gamma <= nb.gamma { (&vertex, "vertex") } else { (&nb, "norm-bounded") };
+    let controller = Controller::static_gain(shipped.k.clone());
+    let (c_meas, d_meas) = full_state();
+    let grid = mass_grid_certificate(variant, &unc, &c_meas, &d_meas, &controller, shipped.gamma)?;
+    let notes = vec![
+        format!("Thesis Th. 6.1, robust to {}. Vertex form: the corrected Th. 5.1 LMI at both vertices with one (Q, Y): gamma = {:.6}. Norm-bounded (COG) form, thesis Lemma 1 with epsilon a decision variable (the thesis fixes it): gamma = {:.6}. Shipped: {name}.", mass_range(design), vertex.gamma, nb.gamma),
+        "Not a BMI: for state feedback B_u(m) Y is affine in 1/m for the common Y = K Q, so each vertex LMI is linear and, affine in the plant data, holds between the vertices.".to_string(),
+        state_order_note(),
+    ];
+    let certificate = robust_certificate(variant, params, &unc, &c_meas, &d_meas, sf_inputs(), &controller, shipped.gamma, notes, &grid, serde_json::json!({"vertex_gamma": vertex.gamma, "norm_bounded_gamma": nb.gamma, "shipped": name}))?;
+    let json = controller_json(variant, "H-infinity state feedback robust to the sprung mass (thesis Th. 6.1)", shipped.gamma, &sf_inputs(), &controller);
+    Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "sprung mass", seconds: 0.0 })
+}
 
-    /// Thesis Th. 6.2: norm-bounded with the multiplier searched; the vertex form by a fixed
-    /// robust state-feedback `X` (see [`hinf_of_common_x`]); the less conservative shipped.
-    fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
-        let variant = "robust_of";
-        let lmi = |e| SynthError::Lmi(variant.into(), e);
-        let unc = MassUncertainty::new(params, design).with_sensor_noise();
-        let eps = design.lmi_margin;
-        // Norm-bounded: γ*(λ) by the projected LMIs, λ by golden section in log λ over two
-        // decades around the optimal multiplier of the state-feedback problem (λ = 1/ε).
-        let sf_nb = hinf_sf_robust(&[&unc.center], Some(&unc.norm_bounded), eps, None).map_err(lmi)?;
-        let center = -sf_nb.multiplier.expect("norm-bounded design").log10();
-        let gamma_at = |log_lambda: f64| optimal_gamma(&norm_bounded_plant(&unc, 10f64.powf(log_lambda)).plant(), eps).unwrap_or(f64::INFINITY);
-        let (lo, hi) = (center - LAMBDA_DECADES, center + LAMBDA_DECADES);
-        let (log_lambda, nb_gamma_opt, evaluations) = golden_section(gamma_at, lo, hi, 0.3);
-        let lambda = 10f64.powf(log_lambda);
-        // Vertex form with X, Ĉ of the robust (vertex) state feedback.
-        let sf_v = hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, eps, None).map_err(lmi)?;
-        let vertex = hinf_of_common_x(&[unc.vertices[0].of_plant(), unc.vertices[1].of_plant()], &unc.center.of_plant(), &sf_v.q, &sf_v.y, eps, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
-        // The norm-bounded controller is reconstructed only if it is the one shipped.
-        let (shipped, name) = if vertex.gamma_opt <= nb_gamma_opt {
-            (vertex.clone(), "vertex")
-        } else {
-            (hinf_of(&norm_bounded_plant(&unc, lambda).plant(), eps, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?, "norm-bounded")
-        };
-        let shipped = &shipped;
-        let c = &unc.center;
-        let grid = mass_grid_certificate(variant, &unc, &c.c_y, &c.d_yw, &shipped.controller, shipped.gamma)?;
-        let notes = vec![
-            format!("Thesis Th. 6.2, robust to {}. Norm-bounded (COG) form: the uncertainty channel p = delta q, |delta| <= 1, as an extra normalised input/output of the Gahinet-Apkarian LMI (S-procedure multiplier lambda searched by golden section over log10 lambda in [{lo:.2}, {hi:.2}], {evaluations} evaluations): lambda = {lambda:.4e}, gamma* = {nb_gamma_opt:.6}. Vertex form (common X fixed to the robust state-feedback Q, see hinf_of_common_x): gamma* = {:.6}. Shipped: {name}, reconstructed at gamma = (1 + {OF_GAMMA_BACKOFF}) gamma*.", mass_range(design), vertex.gamma_opt),
-            "The vertex form is a BMI (A_hat contains Y A(m) X and Y B_u(m) C_K); fixing X and C_hat to a robust state-feedback solution makes it linear, and each vertex LMI is still an exact congruence of the closed-loop bounded-real LMI with one Lyapunov matrix, so the guarantee holds on the whole mass range.".to_string(),
-            format!("Measurements: {}.", MEASUREMENTS.join(", ")),
-            reconstruction_note(shipped),
-        ];
-        let mut details = of_details(shipped);
-        details["norm_bounded_gamma_opt"] = serde_json::json!(nb_gamma_opt);
-        details["norm_bounded_lambda"] = serde_json::json!(lambda);
-        details["vertex_gamma_opt"] = serde_json::json!(vertex.gamma_opt);
-        details["shipped"] = serde_json::json!(name);
-        let certificate = robust_certificate(variant, params, &unc, &c.c_y, &c.d_yw, &shipped.controller, shipped.gamma, notes, &grid, details)?;
-        let json = controller_json(variant, "H-infinity output feedback robust to the sprung mass (thesis Th. 6.2)", shipped.gamma, &of_inputs(), &shipped.controller);
-        Ok(Synthesised { controller: shipped.controller.clone(), certificate, controller_json: json, robust_to: "sprung mass", seconds: 0.0 })
-    }
+/// Thesis Th. 6.2: norm-bounded with the multiplier searched; the vertex form by a fixed
+/// robust state-feedback `X` (see [`hinf_of_common_x`]); the less conservative shipped.
+fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
+    let variant = "robust_of";
+    let lmi = |e| SynthError::Lmi(variant.into(), e);
+    let unc = MassUncertainty::new(params, design).with_sensor_noise();
+    let eps = design.lmi_margin;
+    // Norm-bounded: γ*(λ) by the projected LMIs, λ by golden section in log λ over two
+    // decades around the optimal multiplier of the state-feedback problem (λ = 1/ε).
+    let sf_nb = hinf_sf_robust(&[&unc.center], Some(&unc.norm_bounded), eps, None).map_err(lmi)?;
+    let center = -sf_nb.multiplier.expect("norm-bounded design").log10();
+    let gamma_at = |log_lambda: f64| {
+        let g = norm_bounded_plant(&unc, 10f64.powf(log_lambda));
+        optimal_gamma(&norm_bounded_of_plant(&g, &unc), eps).unwrap_or(f64::INFINITY)
+    };
+    let (lo, hi) = (center - LAMBDA_DECADES, center + LAMBDA_DECADES);
+    let (log_lambda, nb_gamma_opt, evaluations) = golden_section(gamma_at, lo, hi, 0.3);
+    let lambda = 10f64.powf(log_lambda);
+    // Vertex form with X, Ĉ of the robust (vertex) state feedback.
+    let sf_v = hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, eps, None).map_err(lmi)?;
+    let vertex = hinf_of_common_x(&[unc.vertices[0].of_plant(), unc.vertices[1].of_plant()], &unc.center.of_plant(), &sf_v.q, &sf_v.y, eps, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
+    // The norm-bounded controller is reconstructed only if it is the one shipped.
+    let (shipped, name) = if vertex.gamma_opt <= nb_gamma_opt {
+        (vertex.clone(), "vertex")
+    } else {
+        let g = norm_bounded_plant(&unc, lambda);
+        (hinf_of(&norm_bounded_of_plant(&g, &unc), eps, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?, "norm-bounded")
+    };
+    let shipped = &shipped;
+    let c = &unc.center;
+    let grid = mass_grid_certificate(variant, &unc, &c.c_y, &c.d_yw, &shipped.controller, shipped.gamma)?;
+    let notes = vec![
+        format!("Thesis Th. 6.2, robust to {}. Norm-bounded (COG) form: the uncertainty channel p = delta q, |delta| <= 1, as an extra normalised input/output of the Gahinet-Apkarian LMI (S-procedure multiplier lambda searched by golden section over log10 lambda in [{lo:.2}, {hi:.2}], {evaluations} evaluations): lambda = {lambda:.4e}, gamma* = {nb_gamma_opt:.6}. Vertex form (common X fixed to the robust state-feedback Q, see hinf_of_common_x): gamma* = {:.6}. Shipped: {name}, reconstructed at gamma = (1 + {OF_GAMMA_BACKOFF}) gamma*.", mass_range(design), vertex.gamma_opt),
+        "The vertex form is a BMI (A_hat contains Y A(m) X and Y B_u(m) C_K); fixing X and C_hat to a robust state-feedback solution makes it linear, and each vertex LMI is still an exact congruence of the closed-loop bounded-real LMI with one Lyapunov matrix, so the guarantee holds on the whole mass range.".to_string(),
+        format!("Measurements: {}.", MEASUREMENTS.join(", ")),
+        reconstruction_note(shipped),
+    ];
+    let mut details = of_details(shipped);
+    details["norm_bounded_gamma_opt"] = serde_json::json!(nb_gamma_opt);
+    details["norm_bounded_lambda"] = serde_json::json!(lambda);
+    details["vertex_gamma_opt"] = serde_json::json!(vertex.gamma_opt);
+    details["shipped"] = serde_json::json!(name);
+    let certificate = robust_certificate(variant, params, &unc, &c.c_y, &c.d_yw, of_inputs(), &shipped.controller, shipped.gamma, notes, &grid, details)?;
+    let json = controller_json(variant, "H-infinity output feedback robust to the sprung mass (thesis Th. 6.2)", shipped.gamma, &of_inputs(), &shipped.controller);
+    Ok(Synthesised { controller: shipped.controller.clone(), certificate, controller_json: json, robust_to: "sprung mass", seconds: 0.0 })
+}
 
-    /// The nominal certificate (at the design's own car) plus the mass grid.
-    #[allow(clippy::too_many_arguments)]
-    fn robust_certificate(variant: &str, params: &VehicleParams, unc: &MassUncertainty, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, k: &Controller, gamma: f64, notes: Vec<String>, grid: &MassGrid, mut details: serde_json::Value) -> Result<Certificate, SynthError> {
-        let measurements = if k.b.ncols() == N_STATES { sf_inputs() } else { of_inputs() };
-        let mut certificate = certify(variant, &unc.at(params.m_s), c_meas, d_meas, measurements, k, gamma, notes)?;
-        details["mass_grid"] = serde_json::to_value(grid).expect("serialisable");
-        // The mass-dependent matrices at both vertices: every mass of the range is their
-        // combination affine in 1/m_s, so another tool can re-check the grid.
-        details["vertices"] = serde_json::json!(unc.vertices.iter().zip([unc.m_min, unc.m_max]).map(|(v, m)| serde_json::json!({
-            "mass": m, "A": matrix_json(&v.a), "B_u": matrix_json(&v.b_u), "C_z": matrix_json(&v.c_z), "D_zu": matrix_json(&v.d_zu),
-        })).collect::<Vec<_>>());
-        details["worst_norm_over_masses"] = serde_json::json!(grid.worst_norm);
-        certificate.details = details;
-        Ok(certificate)
-    }
+/// The nominal certificate (at the design's own car) plus the mass grid.
+#[allow(clippy::too_many_arguments)]
+fn robust_certificate(variant: &str, params: &VehicleParams, unc: &MassUncertainty, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, measurements: Vec<String>, k: &Controller, gamma: f64, notes: Vec<String>, grid: &MassGrid, mut details: serde_json::Value) -> Result<Certificate, SynthError> {
+    let mut certificate = certify(variant, &unc.at(params.m_s), c_meas, d_meas, measurements, k, gamma, notes)?;
+    details["mass_grid"] = serde_json::to_value(grid).expect("serialisable");
+    // The mass-dependent matrices at both vertices: every mass of the range is their
+    // combination affine in 1/m_s, so another tool can re-check the grid.
+    details["vertices"] = serde_json::json!(unc.vertices.iter().zip([unc.m_min, unc.m_max]).map(|(v, m)| serde_json::json!({
+        "mass": m, "A": matrix_json(&v.a), "B_u": matrix_json(&v.b_u), "C_z": matrix_json(&v.c_z), "D_zu": matrix_json(&v.d_zu),
+    })).collect::<Vec<_>>());
+    details["worst_norm_over_masses"] = serde_json::json!(grid.worst_norm);
+    certificate.details = details;
+    Ok(certificate)
+}
 
-/// The output-feedback plant of the norm-bounded form with multiplier `λ`: `w` extended by
-/// `p̂ = √λ p` (column `H/√λ`), `z` by `q̂ = √λ q` (rows `√λ E`), unit blocks for both.
-fn norm_bounded_plant(unc: &MassUncertainty, lambda: f64) -> OfData {
-    let g = &unc.center;
+/// The generalised plant of the norm-bounded form with multiplier `λ`: the centre plant with `w`
+/// extended by `p̂ = √λ p` (column `H/√λ`) and `z` by `q̂ = √λ q` (rows `√λ E`); the last
+/// `H.ncols()` channels are the normalised uncertainty channel ([`OfPlant::unit_channels`]).
+fn norm_bounded_plant(unc: &MassUncertainty, lambda: f64) -> GeneralizedPlant {
+    let c = &unc.center;
     let (h, e) = (&unc.norm_bounded.h, &unc.norm_bounded.e);
-    let (n, r, nw, nz, nu, ny) = (g.n(), h.ncols(), g.b_w.ncols(), g.c_z.nrows(), g.b_u.ncols(), g.c_y.nrows());
+    let (n, r, nw, nz, nu, ny) = (c.n(), h.ncols(), c.b_w.ncols(), c.c_z.nrows(), c.b_u.ncols(), c.c_y.nrows());
     let s = lambda.sqrt();
-    let mut b1 = DMatrix::zeros(n, nw + r);
-    b1.view_mut((0, 0), (n, nw)).copy_from(&g.b_w);
-    b1.view_mut((0, nw), (n, r)).copy_from(&(h.rows(0, n) / s));
-    let mut d11 = DMatrix::zeros(nz + r, nw + r);
-    d11.view_mut((0, 0), (nz, nw)).copy_from(&g.d_zw);
-    d11.view_mut((0, nw), (nz, r)).copy_from(&(h.rows(n, nz) / s));
-    let mut c1 = DMatrix::zeros(nz + r, n);
-    c1.view_mut((0, 0), (nz, n)).copy_from(&g.c_z);
-    c1.view_mut((nz, 0), (r, n)).copy_from(&(e.columns(0, n) * s));
-    let mut d12 = DMatrix::zeros(nz + r, nu);
-    d12.view_mut((0, 0), (nz, nu)).copy_from(&g.d_zu);
-    d12.view_mut((nz, 0), (r, nu)).copy_from(&(e.columns(n, nu) * s));
-    let mut d21 = DMatrix::zeros(ny, nw + r);
-    d21.view_mut((0, 0), (ny, nw)).copy_from(&g.d_yw);
-    OfData { a: g.a.clone(), b1, b2: g.b_u.clone(), c1, d11, d12, c2: g.c_y.clone(), d21, unit_channels: r }
+    let mut g = c.clone();
+    g.b_w = DMatrix::zeros(n, nw + r);
+    g.b_w.view_mut((0, 0), (n, nw)).copy_from(&c.b_w);
+    g.b_w.view_mut((0, nw), (n, r)).copy_from(&(h.rows(0, n) / s));
+    g.d_zw = DMatrix::zeros(nz + r, nw + r);
+    g.d_zw.view_mut((0, 0), (nz, nw)).copy_from(&c.d_zw);
+    g.d_zw.view_mut((0, nw), (nz, r)).copy_from(&(h.rows(n, nz) / s));
+    g.c_z = DMatrix::zeros(nz + r, n);
+    g.c_z.view_mut((0, 0), (nz, n)).copy_from(&c.c_z);
+    g.c_z.view_mut((nz, 0), (r, n)).copy_from(&(e.columns(0, n) * s));
+    g.d_zu = DMatrix::zeros(nz + r, nu);
+    g.d_zu.view_mut((0, 0), (nz, nu)).copy_from(&c.d_zu);
+    g.d_zu.view_mut((nz, 0), (r, nu)).copy_from(&(e.columns(n, nu) * s));
+    g.d_yw = DMatrix::zeros(ny, nw + r);
+    g.d_yw.view_mut((0, 0), (ny, nw)).copy_from(&c.d_yw);
+    g
+}
+
+/// The output-feedback view of [`norm_bounded_plant`].
+fn norm_bounded_of_plant<'a>(g: &'a GeneralizedPlant, unc: &MassUncertainty) -> OfPlant<'a> {
+    OfPlant { unit_channels: unc.norm_bounded.h.ncols(), ..g.of_plant() }
 }
 
 /// Minimise a unimodal `f` on `[a, b]` to width `tol`: `(argmin, min, evaluations)`.
