@@ -16,7 +16,7 @@ STAMP  := .make
 APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf
+CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
 FMUS := plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
 RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-pack synth -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml

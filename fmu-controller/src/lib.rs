@@ -18,12 +18,15 @@ use std::path::Path;
 use vehicle::exact::{discretize, Discretization};
 
 /// Value references: inputs from 0, outputs from 1000, `gamma` at 2000, force limits of an
-/// anti-windup controller from 3000.
+/// anti-windup controller from 3000, a fault detector's variables from 4000.
 pub mod vr {
     pub const INPUT: u32 = 0;
     pub const OUTPUT: u32 = 1000;
     pub const GAMMA: u32 = 2000;
     pub const LIMIT: u32 = 3000;
+    pub const RESIDUAL_NORM: u32 = 4000;
+    pub const FAULT_DETECTED: u32 = 4001;
+    pub const FAULT_THRESHOLD: u32 = 4002;
 }
 
 /// An anti-windup controller's force-limit parameters, named like the plant's (`u_max` for the
@@ -67,6 +70,12 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             vars.push(Variable::real(name, vr::LIMIT + k as u32, Causality::Parameter, "N", format!("Force limit the anti-windup compensator saturates {what} at (set it equal to the plant's {name})")).with_start(aw.u_max[outputs[0]]));
         }
     }
+    if let Some(fd) = &spec.fault_detection {
+        let deps: Vec<String> = (0..spec.inputs.len()).filter(|&j| fd.d.column(j).iter().any(|v| *v != 0.0)).map(|j| spec.inputs[j].name.clone()).collect();
+        vars.push(Variable::real("residual_norm", vr::RESIDUAL_NORM, Causality::Output, "N", "Detection residual: the smallest actuator force deficit consistent with the measurements (0 when healthy, whatever the road)").depending_on(deps.clone()));
+        vars.push(Variable::boolean("fault_detected", vr::FAULT_DETECTED, Causality::Output, "True from the first communication point at which residual_norm exceeded fault_threshold (latched until re-initialisation)").depending_on(deps));
+        vars.push(Variable::real("fault_threshold", vr::FAULT_THRESHOLD, Causality::Parameter, "N", "Residual norm above which fault_detected is raised").with_start(fd.threshold).with_min(0.0));
+    }
     ModelDescription {
         model_name: spec.variant.clone(),
         model_identifier: spec.variant.clone(),
@@ -102,15 +111,30 @@ pub struct Controller {
     /// Force limit of each output (anti-windup only), and the parameters that set them.
     limits: Vec<f64>,
     limit_groups: Vec<(&'static str, Vec<usize>)>,
+    /// Fault detector: its threshold and the latched flag.
+    threshold: f64,
+    detected: bool,
     /// The stepped system `ẋ = A x + B v`, `v = y`, or `v = [y; u − y_c]` with anti-windup.
     a: nalgebra::DMatrix<f64>,
     b: nalgebra::DMatrix<f64>,
     cache: Option<Discretization>,
 }
 
-/// `(A, B)` of the stepped system: the controller alone, or with the anti-windup compensator
-/// `ẋc = A_K xc + B_K (y − C η)`, `η̇ = A_aw η + B_aw (u − y_c)`.
+/// `(A, B)` of the stepped system: the controller alone; with the anti-windup compensator
+/// `ẋc = A_K xc + B_K (y − C η)`, `η̇ = A_aw η + B_aw (u − y_c)` (input `[y; u − y_c]`); or with
+/// the fault detector `ξ̇ = A_d ξ + B_d y + B_du u` (input `[y; u]`, `u` the command sent).
 fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>) {
+    if let Some(fd) = &spec.fault_detection {
+        let (n, m, ny, nu) = (spec.order(), fd.a.nrows(), spec.inputs.len(), spec.outputs.len());
+        let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
+        a.view_mut((0, 0), (n, n)).copy_from(&spec.a);
+        a.view_mut((n, n), (m, m)).copy_from(&fd.a);
+        let mut b = nalgebra::DMatrix::zeros(n + m, ny + nu);
+        b.view_mut((0, 0), (n, ny)).copy_from(&spec.b);
+        b.view_mut((n, 0), (m, ny)).copy_from(&fd.b);
+        b.view_mut((n, ny), (m, nu)).copy_from(&fd.b_u);
+        return (a, b);
+    }
     let Some(aw) = &spec.anti_windup else { return (spec.a.clone(), spec.b.clone()) };
     let (n, m, ny, nu) = (spec.order(), aw.a.nrows(), spec.inputs.len(), spec.outputs.len());
     let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
@@ -135,10 +159,25 @@ impl Controller {
         (yc, u)
     }
 
+    /// `‖r‖` of the fault detector (0 without one).
+    fn residual_norm(&self) -> f64 {
+        let n = self.spec.order();
+        self.spec.fault_detection.as_ref().map_or(0.0, |fd| (&fd.c * self.x.rows(n, fd.a.nrows()) + &fd.d * &self.y).norm())
+    }
+
+    /// The commands `C xc + D y` of a controller without anti-windup.
+    fn linear_commands(&self) -> DVector<f64> {
+        &self.spec.c * self.x.rows(0, self.spec.order()) + &self.spec.d * &self.y
+    }
+
+    fn fault_detected(&self) -> bool {
+        self.detected || self.residual_norm() > self.threshold
+    }
+
     /// Command `i` sent to the plant.
     fn output(&self, i: usize) -> f64 {
         match &self.spec.anti_windup {
-            None => (self.spec.c.row(i) * &self.x)[(0, 0)] + (self.spec.d.row(i) * &self.y)[(0, 0)],
+            None => (self.spec.c.row(i) * self.x.rows(0, self.spec.order()))[(0, 0)] + (self.spec.d.row(i) * &self.y)[(0, 0)],
             Some(aw) => self.anti_windup_command(aw).1[i],
         }
     }
@@ -154,11 +193,14 @@ impl Model for Controller {
         let (a, b) = stepped_system(&spec);
         let limits = spec.anti_windup.as_ref().map(|aw| aw.u_max.clone()).unwrap_or_default();
         let limit_groups = if spec.anti_windup.is_some() { limit_groups(&spec) } else { Vec::new() };
-        Ok(Controller { x: DVector::zeros(a.nrows()), y: DVector::zeros(spec.inputs.len()), limits, limit_groups, a, b, spec, cache: None })
+        let threshold = spec.fault_detection.as_ref().map_or(f64::INFINITY, |fd| fd.threshold);
+        Ok(Controller { x: DVector::zeros(a.nrows()), y: DVector::zeros(spec.inputs.len()), limits, limit_groups, threshold, detected: false, a, b, spec, cache: None })
     }
 
     fn set_real(&mut self, vr: ValueReference, value: f64) {
-        if vr >= vr::LIMIT {
+        if vr == vr::FAULT_THRESHOLD {
+            self.threshold = value;
+        } else if vr >= vr::LIMIT {
             if let Some((_, outputs)) = self.limit_groups.get((vr - vr::LIMIT) as usize) {
                 for &i in outputs {
                     self.limits[i] = value;
@@ -171,6 +213,8 @@ impl Model for Controller {
 
     fn get_real(&mut self, vr: ValueReference) -> f64 {
         match vr {
+            vr::RESIDUAL_NORM => self.residual_norm(),
+            vr::FAULT_THRESHOLD => self.threshold,
             v if v >= vr::LIMIT => self.limit_groups.get((v - vr::LIMIT) as usize).map_or(f64::NAN, |(_, o)| self.limits[o[0]]),
             vr::GAMMA => self.spec.gamma,
             v if v >= vr::OUTPUT => self.output((v - vr::OUTPUT) as usize),
@@ -178,11 +222,19 @@ impl Model for Controller {
         }
     }
 
+    fn get_boolean(&mut self, vr: ValueReference) -> bool {
+        vr == vr::FAULT_DETECTED && self.fault_detected()
+    }
+
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
         if let Some(bad) = self.limits.iter().find(|l| !(**l > 0.0 && l.is_finite())) {
             return Err(format!("force limits must be finite and > 0, got {bad}"));
         }
+        if self.spec.fault_detection.is_some() && !(self.threshold > 0.0 && self.threshold.is_finite()) {
+            return Err(format!("fault_threshold must be finite and > 0, got {}", self.threshold));
+        }
         self.x.fill(0.0);
+        self.detected = false;
         Ok(())
     }
 
@@ -190,17 +242,22 @@ impl Model for Controller {
         if self.a.nrows() == 0 {
             return Ok(());
         }
+        // The detector latches on the values at the start of the step (what a master read).
+        self.detected = self.fault_detected();
         if self.cache.as_ref().map(|d| d.step.to_bits()) != Some(step.to_bits()) {
             self.cache = Some(discretize(&self.a, &self.b, step));
         }
-        // Measurements held over the step; with anti-windup the saturation excess u − y_c too
-        // (evaluated at the start of the step, as a sampled-data implementation does).
-        let v = match &self.spec.anti_windup {
-            None => self.y.clone(),
-            Some(aw) => {
+        // Measurements held over the step; with anti-windup the saturation excess u − y_c too,
+        // with a detector the command sent (evaluated at the start of the step, as a
+        // sampled-data implementation does and as the plant receives it).
+        let extend = |extra: DVector<f64>| DVector::from_iterator(self.y.len() + extra.len(), self.y.iter().copied().chain(extra.iter().copied()));
+        let v = match (&self.spec.anti_windup, &self.spec.fault_detection) {
+            (Some(aw), _) => {
                 let (yc, u) = self.anti_windup_command(aw);
-                DVector::from_iterator(self.y.len() + u.len(), self.y.iter().copied().chain((u - yc).iter().copied()))
+                extend(u - yc)
             }
+            (None, Some(_)) => extend(self.linear_commands()),
+            (None, None) => self.y.clone(),
         };
         let d = self.cache.as_ref().unwrap();
         let next = &d.phi * &self.x + &d.gamma_hold * v;
@@ -216,6 +273,7 @@ impl Model for Controller {
         out.f64s(self.x.as_slice());
         out.f64s(self.y.as_slice());
         out.f64s(&self.limits);
+        out.f64s(&[self.threshold, if self.detected { 1.0 } else { 0.0 }]);
     }
 
     fn restore(&mut self, input: &mut StateReader) -> Result<(), String> {
@@ -226,7 +284,10 @@ impl Model for Controller {
         let x = input.f64s_exact(self.x.len(), "controller states")?;
         let y = input.f64s_exact(self.spec.inputs.len(), "controller inputs")?;
         let limits = input.f64s_exact(self.limits.len(), "force limits")?;
+        let detector = input.f64s_exact(2, "fault detector")?;
         input.finish()?;
+        self.threshold = detector[0];
+        self.detected = detector[1] != 0.0;
         self.x = DVector::from_vec(x);
         self.y = DVector::from_vec(y);
         self.limits = limits;

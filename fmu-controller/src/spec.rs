@@ -33,6 +33,38 @@ struct Raw {
     d: Vec<Vec<f64>>,
     #[serde(default)]
     anti_windup: Option<RawAntiWindup>,
+    #[serde(default)]
+    fault_detection: Option<RawFaultDetection>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFaultDetection {
+    #[serde(rename = "A")]
+    a: Vec<Vec<f64>>,
+    #[serde(rename = "B")]
+    b: Vec<Vec<f64>>,
+    #[serde(rename = "B_u")]
+    b_u: Vec<Vec<f64>>,
+    #[serde(rename = "C")]
+    c: Vec<Vec<f64>>,
+    #[serde(rename = "D")]
+    d: Vec<Vec<f64>>,
+    threshold: f64,
+}
+
+/// A fault detector (thesis ch. 8): `ξ̇ = A ξ + B y + B_u u` with `u` the command sent (N),
+/// the residual `r = C ξ + D y` (N, the estimated actuator force deficit); `fault_detected`
+/// latches when `‖r‖` exceeds `threshold`.
+#[derive(Debug, Clone)]
+pub struct FaultDetection {
+    pub a: DMatrix<f64>,
+    pub b: DMatrix<f64>,
+    pub b_u: DMatrix<f64>,
+    pub c: DMatrix<f64>,
+    pub d: DMatrix<f64>,
+    /// Default threshold [N] (parameter `fault_threshold`).
+    pub threshold: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -74,6 +106,7 @@ pub struct Spec {
     pub c: DMatrix<f64>,
     pub d: DMatrix<f64>,
     pub anti_windup: Option<AntiWindup>,
+    pub fault_detection: Option<FaultDetection>,
     /// FNV-1a of the file's bytes: enters the version string, hence the GUID.
     pub content_hash: u64,
 }
@@ -134,8 +167,32 @@ impl Spec {
                 })
             }
         };
+        if raw.anti_windup.is_some() && raw.fault_detection.is_some() {
+            return Err(SpecError::Invalid("a controller has either anti_windup or fault_detection, not both".into()));
+        }
+        let fault_detection = match &raw.fault_detection {
+            None => None,
+            Some(fd) => {
+                if !(fd.threshold > 0.0 && fd.threshold.is_finite()) {
+                    return Err(SpecError::Invalid(format!("fault_detection.threshold must be finite and > 0, found {}", fd.threshold)));
+                }
+                let (m, nr) = (fd.a.len(), fd.c.len());
+                if nr == 0 {
+                    return Err(SpecError::Invalid("fault_detection needs at least one residual".into()));
+                }
+                Some(FaultDetection {
+                    a: matrix("fault_detection.A", &fd.a, m, m)?,
+                    b: matrix("fault_detection.B", &fd.b, m, ny)?,
+                    b_u: matrix("fault_detection.B_u", &fd.b_u, m, nu)?,
+                    c: matrix("fault_detection.C", &fd.c, nr, m)?,
+                    d: matrix("fault_detection.D", &fd.d, nr, ny)?,
+                    threshold: fd.threshold,
+                })
+            }
+        };
         let spec = Spec {
             anti_windup,
+            fault_detection,
             a: matrix("A", &raw.a, n, n)?,
             b: matrix("B", &raw.b, n, ny)?,
             c: matrix("C", &raw.c, nu, n)?,

@@ -164,3 +164,72 @@ fn anti_windup_saturates_and_integrates_the_excess_exactly() {
     // A non-positive limit is refused when initialisation ends.
     assert_ne!(aw_step(Some(-1.0)).0, 0);
 }
+
+/// Static controller `u = 2 y` with a scalar detector `ξ̇ = −ξ + y − 0.5 u`, `r = ξ`: with `y = 1`
+/// held, `u = 2`, so `ξ̇ = −ξ` and `ξ(0) = 0` stays 0 (no fault signature); with `ξ(0) = 0` and
+/// an input the command does not cancel, `ξ(t) = c (1 − e^{−t})`.
+const FD_SPEC: &str = r#"{
+  "format": "suspension-controller/1", "variant": "test_fd", "description": "test", "gamma": 1.0,
+  "inputs": [{"name": "stroke_fl", "unit": "m"}],
+  "outputs": [{"name": "u_fl", "unit": "N"}],
+  "A": [], "B": [], "C": [[]], "D": [[2.0]],
+  "fault_detection": {"A": [[-1.0]], "B": [[3.0]], "B_u": [[-0.5]], "C": [[1.0]], "D": [[0.0]], "threshold": 1.0}
+}"#;
+
+#[test]
+fn fault_detector_integrates_the_command_sent_and_latches_its_flag() {
+    let log = LogCapture::default();
+    let dir = dir_with("fd", Some(FD_SPEC));
+    let (c, _cb) = instantiate(&log, &guid_of(FD_SPEC), Some(&dir));
+    assert!(!c.is_null(), "{:?}", log.messages());
+    unsafe {
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        assert_eq!(fmi2ExitInitializationMode(c), 0);
+        let (mut r, mut flag, mut threshold) = (0.0, 1, 0.0);
+        fmi2GetReal(c, &vr::FAULT_THRESHOLD, 1, &mut threshold);
+        assert_eq!(threshold, 1.0);
+        // y = 1: ξ̇ = −ξ + 3 − 0.5·2 = −ξ + 2, so ξ(t) = 2 (1 − e^{−t}): above 1 from t = ln 2.
+        fmi2SetReal(c, &vr::INPUT, 1, &1.0);
+        let mut rose = None;
+        for k in 0..10 {
+            assert_eq!(fmi2DoStep(c, k as f64 * 0.1, 0.1, 1), 0);
+            fmi2GetReal(c, &vr::RESIDUAL_NORM, 1, &mut r);
+            let t = (k + 1) as f64 * 0.1;
+            assert!((r - 2.0 * (1.0 - (-t).exp())).abs() < 1e-14, "t = {t}: residual {r}");
+            fmi2GetBoolean(c, &vr::FAULT_DETECTED, 1, &mut flag);
+            if flag != 0 && rose.is_none() {
+                rose = Some(t);
+            }
+        }
+        assert!((rose.unwrap() - 0.7).abs() < 1e-9, "first communication point with ξ > 1 is t = 0.7, got {rose:?}");
+        // The residual falls back under the threshold (y = 0: ξ decays); the flag stays latched.
+        fmi2SetReal(c, &vr::INPUT, 1, &0.0);
+        for k in 10..40 {
+            fmi2DoStep(c, k as f64 * 0.1, 0.1, 1);
+        }
+        fmi2GetReal(c, &vr::RESIDUAL_NORM, 1, &mut r);
+        fmi2GetBoolean(c, &vr::FAULT_DETECTED, 1, &mut flag);
+        assert!(r < 0.1 && flag != 0, "residual {r}, flag {flag}");
+        fmi2FreeInstance(c);
+    }
+    // A threshold that is not > 0 is refused, in the file and as a parameter.
+    assert!(matches!(Spec::from_json(&FD_SPEC.replace("\"threshold\": 1.0", "\"threshold\": 0.0")), Err(spec::SpecError::Invalid(_))));
+    let with_aw = FD_SPEC.replace("\"fault_detection\"", "\"anti_windup\": {\"A\": [[-1.0]], \"B\": [[1.0]], \"C\": [[0.5]], \"F\": [[0.0]], \"u_max\": [4.0]}, \"fault_detection\"");
+    assert!(matches!(Spec::from_json(&with_aw), Err(spec::SpecError::Invalid(_))));
+    let (c, _cb) = instantiate(&log, &guid_of(FD_SPEC), Some(&dir));
+    unsafe {
+        assert_ne!(fmi2SetReal(c, &vr::FAULT_THRESHOLD, 1, &-1.0), 0);
+        assert!(log.contains("below its minimum"), "{:?}", log.messages());
+        fmi2FreeInstance(c);
+    }
+    let (c, _cb) = instantiate(&log, &guid_of(FD_SPEC), Some(&dir));
+    unsafe {
+        assert_eq!(fmi2SetReal(c, &vr::FAULT_THRESHOLD, 1, &0.0), 0);
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        assert_ne!(fmi2ExitInitializationMode(c), 0);
+        fmi2FreeInstance(c);
+    }
+    assert!(log.contains("fault_threshold must be finite and > 0"), "{:?}", log.messages());
+}

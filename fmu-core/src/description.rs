@@ -78,6 +78,15 @@ impl Variable {
         }
     }
 
+    /// A Boolean variable (discrete: a Boolean cannot be continuous).
+    pub fn boolean(name: impl Into<String>, vr: ValueReference, causality: Causality, description: impl Into<String>) -> Self {
+        let variability = match causality {
+            Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
+            Causality::Input | Causality::Output => Variability::Discrete,
+        };
+        Variable { name: name.into(), value_reference: vr, description: description.into(), causality, variability, kind: VarType::Boolean { start: None }, depends_on: Vec::new() }
+    }
+
     pub fn with_start(mut self, value: f64) -> Self {
         if let VarType::Real { start, .. } = &mut self.kind {
             *start = Some(value);

@@ -62,6 +62,8 @@ pub enum CertificateError {
     Unstable { variant: String, source: NormError },
     #[error("{variant}: the anti-windup loop fails its check: A + B_u F spectral abscissa {abscissa:e}, circle-criterion margin {margin:e}")]
     AntiWindup { variant: String, abscissa: f64, margin: f64 },
+    #[error("{variant}: the fault-tolerance certificate fails: {reason}")]
+    Fault { variant: String, reason: String },
     #[error("{variant}: the delay certificate fails: {reason}")]
     Delay { variant: String, reason: String },
     #[error("{variant}: at m_s = {mass} kg the closed-loop norm {norm:.9} (inf = unstable) exceeds the claimed γ = {gamma:.9}")]

@@ -64,6 +64,16 @@ pub struct Design {
     pub delay_tau: f64,
     /// `delay_sf`: the descriptor multiplier `P₃ = ε P₂` of the Lyapunov–Krasovskii LMI.
     pub delay_epsilon: f64,
+    /// `ft_of`: lowest actuator effectiveness the design must tolerate (each actuator in
+    /// `[fault_rho_min, 1]`; 0.5 = half its force lost).
+    pub fault_rho_min: f64,
+    /// `ft_of`: weight of the H2 bound on the estimation error in the observer LMI's objective
+    /// (`γ + w ν`; 0 = γ alone).
+    pub fault_h2_weight: f64,
+    /// `ft_of`: time constant of the detection residual's filter [s].
+    pub fault_time_constant: f64,
+    /// `ft_of`: force deficit above which `fault_detected` is raised [N] (an FMU parameter too).
+    pub fault_threshold: f64,
     /// Robust certificates: number of masses of the uniform check grid over the range (≥ 61).
     pub mass_grid_points: usize,
     /// Strictness margin ε of every LMI.
@@ -107,6 +117,8 @@ impl Design {
             ("noise_rate", self.noise_rate),
             ("delay_tau", self.delay_tau),
             ("delay_epsilon", self.delay_epsilon),
+            ("fault_time_constant", self.fault_time_constant),
+            ("fault_threshold", self.fault_threshold),
         ];
         for (name, value) in positive {
             if !(value > 0.0 && value.is_finite()) {
@@ -115,6 +127,12 @@ impl Design {
         }
         if !(self.mass_min > 0.0 && self.mass_min < self.mass_max && self.mass_max.is_finite()) {
             return Err(DesignError::Value { name: "mass_min, mass_max", expected: "0 < mass_min < mass_max < inf", value: self.mass_min });
+        }
+        if !(self.fault_h2_weight >= 0.0 && self.fault_h2_weight.is_finite()) {
+            return Err(DesignError::Value { name: "fault_h2_weight", expected: "a finite number >= 0", value: self.fault_h2_weight });
+        }
+        if !(self.fault_rho_min > 0.0 && self.fault_rho_min < 1.0) {
+            return Err(DesignError::Value { name: "fault_rho_min", expected: "in (0, 1)", value: self.fault_rho_min });
         }
         if self.mass_grid_points < 2 {
             return Err(DesignError::Value { name: "mass_grid_points", expected: "at least 2", value: self.mass_grid_points as f64 });

@@ -10,6 +10,7 @@ pub mod certificate;
 pub mod controller_file;
 pub mod delay;
 pub mod design;
+pub mod fault;
 pub mod generalized;
 pub mod hinf_norm;
 pub mod lmi;

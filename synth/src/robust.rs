@@ -76,7 +76,7 @@ impl MassUncertainty {
         let keep: Vec<usize> = (0..svd.singular_values.len()).filter(|&i| svd.singular_values[i] > tol).collect();
         let h = DMatrix::from_columns(&keep.iter().map(|&i| u.column(i) * svd.singular_values[i].sqrt()).collect::<Vec<_>>());
         let e = DMatrix::from_rows(&keep.iter().map(|&i| vt.row(i) * svd.singular_values[i].sqrt()).collect::<Vec<_>>());
-        MassUncertainty { m_min, m_max, vertices, center, norm_bounded: NormBounded { h, e }, params: *p, design: d.clone(), sensor_noise }
+        MassUncertainty { m_min, m_max, vertices, center, norm_bounded: NormBounded { h, e, diagonal: false }, params: *p, design: d.clone(), sensor_noise }
     }
 
     /// The plant at mass `m` (exact, not interpolated).

@@ -57,12 +57,14 @@ fn bounded_real(g: &GeneralizedPlant, q: &Affine, y: &Affine, gamma: &Affine) ->
     ])
 }
 
-/// A norm-bounded uncertainty `[ΔA ΔB_u; ΔC_z ΔD_zu] = H δ E`, `|δ| ≤ 1` (`H = [H_x; H_z]`,
-/// `E = [E_x E_u]`; a repeated scalar when `H` has several columns).
+/// A norm-bounded uncertainty `[ΔA ΔB_u; ΔC_z ΔD_zu] = H Δ E` (`H = [H_x; H_z]`, `E = [E_x E_u]`):
+/// `Δ` any matrix with `‖Δ‖ ≤ 1` (one multiplier), or with `diagonal`, `Δ = diag(δᵢ)`, `|δᵢ| ≤ 1`
+/// (one multiplier per `δᵢ`, which commute with `Δ`: less conservative).
 #[derive(Debug, Clone)]
 pub struct NormBounded {
     pub h: DMatrix<f64>,
     pub e: DMatrix<f64>,
+    pub diagonal: bool,
 }
 
 /// State feedback with one `(Q, Y)` for every plant of `plants` (the vertices of a polytope,
@@ -90,21 +92,24 @@ pub fn hinf_sf_robust(plants: &[&GeneralizedPlant], norm_bounded: Option<&NormBo
             None => p.negative_definite(&format!("H∞ bounded-real LMI, plant {i}"), brl, eps),
             Some(nb) => {
                 let (r, nz) = (nb.h.ncols(), g.c_z.nrows());
-                let ev = p.scalar();
-                multipliers.push(ev);
                 let mut m = DMatrix::zeros(n + nw + nz, r);
                 m.view_mut((0, 0), (n, r)).copy_from(&nb.h.rows(0, n));
                 m.view_mut((n + nw, 0), (nz, r)).copy_from(&nb.h.rows(n, nz));
+                // The multiplier S = εI, or diag(εᵢ) for a diagonal Δ: Ψ + M S Mᵀ + Nᵀ S⁻¹ N ≺ 0.
+                let eps_vars: Vec<_> = (0..if nb.diagonal { r } else { 1 }).map(|_| p.scalar()).collect();
+                multipliers.extend(eps_vars.iter().copied());
+                let unit = |i: usize| DMatrix::from_fn(r, r, |a, b| if a == b && (!nb.diagonal || a == i) { 1.0 } else { 0.0 });
+                let s_m = eps_vars.iter().enumerate().fold(Affine::zeros(r, r), |acc, (i, v)| acc.add(&v.expr().map_scalar(&unit(i))));
+                let m_s_mt = eps_vars.iter().enumerate().fold(Affine::zeros(n + nw + nz, n + nw + nz), |acc, (i, v)| acc.add(&v.expr().map_scalar(&(&m * unit(i) * m.transpose()))));
                 let e_x = nb.e.columns(0, n).into_owned();
                 let e_u = nb.e.columns(n, nu).into_owned();
                 let nq = q.left(&e_x).add(&y.left(&e_u));
                 let n_full = nq.embed(r, n + nw + nz, 0, 0);
-                let lmi = Affine::symmetric_blocks(&[
-                    vec![Some(brl.add(&ev.expr().map_scalar(&(&m * m.transpose())))), Some(n_full.t())],
-                    vec![None, Some(ev.expr().map_scalar(&(-DMatrix::identity(r, r))))],
-                ]);
+                let lmi = Affine::symmetric_blocks(&[vec![Some(brl.add(&m_s_mt)), Some(n_full.t())], vec![None, Some(s_m.scale(-1.0))]]);
                 p.negative_definite(&format!("norm-bounded robust H∞ LMI (Lemma 1), plant {i}"), lmi, eps);
-                p.positive_definite("ε > 0", ev.expr(), eps);
+                for v in &eps_vars {
+                    p.positive_definite("ε > 0", v.expr(), eps);
+                }
             }
         }
     }

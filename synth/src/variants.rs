@@ -5,7 +5,8 @@
 
 use crate::anti_windup::{circle_check, mraw};
 use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
-use crate::certificate::{certify, matrix_json, Certificate, Controller};
+use crate::certificate::{certify, closed_loop, matrix_json, Certificate, Controller};
+use crate::fault::{certify_faults, observer_for_faults, with_detection, with_effectiveness, DetectionResidual, FaultBox};
 use crate::generalized::FORCE_UNIT;
 use crate::controller_file::controller_json;
 use crate::design::Design;
@@ -19,7 +20,7 @@ use std::collections::BTreeMap;
 use vehicle::model::{N_ROAD, N_STATES, STATES};
 use vehicle::VehicleParams;
 
-pub const ALL: [&str; 6] = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_sf", "robust_of", "delay_sf"];
+pub const ALL: [&str; 7] = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_sf", "robust_of", "delay_sf", "ft_of"];
 
 /// Output feedback: relative γ back-off and bound on `X, Y` (SPEC §5).
 const OF_GAMMA_BACKOFF: f64 = 0.02;
@@ -61,6 +62,7 @@ pub fn nominal_of(variant: &str) -> Option<&'static str> {
         "robust_sf" => Some("hinf_sf"),
         "robust_of" => Some("hinf_of"),
         "delay_sf" => Some("hinf_sf"),
+        "ft_of" => Some("hinf_of"),
         _ => None,
     }
 }
@@ -76,7 +78,7 @@ pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design
         order.push("hinf_of");
     }
     // Longest first (measured), one design per task so an idle thread takes the next one.
-    const BY_COST: [&str; 6] = ["robust_of", "hinf_of", "delay_sf", "robust_sf", "hinf_of_aw", "hinf_sf"];
+    const BY_COST: [&str; 7] = ["robust_of", "ft_of", "hinf_of", "delay_sf", "robust_sf", "hinf_of_aw", "hinf_sf"];
     order.sort_by_key(|v| BY_COST.iter().position(|a| a == v));
     let done: Vec<(String, Synthesised)> = order.par_iter().with_max_len(1).map(|v| synthesise(v, params, design).map(|s| (v.to_string(), s))).collect::<Result<_, _>>()?;
     let mut by_name: BTreeMap<String, Synthesised> = done.into_iter().collect();
@@ -107,24 +109,29 @@ pub fn summary_table(results: &[(String, Synthesised)], wall_seconds: f64) -> St
     for (name, s) in results {
         let c = &s.certificate;
         let worst = c.details.get("worst_norm_over_masses").and_then(|v| v.as_f64());
-        let nominal = c.details.get("nominal_design_over_masses").and_then(|g| g.get("worst_norm")).and_then(|v| v.as_f64());
+        let nominal = ["nominal_design_over_masses", "nominal_design_over_faults"].iter().find_map(|k| c.details.get(*k)).map(|g| match g.get("worst_norm").and_then(|v| v.as_f64()) {
+            Some(x) => format!("{x:.6}"),
+            None => "unstable".into(),
+        });
         let delay = c.details.get("delay_margin_s").and_then(|v| v.as_f64());
         let nominal = match c.details.get("nominal_delay_margin_s").and_then(|v| v.as_f64()) {
             Some(m) => Some(format!("delay margin {:.1} ms", 1e3 * m)),
-            None => nominal.map(|x| format!("{x:.6}")),
+            None => nominal,
         };
-        let certified = match (worst, delay) {
-            (_, Some(margin)) => format!(
+        let faults = c.details.get("worst_norm_over_faults").and_then(|v| v.as_f64());
+        let certified = match (worst, delay, faults) {
+            (_, Some(margin), _) => format!(
                 "{:.6} with τ = {:.0} ms (sweep); delay margin {:.1} ms",
                 c.details["delayed_hinf_norm_sweep"].as_f64().unwrap_or(f64::NAN),
                 1e3 * c.details["design_delay_s"].as_f64().unwrap_or(f64::NAN),
                 1e3 * margin
             ),
-            (Some(w), None) => {
+            (_, _, Some(w)) => format!("{w:.6} (32 effectiveness vertices; small-gain {:.4} < 1 on the box)", c.details["fault_box"]["scaled_small_gain_norm"].as_f64().unwrap_or(f64::NAN)),
+            (Some(w), None, None) => {
                 let points = c.details["mass_grid"]["masses"].as_array().map_or(0, |m| m.len());
                 format!("{w:.6} ({points}-mass grid; {:.6} at the nominal car)", c.norm_upper)
             }
-            (None, None) => format!("{:.6}", c.norm_upper),
+            (None, None, None) => format!("{:.6}", c.norm_upper),
         };
         t += &format!("| `{name}` | {} | {:.6} | {certified} | {} | {:.2} s |\n", s.robust_to, c.gamma, nominal.unwrap_or_else(|| "-".into()), s.seconds);
     }
@@ -139,6 +146,12 @@ fn nominal_comparison(variant: &str, nominal: &Controller, params: &VehicleParam
         "delay_sf" => {
             let g = GeneralizedPlant::new(params, design);
             ("nominal_delay_margin_s", serde_json::json!(delay_margin(&g.a, &(&g.b_u / FORCE_UNIT), &nominal.d).ok()))
+        }
+        "ft_of" => {
+            let g = GeneralizedPlant::new(params, design).with_sensor_noise(design);
+            let norms: Vec<Option<f64>> = FaultBox { rho_min: design.fault_rho_min }.vertices().iter().map(|rho| closed_loop(&with_effectiveness(&g, rho), &g.c_y, &g.d_yw, nominal).hinf_norm(1e-8).ok().map(|n| n.upper)).collect();
+            let worst = norms.iter().map(|n| n.unwrap_or(f64::INFINITY)).fold(0.0, f64::max);
+            ("nominal_design_over_faults", serde_json::json!({"vertex_norms": norms, "worst_norm": if worst.is_finite() { Some(worst) } else { None }}))
         }
         "robust_of" => {
             let unc = MassUncertainty::new(params, design).with_sensor_noise();
@@ -201,6 +214,7 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
         "robust_sf" => robust_sf(params, design),
         "delay_sf" => delay_sf_variant(params, design),
         "robust_of" => robust_of(params, design),
+        "ft_of" => ft_of(params, design),
         other => Err(SynthError::Usage(format!("unknown variant '{other}', expected one of {ALL:?}"))),
     }
 }
@@ -275,6 +289,47 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
     });
     let json = controller_json(variant, "Delay-dependent H-infinity state feedback (thesis Prop. 7.1, Lyapunov-Krasovskii with Jensen)", sf.gamma, &sf_inputs(), &controller);
     Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "input delay", seconds: 0.0 })
+}
+
+/// Thesis Th. 8.1, corrected (see [`crate::fault`]): observer-based output feedback robust to
+/// every actuator's effectiveness in `[fault_rho_min, 1]`, with a road-decoupled detection residual.
+fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
+    let variant = "ft_of";
+    let lmi = |e| SynthError::Lmi(variant.into(), e);
+    let g = GeneralizedPlant::new(params, design);
+    let gn = g.with_sensor_noise(design);
+    let faults = FaultBox { rho_min: design.fault_rho_min };
+    let (center, nb) = faults.norm_bounded(&g);
+    let sf = hinf_sf_robust(&[&center], Some(&nb), design.lmi_margin, None).map_err(lmi)?;
+    let ob = observer_for_faults(&gn, &faults, &(&sf.k / FORCE_UNIT), design.lmi_margin, design.fault_h2_weight).map_err(lmi)?;
+    let det = DetectionResidual::new(&g, design.fault_time_constant);
+    let control = ob.controller(&gn);
+    let (k, c_r, d_r) = with_detection(&control, &det);
+    let fc = certify_faults(variant, &gn, &faults, &ob, &det, &k, &c_r, &d_r)?;
+    let notes = vec![
+        format!("Thesis Th. 8.1 corrected: LMIs 8.6/8.8 have a 0 on the diagonal (the fault input without -gamma^2 I) and cannot be strictly feasible. Here the fault is the loss of effectiveness the plant FMU models, each actuator's applied force rho_i u_i with rho_i in [{}, 1]; the box is a diagonal norm-bounded uncertainty around its centre (one S-procedure multiplier per actuator), so gamma holds for every rho(t) in it, switching faults included.", design.fault_rho_min),
+        format!("Scheme of thesis fig. 8.1 made consistent: observer x_hat' = A x_hat + B_u u + L r driven by the residual r = y - C_y x_hat, control u = F x_hat. F from the robust state-feedback LMI over the box (gamma_sf = {:.6}); L and gamma from the observer LMI with P = diag(P1, P2), Lambda = P2 L (gamma = {:.6}), minimising gamma + {} nu, nu an H2 bound on the estimation error F e (sqrt nu = {:.4}).", sf.gamma, ob.gamma, design.fault_h2_weight, ob.estimation_h2.unwrap_or(f64::NAN)),
+        format!("Certified: closed-loop norm at all {} effectiveness vertices (worst {:.6}); scaled small-gain norm of the fault loop {:.6} < 1 (the LMI's claim on the whole box, re-checked without the LMI). The norms are those of the loop with the observer-based controller; the detector states do not reach u.", fc.vertex_norms.len(), fc.worst_vertex_norm, fc.scaled_small_gain_norm),
+        format!("Detection: {} parity relations of the measurements that the road cannot excite (the body's momentum balance), filtered with T = {} s and reported as the smallest actuator force deficit consistent with them (N); road-to-residual gain {:.2e} N per unit road over {} frequencies; DC gain per unit deficit {:?}. fault_detected latches when the residual norm exceeds fault_threshold (default {} N).", det.order(), design.fault_time_constant, fc.road_to_residual, fc.frequencies, fc.residual_dc_per_actuator.iter().map(|v| (v * 1000.0).round() / 1000.0).collect::<Vec<_>>(), design.fault_threshold),
+        format!("Measurements: {}.", MEASUREMENTS.join(", ")),
+    ];
+    let mut certificate = certify(variant, &gn, &gn.c_y, &gn.d_yw, of_inputs(), &control, ob.gamma, notes)?;
+    certificate.details = serde_json::json!({
+        "fault_rho_min": design.fault_rho_min,
+        "state_feedback_gamma": sf.gamma,
+        "fault_multiplier_S": ob.multiplier,
+        "estimation_error_h2_bound": ob.estimation_h2,
+        "h2_weight": design.fault_h2_weight,
+        "observer_gain_L": matrix_json(&ob.l),
+        "state_feedback_F_newton": matrix_json(&(&ob.f * FORCE_UNIT)),
+        "fault_box": fc,
+        "worst_norm_over_faults": fc.worst_vertex_norm,
+        "detection": {"time_constant_s": det.time_constant, "threshold_n": design.fault_threshold, "pi": matrix_json(&det.pi), "kappa": matrix_json(&det.kappa), "G_per_newton": matrix_json(&det.g)},
+    });
+    let mut json = controller_json(variant, "Fault-tolerant H-infinity output feedback with observer and residual (thesis Th. 8.1, corrected)", ob.gamma, &of_inputs(), &control);
+    let d = det.detector();
+    json["fault_detection"] = serde_json::json!({"A": matrix_json(&d.a), "B": matrix_json(&d.b), "B_u": matrix_json(&d.b_u), "C": matrix_json(&d.c), "D": matrix_json(&d.d), "threshold": design.fault_threshold});
+    Ok(Synthesised { controller: k, certificate, controller_json: json, robust_to: "actuator faults", seconds: 0.0 })
 }
 
 fn mass_range(design: &Design) -> String {

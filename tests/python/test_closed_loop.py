@@ -25,6 +25,7 @@ class Fmu:
         self.md = read_model_description(path)
         self.dir = extract(path)
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.boolean = {v.name for v in self.md.modelVariables if v.type == "Boolean"}
         self.inputs = [v.name for v in self.md.modelVariables if v.causality == "input"]
         self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
                              modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
@@ -77,7 +78,9 @@ def iso_road(g_d_n0, speed, seed):
     return at
 
 
-def run(controller, road, seconds, h=1e-3, plant_parameters=None, record=RECORD):
+def run(controller, road, seconds, h=1e-3, plant_parameters=None, record=RECORD, controller_record=()):
+    """The log of `record` (plant outputs) after each step, then of `controller_record`
+    (controller variables, Booleans as 0/1, read once the controller has its new inputs)."""
     plant = Fmu("plant", plant_parameters)
     ctrl = Fmu(controller, plant_parameters) if controller else None
     road_refs, force_refs, rec = plant.refs(ROAD), plant.refs(FORCES), plant.refs(record)
@@ -95,7 +98,13 @@ def run(controller, road, seconds, h=1e-3, plant_parameters=None, record=RECORD)
             ctrl.fmu.doStep(t, h)
         plant.fmu.doStep(t, h)
         plant.fmu.setReal(road_refs, road(t + h))
-        log.append(plant.fmu.getReal(rec))
+        row = plant.fmu.getReal(rec)
+        if controller_record:
+            ctrl.fmu.setReal(y_to, plant.fmu.getReal(y_from))
+            for n in controller_record:
+                value = ctrl.fmu.getBoolean([ctrl.vr[n]])[0] if n in ctrl.boolean else ctrl.fmu.getReal([ctrl.vr[n]])[0]
+                row.append(float(value))
+        log.append(row)
     plant.close()
     if ctrl:
         ctrl.close()
@@ -180,3 +189,20 @@ def test_delay_sf_settles_with_the_plant_delay(tau):
     print(tau, a["seat"], p["seat"], tail)
     assert a["seat"] < 0.5 * p["seat"] and tail < 1e-4 * np.abs(log[:, 0]).max()
     assert a["stroke"] < 0.08 and a["corner_force"] < 2500 and a["seat_force"] < 1000
+
+
+def test_ft_of_detects_the_fault_of_fig_8_2_and_keeps_the_seat_quiet():
+    """Thesis ch. 8 in FMPy: FL loses half its force at t = 2 s on an ISO class-C road."""
+    fault = {"fault_time": 2.0, "fault_loss_fl": 0.5}
+    road = iso_road(256e-6, 20.0, 11)
+    log = run("ft_of", road, 5.0, plant_parameters=fault, record=["a_seat"], controller_record=["residual_norm", "fault_detected"])
+    of = run("hinf_of", road, 5.0, plant_parameters=fault, record=["a_seat"])
+    passive = run(None, road, 5.0, plant_parameters=fault, record=["a_seat"])
+    detected = int(np.argmax(log[:, 2] > 0.5))
+    rms = lambda a, lo, hi: float(np.sqrt(np.mean(a[lo:hi, 0] ** 2)))
+    print("healthy residual peak", log[:1999, 1].max(), "detected at step", detected,
+          "seat after:", rms(log, 2000, 5000), rms(of, 2000, 5000), rms(passive, 2000, 5000))
+    assert log[:1999, 1].max() < 10.0 and log[:2000, 2].max() == 0.0
+    assert 2000 <= detected < 2300 and log[detected:, 2].min() == 1.0
+    assert rms(log, 2000, 5000) < 0.1 * rms(passive, 2000, 5000)
+    assert rms(log, 2000, 5000) < 1.1 * rms(of, 2000, 5000)

@@ -148,9 +148,15 @@ impl Road for IsoRoad {
 pub const ROAD_INPUTS: [&str; 8] = ["road_z_fl", "road_z_fr", "road_z_rl", "road_z_rr", "road_v_fl", "road_v_fr", "road_v_rl", "road_v_rr"];
 pub const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
 
+/// Whether `name` is a Boolean variable of `import`.
+pub fn is_boolean(import: &Fmi2Import, name: &str) -> bool {
+    import.model_description().model_variables.variables.iter().any(|v| v.name == name && matches!(v.elem, fmi::fmi2::schema::ScalarVariableElement::Boolean(_)))
+}
+
 /// Run road → plant → controller (Gauss–Seidel: the controller reads the plant's outputs at
-/// `t_k` and its command is applied over `[t_k, t_k+1)`), recording `record` plant outputs
-/// after each step. `controller = None` is the passive car.
+/// `t_k` and its command is applied over `[t_k, t_k+1)`), recording `record` after each step:
+/// plant outputs, or, for a name the plant lacks, the controller's variable (a Boolean as 0/1,
+/// read when the controller has its inputs of `t_k+1`). `controller = None` is the passive car.
 pub fn run_loop(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: &dyn Road, h: f64, steps: usize, record: &[&str]) -> Vec<Vec<f64>> {
     run_loop_with(plant, controller, road, h, steps, record, &[])
 }
@@ -177,7 +183,15 @@ pub fn run_loop_with(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: 
     let mut p = start(plant, "plant");
     let road_vr: Vec<u32> = ROAD_INPUTS.iter().map(|n| vr(plant, n).expect("plant road input")).collect();
     let force_vr: Vec<u32> = FORCES.iter().map(|n| vr(plant, n).expect("plant force input")).collect();
-    let rec_vr: Vec<u32> = record.iter().map(|n| vr(plant, n).unwrap_or_else(|| panic!("plant has no output {n}"))).collect();
+    // (on the controller?, Boolean?, value reference)
+    let rec: Vec<(bool, bool, u32)> = record
+        .iter()
+        .map(|n| match (vr(plant, n), controller) {
+            (Some(r), _) => (false, false, r),
+            (None, Some(c)) => (true, is_boolean(c, n), vr(c, n).unwrap_or_else(|| panic!("neither plant nor controller has {n}"))),
+            (None, None) => panic!("plant has no output {n}"),
+        })
+        .collect();
     let mut ctrl = controller.map(|c| {
         let inputs = names_with_causality(c, "input");
         let from: Vec<u32> = inputs.iter().map(|n| vr(plant, n).unwrap_or_else(|| panic!("controller input {n} is not a plant output"))).collect();
@@ -200,9 +214,33 @@ pub fn run_loop_with(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: 
         }
         p.do_step(t, h, true).unwrap();
         p.set_real(&road_vr, &road.at(t + h)).unwrap();
-        let mut r = vec![0.0; rec_vr.len()];
-        p.get_real(&rec_vr, &mut r).unwrap();
-        log.push(r);
+        if let Some((c, from, to, _)) = ctrl.as_mut() {
+            if rec.iter().any(|r| r.0) {
+                let mut y = vec![0.0; from.len()];
+                p.get_real(from, &mut y).unwrap();
+                c.set_real(to, &y).unwrap();
+            }
+        }
+        let mut row = vec![0.0; rec.len()];
+        for (value, (on_controller, boolean, r)) in row.iter_mut().zip(&rec) {
+            let mut v = [0.0];
+            match (on_controller, ctrl.as_mut()) {
+                (false, _) => {
+                    p.get_real(&[*r], &mut v).unwrap();
+                }
+                (true, Some((c, ..))) if *boolean => {
+                    let mut b = [0];
+                    c.get_boolean(&[*r], &mut b).unwrap();
+                    v[0] = b[0] as f64;
+                }
+                (true, Some((c, ..))) => {
+                    c.get_real(&[*r], &mut v).unwrap();
+                }
+                (true, None) => unreachable!("resolved against the controller above"),
+            }
+            *value = v[0];
+        }
+        log.push(row);
     }
     log
 }

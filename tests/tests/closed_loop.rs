@@ -280,3 +280,41 @@ fn delay_sf_holds_its_design_delay_where_hinf_sf_loses_stability() {
     let (_, growth) = settle("hinf_sf", 0.025);
     assert!(growth > 0.99, "hinf_sf must have lost stability at 25 ms (growth {growth})");
 }
+
+/// Thesis fig. 8.2: the FL actuator loses half its force at t = 2 s on an ISO class-C road.
+/// `ft_of` raises `fault_detected` soon after, never before; its residual is (up to the
+/// sampled-data error) zero while the car is healthy, whatever the road does; and the seat is
+/// compared with `hinf_of` and the passive car under the same fault.
+#[test]
+fn ft_of_detects_a_half_lost_actuator_and_keeps_the_seat_quiet() {
+    let plant = load("plant");
+    let road = IsoRoad::new(256e-6, 20.0, 7);
+    let (h, steps, fault_at) = (1e-3, 6000, 2000);
+    let fault = [("fault_time", 2.0), ("fault_loss_fl", 0.5)];
+    let ft = load("ft_of");
+    let log = run_loop_with(&plant, Some(&ft), &road, h, steps, &["a_seat", "residual_norm", "fault_detected", "f_fl"], &fault);
+    let threshold = 50.0;
+    let healthy_peak = log[..fault_at - 1].iter().map(|r| r[1]).fold(0.0, f64::max);
+    let detected = log.iter().position(|r| r[2] == 1.0).expect("the fault must be detected");
+    let first_over = log.iter().position(|r| r[1] > threshold).expect("the residual must cross the threshold");
+    let of = load("hinf_of");
+    let seat_of = run_loop_with(&plant, Some(&of), &road, h, steps, &["a_seat"], &fault);
+    let passive = run_loop_with(&plant, None, &road, h, steps, &["a_seat"], &fault);
+    let after = |l: &[Vec<f64>]| rms(&l[fault_at..], 0);
+    let before = |l: &[Vec<f64>]| rms(&l[..fault_at], 0);
+    eprintln!(
+        "ft_of: healthy residual peak {healthy_peak:.3} N (threshold {threshold} N), faulty residual peak {:.0} N; detected at t = {:.3} s ({:.0} ms after the fault); seat RMS before / after the fault: ft_of {:.4} / {:.4}, hinf_of {:.4} / {:.4}, passive {:.4} / {:.4} m/s²",
+        log[fault_at..].iter().map(|r| r[1]).fold(0.0, f64::max),
+        (detected + 1) as f64 * h,
+        ((detected + 1 - fault_at) as f64 * h) * 1e3,
+        before(&log), after(&log), before(&seat_of), after(&seat_of), before(&passive), after(&passive)
+    );
+    // Healthy, the residual is the sampled-data error alone (measurements held over 1 ms).
+    assert!(healthy_peak < 0.2 * threshold, "healthy residual {healthy_peak} N is not near zero");
+    assert!(detected >= fault_at, "false alarm at step {detected}");
+    assert!(detected < fault_at + 300, "detected {} ms after the fault", detected - fault_at);
+    assert_eq!(detected, first_over, "the flag rises with the first residual above the threshold");
+    assert!(log[detected..].iter().all(|r| r[2] == 1.0), "the flag must stay latched");
+    assert!(after(&log) <= 0.1 * after(&passive), "ft_of under the fault is not 90 % below passive");
+    assert!(after(&log) <= 1.1 * after(&seat_of) && before(&log) <= 1.1 * before(&seat_of), "ft_of's seat is more than 10 % worse than hinf_of's");
+}
