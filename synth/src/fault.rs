@@ -305,21 +305,8 @@ pub fn certify_faults(variant: &str, g: &GeneralizedPlant, faults: &FaultBox, ob
     // The fault channel: p = Δ q enters as r B_u p and r D_zu p, q = ũ (the command, kN).
     let (rc, r) = faults.center_radius();
     let center = with_effectiveness(g, &[rc; N_ACTUATORS]);
-    let (n, nw, nz, nu, ny) = (g.n(), g.b_w.ncols(), g.c_z.nrows(), g.b_u.ncols(), g.c_y.nrows());
-    let mut aug = center.clone();
-    aug.b_w = DMatrix::zeros(n, nw + nu);
-    aug.b_w.view_mut((0, 0), (n, nw)).copy_from(&center.b_w);
-    aug.b_w.view_mut((0, nw), (n, nu)).copy_from(&(&g.b_u * r));
-    aug.d_zw = DMatrix::zeros(nz + nu, nw + nu);
-    aug.d_zw.view_mut((0, 0), (nz, nw)).copy_from(&center.d_zw);
-    aug.d_zw.view_mut((0, nw), (nz, nu)).copy_from(&(&g.d_zu * r));
-    aug.c_z = DMatrix::zeros(nz + nu, n);
-    aug.c_z.view_mut((0, 0), (nz, n)).copy_from(&center.c_z);
-    aug.d_zu = DMatrix::zeros(nz + nu, nu);
-    aug.d_zu.view_mut((0, 0), (nz, nu)).copy_from(&center.d_zu);
-    aug.d_zu.view_mut((nz, 0), (nu, nu)).fill_with_identity();
-    aug.d_yw = DMatrix::zeros(ny, nw + nu);
-    aug.d_yw.view_mut((0, 0), (ny, nw)).copy_from(&center.d_yw);
+    let (n, nw, nz, nu) = (g.n(), g.b_w.ncols(), g.c_z.nrows(), g.b_u.ncols());
+    let aug = center.with_uncertainty_channel(&(&g.b_u * r), &(&g.d_zu * r), &DMatrix::zeros(nu, n), &DMatrix::identity(nu, nu));
     let mut m = closed_loop(&aug, &g.c_y, &aug.d_yw, &control);
     let in_scale: Vec<f64> = (0..nw).map(|_| ob.gamma.powf(-0.5)).chain(ob.multiplier.iter().map(|s| s.powf(-0.5))).collect();
     let out_scale: Vec<f64> = (0..nz).map(|_| ob.gamma.powf(-0.5)).chain(ob.multiplier.iter().map(|s| s.sqrt())).collect();

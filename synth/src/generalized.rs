@@ -152,6 +152,30 @@ impl GeneralizedPlant {
         }
     }
 
+    /// `g` with an uncertainty channel `p = Δ q` as extra inputs and outputs: `p` enters as
+    /// `H_x p` in `ẋ` and `H_z p` in `z`, `q = E_x x + E_u u` is appended to `z`; nothing of it
+    /// reaches `y` (the uncertainty acts on the plant, not on the sensors).
+    pub fn with_uncertainty_channel(&self, h_x: &DMatrix<f64>, h_z: &DMatrix<f64>, e_x: &DMatrix<f64>, e_u: &DMatrix<f64>) -> GeneralizedPlant {
+        let (n, nw, nz, nu, ny) = (self.n(), self.b_w.ncols(), self.c_z.nrows(), self.b_u.ncols(), self.c_y.nrows());
+        let (np, nq) = (h_x.ncols(), e_x.nrows());
+        let mut g = self.clone();
+        g.b_w = DMatrix::zeros(n, nw + np);
+        g.b_w.view_mut((0, 0), (n, nw)).copy_from(&self.b_w);
+        g.b_w.view_mut((0, nw), (n, np)).copy_from(h_x);
+        g.d_zw = DMatrix::zeros(nz + nq, nw + np);
+        g.d_zw.view_mut((0, 0), (nz, nw)).copy_from(&self.d_zw);
+        g.d_zw.view_mut((0, nw), (nz, np)).copy_from(h_z);
+        g.c_z = DMatrix::zeros(nz + nq, n);
+        g.c_z.view_mut((0, 0), (nz, n)).copy_from(&self.c_z);
+        g.c_z.view_mut((nz, 0), (nq, n)).copy_from(e_x);
+        g.d_zu = DMatrix::zeros(nz + nq, nu);
+        g.d_zu.view_mut((0, 0), (nz, nu)).copy_from(&self.d_zu);
+        g.d_zu.view_mut((nz, 0), (nq, nu)).copy_from(e_u);
+        g.d_yw = DMatrix::zeros(ny, nw + np);
+        g.d_yw.view_mut((0, 0), (ny, nw)).copy_from(&self.d_yw);
+        g
+    }
+
     /// The plant the output-feedback designs use: `w` extended by one sensor-noise channel per
     /// measurement (`y += noise_k · w_noise,k`), which enters nothing else. This regularises the
     /// otherwise singular filtering problem (`D_yw` has full row rank).
@@ -176,4 +200,34 @@ fn stack(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
     m.view_mut((0, 0), top.shape()).copy_from(top);
     m.view_mut((top.nrows(), 0), bottom.shape()).copy_from(bottom);
     m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The channel, closed with a scalar `Δ = δ I`, is the plant with `[A B_u; C_z D_zu] +
+    /// [H_x; H_z] δ [E_x E_u]` (the standard LFT identity, by hand for a static `Δ`).
+    #[test]
+    fn closing_the_uncertainty_channel_gives_the_perturbed_plant() {
+        let d = Design::default();
+        let g = GeneralizedPlant::new(&VehicleParams::default(), &d);
+        let (n, nz, nu, nw) = (g.n(), g.c_z.nrows(), g.b_u.ncols(), g.b_w.ncols());
+        let h_x = DMatrix::from_fn(n, 2, |i, j| ((i + 3 * j) as f64).sin());
+        let h_z = DMatrix::from_fn(nz, 2, |i, j| ((2 * i + j) as f64).cos());
+        let e_x = DMatrix::from_fn(2, n, |i, j| ((i * j) as f64 * 0.1).sin());
+        let e_u = DMatrix::from_fn(2, nu, |i, j| (i + j) as f64 * 0.01);
+        let aug = g.with_uncertainty_channel(&h_x, &h_z, &e_x, &e_u);
+        assert_eq!((aug.b_w.ncols(), aug.c_z.nrows(), aug.d_yw.ncols()), (nw + 2, nz + 2, nw + 2));
+        // p = δ q with q = E_x x + E_u u + (no w feed-through), and no p → q feed-through.
+        assert_eq!(aug.d_zw.view((nz, 0), (2, nw + 2)).norm(), 0.0);
+        let delta = 0.3;
+        let a_closed = &aug.a + aug.b_w.columns(nw, 2) * delta * aug.c_z.rows(nz, 2);
+        let b_closed = &aug.b_u + aug.b_w.columns(nw, 2) * delta * aug.d_zu.rows(nz, 2);
+        let c_closed = aug.c_z.rows(0, nz) + aug.d_zw.view((0, nw), (nz, 2)) * delta * aug.c_z.rows(nz, 2);
+        assert!((a_closed - (&g.a + &h_x * delta * &e_x)).norm() < 1e-12);
+        assert!((b_closed - (&g.b_u + &h_x * delta * &e_u)).norm() < 1e-12);
+        assert!((c_closed - (&g.c_z + &h_z * delta * &e_x)).norm() < 1e-12);
+        assert_eq!(aug.d_yw.columns(nw, 2).norm(), 0.0);
+    }
 }

@@ -425,25 +425,9 @@ fn robust_certificate(variant: &str, params: &VehicleParams, unc: &MassUncertain
 /// `H.ncols()` channels are the normalised uncertainty channel ([`OfPlant::unit_channels`]).
 fn norm_bounded_plant(unc: &MassUncertainty, lambda: f64) -> GeneralizedPlant {
     let c = &unc.center;
-    let (h, e) = (&unc.norm_bounded.h, &unc.norm_bounded.e);
-    let (n, r, nw, nz, nu, ny) = (c.n(), h.ncols(), c.b_w.ncols(), c.c_z.nrows(), c.b_u.ncols(), c.c_y.nrows());
+    let (h, e, n) = (&unc.norm_bounded.h, &unc.norm_bounded.e, c.n());
     let s = lambda.sqrt();
-    let mut g = c.clone();
-    g.b_w = DMatrix::zeros(n, nw + r);
-    g.b_w.view_mut((0, 0), (n, nw)).copy_from(&c.b_w);
-    g.b_w.view_mut((0, nw), (n, r)).copy_from(&(h.rows(0, n) / s));
-    g.d_zw = DMatrix::zeros(nz + r, nw + r);
-    g.d_zw.view_mut((0, 0), (nz, nw)).copy_from(&c.d_zw);
-    g.d_zw.view_mut((0, nw), (nz, r)).copy_from(&(h.rows(n, nz) / s));
-    g.c_z = DMatrix::zeros(nz + r, n);
-    g.c_z.view_mut((0, 0), (nz, n)).copy_from(&c.c_z);
-    g.c_z.view_mut((nz, 0), (r, n)).copy_from(&(e.columns(0, n) * s));
-    g.d_zu = DMatrix::zeros(nz + r, nu);
-    g.d_zu.view_mut((0, 0), (nz, nu)).copy_from(&c.d_zu);
-    g.d_zu.view_mut((nz, 0), (r, nu)).copy_from(&(e.columns(n, nu) * s));
-    g.d_yw = DMatrix::zeros(ny, nw + r);
-    g.d_yw.view_mut((0, 0), (ny, nw)).copy_from(&c.d_yw);
-    g
+    c.with_uncertainty_channel(&(h.rows(0, n) / s), &(h.rows(n, c.c_z.nrows()) / s), &(e.columns(0, n) * s), &(e.columns(n, c.b_u.ncols()) * s))
 }
 
 /// The output-feedback view of [`norm_bounded_plant`].
