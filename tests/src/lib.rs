@@ -43,106 +43,22 @@ pub trait Road {
     fn at(&self, t: f64) -> [f64; 8];
 }
 
-/// The 5 cm, 5 m long 1 − cos bump at 15 m/s on the left wheels.
-pub struct Bump {
-    pub height: f64,
-    pub length: f64,
-    pub speed: f64,
-    pub start: f64,
-    pub wheelbase: f64,
-}
-
-impl Default for Bump {
-    fn default() -> Self {
-        Bump { height: 0.05, length: 5.0, speed: 15.0, start: 0.1, wheelbase: 2.4 }
-    }
-}
-
-impl Bump {
-    fn one(&self, t: f64) -> (f64, f64) {
-        let x = self.speed * (t - self.start);
-        if (0.0..=self.length).contains(&x) {
-            let w = 2.0 * std::f64::consts::PI / self.length;
-            (0.5 * self.height * (1.0 - (w * x).cos()), 0.5 * self.height * w * self.speed * (w * x).sin())
-        } else {
-            (0.0, 0.0)
-        }
-    }
-}
-
-impl Road for Bump {
+impl Road for vehicle::road::Road {
     fn at(&self, t: f64) -> [f64; 8] {
-        let (zf, vf) = self.one(t);
-        let (zr, vr) = self.one(t - self.wheelbase / self.speed);
-        [zf, 0.0, zr, 0.0, vf, 0.0, vr, 0.0]
+        vehicle::road::Road::at(self, t)
     }
 }
 
-/// An ISO 8608 random road as a sum of cosines: `G_d(n) = G_d(n0) (n/n0)^-2`, `n0 = 0.1`
-/// cycles/m, over 0.011–2.83 cycles/m, left and right tracks independent (seeded), the rear
-/// wheels on the front track delayed by the wheelbase. `road_v` is the exact derivative.
-pub struct IsoRoad {
-    speed: f64,
-    wheelbase: f64,
-    /// Per track: (amplitude [m], spatial frequency [cycles/m], phase).
-    tracks: [Vec<(f64, f64, f64)>; 2],
+/// A `height` m, 5 m long 1 − cos bump at 15 m/s on the left wheels, reached at t = 0.1 s (the
+/// road FMU's bump profile).
+pub fn bump(height: f64) -> vehicle::road::Road {
+    vehicle::road::Road::new(vehicle::road::Profile::Bump { height, length: 5.0, side: vehicle::road::Side::Left }, 15.0, 2.4, 1.5).expect("valid bump")
 }
 
-impl IsoRoad {
-    pub fn new(g_d_n0: f64, speed: f64, seed: u64) -> Self {
-        let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        let mut rand = move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let (n_lo, n_hi, k) = (0.011f64, 2.83f64, 400);
-        let mut track = || {
-            (0..k)
-                .map(|i| {
-                    let a = (n_lo.ln() + (n_hi / n_lo).ln() * i as f64 / k as f64).exp();
-                    let b = (n_lo.ln() + (n_hi / n_lo).ln() * (i + 1) as f64 / k as f64).exp();
-                    let n = (a * b).sqrt();
-                    let g = g_d_n0 * (n / 0.1f64).powi(-2);
-                    ((2.0 * g * (b - a)).sqrt(), n, 2.0 * std::f64::consts::PI * rand())
-                })
-                .collect::<Vec<_>>()
-        };
-        let left = track();
-        let right = track();
-        IsoRoad { speed, wheelbase: 2.4, tracks: [left, right] }
-    }
-
-    fn track(&self, side: usize, x: f64) -> (f64, f64) {
-        let two_pi = 2.0 * std::f64::consts::PI;
-        self.tracks[side].iter().fold((0.0, 0.0), |(z, v), (a, n, p)| {
-            let arg = two_pi * n * x + p;
-            (z + a * arg.cos(), v - a * two_pi * n * self.speed * arg.sin())
-        })
-    }
-}
-
-/// Fade-in time of the random road [s]: the car starts in equilibrium on a flat road, so the
-/// profile is brought in smoothly (`½(1 − cos)` window) instead of as a step at t = 0.
-pub const FADE_IN: f64 = 1.0;
-
-impl Road for IsoRoad {
-    fn at(&self, t: f64) -> [f64; 8] {
-        let (w, dw) = if t >= FADE_IN {
-            (1.0, 0.0)
-        } else {
-            let a = std::f64::consts::PI / FADE_IN;
-            (0.5 * (1.0 - (a * t).cos()), 0.5 * a * (a * t).sin())
-        };
-        let xf = self.speed * t + self.wheelbase;
-        let xr = self.speed * t;
-        let tracks = [self.track(0, xf), self.track(1, xf), self.track(0, xr), self.track(1, xr)];
-        let mut r = [0.0; 8];
-        for (i, (z, v)) in tracks.iter().enumerate() {
-            r[i] = w * z;
-            r[4 + i] = w * v + dw * z;
-        }
-        r
-    }
+/// An ISO 8608 road of class 1 (A) … 8 (H) (the road FMU's profile), tracks independent,
+/// faded in over 1 s, the front wheels one wheelbase into the profile at t = 0.
+pub fn iso_road(class: u8, speed: f64, seed: u64) -> vehicle::road::Road {
+    vehicle::road::Road::new(vehicle::road::Profile::Iso { class, seed, identical_tracks: false, fade_in: 1.0 }, speed, 2.4, -2.4).expect("valid ISO road")
 }
 
 pub const ROAD_INPUTS: [&str; 8] = ["road_z_fl", "road_z_fr", "road_z_rl", "road_z_rr", "road_v_fl", "road_v_fr", "road_v_rl", "road_v_rr"];

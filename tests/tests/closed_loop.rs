@@ -73,13 +73,13 @@ fn assert_comfort_targets(passive: &Figures, active: &Figures, roll_reduction: f
 
 #[test]
 fn hinf_sf_beats_the_passive_car_on_the_bump_within_limits() {
-    let (passive, active) = compare("bump", "hinf_sf", &Bump::default(), 4.0);
+    let (passive, active) = compare("bump", "hinf_sf", &bump(0.05), 4.0);
     assert_comfort_targets(&passive, &active, 0.5);
 }
 
 #[test]
 fn hinf_sf_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
-    let road = IsoRoad::new(256e-6, 20.0, 7);
+    let road = iso_road(3, 20.0, 7);
     let (passive, active) = compare("ISO C 20 m/s", "hinf_sf", &road, 10.0);
     // Measured 42.0 % roll reduction: short of the 50 % target. Weightings that reach 50 % here
     // saturate the corner actuators on the bump or lift a wheel; guard what is achieved.
@@ -121,7 +121,7 @@ fn certified_closed_loop(variant: &str) -> (DMatrix<f64>, DMatrix<f64>, Vec<f64>
 /// the sampling, so it is O(h) and halves with the step.
 fn cosimulation_matches_certificate(variant: &str) {
     let (a_cl, b_cl, scale) = certified_closed_loop(variant);
-    let road = Bump::default();
+    let road = bump(0.05);
     let exact = |h: f64, steps: usize| {
         let d = vehicle::exact::discretize(&a_cl, &b_cl, h);
         let w = |t: f64| DVector::from_iterator(8, road.at(t).iter().zip(&scale).map(|(r, s)| r / s));
@@ -175,13 +175,13 @@ fn robust_of_cosimulation_matches_the_certified_closed_loop_to_the_step_size() {
 
 #[test]
 fn hinf_of_beats_the_passive_car_on_the_bump_within_limits() {
-    let (passive, active) = compare("bump", "hinf_of", &Bump::default(), 4.0);
+    let (passive, active) = compare("bump", "hinf_of", &bump(0.05), 4.0);
     assert_comfort_targets(&passive, &active, 0.5);
 }
 
 #[test]
 fn hinf_of_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
-    let road = IsoRoad::new(256e-6, 20.0, 7);
+    let road = iso_road(3, 20.0, 7);
     let (passive, active) = compare("ISO C 20 m/s", "hinf_of", &road, 10.0);
     assert_comfort_targets(&passive, &active, 0.5);
 }
@@ -189,7 +189,7 @@ fn hinf_of_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
 /// Thesis ch. 6: the robust designs on the lightest and the heaviest car of the range, against
 /// the passive car of the same mass and the nominal design; every limit holds at both ends.
 fn robust_design_holds_over_the_mass_range(robust: &str, nominal: &str) {
-    let road = IsoRoad::new(256e-6, 20.0, 7);
+    let road = iso_road(3, 20.0, 7);
     for m in [1200.0, 1800.0] {
         let label = format!("ISO C 20 m/s, m_s = {m} kg");
         let (passive, active) = compare_with(&label, robust, &road, 10.0, &[("m_s", m)]);
@@ -229,7 +229,7 @@ fn anti_windup_keeps_the_saturated_loop_bounded_where_plain_output_feedback_wind
         (figures(&log), command, saturated, settled)
     };
     // A 10 cm bump saturates both briefly; both recover (the passive car is stable).
-    let bump = Bump { height: 0.1, ..Bump::default() };
+    let bump = bump(0.1);
     let (passive, ..) = run(None, &bump, 6.0);
     for v in ["hinf_of", "hinf_of_aw"] {
         let (f, command, saturated, settled) = run(Some(v), &bump, 6.0);
@@ -237,7 +237,7 @@ fn anti_windup_keeps_the_saturated_loop_bounded_where_plain_output_feedback_wind
         assert!(f.seat < passive.seat && settled < 1e-2, "{v} does not recover from the bump");
     }
     // A rough road (ISO class D, 20 m/s) keeps the actuators saturated.
-    let road = IsoRoad::new(1024e-6, 20.0, 7);
+    let road = iso_road(4, 20.0, 7);
     let (passive, ..) = run(None, &road, 20.0);
     let (plain, plain_command, plain_saturated, _) = run(Some("hinf_of"), &road, 20.0);
     let (aw, aw_command, aw_saturated, _) = run(Some("hinf_of_aw"), &road, 20.0);
@@ -266,7 +266,7 @@ fn delay_sf_holds_its_design_delay_where_hinf_sf_loses_stability() {
     // of the oscillation from 10–12 s to 13–15 s (≥ 1: no decay).
     let settle = |variant: &str, tau: f64| {
         let c = load(variant);
-        let log = run_loop_with(&plant, Some(&c), &Bump::default(), 1e-3, 15000, &RECORD, &[("tau", tau)]);
+        let log = run_loop_with(&plant, Some(&c), &bump(0.05), 1e-3, 15000, &RECORD, &[("tau", tau)]);
         let window = |a: usize, b: usize| log[a..b].iter().map(|r| r[0].abs()).fold(0.0, f64::max);
         let (early, late) = (window(10000, 12000), window(13000, 15000));
         let force = (8..12).map(|k| peak(&log[13000..], k)).fold(0.0, f64::max);
@@ -288,7 +288,7 @@ fn delay_sf_holds_its_design_delay_where_hinf_sf_loses_stability() {
 #[test]
 fn ft_of_detects_a_half_lost_actuator_and_keeps_the_seat_quiet() {
     let plant = load("plant");
-    let road = IsoRoad::new(256e-6, 20.0, 7);
+    let road = iso_road(3, 20.0, 7);
     let (h, steps, fault_at) = (1e-3, 6000, 2000);
     let fault = [("fault_time", 2.0), ("fault_loss_fl", 0.5)];
     let ft = load("ft_of");

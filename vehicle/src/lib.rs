@@ -4,7 +4,8 @@
 //! * [`model`]: the element-Jacobian derivation of `M, C, K`, the 16-state model and the
 //!   physical outputs;
 //! * [`polytope`]: the vertex and COG forms over the sprung mass;
-//! * [`exact`]: exact discretisation used by the plant FMU and the tests.
+//! * [`exact`]: exact discretisation used by the plant FMU and the tests;
+//! * [`road`]: road profiles under the four wheels (the road FMU, the tests, the master).
 //!
 //! Nothing here knows about FMI.
 
@@ -12,6 +13,7 @@ pub mod exact;
 pub mod model;
 pub mod params;
 pub mod polytope;
+pub mod road;
 
 pub use model::{MechanicalModel, StateSpace};
 pub use params::VehicleParams;

@@ -1,0 +1,309 @@
+//! Road profiles under the four wheels (FL, FR, RL, RR): heights and their exact time
+//! derivatives, the rear wheels on the front track delayed by the wheelbase. Used by the road
+//! FMU, the tests and the master, so every one of them drives the car over the same road.
+//!
+//! Every profile is a function of the distance `s` a wheel has travelled past the profile's
+//! origin: the front wheels are at `s = V t − start_distance`, the rear wheels `wheelbase`
+//! behind. `road_v = V dz/ds` exactly (closed form, no differencing).
+
+use std::f64::consts::PI;
+
+/// Which track a single feature is on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    Left,
+    Right,
+    Both,
+}
+
+impl Side {
+    fn has(self, track: usize) -> bool {
+        matches!((self, track), (Side::Both, _) | (Side::Left, 0) | (Side::Right, 1))
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Profile {
+    /// `½ h (1 − cos(2π s / L))` for `0 ≤ s ≤ L`.
+    Bump { height: f64, length: f64, side: Side },
+    /// ISO 8608 random road of class 1 (A) … 8 (H): `G_d(n) = G_d(n₀)(n/n₀)⁻²`, `n₀ = 0.1`
+    /// cycles/m, `G_d(n₀) = 16·4^(class−1)·10⁻⁶ m³`, as a sum of cosines over 0.011–2.83
+    /// cycles/m with seeded phases; the tracks independent or identical. Faded in over `fade_in`
+    /// seconds (`½(1 − cos)` window) so that the car, at rest on a flat road at t = 0, is not hit
+    /// by a step.
+    Iso { class: u8, seed: u64, identical_tracks: bool, fade_in: f64 },
+    /// `A w(τ) sin φ(τ)`, `τ = s / V ∈ [0, T]`: a linear sweep in time from `f_start` to `f_end` Hz
+    /// over `duration` T seconds at the front wheels (the rear wheels see it `wheelbase / V`
+    /// later), `w` a half-cosine taper over the first and last `min(0.5 s, T/4)` so that the
+    /// road stays continuous and differentiable where the sweep starts and ends.
+    SineSweep { amplitude: f64, f_start: f64, f_end: f64, duration: f64, side: Side },
+    /// A step of `depth` (negative: down) with half-cosine ramps of length `ramp`, and back after
+    /// `length` (a pothole); `length = ∞` is a permanent step.
+    Pothole { depth: f64, length: f64, ramp: f64, side: Side },
+}
+
+/// ISO 8608 `G_d(n₀)` [m³] of class 1 (A) … 8 (H): the geometric means of the class bounds.
+pub fn iso_g_d_n0(class: u8) -> f64 {
+    16e-6 * 4f64.powi(class as i32 - 1)
+}
+
+/// Spatial band of the ISO road [cycles/m] and its number of cosines per track.
+pub const ISO_BAND: (f64, f64) = (0.011, 2.83);
+const ISO_COMPONENTS: usize = 400;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Road {
+    pub profile: Profile,
+    /// Vehicle speed [m/s].
+    pub speed: f64,
+    /// Front-to-rear axle distance [m].
+    pub wheelbase: f64,
+    /// Distance from the front wheels at t = 0 to the profile's origin [m].
+    pub start_distance: f64,
+    /// ISO road: per track (left, right), `(amplitude [m], spatial frequency [cycles/m], phase)`.
+    tracks: [Vec<(f64, f64, f64)>; 2],
+}
+
+impl Road {
+    /// Check the parameters and build the road (the ISO road's cosines are drawn here).
+    pub fn new(profile: Profile, speed: f64, wheelbase: f64, start_distance: f64) -> Result<Road, String> {
+        let positive = |name: &str, v: f64| if v > 0.0 && v.is_finite() { Ok(()) } else { Err(format!("{name} must be finite and > 0, got {v}")) };
+        positive("speed", speed)?;
+        positive("wheelbase", wheelbase)?;
+        if !start_distance.is_finite() {
+            return Err(format!("start_distance must be finite, got {start_distance}"));
+        }
+        let mut tracks = [Vec::new(), Vec::new()];
+        match &profile {
+            Profile::Bump { height, length, .. } => {
+                positive("bump_length", *length)?;
+                if !height.is_finite() {
+                    return Err(format!("bump_height must be finite, got {height}"));
+                }
+            }
+            Profile::Iso { class, seed, identical_tracks, fade_in } => {
+                if !(1..=8).contains(class) {
+                    return Err(format!("iso_class must be 1 (A) … 8 (H), got {class}"));
+                }
+                if !(*fade_in >= 0.0 && fade_in.is_finite()) {
+                    return Err(format!("fade_in must be finite and >= 0, got {fade_in}"));
+                }
+                let mut rand = lcg(*seed);
+                let g_d_n0 = iso_g_d_n0(*class);
+                let mut track = || iso_track(g_d_n0, &mut rand);
+                let left = track();
+                let right = if *identical_tracks { left.clone() } else { track() };
+                tracks = [left, right];
+            }
+            Profile::SineSweep { amplitude, f_start, f_end, duration, .. } => {
+                positive("sweep_f_start", *f_start)?;
+                positive("sweep_f_end", *f_end)?;
+                positive("sweep_duration", *duration)?;
+                if !amplitude.is_finite() {
+                    return Err(format!("sweep_amplitude must be finite, got {amplitude}"));
+                }
+            }
+            Profile::Pothole { depth, length, ramp, .. } => {
+                positive("pothole_ramp", *ramp)?;
+                if !(depth.is_finite() && *length >= 2.0 * ramp) {
+                    return Err(format!("pothole: depth must be finite and length >= 2 ramp (got depth {depth}, length {length}, ramp {ramp})"));
+                }
+            }
+        }
+        Ok(Road { profile, speed, wheelbase, start_distance, tracks })
+    }
+
+    /// `[z_fl, z_fr, z_rl, z_rr, v_fl, v_fr, v_rl, v_rr]` at time `t` [m, m/s].
+    pub fn at(&self, t: f64) -> [f64; 8] {
+        let s_front = self.speed * t - self.start_distance;
+        let mut r = [0.0; 8];
+        for (wheel, (track, s)) in [(0, s_front), (1, s_front), (0, s_front - self.wheelbase), (1, s_front - self.wheelbase)].into_iter().enumerate() {
+            let (z, dz_ds) = self.track(track, s);
+            r[wheel] = z;
+            r[4 + wheel] = self.speed * dz_ds;
+        }
+        if let Profile::Iso { fade_in, .. } = self.profile {
+            if t < fade_in {
+                let a = PI / fade_in;
+                let (w, dw) = (0.5 * (1.0 - (a * t).cos()), 0.5 * a * (a * t).sin());
+                for k in 0..4 {
+                    r[4 + k] = w * r[4 + k] + dw * r[k];
+                    r[k] *= w;
+                }
+            }
+        }
+        r
+    }
+
+    /// `(z, dz/ds)` of track 0 (left) or 1 (right) at distance `s`.
+    pub fn track(&self, track: usize, s: f64) -> (f64, f64) {
+        match self.profile {
+            Profile::Bump { height, length, side } if side.has(track) && (0.0..=length).contains(&s) => {
+                let k = 2.0 * PI / length;
+                (0.5 * height * (1.0 - (k * s).cos()), 0.5 * height * k * (k * s).sin())
+            }
+            Profile::Iso { .. } => self.tracks[track].iter().fold((0.0, 0.0), |(z, dz), (a, n, p)| {
+                let arg = 2.0 * PI * n * s + p;
+                (z + a * arg.cos(), dz - a * 2.0 * PI * n * arg.sin())
+            }),
+            Profile::SineSweep { amplitude, f_start, f_end, duration, side } if side.has(track) && (0.0..=self.speed * duration).contains(&s) => {
+                // φ(s) = 2π (f₀ τ + (f₁ − f₀) τ² / (2T)), τ = s / V.
+                let tau = s / self.speed;
+                let phase = 2.0 * PI * (f_start * tau + (f_end - f_start) * tau * tau / (2.0 * duration));
+                let dphase_dtau = 2.0 * PI * (f_start + (f_end - f_start) * tau / duration);
+                let taper = (0.5f64).min(duration / 4.0);
+                let edge = tau.min(duration - tau);
+                let (w, dw_dtau) = if edge < taper {
+                    let sign = if tau < duration - tau { 1.0 } else { -1.0 };
+                    (0.5 * (1.0 - (PI * edge / taper).cos()), sign * 0.5 * PI / taper * (PI * edge / taper).sin())
+                } else {
+                    (1.0, 0.0)
+                };
+                (amplitude * w * phase.sin(), amplitude * (dw_dtau * phase.sin() + w * phase.cos() * dphase_dtau) / self.speed)
+            }
+            Profile::Pothole { depth, length, ramp, side } if side.has(track) && s >= 0.0 => {
+                let edge = |x: f64| -> (f64, f64) {
+                    if x <= 0.0 {
+                        (0.0, 0.0)
+                    } else if x >= ramp {
+                        (1.0, 0.0)
+                    } else {
+                        (0.5 * (1.0 - (PI * x / ramp).cos()), 0.5 * PI / ramp * (PI * x / ramp).sin())
+                    }
+                };
+                let (up, dup) = edge(s);
+                let (down, ddown) = if length.is_finite() { edge(s - length + ramp) } else { (0.0, 0.0) };
+                (depth * (up - down), depth * (dup - ddown))
+            }
+            _ => (0.0, 0.0),
+        }
+    }
+}
+
+/// A 64-bit LCG (Knuth's MMIX constants) giving uniform numbers in [0, 1): the phases of the ISO
+/// road, deterministic for a seed on every platform (a PRNG crate's stream may change between
+/// versions; this one cannot).
+fn lcg(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// One track: `ISO_COMPONENTS` cosines on log-spaced bands, each carrying the band's variance
+/// `∫ G_d dn` (amplitude `√(2 G_d(n_c) Δn)`), random phases.
+fn iso_track(g_d_n0: f64, rand: &mut impl FnMut() -> f64) -> Vec<(f64, f64, f64)> {
+    let (n_lo, n_hi) = ISO_BAND;
+    let k = ISO_COMPONENTS;
+    (0..k)
+        .map(|i| {
+            let a = (n_lo.ln() + (n_hi / n_lo).ln() * i as f64 / k as f64).exp();
+            let b = (n_lo.ln() + (n_hi / n_lo).ln() * (i + 1) as f64 / k as f64).exp();
+            let n = (a * b).sqrt();
+            let g = g_d_n0 * (n / 0.1f64).powi(-2);
+            ((2.0 * g * (b - a)).sqrt(), n, 2.0 * PI * rand())
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn roads() -> Vec<Road> {
+        let profiles = [
+            Profile::Bump { height: 0.05, length: 5.0, side: Side::Left },
+            Profile::Iso { class: 3, seed: 7, identical_tracks: false, fade_in: 1.0 },
+            Profile::SineSweep { amplitude: 0.01, f_start: 0.5, f_end: 20.0, duration: 10.0, side: Side::Both },
+            Profile::Pothole { depth: -0.04, length: 0.8, ramp: 0.1, side: Side::Right },
+            Profile::Pothole { depth: 0.03, length: f64::INFINITY, ramp: 0.2, side: Side::Both },
+        ];
+        profiles.into_iter().map(|p| Road::new(p, 15.0, 2.4, 1.5).unwrap()).collect()
+    }
+
+    #[test]
+    fn road_velocity_is_the_exact_derivative_of_the_height() {
+        for road in roads() {
+            for k in 1..4000 {
+                let t = k as f64 * 0.0025 + 1.234e-4; // off the profiles' joints
+                let h = 1e-6;
+                let (zp, zm, v) = (road.at(t + h), road.at(t - h), road.at(t));
+                for w in 0..4 {
+                    let fd = (zp[w] - zm[w]) / (2.0 * h);
+                    assert!((fd - v[4 + w]).abs() < 1e-5 * (1.0 + v[4 + w].abs()), "{:?} t = {t} wheel {w}: {fd} vs {}", road.profile, v[4 + w]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_rear_wheels_follow_the_front_track_one_wheelbase_later() {
+        for road in roads() {
+            let delay = road.wheelbase / road.speed;
+            for k in 0..2000 {
+                let t = 1.2 + k as f64 * 0.003; // after the ISO fade-in
+                let (now, before) = (road.at(t), road.at(t - delay));
+                for (rear, front) in [(2, 0), (3, 1), (6, 4), (7, 5)] {
+                    assert!((now[rear] - before[front]).abs() <= 1e-12 * (1.0 + before[front].abs()), "{:?} at {t}", road.profile);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn single_features_are_on_their_side_only_and_end_where_they_should() {
+        let r = roads();
+        let bump = &r[0];
+        let peak = bump.at((1.5 + 2.5) / 15.0);
+        assert!((peak[0] - 0.05).abs() < 1e-12 && peak[1] == 0.0);
+        assert_eq!(bump.at((1.5 + 5.01) / 15.0)[0], 0.0);
+        let pothole = &r[3];
+        let inside = pothole.at((1.5 + 0.4) / 15.0);
+        assert!((inside[1] + 0.04).abs() < 1e-12 && inside[0] == 0.0);
+        assert_eq!(pothole.at((1.5 + 0.81) / 15.0)[1], 0.0);
+        let step = &r[4];
+        assert!((step.at(100.0)[2] - 0.03).abs() < 1e-12);
+        // Identical tracks: left = right; independent: not.
+        let same = Road::new(Profile::Iso { class: 3, seed: 1, identical_tracks: true, fade_in: 0.0 }, 20.0, 2.4, 0.0).unwrap();
+        assert_eq!(same.at(3.0)[0], same.at(3.0)[1]);
+        assert_ne!(r[1].at(3.0)[0], r[1].at(3.0)[1]);
+    }
+
+    /// The periodogram of a 2 km sample of each track (0.2 m spacing), averaged over the octave
+    /// bands 0.02–1.28 cycles/m, against `G_d` of the class (direct DFT at the bins of each band).
+    #[test]
+    fn iso_road_psd_matches_its_class() {
+        for class in [1u8, 3, 6] {
+            let road = Road::new(Profile::Iso { class, seed: 11 + class as u64, identical_tracks: false, fade_in: 0.0 }, 20.0, 2.4, 0.0).unwrap();
+            let (length, ds) = (2000.0, 0.2);
+            let n = (length / ds) as usize;
+            for track in 0..2 {
+                let z: Vec<f64> = (0..n).map(|k| road.track(track, k as f64 * ds).0).collect();
+                let mut band_lo = 0.02;
+                while band_lo < 1.0 {
+                    let band_hi = band_lo * 2.0;
+                    let bins: Vec<f64> = ((band_lo * length).ceil() as usize..(band_hi * length) as usize).map(|j| j as f64 / length).collect();
+                    let mean_psd = bins
+                        .iter()
+                        .map(|f| {
+                            let (mut re, mut im) = (0.0, 0.0);
+                            for (k, zk) in z.iter().enumerate() {
+                                let arg = 2.0 * PI * f * k as f64 * ds;
+                                re += zk * arg.cos();
+                                im -= zk * arg.sin();
+                            }
+                            2.0 * (re * re + im * im) * ds * ds / length
+                        })
+                        .sum::<f64>()
+                        / bins.len() as f64;
+                    // ∫ G_d over the band / its width.
+                    let expected = iso_g_d_n0(class) * 0.01 * (1.0 / band_lo - 1.0 / band_hi) / (band_hi - band_lo);
+                    let ratio = mean_psd / expected;
+                    assert!((0.8..1.25).contains(&ratio), "class {class} track {track} band {band_lo}-{band_hi}: PSD ratio {ratio}");
+                    band_lo = band_hi;
+                }
+            }
+        }
+    }
+}
