@@ -17,9 +17,9 @@ APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
-FMUS := plant $(CONTROLLERS)
+FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
-RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-pack synth -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
+RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-road fmu-pack synth -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
 .PHONY: all setup fmus validate test test-rust test-python bench descriptions readme clean
 
@@ -52,11 +52,14 @@ fmus: $(FMU_FILES)
 # One cargo build for all FMU libraries and the packager; then one fmu-pack call per FMU.
 $(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
 	@mkdir -p $(STAMP)
-	$(CARGO) build --release -p fmu-plant -p fmu-controller -p fmu-pack -p synth
+	$(CARGO) build --release -p fmu-road -p fmu-plant -p fmu-controller -p fmu-pack -p synth
 	@touch $@
 
 dist/plant.fmu: $(STAMP)/release
 	./target/release/fmu-pack fmu --lib target/release/libfmu_plant.so --out $@
+
+dist/road.fmu: $(STAMP)/release
+	./target/release/fmu-pack fmu --lib target/release/libfmu_road.so --out $@
 
 # Synthesise and certify every controller (a failed certificate stops here: no FMU).
 $(STAMP)/synth: $(STAMP)/release synth/designs/default.json
@@ -73,6 +76,7 @@ validate: $(FMU_FILES) $(STAMP)/venv
 # change of a variable table (a test fails until you do and commit them).
 descriptions: $(STAMP)/release
 	./target/release/fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
+	./target/release/fmu-pack description --lib target/release/libfmu_road.so --xml modelDescription/road.xml --readme README.md --tag road-variables
 
 readme: descriptions
 

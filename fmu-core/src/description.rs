@@ -87,6 +87,23 @@ impl Variable {
         Variable { name: name.into(), value_reference: vr, description: description.into(), causality, variability, kind: VarType::Boolean { start: None }, depends_on: Vec::new() }
     }
 
+    /// An Integer variable with its start value (a parameter's, or an input's).
+    pub fn integer(name: impl Into<String>, vr: ValueReference, causality: Causality, start: i32, description: impl Into<String>) -> Self {
+        let variability = match causality {
+            Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
+            Causality::Input | Causality::Output => Variability::Discrete,
+        };
+        Variable { name: name.into(), value_reference: vr, description: description.into(), causality, variability, kind: VarType::Integer { start: Some(start) }, depends_on: Vec::new() }
+    }
+
+    /// The start value of a Boolean variable.
+    pub fn with_boolean_start(mut self, value: bool) -> Self {
+        if let VarType::Boolean { start } = &mut self.kind {
+            *start = Some(value);
+        }
+        self
+    }
+
     pub fn with_start(mut self, value: f64) -> Self {
         if let VarType::Real { start, .. } = &mut self.kind {
             *start = Some(value);
@@ -420,6 +437,8 @@ impl ModelDescription {
             };
             let start = match &v.kind {
                 VarType::Real { start: Some(s), .. } => num(*s),
+                VarType::Integer { start: Some(s) } => s.to_string(),
+                VarType::Boolean { start: Some(s) } => s.to_string(),
                 _ => String::new(),
             };
             let desc = v.description.replace('|', "\\|");

@@ -61,6 +61,50 @@ pub fn iso_road(class: u8, speed: f64, seed: u64) -> vehicle::road::Road {
     vehicle::road::Road::new(vehicle::road::Profile::Iso { class, seed, identical_tracks: false, fade_in: 1.0 }, speed, 2.4, -2.4).expect("valid ISO road")
 }
 
+/// `dist/road.fmu` as a [`Road`], through the `fmi` crate: stepped forward to each time asked
+/// for (times must not decrease; within 1 ns of the last is the same point).
+pub struct RoadFmu {
+    instance: std::cell::RefCell<Instance<CS>>,
+    time: std::cell::Cell<f64>,
+    outputs: Vec<u32>,
+}
+
+impl RoadFmu {
+    /// Instantiate and initialise the road FMU of `import` (leaked: it must outlive the
+    /// instance, and a test process loads it once) with Integer and Real parameters.
+    pub fn new(integers: &[(&str, i32)], reals: &[(&str, f64)]) -> RoadFmu {
+        let import: &'static Fmi2Import = Box::leak(Box::new(load("road")));
+        let mut i: Instance<CS> = import.instantiate_cs("road", false, false).expect("instantiate road");
+        for (n, v) in integers {
+            i.set_integer(&[vr(import, n).unwrap_or_else(|| panic!("road has no {n}"))], &[*v]).unwrap();
+        }
+        for (n, v) in reals {
+            i.set_real(&[vr(import, n).unwrap_or_else(|| panic!("road has no {n}"))], &[*v]).unwrap();
+        }
+        i.setup_experiment(None, 0.0, None).unwrap();
+        Common::enter_initialization_mode(&mut i).unwrap();
+        Common::exit_initialization_mode(&mut i).unwrap();
+        let outputs = ROAD_INPUTS.iter().map(|n| vr(import, n).expect("road output")).collect();
+        RoadFmu { instance: std::cell::RefCell::new(i), time: std::cell::Cell::new(0.0), outputs }
+    }
+}
+
+impl Road for RoadFmu {
+    fn at(&self, t: f64) -> [f64; 8] {
+        let mut i = self.instance.borrow_mut();
+        let now = self.time.get();
+        // k h + h and (k + 1) h differ in the last bits: that is the same communication point.
+        assert!(t >= now - 1e-9, "the road FMU cannot go back from {now} to {t}");
+        if t > now + 1e-9 {
+            i.do_step(now, t - now, true).unwrap();
+            self.time.set(t);
+        }
+        let mut out = [0.0; 8];
+        i.get_real(&self.outputs, &mut out).unwrap();
+        out
+    }
+}
+
 pub const ROAD_INPUTS: [&str; 8] = ["road_z_fl", "road_z_fr", "road_z_rl", "road_z_rr", "road_v_fl", "road_v_fr", "road_v_rl", "road_v_rr"];
 pub const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
 

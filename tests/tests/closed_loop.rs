@@ -318,3 +318,18 @@ fn ft_of_detects_a_half_lost_actuator_and_keeps_the_seat_quiet() {
     assert!(after(&log) <= 0.1 * after(&passive), "ft_of under the fault is not 90 % below passive");
     assert!(after(&log) <= 1.1 * after(&seat_of) && before(&log) <= 1.1 * before(&seat_of), "ft_of's seat is more than 10 % worse than hinf_of's");
 }
+
+/// The road FMU in the loop (road → plant → controller, all three FMUs through the `fmi`
+/// crate) gives the run of the in-process road: same profile code, exact at any step.
+#[test]
+fn road_fmu_drives_the_loop_like_the_in_process_road() {
+    let plant = load("plant");
+    let ctrl = load("hinf_of");
+    let fmu_road = RoadFmu::new(&[("profile", 2), ("iso_class", 3), ("seed", 7)], &[("speed", 20.0), ("start_distance", -2.4)]);
+    let with_fmu = run_loop(&plant, Some(&ctrl), &fmu_road, 1e-3, 3000, &RECORD);
+    let in_process = run_loop(&plant, Some(&ctrl), &iso_road(3, 20.0, 7), 1e-3, 3000, &RECORD);
+    let scale = rms(&in_process, 0);
+    let worst = with_fmu.iter().zip(&in_process).map(|(a, b)| (a[0] - b[0]).abs()).fold(0.0, f64::max);
+    eprintln!("road FMU against the in-process road: max |Δ a_seat| = {worst:e} m/s² (RMS {scale:.4})");
+    assert!(worst <= 1e-9 * scale, "{worst}");
+}

@@ -1,0 +1,204 @@
+//! The road FMU (`dist/road.fmu`): heights and vertical velocities under the four wheels, with
+//! exactly the names of the plant's road inputs, from the profiles of [`vehicle::road`]. It has
+//! no state but time: every output is a closed-form function of the time reached, so a step of
+//! any size is exact and the FMU state is the time alone.
+//!
+//! The track width plays no part: the profiles are one-dimensional per track (left and right
+//! independent or identical), so it is not a parameter.
+
+use fmu_core::fmu_state::{StateReader, StateWriter};
+use fmu_core::{Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable};
+use std::path::Path;
+use vehicle::model::CORNERS;
+use vehicle::road::{Profile, Road, Side};
+
+/// Value references: Real parameters from 0, Integer parameters from 100, Booleans from 200,
+/// outputs from 300.
+pub mod vr {
+    pub const REAL: u32 = 0;
+    pub const INTEGER: u32 = 100;
+    pub const BOOLEAN: u32 = 200;
+    pub const OUTPUT: u32 = 300;
+}
+
+/// Real parameters: name, unit, start, description (all validated together by `Road::new`).
+const REALS: [(&str, &str, f64, &str); N_REALS] = [
+    ("speed", "m/s", 20.0, "Vehicle speed"),
+    ("wheelbase", "m", 2.4, "Front-to-rear axle distance (the plant's L1 + L2): the rear wheels see the front track this much later"),
+    ("start_distance", "m", 5.0, "Distance from the front wheels at t = 0 to the start of the profile (negative: already on it)"),
+    ("bump_height", "m", 0.05, "profile 1: height of the 1 - cos bump"),
+    ("bump_length", "m", 5.0, "profile 1: length of the bump"),
+    ("sweep_amplitude", "m", 0.01, "profile 3: amplitude of the sine sweep"),
+    ("sweep_f_start", "Hz", 0.5, "profile 3: frequency at the start of the sweep (at the wheel, in time)"),
+    ("sweep_f_end", "Hz", 20.0, "profile 3: frequency at the end of the sweep"),
+    ("sweep_duration", "s", 10.0, "profile 3: duration of the linear sweep (half-cosine tapers of min(0.5 s, duration/4) at both ends)"),
+    ("pothole_depth", "m", -0.05, "profile 4: height of the step (negative: a pothole)"),
+    ("pothole_length", "m", 0.6, "profile 4: length of the pothole, ramps included; 0 = a permanent step"),
+    ("pothole_ramp", "m", 0.1, "profile 4: length of each half-cosine ramp"),
+    ("fade_in", "s", 1.0, "profile 2: the random road is faded in over this time (the car starts at rest on a flat road)"),
+];
+const N_REALS: usize = 13;
+
+/// Integer parameters: name, start, description.
+const INTEGERS: [(&str, i32, &str); 4] = [
+    ("profile", 1, "1 = 1 - cos bump, 2 = ISO 8608 random road, 3 = sine sweep, 4 = pothole / step"),
+    ("side", 0, "Profiles 1, 3, 4: 0 = left wheels, 1 = right wheels, 2 = both"),
+    ("iso_class", 3, "Profile 2: ISO 8608 class, 1 = A … 8 = H (G_d(0.1 cycles/m) = 16, 64, 256, … , 262144 x 1e-6 m^3)"),
+    ("seed", 1, "Profile 2: seed of the random phases (the same seed gives the same road everywhere)"),
+];
+
+const OUTPUT_NAMES: [&str; 8] = ["road_z_fl", "road_z_fr", "road_z_rl", "road_z_rr", "road_v_fl", "road_v_fr", "road_v_rl", "road_v_rr"];
+
+pub fn model_description() -> ModelDescription {
+    let mut vars = Vec::new();
+    for (i, (name, unit, start, desc)) in REALS.iter().enumerate() {
+        vars.push(Variable::real(*name, vr::REAL + i as u32, Causality::Parameter, unit, *desc).with_start(*start));
+    }
+    for (i, (name, start, desc)) in INTEGERS.iter().enumerate() {
+        vars.push(Variable::integer(*name, vr::INTEGER + i as u32, Causality::Parameter, *start, *desc));
+    }
+    vars.push(Variable::boolean("identical_tracks", vr::BOOLEAN, Causality::Parameter, "Profile 2: the right track is the left one (otherwise independent)").with_boolean_start(false));
+    for (k, name) in OUTPUT_NAMES.iter().enumerate() {
+        let c = CORNERS[k % 4].to_uppercase();
+        let (unit, desc) = if k < 4 { ("m", format!("Road height under the {c} wheel")) } else { ("m/s", format!("Road vertical velocity under the {c} wheel (exact time derivative of road_z_{})", CORNERS[k % 4])) };
+        vars.push(Variable::real(*name, vr::OUTPUT + k as u32, Causality::Output, unit, desc));
+    }
+    ModelDescription {
+        model_name: "road".into(),
+        model_identifier: "road".into(),
+        guid: String::new(),
+        description: "Road heights and vertical velocities under the four wheels: 1 - cos bump, ISO 8608 random road, sine sweep, pothole / step; rear wheels on the front track one wheelbase later".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        capabilities: Capabilities::exact_stepping(false),
+        default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+        variables: vars,
+    }
+    .with_derived_guid()
+}
+
+pub struct RoadFmu {
+    reals: [f64; N_REALS],
+    integers: [i32; 4],
+    identical_tracks: bool,
+    time: f64,
+    /// Built when initialisation ends (the parameters are fixed from then on).
+    road: Option<Road>,
+}
+
+impl RoadFmu {
+    fn real(&self, name: &str) -> f64 {
+        self.reals[REALS.iter().position(|r| r.0 == name).expect("known parameter")]
+    }
+
+    /// The road of the current parameters, or why they do not make one.
+    pub fn build(&self) -> Result<Road, String> {
+        let [profile, side, class, seed] = self.integers;
+        let side = match side {
+            0 => Side::Left,
+            1 => Side::Right,
+            2 => Side::Both,
+            other => return Err(format!("side must be 0 (left), 1 (right) or 2 (both), got {other}")),
+        };
+        let profile = match profile {
+            1 => Profile::Bump { height: self.real("bump_height"), length: self.real("bump_length"), side },
+            2 => {
+                let class = u8::try_from(class).map_err(|_| format!("iso_class must be 1 (A) … 8 (H), got {class}"))?;
+                let seed = u64::try_from(seed).map_err(|_| format!("seed must be >= 0, got {seed}"))?;
+                Profile::Iso { class, seed, identical_tracks: self.identical_tracks, fade_in: self.real("fade_in") }
+            }
+            3 => Profile::SineSweep { amplitude: self.real("sweep_amplitude"), f_start: self.real("sweep_f_start"), f_end: self.real("sweep_f_end"), duration: self.real("sweep_duration"), side },
+            4 => {
+                let length = self.real("pothole_length");
+                if length < 0.0 {
+                    return Err(format!("pothole_length must be >= 0 (0 = a permanent step), got {length}"));
+                }
+                Profile::Pothole { depth: self.real("pothole_depth"), length: if length == 0.0 { f64::INFINITY } else { length }, ramp: self.real("pothole_ramp"), side }
+            }
+            other => return Err(format!("profile must be 1 (bump), 2 (ISO 8608), 3 (sine sweep) or 4 (pothole/step), got {other}")),
+        };
+        Road::new(profile, self.real("speed"), self.real("wheelbase"), self.real("start_distance"))
+    }
+}
+
+impl Model for RoadFmu {
+    fn description(_resources: Option<&Path>) -> Result<ModelDescription, String> {
+        Ok(model_description())
+    }
+
+    fn instantiate(_resources: Option<&Path>) -> Result<Self, String> {
+        let mut reals = [0.0; N_REALS];
+        for (slot, r) in reals.iter_mut().zip(&REALS) {
+            *slot = r.2;
+        }
+        Ok(RoadFmu { reals, integers: INTEGERS.map(|i| i.1), identical_tracks: false, time: 0.0, road: None })
+    }
+
+    fn set_real(&mut self, vr: ValueReference, value: f64) {
+        if let Some(slot) = self.reals.get_mut((vr - vr::REAL) as usize) {
+            *slot = value;
+        }
+    }
+
+    fn get_real(&mut self, vr: ValueReference) -> f64 {
+        if vr >= vr::OUTPUT {
+            // Before initialisation ends the parameters may not make a road yet: flat.
+            let k = (vr - vr::OUTPUT) as usize;
+            return self.road.as_ref().map_or(0.0, |r| r.at(self.time)[k]);
+        }
+        self.reals[(vr - vr::REAL) as usize]
+    }
+
+    fn set_integer(&mut self, vr: ValueReference, value: i32) {
+        if let Some(slot) = self.integers.get_mut((vr - vr::INTEGER) as usize) {
+            *slot = value;
+        }
+    }
+
+    fn get_integer(&mut self, vr: ValueReference) -> i32 {
+        self.integers[(vr - vr::INTEGER) as usize]
+    }
+
+    fn set_boolean(&mut self, _vr: ValueReference, value: bool) {
+        self.identical_tracks = value;
+    }
+
+    fn get_boolean(&mut self, _vr: ValueReference) -> bool {
+        self.identical_tracks
+    }
+
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
+        self.road = Some(self.build()?);
+        self.time = start_time;
+        Ok(())
+    }
+
+    fn do_step(&mut self, time: f64, step: f64) -> Result<(), String> {
+        self.time = time + step;
+        Ok(())
+    }
+
+    fn save(&self, out: &mut StateWriter) {
+        out.f64s(&self.reals);
+        out.f64s(&self.integers.map(f64::from));
+        out.bool(self.identical_tracks);
+        out.f64(self.time);
+    }
+
+    fn restore(&mut self, input: &mut StateReader) -> Result<(), String> {
+        let reals = input.f64s_exact(N_REALS, "road parameters")?;
+        let integers = input.f64s_exact(4, "road integer parameters")?;
+        let identical = input.bool()?;
+        let time = input.f64()?;
+        input.finish()?;
+        let mut next = RoadFmu { reals: reals.try_into().expect("length checked"), integers: [0; 4], identical_tracks: identical, time, road: None };
+        for (slot, v) in next.integers.iter_mut().zip(&integers) {
+            *slot = *v as i32;
+        }
+        // Saved before initialisation ended, the parameters need not make a road yet.
+        next.road = next.build().ok();
+        *self = next;
+        Ok(())
+    }
+}
+
+fmu_core::export_fmi2!(RoadFmu);
