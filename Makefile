@@ -1,4 +1,5 @@
-# `make`       build every FMU into dist/ and validate it (later: synthesise and compare)
+# `make`       synthesise and certify every controller, build every FMU into dist/, validate
+#              them, run the closed-loop comparison (results/report.md) and print its summary
 # `make test`  every test: Rust (unit + integration, incl. the fmi crate loading dist/) and pytest
 # `make bench` benchmarks (criterion)
 # Everything the commands need is installed here: Debian packages and a .venv with FMPy.
@@ -19,13 +20,18 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
 FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
-RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-road fmu-pack synth -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
+RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
-.PHONY: all setup fmus validate test test-rust test-python bench descriptions readme clean
+.PHONY: all setup fmus validate compare test test-rust test-python bench descriptions readme clean
 
-all: fmus validate
+all: fmus validate compare
 	@echo
-	@echo "Built: $(FMU_FILES)"
+	@echo "Built: $(FMU_FILES); report: results/report.md"
+
+# Every scenario of scenarios/ with the passive car and each controller (master, in parallel):
+# results/report.md with the tables, the plots and the synthesis summary.
+compare: $(FMU_FILES) $(STAMP)/release
+	./target/release/master compare --scenarios scenarios --controllers $(shell echo $(CONTROLLERS) | tr ' ' ',') --out results --include dist/synthesis.md
 
 setup: $(STAMP)/apt $(STAMP)/venv
 
@@ -52,7 +58,7 @@ fmus: $(FMU_FILES)
 # One cargo build for all FMU libraries and the packager; then one fmu-pack call per FMU.
 $(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
 	@mkdir -p $(STAMP)
-	$(CARGO) build --release -p fmu-road -p fmu-plant -p fmu-controller -p fmu-pack -p synth
+	$(CARGO) build --release -p fmu-road -p fmu-plant -p fmu-controller -p fmu-pack -p synth -p master
 	@touch $@
 
 dist/plant.fmu: $(STAMP)/release
@@ -100,5 +106,5 @@ bench: $(FMU_FILES) $(STAMP)/venv-bench
 	./target/release/synth --design synth/designs/default.json --out $(STAMP)/bench-synth
 
 clean:
-	rm -rf dist $(STAMP)
+	rm -rf dist results $(STAMP)
 	$(CARGO) clean

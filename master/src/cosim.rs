@@ -1,0 +1,288 @@
+//! Scenarios and the co-simulation loop on the `fmi` crate.
+//!
+//! **Order (Gauss–Seidel, fixed communication step `h`).** At each `t_k`: the road's outputs
+//! (at `t_k`) go to the plant's road inputs; the plant's outputs go to the controller's inputs
+//! (by name); the controller's commands go to the plant's force inputs, held over the step; then
+//! road, plant and controller step over `[t_k, t_k + h)`. The row recorded for `t_{k+1}` is read
+//! after the road's new outputs have reached the plant (tyre loads feed the road through) and the
+//! controller has been given the plant's new outputs (its residual and flag use them).
+
+use fmi::fmi2::import::Fmi2Import;
+use fmi::fmi2::instance::{CoSimulation, Common, Instance};
+use fmi::fmi2::schema::ScalarVariableElement;
+use fmi::traits::FmiImport;
+use fmi::CS;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+pub const ROAD: [&str; 8] = ["road_z_fl", "road_z_fr", "road_z_rl", "road_z_rr", "road_v_fl", "road_v_fr", "road_v_rl", "road_v_rr"];
+pub const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
+/// The plant outputs every run records.
+pub const RECORD: [&str; 18] = [
+    "a_seat", "alpha_roll", "alpha_pitch", "a_body", "stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr", "stroke_seat", "tire_load_fl", "tire_load_fr", "tire_load_rl", "tire_load_rr", "f_fl", "f_fr",
+    "f_rl", "f_rr", "f_seat",
+];
+/// Controller outputs recorded when the controller has them.
+pub const CONTROLLER_RECORD: [&str; 2] = ["residual_norm", "fault_detected"];
+
+#[derive(Debug)]
+pub struct MasterError(pub String);
+
+impl std::fmt::Display for MasterError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for MasterError {}
+
+fn err(msg: impl Into<String>) -> MasterError {
+    MasterError(msg.into())
+}
+
+/// A scenario file (`scenarios/*.json`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// [s]
+    pub duration: f64,
+    /// Communication step [s].
+    pub step: f64,
+    /// Road FMU parameters by name (numbers for Real and Integer, true/false for Boolean).
+    pub road: BTreeMap<String, serde_json::Value>,
+    /// Plant parameter overrides by name (mass, delay, fault, force limits …); a controller
+    /// that has a parameter of the same name (an anti-windup controller's force limits) gets it
+    /// too.
+    #[serde(default)]
+    pub plant: BTreeMap<String, f64>,
+    /// When present, the controllers this scenario is meant for (the others are skipped).
+    #[serde(default)]
+    pub controllers: Option<Vec<String>>,
+    /// Start of the window the metrics are computed over [s] (e.g. after a fault).
+    #[serde(default)]
+    pub metrics_from: f64,
+}
+
+impl Scenario {
+    pub fn load(path: &Path) -> Result<Scenario, MasterError> {
+        let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read scenario {}: {e}", path.display())))?;
+        let s: Scenario = serde_json::from_str(&text).map_err(|e| err(format!("scenario {}: {e}", path.display())))?;
+        s.validate().map_err(|e| err(format!("scenario {}: {e}", path.display())))?;
+        Ok(s)
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.step > 0.0 && self.step.is_finite() && self.duration > 0.0 && self.duration.is_finite()) {
+            return Err(format!("duration and step must be finite and > 0 (got {} and {})", self.duration, self.step));
+        }
+        if self.duration / self.step > 1e8 {
+            return Err("more than 1e8 steps".into());
+        }
+        if !(self.metrics_from >= 0.0 && self.metrics_from < self.duration) {
+            return Err(format!("metrics_from must be in [0, duration), got {}", self.metrics_from));
+        }
+        if self.name.is_empty() || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+            return Err(format!("name '{}' must be non-empty, letters, digits, - and _ only", self.name));
+        }
+        Ok(())
+    }
+
+    pub fn steps(&self) -> usize {
+        (self.duration / self.step).round() as usize
+    }
+
+    pub fn wants(&self, controller: &str) -> bool {
+        self.controllers.as_ref().is_none_or(|c| c.iter().any(|n| n == controller))
+    }
+}
+
+/// A loaded FMU.
+pub struct Fmu {
+    pub name: String,
+    pub import: Fmi2Import,
+}
+
+impl Fmu {
+    pub fn load(dist: &Path, name: &str) -> Result<Fmu, MasterError> {
+        let path = dist.join(format!("{name}.fmu"));
+        if !path.exists() {
+            return Err(err(format!("{} not found (run `make` to build the FMUs)", path.display())));
+        }
+        let import = fmi::import::from_path(&path).map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
+        Ok(Fmu { name: name.into(), import })
+    }
+
+    fn variable(&self, name: &str) -> Option<(u32, &ScalarVariableElement, String)> {
+        self.import.model_description().model_variables.variables.iter().find(|v| v.name == name).map(|v| (v.value_reference, &v.elem, format!("{:?}", v.causality).to_lowercase()))
+    }
+
+    pub fn vr(&self, name: &str) -> Result<u32, MasterError> {
+        self.variable(name).map(|v| v.0).ok_or_else(|| err(format!("{} has no variable '{name}'", self.name)))
+    }
+
+    pub fn has(&self, name: &str) -> bool {
+        self.variable(name).is_some()
+    }
+
+    pub fn names_with_causality(&self, causality: &str) -> Vec<String> {
+        self.import.model_description().model_variables.variables.iter().filter(|v| format!("{:?}", v.causality).eq_ignore_ascii_case(causality)).map(|v| v.name.clone()).collect()
+    }
+
+    /// Instantiate, set `params` (by the variable's type), initialise.
+    fn start(&self, params: &[(&str, &serde_json::Value)]) -> Result<Instance<CS>, MasterError> {
+        let mut i: Instance<CS> = self.import.instantiate_cs(&self.name, false, false).map_err(|e| err(format!("{}: instantiate: {e}", self.name)))?;
+        for (name, value) in params {
+            let (vr, elem, _) = self.variable(name).ok_or_else(|| err(format!("{} has no parameter '{name}'", self.name)))?;
+            let bad = || err(format!("{}: parameter '{name}' cannot take {value}", self.name));
+            let status = match elem {
+                ScalarVariableElement::Real(_) => i.set_real(&[vr], &[value.as_f64().ok_or_else(bad)?]),
+                ScalarVariableElement::Integer(_) => i.set_integer(&[vr], &[value.as_i64().and_then(|v| i32::try_from(v).ok()).ok_or_else(bad)?]),
+                ScalarVariableElement::Boolean(_) => i.set_boolean(&[vr], &[value.as_bool().ok_or_else(bad)? as i32]),
+                _ => return Err(bad()),
+            };
+            status.map_err(|e| err(format!("{}: setting '{name}' = {value}: {e}", self.name)))?;
+        }
+        i.setup_experiment(None, 0.0, None).map_err(|e| err(format!("{}: {e}", self.name)))?;
+        Common::enter_initialization_mode(&mut i).map_err(|e| err(format!("{}: {e}", self.name)))?;
+        Common::exit_initialization_mode(&mut i).map_err(|e| err(format!("{}: initialisation failed ({e}); see its log", self.name)))?;
+        Ok(i)
+    }
+}
+
+/// A run's log: one row per communication point `t_1 … t_N`.
+pub struct Run {
+    pub columns: Vec<String>,
+    pub time: Vec<f64>,
+    pub rows: Vec<Vec<f64>>,
+    /// Static tyre loads of the plant, FL … RR [N].
+    pub static_tire_load: [f64; 4],
+}
+
+impl Run {
+    pub fn column(&self, name: &str) -> Option<Vec<f64>> {
+        let k = self.columns.iter().position(|c| c == name)?;
+        Some(self.rows.iter().map(|r| r[k]).collect())
+    }
+
+    pub fn write_csv(&self, path: &Path) -> Result<(), MasterError> {
+        let mut s = format!("time,{}\n", self.columns.join(","));
+        for (t, r) in self.time.iter().zip(&self.rows) {
+            s += &format!("{t}");
+            for v in r {
+                s += &format!(",{v:e}");
+            }
+            s.push('\n');
+        }
+        std::fs::write(path, s).map_err(|e| err(format!("cannot write {}: {e}", path.display())))
+    }
+}
+
+/// Check that every input of `controller` is an output of `plant`.
+pub fn check_connections(plant: &Fmu, controller: &Fmu) -> Result<(), MasterError> {
+    let outputs = plant.names_with_causality("output");
+    let missing: Vec<String> = controller.names_with_causality("input").into_iter().filter(|n| !outputs.contains(n)).collect();
+    if !missing.is_empty() {
+        return Err(err(format!("controller {} reads {} which the plant does not output", controller.name, missing.join(", "))));
+    }
+    for f in FORCES {
+        controller.vr(f)?;
+    }
+    Ok(())
+}
+
+/// Run `scenario` with `controller` (None: the passive car).
+pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result<Run, MasterError> {
+    let road = Fmu::load(dist, "road")?;
+    let plant = Fmu::load(dist, "plant")?;
+    let ctrl = controller.map(|c| Fmu::load(dist, c)).transpose()?;
+    if let Some(c) = &ctrl {
+        check_connections(&plant, c)?;
+    }
+    let road_params: Vec<(&str, &serde_json::Value)> = scenario.road.iter().map(|(k, v)| (k.as_str(), v)).collect();
+    let plant_values: Vec<(String, serde_json::Value)> = scenario.plant.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect();
+    let plant_params: Vec<(&str, &serde_json::Value)> = plant_values.iter().map(|(k, v)| (k.as_str(), v)).collect();
+    let mut r = road.start(&road_params)?;
+    let mut p = plant.start(&plant_params)?;
+    let mut c = match &ctrl {
+        Some(c) => {
+            let shared: Vec<(&str, &serde_json::Value)> = plant_params.iter().copied().filter(|(k, _)| c.has(k) && !c.names_with_causality("input").iter().any(|n| n == k)).collect();
+            Some(c.start(&shared)?)
+        }
+        None => None,
+    };
+    let vrs = |f: &Fmu, names: &[&str]| names.iter().map(|n| f.vr(n)).collect::<Result<Vec<u32>, _>>();
+    let road_out = vrs(&road, &ROAD)?;
+    let road_in = vrs(&plant, &ROAD)?;
+    let force_in = vrs(&plant, &FORCES)?;
+    let rec = vrs(&plant, &RECORD)?;
+    let (y_from, y_to, u_from, c_rec, c_bool) = match &ctrl {
+        Some(cf) => {
+            let inputs = cf.names_with_causality("input");
+            let names: Vec<&str> = inputs.iter().map(|s| s.as_str()).collect();
+            let extra: Vec<&str> = CONTROLLER_RECORD.iter().copied().filter(|n| cf.has(n)).collect();
+            let booleans: Vec<bool> = extra.iter().map(|n| matches!(cf.variable(n).map(|v| v.1), Some(ScalarVariableElement::Boolean(_)))).collect();
+            (vrs(&plant, &names)?, vrs(cf, &names)?, vrs(cf, &FORCES)?, extra.iter().map(|n| cf.vr(n)).collect::<Result<Vec<_>, _>>()?.into_iter().zip(booleans).collect::<Vec<_>>(), extra)
+        }
+        None => (vec![], vec![], vec![], vec![], vec![]),
+    };
+    let mut static_tire_load = [0.0; 4];
+    p.get_real(&vrs(&plant, &["static_tire_load_fl", "static_tire_load_fr", "static_tire_load_rl", "static_tire_load_rr"])?, &mut static_tire_load).map_err(|e| err(format!("plant: {e}")))?;
+    let fail = |who: &str, e: fmi::fmi2::Fmi2Error| err(format!("{who}: {e}"));
+    let h = scenario.step;
+    let steps = scenario.steps();
+    let mut columns: Vec<String> = RECORD.iter().map(|s| s.to_string()).collect();
+    columns.extend(c_bool.iter().map(|s| s.to_string()));
+    let (mut time, mut rows) = (Vec::with_capacity(steps), Vec::with_capacity(steps));
+    let mut road_values = [0.0; 8];
+    let mut y = vec![0.0; y_from.len()];
+    let mut u = [0.0; 5];
+    let step_err = |who: &str, t: f64, e: fmi::fmi2::Fmi2Error| err(format!("{who}: fmi2DoStep at t = {t}: {e}"));
+    for k in 0..steps {
+        let t = k as f64 * h;
+        r.get_real(&road_out, &mut road_values).map_err(|e| fail("road", e))?;
+        p.set_real(&road_in, &road_values).map_err(|e| fail("plant", e))?;
+        if let Some(c) = c.as_mut() {
+            p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
+            c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
+            c.get_real(&u_from, &mut u).map_err(|e| fail("controller", e))?;
+            p.set_real(&force_in, &u).map_err(|e| fail("plant", e))?;
+            c.do_step(t, h, true).map_err(|e| step_err("controller", t, e))?;
+        }
+        r.do_step(t, h, true).map_err(|e| step_err("road", t, e))?;
+        p.do_step(t, h, true).map_err(|e| step_err("plant", t, e))?;
+        r.get_real(&road_out, &mut road_values).map_err(|e| fail("road", e))?;
+        p.set_real(&road_in, &road_values).map_err(|e| fail("plant", e))?;
+        let mut row = vec![0.0; rec.len()];
+        p.get_real(&rec, &mut row).map_err(|e| fail("plant", e))?;
+        if let Some(c) = c.as_mut() {
+            if !c_rec.is_empty() {
+                p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
+                c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
+                for (vr, boolean) in &c_rec {
+                    let value = if *boolean {
+                        let mut b = [0];
+                        c.get_boolean(&[*vr], &mut b).map_err(|e| fail("controller", e))?;
+                        b[0] as f64
+                    } else {
+                        let mut v = [0.0];
+                        c.get_real(&[*vr], &mut v).map_err(|e| fail("controller", e))?;
+                        v[0]
+                    };
+                    row.push(value);
+                }
+            }
+        }
+        time.push(t + h);
+        rows.push(row);
+    }
+    Ok(Run { columns, time, rows, static_tire_load })
+}
+
+/// `dist/` beside the executable's workspace, or as given.
+pub fn default_dist() -> PathBuf {
+    PathBuf::from("dist")
+}

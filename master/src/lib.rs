@@ -1,0 +1,5 @@
+//! The co-simulation master: road, plant and controller FMUs through the `fmi` crate.
+
+pub mod metrics;
+pub mod cosim;
+pub mod report;
