@@ -83,6 +83,8 @@ pub struct RoadFmu {
     time: f64,
     /// Built when initialisation ends (the parameters are fixed from then on).
     road: Option<Road>,
+    /// The outputs at `time`, computed once (an ISO road is 3200 cosines per evaluation).
+    outputs: Option<[f64; 8]>,
 }
 
 impl RoadFmu {
@@ -130,7 +132,7 @@ impl Model for RoadFmu {
         for (slot, r) in reals.iter_mut().zip(&REALS) {
             *slot = r.2;
         }
-        Ok(RoadFmu { reals, integers: INTEGERS.map(|i| i.1), identical_tracks: false, time: 0.0, road: None })
+        Ok(RoadFmu { reals, integers: INTEGERS.map(|i| i.1), identical_tracks: false, time: 0.0, road: None, outputs: None })
     }
 
     fn set_real(&mut self, vr: ValueReference, value: f64) {
@@ -143,7 +145,9 @@ impl Model for RoadFmu {
         if vr >= vr::OUTPUT {
             // Before initialisation ends the parameters may not make a road yet: flat.
             let k = (vr - vr::OUTPUT) as usize;
-            return self.road.as_ref().map_or(0.0, |r| r.at(self.time)[k]);
+            let Some(road) = &self.road else { return 0.0 };
+            let time = self.time;
+            return self.outputs.get_or_insert_with(|| road.at(time))[k];
         }
         self.reals[(vr - vr::REAL) as usize]
     }
@@ -169,11 +173,13 @@ impl Model for RoadFmu {
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
         self.road = Some(self.build()?);
         self.time = start_time;
+        self.outputs = None;
         Ok(())
     }
 
     fn do_step(&mut self, time: f64, step: f64) -> Result<(), String> {
         self.time = time + step;
+        self.outputs = None;
         Ok(())
     }
 
@@ -190,7 +196,7 @@ impl Model for RoadFmu {
         let identical = input.bool()?;
         let time = input.f64()?;
         input.finish()?;
-        let mut next = RoadFmu { reals: reals.try_into().expect("length checked"), integers: [0; 4], identical_tracks: identical, time, road: None };
+        let mut next = RoadFmu { reals: reals.try_into().expect("length checked"), integers: [0; 4], identical_tracks: identical, time, road: None, outputs: None };
         for (slot, v) in next.integers.iter_mut().zip(&integers) {
             *slot = *v as i32;
         }
