@@ -53,7 +53,7 @@ $(STAMP)/venv: tests/python/requirements.txt | $(STAMP)/apt
 	$(PY) -m pip install -q -r tests/python/requirements.txt
 	@touch $@
 
-fmus: $(FMU_FILES)
+fmus: $(FMU_FILES) dist/OspSystemStructure.xml
 
 # One cargo build for all FMU libraries and the packager; then one fmu-pack call per FMU.
 $(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
@@ -75,6 +75,11 @@ $(STAMP)/synth: $(STAMP)/release synth/designs/default.json
 $(CONTROLLERS:%=dist/%.fmu): dist/%.fmu: $(STAMP)/synth
 	./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/$* --out $@
 
+# The same loop as an OSP system structure beside the FMUs, for libcosim and OSP tools
+# (tests/python/test_libcosim.py runs it).
+dist/OspSystemStructure.xml: $(FMU_FILES) $(STAMP)/release scenarios/bump.json
+	./target/release/master osp --scenario scenarios/bump.json --controller hinf_of --out $@
+
 validate: $(FMU_FILES) $(STAMP)/venv
 	@for f in $(FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
 
@@ -91,7 +96,7 @@ test: test-rust test-python
 test-rust: $(FMU_FILES) | $(STAMP)/apt
 	$(CARGO) test --workspace
 
-test-python: $(FMU_FILES) $(STAMP)/venv
+test-python: $(FMU_FILES) dist/OspSystemStructure.xml $(STAMP)/venv
 	$(PY) -m pytest tests/python -q
 
 $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv

@@ -286,3 +286,50 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
 pub fn default_dist() -> PathBuf {
     PathBuf::from("dist")
 }
+
+/// An OSP system structure (`OspSystemStructure.xml`, for libcosim / OSP tools) of the same loop:
+/// road, plant and `controller` (FMUs beside the file), connected by name, with the scenario's
+/// parameters as initial values. libcosim's fixed-step algorithm exchanges the values of all
+/// simulators after each step (Jacobi), not in this master's Gauss-Seidel order.
+pub fn osp_system_structure(dist: &Path, scenario: &Scenario, controller: &str) -> Result<String, MasterError> {
+    let road = Fmu::load(dist, "road")?;
+    let plant = Fmu::load(dist, "plant")?;
+    let ctrl = Fmu::load(dist, controller)?;
+    check_connections(&plant, &ctrl)?;
+    let value = |fmu: &Fmu, name: &str, v: &serde_json::Value| -> Result<String, MasterError> {
+        let (_, elem, _) = fmu.variable(name).ok_or_else(|| err(format!("{} has no parameter '{name}'", fmu.name)))?;
+        let bad = || err(format!("{}: parameter '{name}' cannot take {v}", fmu.name));
+        Ok(match elem {
+            ScalarVariableElement::Real(_) => format!("<Real value=\"{:e}\"/>", v.as_f64().ok_or_else(bad)?),
+            ScalarVariableElement::Integer(_) => format!("<Integer value=\"{}\"/>", v.as_i64().ok_or_else(bad)?),
+            ScalarVariableElement::Boolean(_) => format!("<Boolean value=\"{}\"/>", v.as_bool().ok_or_else(bad)?),
+            _ => return Err(bad()),
+        })
+    };
+    let h = scenario.step;
+    let mut x = format!("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<!-- {}: written by `master osp` from scenario '{}' -->\n<OspSystemStructure xmlns=\"http://opensimulationplatform.com/MSMI/OSPSystemStructure\" version=\"0.1\">\n  <StartTime>0.0</StartTime>\n  <BaseStepSize>{h:e}</BaseStepSize>\n  <Algorithm>fixedStep</Algorithm>\n  <Simulators>\n", controller, scenario.name);
+    let plant_values: Vec<(String, serde_json::Value)> = scenario.plant.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect();
+    let inputs = ctrl.names_with_causality("input");
+    let ctrl_values: Vec<(String, serde_json::Value)> = plant_values.iter().filter(|(k, _)| ctrl.has(k) && !inputs.contains(k)).cloned().collect();
+    let road_values: Vec<(String, serde_json::Value)> = scenario.road.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    for (fmu, values) in [(&road, &road_values), (&plant, &plant_values), (&ctrl, &ctrl_values)] {
+        x += &format!("    <Simulator name=\"{}\" source=\"{}.fmu\" stepSize=\"{h:e}\">\n      <InitialValues>\n", fmu.name, fmu.name);
+        for (k, v) in values {
+            x += &format!("        <InitialValue variable=\"{k}\">{}</InitialValue>\n", value(fmu, k, v)?);
+        }
+        x += "      </InitialValues>\n    </Simulator>\n";
+    }
+    x += "  </Simulators>\n  <Connections>\n";
+    let mut connect = |from: &str, to: &str, name: &str| x += &format!("    <VariableConnection>\n      <Variable simulator=\"{from}\" name=\"{name}\"/>\n      <Variable simulator=\"{to}\" name=\"{name}\"/>\n    </VariableConnection>\n");
+    for n in ROAD {
+        connect("road", "plant", n);
+    }
+    for n in &inputs {
+        connect("plant", controller, n);
+    }
+    for n in FORCES {
+        connect(controller, "plant", n);
+    }
+    x += "  </Connections>\n</OspSystemStructure>\n";
+    Ok(x)
+}

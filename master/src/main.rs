@@ -34,6 +34,16 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Write an OSP system structure (libcosim, OSP tools) of one scenario with one controller;
+    /// `--out` should be in --dist, beside the FMUs it names.
+    Osp {
+        #[arg(long)]
+        scenario: PathBuf,
+        #[arg(long)]
+        controller: String,
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Every scenario with the passive car and each controller: tables, plots, report.
     Compare {
         /// A scenario file or a directory of them.
@@ -117,6 +127,10 @@ fn main() {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Run { scenario, controller, out } => Scenario::load(scenario).and_then(|s| run(&cli.dist, &s, controller.as_deref())).and_then(|r| r.write_csv(out)).map(|_| format!("wrote {}\n", out.display())),
+        Command::Osp { scenario, controller, out } => Scenario::load(scenario)
+            .and_then(|s| master::cosim::osp_system_structure(&cli.dist, &s, controller))
+            .and_then(|xml| std::fs::write(out, xml).map_err(|e| MasterError(format!("cannot write {}: {e}", out.display()))))
+            .map(|_| format!("wrote {}\n", out.display())),
         Command::Compare { scenarios, controllers, out, include } => scenarios_in(scenarios).and_then(|s| compare(&cli.dist, &s, controllers, out, include.as_deref())),
     };
     match result {
