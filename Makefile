@@ -104,11 +104,13 @@ $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
 	@touch $@
 
 # Benchmarks: one fmi2DoStep of the plant (criterion), each synthesis against the same LMIs
-# in CVXPY + Clarabel (Python) in the same run, and every design together (wall time).
+# in CVXPY + Clarabel (Python) in the same run, every design together (wall time), and a 10 s
+# closed loop in the Rust master against the same loop in FMPy.
 bench: $(FMU_FILES) $(STAMP)/venv-bench
 	$(CARGO) bench -p fmu-plant --bench do_step
 	$(PY) bench/synth_vs_cvxpy.py
 	./target/release/synth --design synth/designs/default.json --out $(STAMP)/bench-synth
+	$(PY) bench/master_vs_fmpy.py
 
 clean:
 	rm -rf dist results $(STAMP)

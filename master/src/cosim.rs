@@ -160,6 +160,8 @@ pub struct Run {
     pub rows: Vec<Vec<f64>>,
     /// Static tyre loads of the plant, FL … RR [N].
     pub static_tire_load: [f64; 4],
+    /// Wall time of the stepping loop alone (FMUs loaded and initialised) [s].
+    pub loop_seconds: f64,
 }
 
 impl Run {
@@ -241,6 +243,7 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     let mut y = vec![0.0; y_from.len()];
     let mut u = [0.0; 5];
     let step_err = |who: &str, t: f64, e: fmi::fmi2::Fmi2Error| err(format!("{who}: fmi2DoStep at t = {t}: {e}"));
+    let started = std::time::Instant::now();
     for k in 0..steps {
         let t = k as f64 * h;
         r.get_real(&road_out, &mut road_values).map_err(|e| fail("road", e))?;
@@ -279,7 +282,7 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
         time.push(t + h);
         rows.push(row);
     }
-    Ok(Run { columns, time, rows, static_tire_load })
+    Ok(Run { columns, time, rows, static_tire_load, loop_seconds: started.elapsed().as_secs_f64() })
 }
 
 /// `dist/` beside the executable's workspace, or as given.

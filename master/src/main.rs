@@ -126,7 +126,11 @@ fn compare(dist: &Path, scenarios: &[Scenario], controllers: &[String], out: &Pa
 fn main() {
     let cli = Cli::parse();
     let result = match &cli.command {
-        Command::Run { scenario, controller, out } => Scenario::load(scenario).and_then(|s| run(&cli.dist, &s, controller.as_deref())).and_then(|r| r.write_csv(out)).map(|_| format!("wrote {}\n", out.display())),
+        Command::Run { scenario, controller, out } => Scenario::load(scenario).and_then(|s| {
+            let r = run(&cli.dist, &s, controller.as_deref())?;
+            r.write_csv(out)?;
+            Ok(format!("wrote {} ({} steps, loop {:.4} s, {:.0}x real time)\n", out.display(), r.time.len(), r.loop_seconds, s.duration / r.loop_seconds))
+        }),
         Command::Osp { scenario, controller, out } => Scenario::load(scenario)
             .and_then(|s| master::cosim::osp_system_structure(&cli.dist, &s, controller))
             .and_then(|xml| std::fs::write(out, xml).map_err(|e| MasterError(format!("cannot write {}: {e}", out.display()))))
