@@ -31,7 +31,7 @@ all: fmus validate compare
 # Every scenario of scenarios/ with the passive car and each controller (master, in parallel):
 # results/report.md with the tables, the plots and the synthesis summary.
 compare: $(FMU_FILES) $(STAMP)/release
-	./target/release/master compare --scenarios scenarios --controllers $(shell echo $(CONTROLLERS) | tr ' ' ',') --out results --include dist/synthesis.md
+	./target/release/master compare --scenarios scenarios --controllers $(shell echo $(CONTROLLERS) | tr ' ' ',') --out results --designs dist/synthesis.json
 
 setup: $(STAMP)/apt $(STAMP)/venv
 

@@ -65,6 +65,9 @@ pub struct Scenario {
     /// Start of the window the metrics are computed over [s] (e.g. after a fault).
     #[serde(default)]
     pub metrics_from: f64,
+    /// The designs whose own scenario this is (the design table of the report).
+    #[serde(default)]
+    pub showcases: Vec<String>,
 }
 
 impl Scenario {

@@ -168,3 +168,56 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
     root.present().map_err(|x| e(x.to_string()))?;
     Ok(())
 }
+
+/// A design of `dist/synthesis.json` (written by `synth`).
+#[derive(Debug, Clone, serde::Deserialize)]
+pub struct Design {
+    pub variant: String,
+    pub robust_to: String,
+    pub gamma: f64,
+    pub certified: String,
+    pub nominal_design: Option<String>,
+    pub seconds: f64,
+}
+
+pub fn load_designs(path: &Path) -> Result<Vec<Design>, MasterError> {
+    #[derive(serde::Deserialize)]
+    struct File {
+        designs: Vec<Design>,
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| MasterError(format!("cannot read {}: {e}", path.display())))?;
+    Ok(serde_json::from_str::<File>(&text).map_err(|e| MasterError(format!("{}: {e}", path.display())))?.designs)
+}
+
+/// Per design: what it is robust to, γ, the certified norm, the synthesis time (from `synth`),
+/// and the `W_k` RMS seat acceleration in its own scenario (the first that showcases it) against
+/// the passive car and against its nominal design in the same scenario.
+pub fn design_table(designs: &[Design], scenarios: &[Scenario], results: &[Vec<(String, Figures)>]) -> String {
+    let mut t = String::from("| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | synthesis | own scenario | W_k RMS seat [m/s²] | vs passive | vs nominal design |\n|---|---|---|---|---|---|---|---|---|\n");
+    for d in designs {
+        let own = scenarios.iter().position(|s| s.showcases.iter().any(|v| v == &d.variant));
+        let find = |i: usize, name: &str| results[i].iter().find(|(n, _)| n == name).map(|x| x.1.wk_rms_seat);
+        let (scenario, seat, passive, nominal) = match own {
+            Some(i) => (scenarios[i].name.clone(), find(i, &d.variant), find(i, "passive"), d.nominal_design.as_deref().and_then(|n| find(i, n).map(|v| (n, v)))),
+            None => ("-".into(), None, None, None),
+        };
+        t += &format!(
+            "| `{}` | {} | {:.6} | {} | {:.2} s | {scenario} | {} | {} | {} |\n",
+            d.variant,
+            d.robust_to,
+            d.gamma,
+            d.certified,
+            d.seconds,
+            seat.map_or("-".into(), |v| format!("{v:.4}")),
+            match (seat, passive) {
+                (Some(a), Some(p)) => pct(a, p),
+                _ => "-".into(),
+            },
+            match (seat, nominal) {
+                (Some(a), Some((n, v))) => format!("{} (`{n}` {v:.4})", pct(a, v)),
+                _ => "-".into(),
+            },
+        );
+    }
+    t
+}

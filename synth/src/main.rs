@@ -48,9 +48,13 @@ fn run(cli: Cli) -> Result<(), SynthError> {
         );
     }
     let wall = started.elapsed().as_secs_f64();
-    let table = variants::summary_table(&results, wall);
+    let rows = variants::summary_rows(&results);
+    let table = variants::summary_table(&rows, wall);
     let path = out.join("synthesis.md");
     std::fs::write(&path, &table).map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+    // The same, for tools (the master's design table).
+    let path = out.join("synthesis.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&serde_json::json!({"designs": rows, "wall_seconds": wall})).unwrap()).map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
     println!("\n{table}");
     Ok(())
 }

@@ -101,41 +101,67 @@ pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design
     Ok(variants.iter().map(|v| (v.to_string(), by_name.remove(*v).expect("synthesised above"))).collect())
 }
 
+/// One design in the summary of a run (`dist/synthesis.json`, and the rows of
+/// [`summary_table`]).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SummaryRow {
+    pub variant: String,
+    pub robust_to: String,
+    pub gamma: f64,
+    /// The certified norm, worst over the design's uncertainty, with how it was obtained.
+    pub certified: String,
+    /// The nominal design the variant is compared with, if any, and its figure over the same
+    /// uncertainty.
+    pub nominal_design: Option<String>,
+    pub nominal_figure: Option<String>,
+    pub seconds: f64,
+}
+
+pub fn summary_rows(results: &[(String, Synthesised)]) -> Vec<SummaryRow> {
+    results
+        .iter()
+        .map(|(name, s)| {
+            let c = &s.certificate;
+            let worst = c.details.get("worst_norm_over_masses").and_then(|v| v.as_f64());
+            let nominal = ["nominal_design_over_masses", "nominal_design_over_faults"].iter().find_map(|k| c.details.get(*k)).map(|g| match g.get("worst_norm").and_then(|v| v.as_f64()) {
+                Some(x) => format!("{x:.6}"),
+                None => "unstable".into(),
+            });
+            let delay = c.details.get("delay_margin_s").and_then(|v| v.as_f64());
+            let nominal = match c.details.get("nominal_delay_margin_s").and_then(|v| v.as_f64()) {
+                Some(m) => Some(format!("delay margin {:.1} ms", 1e3 * m)),
+                None => nominal,
+            };
+            let faults = c.details.get("worst_norm_over_faults").and_then(|v| v.as_f64());
+            let certified = match (worst, delay, faults) {
+                (_, Some(margin), _) => format!(
+                    "{:.6} with τ = {:.0} ms (sweep); delay margin {:.1} ms",
+                    c.details["delayed_hinf_norm_sweep"].as_f64().unwrap_or(f64::NAN),
+                    1e3 * c.details["design_delay_s"].as_f64().unwrap_or(f64::NAN),
+                    1e3 * margin
+                ),
+                (_, _, Some(w)) => format!("{w:.6} (32 effectiveness vertices; small-gain {:.4} < 1 on the box)", c.details["fault_box"]["scaled_small_gain_norm"].as_f64().unwrap_or(f64::NAN)),
+                (Some(w), None, None) => {
+                    let points = c.details["mass_grid"]["masses"].as_array().map_or(0, |m| m.len());
+                    format!("{w:.6} ({points}-mass grid; {:.6} at the nominal car)", c.norm_upper)
+                }
+                (None, None, None) => format!("{:.6}", c.norm_upper),
+            };
+            let nominal_design = if name == "hinf_of_aw" { Some("hinf_of") } else { nominal_of(name) };
+            SummaryRow { variant: name.clone(), robust_to: s.robust_to.into(), gamma: c.gamma, certified, nominal_design: nominal_design.map(String::from), nominal_figure: nominal, seconds: s.seconds }
+        })
+        .collect()
+}
+
 /// The summary table (Markdown) of a run: per design what it is robust to, the claimed γ, the
 /// certified norm (worst case over its uncertainty), the nominal design's worst case over the
 /// same uncertainty, and the synthesis time.
-pub fn summary_table(results: &[(String, Synthesised)], wall_seconds: f64) -> String {
+pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
     let mut t = String::from("| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | nominal design, worst over the same | synthesis |\n|---|---|---|---|---|---|\n");
-    for (name, s) in results {
-        let c = &s.certificate;
-        let worst = c.details.get("worst_norm_over_masses").and_then(|v| v.as_f64());
-        let nominal = ["nominal_design_over_masses", "nominal_design_over_faults"].iter().find_map(|k| c.details.get(*k)).map(|g| match g.get("worst_norm").and_then(|v| v.as_f64()) {
-            Some(x) => format!("{x:.6}"),
-            None => "unstable".into(),
-        });
-        let delay = c.details.get("delay_margin_s").and_then(|v| v.as_f64());
-        let nominal = match c.details.get("nominal_delay_margin_s").and_then(|v| v.as_f64()) {
-            Some(m) => Some(format!("delay margin {:.1} ms", 1e3 * m)),
-            None => nominal,
-        };
-        let faults = c.details.get("worst_norm_over_faults").and_then(|v| v.as_f64());
-        let certified = match (worst, delay, faults) {
-            (_, Some(margin), _) => format!(
-                "{:.6} with τ = {:.0} ms (sweep); delay margin {:.1} ms",
-                c.details["delayed_hinf_norm_sweep"].as_f64().unwrap_or(f64::NAN),
-                1e3 * c.details["design_delay_s"].as_f64().unwrap_or(f64::NAN),
-                1e3 * margin
-            ),
-            (_, _, Some(w)) => format!("{w:.6} (32 effectiveness vertices; small-gain {:.4} < 1 on the box)", c.details["fault_box"]["scaled_small_gain_norm"].as_f64().unwrap_or(f64::NAN)),
-            (Some(w), None, None) => {
-                let points = c.details["mass_grid"]["masses"].as_array().map_or(0, |m| m.len());
-                format!("{w:.6} ({points}-mass grid; {:.6} at the nominal car)", c.norm_upper)
-            }
-            (None, None, None) => format!("{:.6}", c.norm_upper),
-        };
-        t += &format!("| `{name}` | {} | {:.6} | {certified} | {} | {:.2} s |\n", s.robust_to, c.gamma, nominal.unwrap_or_else(|| "-".into()), s.seconds);
+    for r in rows {
+        t += &format!("| `{}` | {} | {:.6} | {} | {} | {:.2} s |\n", r.variant, r.robust_to, r.gamma, r.certified, r.nominal_figure.as_deref().unwrap_or("-"), r.seconds);
     }
-    t += &format!("\nAll {} designs in {wall_seconds:.2} s wall time (designs in parallel, one BLAS thread each).\n", results.len());
+    t += &format!("\nAll {} designs in {wall_seconds:.2} s wall time (designs in parallel, one BLAS thread each).\n", rows.len());
     t
 }
 
