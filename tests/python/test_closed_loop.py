@@ -266,3 +266,37 @@ def test_rust_master_and_this_python_master_give_the_same_trajectories(tmp_path)
     for k, name in enumerate(["a_seat", "stroke_fl", "f_fl"]):
         scale = np.abs(py[:, k]).max()
         assert np.abs(rust[name] - py[:, k]).max() <= 1e-9 * scale, name
+
+
+def test_plant_and_controller_alone_in_fmpy_simulate_fmu():
+    """fmpy.simulate_fmu on each FMU alone: the plant driven by the bump as an input signal gives
+    the passive run of this file's master; hinf_of driven by a held 1 cm FL stroke gives the
+    zero-order-hold discretisation (SciPy) of its controller.json."""
+    from scipy.signal import cont2discrete
+
+    ts = np.arange(0.0, 2.0 + 1e-9, 1e-3)
+    signal = np.array([tuple([x] + bump(x)) for x in ts], dtype=[("time", float)] + [(n, float) for n in ROAD])
+    res = simulate_fmu(str(ROOT / "dist" / "plant.fmu"), stop_time=2.0, output_interval=1e-3, step_size=1e-3, input=signal, output=["a_seat", "stroke_fl"])
+    loop = run(None, bump, 2.0, record=["a_seat", "stroke_fl"])
+    for k, name in enumerate(["a_seat", "stroke_fl"]):
+        assert np.abs(res[name][1:] - loop[:, k]).max() <= 1e-9 * np.abs(loop[:, k]).max(), name
+
+    spec = json.loads((ROOT / "dist" / "hinf_of" / "controller.json").read_text())
+    A, B, C, D = (np.array(spec[m], dtype=float) for m in "ABCD")
+    inputs = [s["name"] for s in spec["inputs"]]
+    h, n = 1e-3, 200
+    stroke = np.array([(0.0,) + tuple(0.01 if name == "stroke_fl" else 0.0 for name in inputs), (1.0,) + tuple(0.01 if name == "stroke_fl" else 0.0 for name in inputs)],
+                      dtype=[("time", float)] + [(name, float) for name in inputs])
+    res = simulate_fmu(str(ROOT / "dist" / "hinf_of.fmu"), stop_time=n * h, output_interval=h, step_size=h, input=stroke, output=["u_fl", "u_seat"])
+    Ad, Bd, _, _, _ = cont2discrete((A, B, C, D), h, method="zoh")
+    y = np.zeros(len(inputs))
+    y[inputs.index("stroke_fl")] = 0.01
+    x = np.zeros(A.shape[0])
+    expected = []
+    for _ in range(n + 1):
+        expected.append(C @ x + D @ y)
+        x = Ad @ x + Bd @ y
+    expected = np.array(expected)
+    assert np.abs(expected[:, 0]).max() > 1.0  # the command does respond
+    for k, name in enumerate(["u_fl", "u_seat"]):
+        assert np.abs(res[name] - expected[:, [0, 4][k]]).max() <= 1e-6 * np.abs(expected[:, [0, 4][k]]).max(), name
