@@ -177,7 +177,7 @@ impl Controller {
     /// Command `i` sent to the plant.
     fn output(&self, i: usize) -> f64 {
         match &self.spec.anti_windup {
-            None => (self.spec.c.row(i) * self.x.rows(0, self.spec.order()))[(0, 0)] + (self.spec.d.row(i) * &self.y)[(0, 0)],
+            None => self.linear_commands()[i],
             Some(aw) => self.anti_windup_command(aw).1[i],
         }
     }

@@ -129,8 +129,8 @@ pub fn observer_for_faults(g: &GeneralizedPlant, faults: &FaultBox, f: &DMatrix<
     let (p1, p2, lam) = (p1v.expr(), p2v.expr(), lamv.expr());
     let minus_gamma = |k: usize| gamma.expr().map_scalar(&(-DMatrix::identity(k, k)));
     let unit = |i: usize| DMatrix::from_fn(nu, nu, |a, b| if a == b && a == i { 1.0 } else { 0.0 });
-    let s_m = s.iter().enumerate().fold(Affine::zeros(nu, nu), |acc, (i, v)| acc.add(&v.expr().map_scalar(&unit(i))));
-    let ft_s_f = s.iter().enumerate().fold(Affine::zeros(n, n), |acc, (i, v)| acc.add(&v.expr().map_scalar(&(f.transpose() * unit(i) * f))));
+    let s_m = Affine::combination(&s, unit);
+    let ft_s_f = Affine::combination(&s, |i| f.transpose() * unit(i) * f);
     let bf = &g.b_u * f;
     let dzu_f = &g.d_zu * f;
     let lmi = Affine::symmetric_blocks(&[
@@ -164,11 +164,7 @@ pub fn observer_for_faults(g: &GeneralizedPlant, faults: &FaultBox, f: &DMatrix<
         p.negative_definite("H2 observability LMI of F e", lyapunov, eps);
         let b_tilde = p2.right(&g.b_w).sub(&lam.right(&g.d_yw));
         p.positive_definite("H2 trace LMI", Affine::symmetric_blocks(&[vec![Some(zv.expr()), Some(b_tilde.t())], vec![None, Some(p2.clone())]]), eps);
-        let trace = (0..nw).fold(Affine::zeros(1, 1), |acc, i| {
-            let e = DMatrix::from_fn(nw, 1, |j, _| if j == i { 1.0 } else { 0.0 });
-            acc.add(&zv.expr().left(&e.transpose()).right(&e))
-        });
-        p.positive_definite("nu > trace Z", nu_v.expr().sub(&trace), eps);
+        p.positive_definite("nu > trace Z", nu_v.expr().sub(&zv.expr().trace()), eps);
         p.minimise(&nu_v, h2_weight);
     }
     let sol = p.solve()?;

@@ -357,9 +357,36 @@ mod tests {
         p.negative_definite("AᵀP + PA ≺ 0", pv.expr().left(&a_bad.transpose()).he(), 1e-6);
         assert!(p.solve().is_err());
     }
+
+    #[test]
+    fn combination_and_trace_evaluate_like_their_matrices() {
+        let mut p = Problem::new();
+        let vars: Vec<Var> = (0..3).map(|_| p.scalar()).collect();
+        let m = |i: usize| DMatrix::from_fn(2, 2, |a, b| (i + 1) as f64 * (a + 2 * b) as f64);
+        let x = [0.5, -2.0, 3.0];
+        let comb = Affine::combination(&vars, m);
+        let expected = m(0) * 0.5 + m(1) * -2.0 + m(2) * 3.0;
+        assert_eq!(comb.eval(&x), expected);
+        let sym = p.symmetric(3);
+        let values: Vec<f64> = (0..p.n_vars()).map(|k| k as f64 + 1.0).collect();
+        assert_eq!(sym.expr().trace().eval(&values)[(0, 0)], sym.value(&values).trace());
+    }
 }
 
 impl Affine {
+    /// `Σᵢ vᵢ Mᵢ` for scalar variables `vᵢ` (e.g. a diagonal multiplier `diag(vᵢ)`, or
+    /// `Σ vᵢ mᵢmᵢᵀ`), all `Mᵢ = term(i)` of one shape.
+    pub fn combination(vars: &[Var], term: impl Fn(usize) -> DMatrix<f64>) -> Affine {
+        let mats: Vec<DMatrix<f64>> = (0..vars.len()).map(term).collect();
+        let (r, c) = mats.first().map_or((0, 0), |m| m.shape());
+        vars.iter().zip(&mats).fold(Affine::zeros(r, c), |acc, (v, m)| acc.add(&v.expr().map_scalar(m)))
+    }
+
+    /// The trace, a 1×1 expression.
+    pub fn trace(&self) -> Affine {
+        self.map(|f| DMatrix::from_element(1, 1, f.trace()))
+    }
+
     /// For a 1×1 expression `s(x)`, the matrix expression `s(x)·M`.
     pub fn map_scalar(&self, m: &DMatrix<f64>) -> Affine {
         assert_eq!(self.constant.shape(), (1, 1), "map_scalar needs a scalar expression");

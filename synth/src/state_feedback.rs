@@ -99,8 +99,8 @@ pub fn hinf_sf_robust(plants: &[&GeneralizedPlant], norm_bounded: Option<&NormBo
                 let eps_vars: Vec<_> = (0..if nb.diagonal { r } else { 1 }).map(|_| p.scalar()).collect();
                 multipliers.extend(eps_vars.iter().copied());
                 let unit = |i: usize| DMatrix::from_fn(r, r, |a, b| if a == b && (!nb.diagonal || a == i) { 1.0 } else { 0.0 });
-                let s_m = eps_vars.iter().enumerate().fold(Affine::zeros(r, r), |acc, (i, v)| acc.add(&v.expr().map_scalar(&unit(i))));
-                let m_s_mt = eps_vars.iter().enumerate().fold(Affine::zeros(n + nw + nz, n + nw + nz), |acc, (i, v)| acc.add(&v.expr().map_scalar(&(&m * unit(i) * m.transpose()))));
+                let s_m = Affine::combination(&eps_vars, unit);
+                let m_s_mt = Affine::combination(&eps_vars, |i| &m * unit(i) * m.transpose());
                 let e_x = nb.e.columns(0, n).into_owned();
                 let e_u = nb.e.columns(n, nu).into_owned();
                 let nq = q.left(&e_x).add(&y.left(&e_u));
