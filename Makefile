@@ -53,7 +53,7 @@ $(STAMP)/venv: tests/python/requirements.txt | $(STAMP)/apt
 	$(PY) -m pip install -q -r tests/python/requirements.txt
 	@touch $@
 
-fmus: $(FMU_FILES) dist/OspSystemStructure.xml
+fmus: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp
 
 # One cargo build for all FMU libraries and the packager; then one fmu-pack call per FMU.
 $(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
@@ -80,6 +80,11 @@ $(CONTROLLERS:%=dist/%.fmu): dist/%.fmu: $(STAMP)/synth
 dist/OspSystemStructure.xml: $(FMU_FILES) $(STAMP)/release scenarios/bump.json
 	./target/release/master osp --scenario scenarios/bump.json --controller hinf_of --out $@
 
+# And as an SSP 1.0 archive (SystemStructure.ssd + the three FMUs) for SSP-capable tools
+# (tests/python/test_ssp.py validates it against the SSP schema and runs it in FMPy).
+dist/car.ssp: $(FMU_FILES) $(STAMP)/release scenarios/bump.json
+	./target/release/master ssp --scenario scenarios/bump.json --controller hinf_of --out $@
+
 validate: $(FMU_FILES) $(STAMP)/venv
 	@for f in $(FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
 
@@ -96,7 +101,7 @@ test: test-rust test-python
 test-rust: $(FMU_FILES) | $(STAMP)/apt
 	$(CARGO) test --workspace
 
-test-python: $(FMU_FILES) dist/OspSystemStructure.xml $(STAMP)/venv
+test-python: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/venv
 	$(PY) -m pytest tests/python -q
 
 $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv

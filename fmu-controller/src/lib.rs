@@ -15,7 +15,7 @@ use fmu_core::{Capabilities, Causality, DefaultExperiment, Model, ModelDescripti
 use nalgebra::DVector;
 use spec::Spec;
 use std::path::Path;
-use vehicle::exact::{discretize, Discretization};
+use vehicle::exact::{discretize, mat_vec_sum, Discretization};
 
 /// Value references: inputs from 0, outputs from 1000, `gamma` at 2000, force limits of an
 /// anti-windup controller from 3000, a fault detector's variables from 4000.
@@ -118,6 +118,17 @@ pub struct Controller {
     a: nalgebra::DMatrix<f64>,
     b: nalgebra::DMatrix<f64>,
     cache: Option<Discretization>,
+    /// The controller's own output `y_c` and the command sent `u` for the current state and
+    /// inputs (`valid` until an input, a limit or the state changes): a master reading the five
+    /// outputs one by one costs one evaluation.
+    yc: DVector<f64>,
+    u: DVector<f64>,
+    valid: bool,
+    /// What the controller reads: `y`, or `y − C η` with anti-windup.
+    w: DVector<f64>,
+    /// Work vectors of a step (a step allocates nothing): the stepped input and the next state.
+    v: DVector<f64>,
+    next: DVector<f64>,
 }
 
 /// `(A, B)` of the stepped system: the controller alone; with the anti-windup compensator
@@ -148,15 +159,30 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
 }
 
 impl Controller {
-    /// With anti-windup: `(y_c, u)`, the controller's own output and the command sent to the
-    /// plant, `u = sat(y_c + F η)`, the controller reading `y − C η`.
-    fn anti_windup_command(&self, aw: &spec::AntiWindup) -> (DVector<f64>, DVector<f64>) {
+    /// Bring `y_c` and `u` up to date. With anti-windup the controller reads `y − C η` and
+    /// `u = sat(y_c + F η)`; otherwise `u = y_c = C xc + D y`.
+    fn update_commands(&mut self) {
+        if self.valid {
+            return;
+        }
         let n = self.spec.order();
-        let (xc, eta) = (self.x.rows(0, n), self.x.rows(n, aw.a.nrows()));
-        let yc = &self.spec.c * xc + &self.spec.d * (&self.y - &aw.c * eta);
-        let u_lin = &yc + &aw.f * eta;
-        let u = DVector::from_iterator(u_lin.len(), u_lin.iter().zip(&self.limits).map(|(v, l)| v.clamp(-l, *l)));
-        (yc, u)
+        self.w.copy_from(&self.y);
+        if let Some(aw) = &self.spec.anti_windup {
+            self.w.gemv(-1.0, &aw.c, &self.x.rows(n, aw.a.nrows()), 1.0);
+        }
+        mat_vec_sum(self.yc.as_mut_slice(), &[(&self.spec.c, &self.x.as_slice()[..n]), (&self.spec.d, self.w.as_slice())]);
+        match &self.spec.anti_windup {
+            None => self.u.copy_from(&self.yc),
+            Some(aw) => {
+                let eta = self.x.rows(n, aw.a.nrows());
+                self.u.copy_from(&self.yc);
+                self.u.gemv(1.0, &aw.f, &eta, 1.0);
+                for (u, l) in self.u.iter_mut().zip(&self.limits) {
+                    *u = u.clamp(-l, *l);
+                }
+            }
+        }
+        self.valid = true;
     }
 
     /// `‖r‖` of the fault detector (0 without one).
@@ -165,21 +191,14 @@ impl Controller {
         self.spec.fault_detection.as_ref().map_or(0.0, |fd| (&fd.c * self.x.rows(n, fd.a.nrows()) + &fd.d * &self.y).norm())
     }
 
-    /// The commands `C xc + D y` of a controller without anti-windup.
-    fn linear_commands(&self) -> DVector<f64> {
-        &self.spec.c * self.x.rows(0, self.spec.order()) + &self.spec.d * &self.y
-    }
-
     fn fault_detected(&self) -> bool {
         self.detected || self.residual_norm() > self.threshold
     }
 
     /// Command `i` sent to the plant.
-    fn output(&self, i: usize) -> f64 {
-        match &self.spec.anti_windup {
-            None => self.linear_commands()[i],
-            Some(aw) => self.anti_windup_command(aw).1[i],
-        }
+    fn output(&mut self, i: usize) -> f64 {
+        self.update_commands();
+        self.u[i]
     }
 }
 
@@ -194,10 +213,29 @@ impl Model for Controller {
         let limits = spec.anti_windup.as_ref().map(|aw| aw.u_max.clone()).unwrap_or_default();
         let limit_groups = if spec.anti_windup.is_some() { limit_groups(&spec) } else { Vec::new() };
         let threshold = spec.fault_detection.as_ref().map_or(f64::INFINITY, |fd| fd.threshold);
-        Ok(Controller { x: DVector::zeros(a.nrows()), y: DVector::zeros(spec.inputs.len()), limits, limit_groups, threshold, detected: false, a, b, spec, cache: None })
+        let (nx, nv, nu, spec_inputs) = (a.nrows(), b.ncols(), spec.outputs.len(), spec.inputs.len());
+        Ok(Controller {
+            x: DVector::zeros(nx),
+            y: DVector::zeros(spec.inputs.len()),
+            limits,
+            limit_groups,
+            threshold,
+            detected: false,
+            a,
+            b,
+            spec,
+            cache: None,
+            yc: DVector::zeros(nu),
+            u: DVector::zeros(nu),
+            valid: false,
+            w: DVector::zeros(spec_inputs),
+            v: DVector::zeros(nv),
+            next: DVector::zeros(nx),
+        })
     }
 
     fn set_real(&mut self, vr: ValueReference, value: f64) {
+        self.valid = false;
         if vr == vr::FAULT_THRESHOLD {
             self.threshold = value;
         } else if vr >= vr::LIMIT {
@@ -235,6 +273,7 @@ impl Model for Controller {
         }
         self.x.fill(0.0);
         self.detected = false;
+        self.valid = false;
         Ok(())
     }
 
@@ -250,21 +289,21 @@ impl Model for Controller {
         // Measurements held over the step; with anti-windup the saturation excess u − y_c too,
         // with a detector the command sent (evaluated at the start of the step, as a
         // sampled-data implementation does and as the plant receives it).
-        let extend = |extra: DVector<f64>| DVector::from_iterator(self.y.len() + extra.len(), self.y.iter().copied().chain(extra.iter().copied()));
-        let v = match (&self.spec.anti_windup, &self.spec.fault_detection) {
-            (Some(aw), _) => {
-                let (yc, u) = self.anti_windup_command(aw);
-                extend(u - yc)
-            }
-            (None, Some(_)) => extend(self.linear_commands()),
-            (None, None) => self.y.clone(),
-        };
+        self.update_commands();
+        let ny = self.y.len();
+        self.v.rows_mut(0, ny).copy_from(&self.y);
+        match (&self.spec.anti_windup, &self.spec.fault_detection) {
+            (Some(_), _) => self.v.rows_mut(ny, self.u.len()).copy_from(&(&self.u - &self.yc)),
+            (None, Some(_)) => self.v.rows_mut(ny, self.u.len()).copy_from(&self.u),
+            (None, None) => {}
+        }
         let d = self.cache.as_ref().unwrap();
-        let next = &d.phi * &self.x + &d.gamma_hold * v;
-        if !next.iter().all(|v| v.is_finite()) {
+        mat_vec_sum(self.next.as_mut_slice(), &[(&d.phi, self.x.as_slice()), (&d.gamma_hold, self.v.as_slice())]);
+        if !self.next.iter().all(|v| v.is_finite()) {
             return Err("controller state became non-finite; the step was discarded".into());
         }
-        self.x = next;
+        std::mem::swap(&mut self.x, &mut self.next);
+        self.valid = false;
         Ok(())
     }
 
@@ -291,6 +330,7 @@ impl Model for Controller {
         self.x = DVector::from_vec(x);
         self.y = DVector::from_vec(y);
         self.limits = limits;
+        self.valid = false;
         Ok(())
     }
 }

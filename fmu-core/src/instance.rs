@@ -205,13 +205,19 @@ impl<M: Model> Instance<M> {
     }
 
     pub fn set_real(&mut self, vrs: &[ValueReference], values: &[f64]) -> Result<Status, String> {
-        self.check_settable(BaseType::Real, vrs)?;
+        // Every value is checked before any is set (an error changes nothing).
+        let initialising = self.initialising();
         for (&vr, &value) in vrs.iter().zip(values) {
-            let name = &self.variable(BaseType::Real, vr)?.name;
+            let v = self.variable(BaseType::Real, vr)?;
+            let name = &v.name;
+            if !v.settable(initialising) {
+                let when = if initialising { "" } else { " after initialisation" };
+                return Err(format!("variable '{name}' ({:?}, {:?}) cannot be set{when}", v.causality, v.variability));
+            }
             if !value.is_finite() {
                 return Err(format!("value of '{name}' must be finite, got {value}"));
             }
-            if let VarType::Real { min, max, .. } = &self.variable(BaseType::Real, vr)?.kind {
+            if let VarType::Real { min, max, .. } = &v.kind {
                 if let Some(m) = min.filter(|m| value < *m) {
                     return Err(format!("value {value} of '{name}' is below its minimum {m}"));
                 }

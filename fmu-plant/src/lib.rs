@@ -11,7 +11,7 @@ use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable};
 use simulator::{ActuatorParams, Simulator};
 use std::path::Path;
-use vehicle::model::{physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS, N_ROAD, N_STATES, STATES};
+use vehicle::model::{physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS, N_PHYSICAL_OUTPUTS, N_ROAD, STATES};
 use vehicle::params::{Admissible, PARAMETERS};
 use vehicle::VehicleParams;
 
@@ -110,13 +110,24 @@ fn static_variables() -> Vec<Variable> {
 /// The plant as an FMI model.
 pub struct Plant {
     sim: Simulator,
+    /// The physical outputs, then the applied forces, for the current state and inputs
+    /// (computed once per change, however many of them a master reads).
     outputs: Vec<f64>,
+    forces: [f64; N_ACTUATORS],
     outputs_valid: bool,
 }
 
 impl Plant {
     fn invalidate_outputs(&mut self) {
         self.outputs_valid = false;
+    }
+
+    fn update_outputs(&mut self) {
+        if !self.outputs_valid {
+            self.sim.physical_outputs(&mut self.outputs);
+            self.forces = self.sim.applied_force();
+            self.outputs_valid = true;
+        }
     }
 }
 
@@ -188,7 +199,7 @@ impl Model for Plant {
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, String> {
-        Ok(Plant { sim: Simulator::new(VehicleParams::default(), ActuatorParams::default()), outputs: vec![0.0; 20], outputs_valid: false })
+        Ok(Plant { sim: Simulator::new(VehicleParams::default(), ActuatorParams::default()), outputs: vec![0.0; N_PHYSICAL_OUTPUTS], forces: [0.0; N_ACTUATORS], outputs_valid: false })
     }
 
     fn check_real(&self, vr: ValueReference, value: f64) -> Result<(), String> {
@@ -208,24 +219,34 @@ impl Model for Plant {
     }
 
     fn set_real(&mut self, vr: ValueReference, value: f64) {
-        self.invalidate_outputs();
         if let Some(spec) = vehicle_param(vr) {
             (spec.set)(&mut self.sim.params, value);
             self.sim.invalidate();
+            self.invalidate_outputs();
         } else if let Some(spec) = actuator_param(vr) {
             (spec.set)(&mut self.sim.actuator, value);
             self.sim.invalidate();
+            self.invalidate_outputs();
         } else if let Some(k) = input_index(vr) {
-            if k < N_ROAD {
-                self.sim.road[k] = value;
-            } else {
-                self.sim.command[k - N_ROAD] = value;
+            let slot = if k < N_ROAD { &mut self.sim.road[k] } else { &mut self.sim.command[k - N_ROAD] };
+            // A master sets every input at every communication point; an unchanged value
+            // keeps the outputs already computed.
+            if slot.to_bits() != value.to_bits() {
+                *slot = value;
+                self.invalidate_outputs();
             }
         }
     }
 
     fn get_real(&mut self, vr: ValueReference) -> f64 {
-        if let Some(spec) = vehicle_param(vr) {
+        // Outputs first: a master reads them at every communication point.
+        if (vr::OUTPUT..vr::OUTPUT + N_PHYSICAL_OUTPUTS as u32).contains(&vr) {
+            self.update_outputs();
+            self.outputs[(vr - vr::OUTPUT) as usize]
+        } else if (vr::FORCE..vr::FORCE + N_ACTUATORS as u32).contains(&vr) {
+            self.update_outputs();
+            self.forces[(vr - vr::FORCE) as usize]
+        } else if let Some(spec) = vehicle_param(vr) {
             (spec.get)(&self.sim.params)
         } else if let Some(spec) = actuator_param(vr) {
             (spec.get)(&self.sim.actuator)
@@ -233,16 +254,9 @@ impl Model for Plant {
             static_values(self.sim.static_equilibrium())[(vr - vr::STATIC) as usize]
         } else if let Some(k) = input_index(vr) {
             if k < N_ROAD { self.sim.road[k] } else { self.sim.command[k - N_ROAD] }
-        } else if (vr::STATE..vr::STATE + N_STATES as u32).contains(&vr) {
-            self.sim.state()[(vr - vr::STATE) as usize]
-        } else if (vr::OUTPUT..vr::OUTPUT + 20).contains(&vr) {
-            if !self.outputs_valid {
-                self.sim.physical_outputs(&mut self.outputs);
-                self.outputs_valid = true;
-            }
-            self.outputs[(vr - vr::OUTPUT) as usize]
         } else {
-            self.sim.applied_force()[(vr - vr::FORCE) as usize]
+            // Instance::get_real only passes value references of the variable table.
+            self.sim.state()[(vr - vr::STATE) as usize]
         }
     }
 

@@ -16,7 +16,7 @@
 
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
-use vehicle::exact::{discretize, Discretization};
+use vehicle::exact::{discretize, mat_vec_sum, Discretization};
 use vehicle::model::{physical_outputs, StateSpace, StaticEquilibrium, N_ACTUATORS, N_ROAD, N_STATES};
 use vehicle::VehicleParams;
 
@@ -80,10 +80,12 @@ struct System {
     n: usize,
     a: DMatrix<f64>,
     b: DMatrix<f64>,
-    /// Physical outputs `y = C x + D_r r + D_u f`.
-    out_c: DMatrix<f64>,
-    out_dr: DMatrix<f64>,
-    out_du: DMatrix<f64>,
+    /// Physical outputs `y = C x + D_r r + D_u f` as sparse rows over `[x; r; f]`: row `i`
+    /// is `out_terms[out_start[i]..out_start[i + 1]]`, (column, coefficient) in column order.
+    /// Most rows have a handful of non-zeros (strokes, velocities, tyre loads), so this is
+    /// several times cheaper than the dense product and sums the same terms in the same order.
+    out_terms: Vec<(usize, f64)>,
+    out_start: Vec<usize>,
     /// Static deflections and loads under gravity.
     statics: StaticEquilibrium,
     cache: VecDeque<Discretization>,
@@ -108,15 +110,19 @@ impl System {
         } else {
             b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS)).copy_from(&ss.b_u);
         }
-        let rows = physical_outputs(p);
-        let ny = rows.len();
+        let mut out_terms = Vec::new();
+        let mut out_start = vec![0];
+        for row in physical_outputs(p) {
+            let coefficients = row.c.iter().chain(&row.d_r).chain(&row.d_u);
+            out_terms.extend(coefficients.enumerate().filter(|(_, v)| **v != 0.0).map(|(k, v)| (k, *v)));
+            out_start.push(out_terms.len());
+        }
         System {
             n,
             a,
             b,
-            out_c: DMatrix::from_fn(ny, N_STATES, |r, k| rows[r].c[k]),
-            out_dr: DMatrix::from_fn(ny, N_ROAD, |r, k| rows[r].d_r[k]),
-            out_du: DMatrix::from_fn(ny, N_ACTUATORS, |r, k| rows[r].d_u[k]),
+            out_terms,
+            out_start,
             statics: StaticEquilibrium::new(p),
             cache: VecDeque::with_capacity(CACHE_SIZE),
         }
@@ -151,6 +157,11 @@ pub struct Simulator {
     time: f64,
     system: Option<System>,
     breaks: Vec<f64>,
+    /// Work vectors of a step (a step allocates nothing): the state being advanced and the
+    /// next, the inputs at a piece's start and their change over it.
+    work: [DVector<f64>; 2],
+    wa: DVector<f64>,
+    dw: DVector<f64>,
 }
 
 /// Why a step could not be taken.
@@ -181,6 +192,9 @@ impl Simulator {
             time: 0.0,
             system: None,
             breaks: Vec::with_capacity(16),
+            work: [DVector::zeros(N_STATES), DVector::zeros(N_STATES)],
+            wa: DVector::zeros(N_INPUTS),
+            dw: DVector::zeros(N_INPUTS),
         }
     }
 
@@ -258,12 +272,15 @@ impl Simulator {
 
     /// Physical outputs (the rows of [`vehicle::model::physical_outputs`]) now.
     pub fn physical_outputs(&mut self, out: &mut [f64]) {
-        let f = DVector::from_row_slice(&self.applied_force());
-        let r = DVector::from_row_slice(&self.road);
-        let x = DVector::from_row_slice(self.state());
-        let sys = self.system();
-        let y = &sys.out_c * x + &sys.out_dr * r + &sys.out_du * f;
-        out.copy_from_slice(y.as_slice());
+        let f = self.applied_force();
+        let mut z = [0.0; N_STATES + N_ROAD + N_ACTUATORS];
+        z[..N_STATES].copy_from_slice(self.state());
+        z[N_STATES..N_STATES + N_ROAD].copy_from_slice(&self.road);
+        z[N_STATES + N_ROAD..].copy_from_slice(&f);
+        let sys = self.system.as_ref().expect("applied_force built the system");
+        for (y, range) in out.iter_mut().zip(sys.out_start.windows(2)) {
+            *y = sys.out_terms[range[0]..range[1]].iter().fold(0.0, |acc, &(k, v)| acc + v * z[k]);
+        }
     }
 
     /// Advance from `t` by `h` with the current inputs and slopes. Afterwards the inputs hold
@@ -308,9 +325,13 @@ impl Simulator {
         }
         breaks.dedup();
 
-        let mut xi = self.xi.clone();
-        let mut wa = DVector::zeros(N_INPUTS);
-        let mut dw = DVector::zeros(N_INPUTS);
+        let [mut xi, mut next] = std::mem::take(&mut self.work);
+        if xi.len() != self.xi.len() {
+            xi = DVector::zeros(self.xi.len());
+            next = DVector::zeros(self.xi.len());
+        }
+        xi.copy_from(&self.xi);
+        let (mut wa, mut dw) = (std::mem::take(&mut self.wa), std::mem::take(&mut self.dw));
         for k in 0..breaks.len() - 1 {
             let (a, b) = (breaks[k], breaks[k + 1]);
             let mid = 0.5 * (a + b);
@@ -329,20 +350,26 @@ impl Simulator {
                 ramp |= vb != va;
             }
             let d = self.system.as_mut().unwrap().discretization(b - a);
-            let mut next = &d.phi * &xi;
-            next.gemv(1.0, &d.gamma_hold, &wa, 1.0);
+            let (x, wa, dw) = (xi.as_slice(), wa.as_slice(), dw.as_slice());
             if ramp {
-                next.gemv(1.0, &d.gamma_ramp, &dw, 1.0);
+                mat_vec_sum(next.as_mut_slice(), &[(&d.phi, x), (&d.gamma_hold, wa), (&d.gamma_ramp, dw)]);
+            } else {
+                mat_vec_sum(next.as_mut_slice(), &[(&d.phi, x), (&d.gamma_hold, wa)]);
             }
-            xi = next;
+            std::mem::swap(&mut xi, &mut next);
         }
         self.breaks = breaks;
-        if !xi.iter().all(|v| v.is_finite()) {
+        (self.wa, self.dw) = (wa, dw);
+        let finite = xi.iter().all(|v| v.is_finite());
+        if finite {
+            std::mem::swap(&mut self.xi, &mut xi);
+        }
+        self.work = [xi, next];
+        if !finite {
             self.history.pop_back();
             return Err(StepError::NonFinite(end));
         }
 
-        self.xi = xi;
         self.time = end;
         for j in 0..N_ROAD {
             self.road[j] += self.road_slope[j] * h;

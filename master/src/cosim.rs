@@ -37,7 +37,7 @@ impl std::fmt::Display for MasterError {
 
 impl std::error::Error for MasterError {}
 
-fn err(msg: impl Into<String>) -> MasterError {
+pub(crate) fn err(msg: impl Into<String>) -> MasterError {
     MasterError(msg.into())
 }
 
@@ -119,7 +119,7 @@ impl Fmu {
         Ok(Fmu { name: name.into(), import })
     }
 
-    fn variable(&self, name: &str) -> Option<(u32, &ScalarVariableElement, String)> {
+    pub(crate) fn variable(&self, name: &str) -> Option<(u32, &ScalarVariableElement, String)> {
         self.import.model_description().model_variables.variables.iter().find(|v| v.name == name).map(|v| (v.value_reference, &v.elem, format!("{:?}", v.causality).to_lowercase()))
     }
 
@@ -160,7 +160,8 @@ impl Fmu {
 pub struct Run {
     pub columns: Vec<String>,
     pub time: Vec<f64>,
-    pub rows: Vec<Vec<f64>>,
+    /// The rows, one after the other (`columns.len()` values each).
+    pub data: Vec<f64>,
     /// Static tyre loads of the plant, FL … RR [N].
     pub static_tire_load: [f64; 4],
     /// Wall time of the stepping loop alone (FMUs loaded and initialised) [s].
@@ -168,17 +169,22 @@ pub struct Run {
 }
 
 impl Run {
+    pub fn rows(&self) -> std::slice::ChunksExact<'_, f64> {
+        self.data.chunks_exact(self.columns.len())
+    }
+
     pub fn column(&self, name: &str) -> Option<Vec<f64>> {
         let k = self.columns.iter().position(|c| c == name)?;
-        Some(self.rows.iter().map(|r| r[k]).collect())
+        Some(self.rows().map(|r| r[k]).collect())
     }
 
     pub fn write_csv(&self, path: &Path) -> Result<(), MasterError> {
+        use std::fmt::Write;
         let mut s = format!("time,{}\n", self.columns.join(","));
-        for (t, r) in self.time.iter().zip(&self.rows) {
-            s += &format!("{t}");
+        for (t, r) in self.time.iter().zip(self.rows()) {
+            write!(s, "{t}").unwrap();
             for v in r {
-                s += &format!(",{v:e}");
+                write!(s, ",{v:e}").unwrap();
             }
             s.push('\n');
         }
@@ -241,16 +247,19 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     let steps = scenario.steps();
     let mut columns: Vec<String> = RECORD.iter().map(|s| s.to_string()).collect();
     columns.extend(c_bool.iter().map(|s| s.to_string()));
-    let (mut time, mut rows) = (Vec::with_capacity(steps), Vec::with_capacity(steps));
+    let mut time = Vec::with_capacity(steps);
+    let mut data = Vec::with_capacity(steps * columns.len());
     let mut road_values = [0.0; 8];
     let mut y = vec![0.0; y_from.len()];
     let mut u = [0.0; 5];
+    let mut row = vec![0.0; rec.len()];
     let step_err = |who: &str, t: f64, e: fmi::fmi2::Fmi2Error| err(format!("{who}: fmi2DoStep at t = {t}: {e}"));
     let started = std::time::Instant::now();
+    // The road at t_0; afterwards each iteration leaves the road at t_{k+1} in the plant.
+    r.get_real(&road_out, &mut road_values).map_err(|e| fail("road", e))?;
+    p.set_real(&road_in, &road_values).map_err(|e| fail("plant", e))?;
     for k in 0..steps {
         let t = k as f64 * h;
-        r.get_real(&road_out, &mut road_values).map_err(|e| fail("road", e))?;
-        p.set_real(&road_in, &road_values).map_err(|e| fail("plant", e))?;
         if let Some(c) = c.as_mut() {
             p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
             c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
@@ -262,8 +271,8 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
         p.do_step(t, h, true).map_err(|e| step_err("plant", t, e))?;
         r.get_real(&road_out, &mut road_values).map_err(|e| fail("road", e))?;
         p.set_real(&road_in, &road_values).map_err(|e| fail("plant", e))?;
-        let mut row = vec![0.0; rec.len()];
         p.get_real(&rec, &mut row).map_err(|e| fail("plant", e))?;
+        data.extend_from_slice(&row);
         if let Some(c) = c.as_mut() {
             if !c_rec.is_empty() {
                 p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
@@ -278,64 +287,16 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
                         c.get_real(&[*vr], &mut v).map_err(|e| fail("controller", e))?;
                         v[0]
                     };
-                    row.push(value);
+                    data.push(value);
                 }
             }
         }
         time.push(t + h);
-        rows.push(row);
     }
-    Ok(Run { columns, time, rows, static_tire_load, loop_seconds: started.elapsed().as_secs_f64() })
+    Ok(Run { columns, time, data, static_tire_load, loop_seconds: started.elapsed().as_secs_f64() })
 }
 
 /// `dist/` beside the executable's workspace, or as given.
 pub fn default_dist() -> PathBuf {
     PathBuf::from("dist")
-}
-
-/// An OSP system structure (`OspSystemStructure.xml`, for libcosim / OSP tools) of the same loop:
-/// road, plant and `controller` (FMUs beside the file), connected by name, with the scenario's
-/// parameters as initial values. libcosim's fixed-step algorithm exchanges the values of all
-/// simulators after each step (Jacobi), not in this master's Gauss-Seidel order.
-pub fn osp_system_structure(dist: &Path, scenario: &Scenario, controller: &str) -> Result<String, MasterError> {
-    let road = Fmu::load(dist, "road")?;
-    let plant = Fmu::load(dist, "plant")?;
-    let ctrl = Fmu::load(dist, controller)?;
-    check_connections(&plant, &ctrl)?;
-    let value = |fmu: &Fmu, name: &str, v: &serde_json::Value| -> Result<String, MasterError> {
-        let (_, elem, _) = fmu.variable(name).ok_or_else(|| err(format!("{} has no parameter '{name}'", fmu.name)))?;
-        let bad = || err(format!("{}: parameter '{name}' cannot take {v}", fmu.name));
-        Ok(match elem {
-            ScalarVariableElement::Real(_) => format!("<Real value=\"{:e}\"/>", v.as_f64().ok_or_else(bad)?),
-            ScalarVariableElement::Integer(_) => format!("<Integer value=\"{}\"/>", v.as_i64().ok_or_else(bad)?),
-            ScalarVariableElement::Boolean(_) => format!("<Boolean value=\"{}\"/>", v.as_bool().ok_or_else(bad)?),
-            _ => return Err(bad()),
-        })
-    };
-    let h = scenario.step;
-    let mut x = format!("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<!-- {}: written by `master osp` from scenario '{}' -->\n<OspSystemStructure xmlns=\"http://opensimulationplatform.com/MSMI/OSPSystemStructure\" version=\"0.1\">\n  <StartTime>0.0</StartTime>\n  <BaseStepSize>{h:e}</BaseStepSize>\n  <Algorithm>fixedStep</Algorithm>\n  <Simulators>\n", controller, scenario.name);
-    let plant_values: Vec<(String, serde_json::Value)> = scenario.plant.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect();
-    let inputs = ctrl.names_with_causality("input");
-    let ctrl_values: Vec<(String, serde_json::Value)> = plant_values.iter().filter(|(k, _)| ctrl.has(k) && !inputs.contains(k)).cloned().collect();
-    let road_values: Vec<(String, serde_json::Value)> = scenario.road.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
-    for (fmu, values) in [(&road, &road_values), (&plant, &plant_values), (&ctrl, &ctrl_values)] {
-        x += &format!("    <Simulator name=\"{}\" source=\"{}.fmu\" stepSize=\"{h:e}\">\n      <InitialValues>\n", fmu.name, fmu.name);
-        for (k, v) in values {
-            x += &format!("        <InitialValue variable=\"{k}\">{}</InitialValue>\n", value(fmu, k, v)?);
-        }
-        x += "      </InitialValues>\n    </Simulator>\n";
-    }
-    x += "  </Simulators>\n  <Connections>\n";
-    let mut connect = |from: &str, to: &str, name: &str| x += &format!("    <VariableConnection>\n      <Variable simulator=\"{from}\" name=\"{name}\"/>\n      <Variable simulator=\"{to}\" name=\"{name}\"/>\n    </VariableConnection>\n");
-    for n in ROAD {
-        connect("road", "plant", n);
-    }
-    for n in &inputs {
-        connect("plant", controller, n);
-    }
-    for n in FORCES {
-        connect(controller, "plant", n);
-    }
-    x += "  </Connections>\n</OspSystemStructure>\n";
-    Ok(x)
 }

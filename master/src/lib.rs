@@ -3,3 +3,4 @@
 pub mod metrics;
 pub mod cosim;
 pub mod report;
+pub mod structure;

@@ -8,6 +8,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use master::cosim::{run, MasterError, Scenario};
+use master::structure::Loop;
 use master::report::{design_table, figures, load_designs, plot, scenario_table, summary_table, Figures};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -37,6 +38,16 @@ enum Command {
     /// Write an OSP system structure (libcosim, OSP tools) of one scenario with one controller;
     /// `--out` should be in --dist, beside the FMUs it names.
     Osp {
+        #[arg(long)]
+        scenario: PathBuf,
+        #[arg(long)]
+        controller: String,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Write an SSP 1.0 archive (`SystemStructure.ssd` and the three FMUs) of one scenario with
+    /// one controller, for SSP-capable tools.
+    Ssp {
         #[arg(long)]
         scenario: PathBuf,
         #[arg(long)]
@@ -136,8 +147,12 @@ fn main() {
             Ok(format!("wrote {} ({} steps, loop {:.4} s, {:.0}x real time)\n", out.display(), r.time.len(), r.loop_seconds, s.duration / r.loop_seconds))
         }),
         Command::Osp { scenario, controller, out } => Scenario::load(scenario)
-            .and_then(|s| master::cosim::osp_system_structure(&cli.dist, &s, controller))
-            .and_then(|xml| std::fs::write(out, xml).map_err(|e| MasterError(format!("cannot write {}: {e}", out.display()))))
+            .and_then(|s| Loop::new(&cli.dist, &s, controller))
+            .and_then(|l| std::fs::write(out, l.osp()).map_err(|e| MasterError(format!("cannot write {}: {e}", out.display()))))
+            .map(|_| format!("wrote {}\n", out.display())),
+        Command::Ssp { scenario, controller, out } => Scenario::load(scenario)
+            .and_then(|s| Loop::new(&cli.dist, &s, controller))
+            .and_then(|l| l.write_ssp(&cli.dist, out))
             .map(|_| format!("wrote {}\n", out.display())),
         Command::Compare { scenarios, controllers, out, designs } => scenarios_in(scenarios).and_then(|s| compare(&cli.dist, &s, controllers, out, designs.as_deref())),
     };

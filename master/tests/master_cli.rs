@@ -70,3 +70,28 @@ fn a_run_is_the_test_helpers_loop_on_the_same_fmus() {
     assert_eq!(r.time.len(), 3000);
     assert!((r.time[2999] - 3.0).abs() < 1e-9);
 }
+
+#[test]
+fn system_descriptions_carry_typed_parameters_and_refuse_bad_ones() {
+    use master::structure::{Loop, Typed};
+    let s = scenario("saturation");
+    let l = Loop::new(&dist(), &s, "hinf_of_aw").unwrap();
+    let values = |c: &str| l.components.iter().find(|x| x.0 == c).unwrap().1.clone();
+    assert!(values("road").contains(&("iso_class".into(), Typed::Integer(4))));
+    assert!(values("plant").contains(&("u_max".into(), Typed::Real(300.0))));
+    // The anti-windup controller gets the force limits it shares with the plant.
+    assert_eq!(values("hinf_of_aw"), vec![("u_max".into(), Typed::Real(300.0)), ("u_max_seat".into(), Typed::Real(100.0))]);
+    // 8 road signals, the controller's measurements, 5 commands.
+    assert_eq!(l.connections.len(), 8 + l.measured.len() + 5);
+    let ssd = l.ssd();
+    assert!(ssd.contains("<ssv:Parameter name=\"iso_class\"><ssv:Integer value=\"4\"/></ssv:Parameter>"), "{ssd}");
+    assert!(ssd.contains("startElement=\"hinf_of_aw\" startConnector=\"u_seat\" endElement=\"plant\""));
+    assert!(l.osp().contains("<InitialValue variable=\"u_max\"><Real value=\"3e2\"/></InitialValue>"));
+    // A value the variable's type cannot take is refused with the names.
+    let mut bad = scenario("bump");
+    bad.road.insert("profile".into(), serde_json::json!(1.5));
+    let e = Loop::new(&dist(), &bad, "hinf_of").err().unwrap().0;
+    assert!(e.contains("road: parameter 'profile' cannot take 1.5"), "{e}");
+    let e = Loop::new(&dist(), &scenario("bump"), "no_such").err().unwrap().0;
+    assert!(e.contains("no_such.fmu not found"), "{e}");
+}

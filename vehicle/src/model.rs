@@ -25,6 +25,8 @@ pub const N_WHEELS: usize = 4;
 pub const N_ROAD: usize = 8;
 /// Number of actuators: four corners (between body and wheel) and the seat (between body and seat).
 pub const N_ACTUATORS: usize = 5;
+/// Number of rows of [`physical_outputs`].
+pub const N_PHYSICAL_OUTPUTS: usize = 20;
 
 /// Index of each generalised coordinate in `q`.
 pub mod coord {
@@ -355,6 +357,7 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
             });
         }
     }
+    debug_assert_eq!(rows.len(), N_PHYSICAL_OUTPUTS);
     rows
 }
 
