@@ -37,24 +37,10 @@ enum Command {
     },
     /// Write an OSP system structure (libcosim, OSP tools) of one scenario with one controller;
     /// `--out` should be in --dist, beside the FMUs it names.
-    Osp {
-        #[arg(long)]
-        scenario: PathBuf,
-        #[arg(long)]
-        controller: String,
-        #[arg(long)]
-        out: PathBuf,
-    },
+    Osp(LoopArgs),
     /// Write an SSP 1.0 archive (`SystemStructure.ssd` and the three FMUs) of one scenario with
     /// one controller, for SSP-capable tools.
-    Ssp {
-        #[arg(long)]
-        scenario: PathBuf,
-        #[arg(long)]
-        controller: String,
-        #[arg(long)]
-        out: PathBuf,
-    },
+    Ssp(LoopArgs),
     /// Every scenario with the passive car and each controller: tables, plots, report.
     Compare {
         /// A scenario file or a directory of them.
@@ -70,6 +56,17 @@ enum Command {
         #[arg(long)]
         designs: Option<PathBuf>,
     },
+}
+
+/// One scenario with one controller, described for another tool.
+#[derive(clap::Args)]
+struct LoopArgs {
+    #[arg(long)]
+    scenario: PathBuf,
+    #[arg(long)]
+    controller: String,
+    #[arg(long)]
+    out: PathBuf,
 }
 
 fn scenarios_in(path: &Path) -> Result<Vec<Scenario>, MasterError> {
@@ -146,11 +143,11 @@ fn main() {
             r.write_csv(out)?;
             Ok(format!("wrote {} ({} steps, loop {:.4} s, {:.0}x real time)\n", out.display(), r.time.len(), r.loop_seconds, s.duration / r.loop_seconds))
         }),
-        Command::Osp { scenario, controller, out } => Scenario::load(scenario)
+        Command::Osp(LoopArgs { scenario, controller, out }) => Scenario::load(scenario)
             .and_then(|s| Loop::new(&cli.dist, &s, controller))
             .and_then(|l| std::fs::write(out, l.osp()).map_err(|e| MasterError(format!("cannot write {}: {e}", out.display()))))
             .map(|_| format!("wrote {}\n", out.display())),
-        Command::Ssp { scenario, controller, out } => Scenario::load(scenario)
+        Command::Ssp(LoopArgs { scenario, controller, out }) => Scenario::load(scenario)
             .and_then(|s| Loop::new(&cli.dist, &s, controller))
             .and_then(|l| l.write_ssp(&cli.dist, out))
             .map(|_| format!("wrote {}\n", out.display())),
