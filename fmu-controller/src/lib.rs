@@ -126,9 +126,11 @@ pub struct Controller {
     valid: bool,
     /// What the controller reads: `y`, or `y − C η` with anti-windup.
     w: DVector<f64>,
-    /// Work vectors of a step (a step allocates nothing): the stepped input and the next state.
+    /// Work vectors (a step allocates nothing): the stepped input, the next state, the
+    /// detector's residual.
     v: DVector<f64>,
     next: DVector<f64>,
+    r: DVector<f64>,
 }
 
 /// `(A, B)` of the stepped system: the controller alone; with the anti-windup compensator
@@ -186,12 +188,14 @@ impl Controller {
     }
 
     /// `‖r‖` of the fault detector (0 without one).
-    fn residual_norm(&self) -> f64 {
+    fn residual_norm(&mut self) -> f64 {
         let n = self.spec.order();
-        self.spec.fault_detection.as_ref().map_or(0.0, |fd| (&fd.c * self.x.rows(n, fd.a.nrows()) + &fd.d * &self.y).norm())
+        let Some(fd) = &self.spec.fault_detection else { return 0.0 };
+        mat_vec_sum(self.r.as_mut_slice(), &[(&fd.c, &self.x.as_slice()[n..]), (&fd.d, self.y.as_slice())]);
+        self.r.norm()
     }
 
-    fn fault_detected(&self) -> bool {
+    fn fault_detected(&mut self) -> bool {
         self.detected || self.residual_norm() > self.threshold
     }
 
@@ -213,10 +217,11 @@ impl Model for Controller {
         let limits = spec.anti_windup.as_ref().map(|aw| aw.u_max.clone()).unwrap_or_default();
         let limit_groups = if spec.anti_windup.is_some() { limit_groups(&spec) } else { Vec::new() };
         let threshold = spec.fault_detection.as_ref().map_or(f64::INFINITY, |fd| fd.threshold);
-        let (nx, nv, nu, spec_inputs) = (a.nrows(), b.ncols(), spec.outputs.len(), spec.inputs.len());
+        let (nx, nv, nu, ny) = (a.nrows(), b.ncols(), spec.outputs.len(), spec.inputs.len());
+        let nr = spec.fault_detection.as_ref().map_or(0, |fd| fd.c.nrows());
         Ok(Controller {
             x: DVector::zeros(nx),
-            y: DVector::zeros(spec.inputs.len()),
+            y: DVector::zeros(ny),
             limits,
             limit_groups,
             threshold,
@@ -228,9 +233,10 @@ impl Model for Controller {
             yc: DVector::zeros(nu),
             u: DVector::zeros(nu),
             valid: false,
-            w: DVector::zeros(spec_inputs),
+            w: DVector::zeros(ny),
             v: DVector::zeros(nv),
             next: DVector::zeros(nx),
+            r: DVector::zeros(nr),
         })
     }
 
@@ -293,7 +299,11 @@ impl Model for Controller {
         let ny = self.y.len();
         self.v.rows_mut(0, ny).copy_from(&self.y);
         match (&self.spec.anti_windup, &self.spec.fault_detection) {
-            (Some(_), _) => self.v.rows_mut(ny, self.u.len()).copy_from(&(&self.u - &self.yc)),
+            (Some(_), _) => {
+                for (v, (u, yc)) in self.v.as_mut_slice()[ny..].iter_mut().zip(self.u.iter().zip(&self.yc)) {
+                    *v = u - yc;
+                }
+            }
             (None, Some(_)) => self.v.rows_mut(ny, self.u.len()).copy_from(&self.u),
             (None, None) => {}
         }

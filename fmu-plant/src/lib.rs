@@ -124,8 +124,7 @@ impl Plant {
 
     fn update_outputs(&mut self) {
         if !self.outputs_valid {
-            self.sim.physical_outputs(&mut self.outputs);
-            self.forces = self.sim.applied_force();
+            self.forces = self.sim.physical_outputs(&mut self.outputs);
             self.outputs_valid = true;
         }
     }

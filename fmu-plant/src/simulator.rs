@@ -270,8 +270,9 @@ impl Simulator {
         std::array::from_fn(|i| self.actuator_output(&seg, i, now, now))
     }
 
-    /// Physical outputs (the rows of [`vehicle::model::physical_outputs`]) now.
-    pub fn physical_outputs(&mut self, out: &mut [f64]) {
+    /// Physical outputs (the rows of [`vehicle::model::physical_outputs`]) now, and the applied
+    /// forces they were computed with.
+    pub fn physical_outputs(&mut self, out: &mut [f64]) -> [f64; N_ACTUATORS] {
         let f = self.applied_force();
         let mut z = [0.0; N_STATES + N_ROAD + N_ACTUATORS];
         z[..N_STATES].copy_from_slice(self.state());
@@ -281,6 +282,7 @@ impl Simulator {
         for (y, range) in out.iter_mut().zip(sys.out_start.windows(2)) {
             *y = sys.out_terms[range[0]..range[1]].iter().fold(0.0, |acc, &(k, v)| acc + v * z[k]);
         }
+        f
     }
 
     /// Advance from `t` by `h` with the current inputs and slopes. Afterwards the inputs hold

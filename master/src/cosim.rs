@@ -135,25 +135,59 @@ impl Fmu {
         self.import.model_description().model_variables.variables.iter().filter(|v| format!("{:?}", v.causality).eq_ignore_ascii_case(causality)).map(|v| v.name.clone()).collect()
     }
 
-    /// Instantiate, set `params` (by the variable's type), initialise.
-    fn start(&self, params: &[(&str, &serde_json::Value)]) -> Result<Instance<CS>, MasterError> {
+    /// `value` as the type of parameter `name` (an Integer must fit an `fmi2Integer`).
+    pub fn typed(&self, name: &str, value: &serde_json::Value) -> Result<Typed, MasterError> {
+        let (_, elem, _) = self.variable(name).ok_or_else(|| err(format!("{} has no parameter '{name}'", self.name)))?;
+        let bad = || err(format!("{}: parameter '{name}' cannot take {value}", self.name));
+        Ok(match elem {
+            ScalarVariableElement::Real(_) => Typed::Real(value.as_f64().ok_or_else(bad)?),
+            ScalarVariableElement::Integer(_) => Typed::Integer(value.as_i64().and_then(|v| i32::try_from(v).ok()).ok_or_else(bad)?),
+            ScalarVariableElement::Boolean(_) => Typed::Boolean(value.as_bool().ok_or_else(bad)?),
+            _ => return Err(bad()),
+        })
+    }
+
+    /// Instantiate, set `params`, initialise.
+    fn start(&self, params: &[(String, Typed)]) -> Result<Instance<CS>, MasterError> {
         let mut i: Instance<CS> = self.import.instantiate_cs(&self.name, false, false).map_err(|e| err(format!("{}: instantiate: {e}", self.name)))?;
         for (name, value) in params {
-            let (vr, elem, _) = self.variable(name).ok_or_else(|| err(format!("{} has no parameter '{name}'", self.name)))?;
-            let bad = || err(format!("{}: parameter '{name}' cannot take {value}", self.name));
-            let status = match elem {
-                ScalarVariableElement::Real(_) => i.set_real(&[vr], &[value.as_f64().ok_or_else(bad)?]),
-                ScalarVariableElement::Integer(_) => i.set_integer(&[vr], &[value.as_i64().and_then(|v| i32::try_from(v).ok()).ok_or_else(bad)?]),
-                ScalarVariableElement::Boolean(_) => i.set_boolean(&[vr], &[value.as_bool().ok_or_else(bad)? as i32]),
-                _ => return Err(bad()),
+            let vr = self.vr(name)?;
+            let status = match *value {
+                Typed::Real(v) => i.set_real(&[vr], &[v]),
+                Typed::Integer(v) => i.set_integer(&[vr], &[v]),
+                Typed::Boolean(v) => i.set_boolean(&[vr], &[v as i32]),
             };
-            status.map_err(|e| err(format!("{}: setting '{name}' = {value}: {e}", self.name)))?;
+            status.map_err(|e| err(format!("{}: setting '{name}' = {value:?}: {e}", self.name)))?;
         }
         i.setup_experiment(None, 0.0, None).map_err(|e| err(format!("{}: {e}", self.name)))?;
         Common::enter_initialization_mode(&mut i).map_err(|e| err(format!("{}: {e}", self.name)))?;
         Common::exit_initialization_mode(&mut i).map_err(|e| err(format!("{}: initialisation failed ({e}); see its log", self.name)))?;
         Ok(i)
     }
+}
+
+/// A parameter value with its variable's type.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Typed {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+}
+
+/// The scenario's parameters of road, plant and controller, typed. A controller parameter of
+/// the same name as a plant override (the force limits of an anti-windup controller) gets it
+/// too; a controller input of that name does not.
+pub fn scenario_parameters(scenario: &Scenario, road: &Fmu, plant: &Fmu, controller: Option<&Fmu>) -> Result<[Vec<(String, Typed)>; 3], MasterError> {
+    let road_values = scenario.road.iter().map(|(k, v)| Ok((k.clone(), road.typed(k, v)?))).collect::<Result<Vec<_>, MasterError>>()?;
+    let plant_values = scenario.plant.iter().map(|(k, v)| Ok((k.clone(), plant.typed(k, &serde_json::json!(v))?))).collect::<Result<Vec<_>, MasterError>>()?;
+    let ctrl_values = match controller {
+        Some(c) => {
+            let inputs = c.names_with_causality("input");
+            scenario.plant.iter().filter(|(k, _)| c.has(k) && !inputs.contains(k)).map(|(k, v)| Ok((k.clone(), c.typed(k, &serde_json::json!(v))?))).collect::<Result<Vec<_>, MasterError>>()?
+        }
+        None => Vec::new(),
+    };
+    Ok([road_values, plant_values, ctrl_values])
 }
 
 /// A run's log: one row per communication point `t_1 … t_N`.
@@ -213,18 +247,10 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     if let Some(c) = &ctrl {
         check_connections(&plant, c)?;
     }
-    let road_params: Vec<(&str, &serde_json::Value)> = scenario.road.iter().map(|(k, v)| (k.as_str(), v)).collect();
-    let plant_values: Vec<(String, serde_json::Value)> = scenario.plant.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect();
-    let plant_params: Vec<(&str, &serde_json::Value)> = plant_values.iter().map(|(k, v)| (k.as_str(), v)).collect();
+    let [road_params, plant_params, ctrl_params] = scenario_parameters(scenario, &road, &plant, ctrl.as_ref())?;
     let mut r = road.start(&road_params)?;
     let mut p = plant.start(&plant_params)?;
-    let mut c = match &ctrl {
-        Some(c) => {
-            let shared: Vec<(&str, &serde_json::Value)> = plant_params.iter().copied().filter(|(k, _)| c.has(k) && !c.names_with_causality("input").iter().any(|n| n == k)).collect();
-            Some(c.start(&shared)?)
-        }
-        None => None,
-    };
+    let mut c = ctrl.as_ref().map(|c| c.start(&ctrl_params)).transpose()?;
     let vrs = |f: &Fmu, names: &[&str]| names.iter().map(|n| f.vr(n)).collect::<Result<Vec<u32>, _>>();
     let road_out = vrs(&road, &ROAD)?;
     let road_in = vrs(&plant, &ROAD)?;

@@ -4,18 +4,9 @@
 //! connect road, plant and one controller by name and carry the scenario's parameters as
 //! initial values; the communication step is the scenario's.
 
-use crate::cosim::{check_connections, err, Fmu, MasterError, Scenario, FORCES, RECORD, ROAD};
-use fmi::fmi2::schema::ScalarVariableElement;
+use crate::cosim::{check_connections, err, scenario_parameters, Fmu, MasterError, Scenario, Typed, FORCES, RECORD, ROAD};
 use std::io::Write;
 use std::path::Path;
-
-/// A parameter value with its variable's type.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Typed {
-    Real(f64),
-    Integer(i64),
-    Boolean(bool),
-}
 
 impl Typed {
     /// `<Real value="…"/>` etc., prefixed by `ns` (e.g. `ssv:`).
@@ -40,17 +31,6 @@ pub struct Loop {
     pub controller: String,
 }
 
-fn typed(fmu: &Fmu, name: &str, v: &serde_json::Value) -> Result<Typed, MasterError> {
-    let (_, elem, _) = fmu.variable(name).ok_or_else(|| err(format!("{} has no parameter '{name}'", fmu.name)))?;
-    let bad = || err(format!("{}: parameter '{name}' cannot take {v}", fmu.name));
-    Ok(match elem {
-        ScalarVariableElement::Real(_) => Typed::Real(v.as_f64().ok_or_else(bad)?),
-        ScalarVariableElement::Integer(_) => Typed::Integer(v.as_i64().ok_or_else(bad)?),
-        ScalarVariableElement::Boolean(_) => Typed::Boolean(v.as_bool().ok_or_else(bad)?),
-        _ => return Err(bad()),
-    })
-}
-
 impl Loop {
     /// The loop of `scenario` with `controller`, checked against the FMUs in `dist`.
     pub fn new(dist: &Path, scenario: &Scenario, controller: &str) -> Result<Loop, MasterError> {
@@ -59,10 +39,7 @@ impl Loop {
         let ctrl = Fmu::load(dist, controller)?;
         check_connections(&plant, &ctrl)?;
         let measured = ctrl.names_with_causality("input");
-        let road_values = scenario.road.iter().map(|(k, v)| Ok((k.clone(), typed(&road, k, v)?))).collect::<Result<Vec<_>, MasterError>>()?;
-        let plant_values = scenario.plant.iter().map(|(k, v)| Ok((k.clone(), typed(&plant, k, &serde_json::json!(v))?))).collect::<Result<Vec<_>, MasterError>>()?;
-        // A controller parameter of the same name as a plant override (force limits) gets it too.
-        let ctrl_values = scenario.plant.iter().filter(|(k, _)| ctrl.has(k) && !measured.contains(k)).map(|(k, v)| Ok((k.clone(), typed(&ctrl, k, &serde_json::json!(v))?))).collect::<Result<Vec<_>, MasterError>>()?;
+        let [road_values, plant_values, ctrl_values] = scenario_parameters(scenario, &road, &plant, Some(&ctrl))?;
         let mut connections = Vec::new();
         connections.extend(ROAD.iter().map(|n| ("road".to_string(), "plant".to_string(), n.to_string())));
         connections.extend(measured.iter().map(|n| ("plant".to_string(), controller.to_string(), n.clone())));

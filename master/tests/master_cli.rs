@@ -73,7 +73,8 @@ fn a_run_is_the_test_helpers_loop_on_the_same_fmus() {
 
 #[test]
 fn system_descriptions_carry_typed_parameters_and_refuse_bad_ones() {
-    use master::structure::{Loop, Typed};
+    use master::cosim::Typed;
+    use master::structure::Loop;
     let s = scenario("saturation");
     let l = Loop::new(&dist(), &s, "hinf_of_aw").unwrap();
     let values = |c: &str| l.components.iter().find(|x| x.0 == c).unwrap().1.clone();
