@@ -12,6 +12,7 @@ import time
 
 import cvxpy as cp
 import numpy as np
+from scipy.linalg import null_space
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SYNTH = ROOT / "target" / "release" / "synth"
@@ -44,38 +45,65 @@ def cvxpy_sf(g, eps=1e-7):
     return gamma.value
 
 
+def balance(A):
+    """Osborne's diagonal balancing with powers of two, as synth's `Balanced::new`."""
+    A = A.copy()
+    d = np.ones(A.shape[0])
+    for _ in range(100):
+        changed = False
+        for i in range(A.shape[0]):
+            c = np.abs(A[:, i]).sum() - abs(A[i, i])
+            r = np.abs(A[i, :]).sum() - abs(A[i, i])
+            if c == 0 or r == 0:
+                continue
+            f = 2.0 ** round(np.log2(r / c) / 2)
+            if f != 1 and c * f + r / f < 0.95 * (c + r):
+                A[:, i] *= f
+                A[i, :] /= f
+                d[i] *= f
+                changed = True
+        if not changed:
+            break
+    return d
+
+
+def sym(M):
+    return (M + M.T) / 2
+
+
 def cvxpy_of(g, eps=1e-7, backoff=0.02, beta=1e3):
-    """Both stages, as synth does them: minimise γ; then at 1.02 γ* with X, Y ⪯ βI maximise t."""
-    gamma_opt = cvxpy_of_stage(g, eps)
-    cvxpy_of_stage(g, eps, fixed_gamma=(1 + backoff) * gamma_opt, beta=beta)
-    return gamma_opt
-
-
-def cvxpy_of_stage(g, eps=1e-7, fixed_gamma=None, beta=None):
+    """Both stages, as synth does them: the reduced projected LMIs of the balanced plant;
+    minimise γ (scaled variables); then at 1.02 γ* with X, Y ⪯ βI maximise t."""
     A, B1, B2, C1, D11, D12, C2, D21 = (g[k] for k in ("A", "B_w", "B_u", "C_z", "D_zw", "D_zu", "C_y", "D_yw"))
-    n, nw, nz, nu, ny = A.shape[0], B1.shape[1], C1.shape[0], B2.shape[1], C2.shape[0]
-    X = cp.Variable((n, n), symmetric=True)
-    Y = cp.Variable((n, n), symmetric=True)
-    Ah, Bh, Ch, Dh = cp.Variable((n, n)), cp.Variable((n, ny)), cp.Variable((nu, n)), cp.Variable((nu, ny))
-    gamma = cp.Variable() if fixed_gamma is None else fixed_gamma
-    m11 = A @ X + B2 @ Ch
-    m22 = Y @ A + Bh @ C2
-    M = cp.bmat([
-        [m11 + m11.T, Ah.T + A + B2 @ Dh @ C2, B1 + B2 @ Dh @ D21, (C1 @ X + D12 @ Ch).T],
-        [(Ah.T + A + B2 @ Dh @ C2).T, m22 + m22.T, Y @ B1 + Bh @ D21, (C1 + D12 @ Dh @ C2).T],
-        [(B1 + B2 @ Dh @ D21).T, (Y @ B1 + Bh @ D21).T, -gamma * np.eye(nw), (D11 + D12 @ Dh @ D21).T],
-        [C1 @ X + D12 @ Ch, C1 + D12 @ Dh @ C2, D11 + D12 @ Dh @ D21, -gamma * np.eye(nz)],
-    ])
-    C = cp.bmat([[X, np.eye(n)], [np.eye(n), Y]])
-    lmi = (M + M.T) / 2 << -eps * np.eye(M.shape[0])
-    if fixed_gamma is None:
-        prob = cp.Problem(cp.Minimize(gamma), [lmi, (C + C.T) / 2 >> eps * np.eye(2 * n)])
-        prob.solve(solver=cp.CLARABEL)
-        return gamma.value
-    t = cp.Variable()
-    cons = [lmi, (C + C.T) / 2 >> t * np.eye(2 * n), t >= 0, X << beta * np.eye(n), Y << beta * np.eye(n)]
+    d = balance(A)
+    A, B1, B2, C1, C2 = A * d[None, :] / d[:, None], B1 / d[:, None], B2 / d[:, None], C1 * d[None, :], C2 * d[None, :]
+    n, nw, nz = A.shape[0], B1.shape[1], C1.shape[0]
+    W = null_space(np.hstack([B2.T, D12.T]))
+    V = null_space(np.hstack([C2, D21]))
+    b, c = np.vstack([B1, D11]), np.vstack([C1.T, D11.T])
+    gram_x, gram_y = W.T @ b @ b.T @ W, V.T @ c @ c.T @ V
+
+    def lmis(X, Y, a, s):
+        lx = W.T @ cp.bmat([[A @ X + X @ A.T, X @ C1.T], [C1 @ X, -a * np.eye(nz)]]) @ W + s * gram_x
+        ly = V.T @ cp.bmat([[Y @ A + A.T @ Y, Y @ B1], [B1.T @ Y, -a * np.eye(nw)]]) @ V + s * gram_y
+        return [sym(lx) << -eps * np.eye(lx.shape[0]), sym(ly) << -eps * np.eye(ly.shape[0])]
+
+    X, Y = cp.Variable((n, n), symmetric=True), cp.Variable((n, n), symmetric=True)
+    eta, zeta = cp.Variable(), cp.Variable()
+    cons = lmis(X, Y, 1.0, zeta) + [
+        sym(cp.bmat([[X, eta * np.eye(n)], [eta * np.eye(n), Y]])) >> eps * np.eye(2 * n),
+        sym(cp.bmat([[cp.reshape(zeta, (1, 1)), cp.reshape(eta, (1, 1))], [cp.reshape(eta, (1, 1)), np.ones((1, 1))]])) >> 0,
+    ]
+    cp.Problem(cp.Maximize(eta), cons).solve(solver=cp.CLARABEL)
+    gamma_opt = 1.0 / eta.value
+
+    gamma = (1 + backoff) * gamma_opt
+    X, Y, t = cp.Variable((n, n), symmetric=True), cp.Variable((n, n), symmetric=True), cp.Variable()
+    cons = lmis(X, Y, gamma, 1.0 / gamma) + [
+        sym(cp.bmat([[X, np.eye(n)], [np.eye(n), Y]])) >> t * np.eye(2 * n), t >= 0,
+        X << beta * np.eye(n), Y << beta * np.eye(n)]
     cp.Problem(cp.Maximize(t), cons).solve(solver=cp.CLARABEL)
-    return t.value
+    return gamma_opt
 
 
 def main():
