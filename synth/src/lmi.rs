@@ -246,7 +246,6 @@ impl Problem {
         *self.objective.entry(v.offset).or_insert(0.0) += weight;
     }
 
-    /// Solve with Clarabel and check every LMI at the returned point.
     /// Solve the KKT systems without Clarabel's iterative refinement: a third less time per
     /// iteration, for problems shown to solve accurately without it (our eigenvalue check of
     /// every constraint at the returned point still decides).
@@ -254,6 +253,9 @@ impl Problem {
         self.iterative_refinement = false;
     }
 
+    /// Solve with Clarabel and check every LMI at the returned point. Diagnostics on standard
+    /// error: `LMI_TIMING` (size, assembly and solve time, iterations), `LMI_VERBOSE` (Clarabel's
+    /// own log).
     pub fn solve(&self) -> Result<Solution, LmiError> {
         crate::single_threaded_blas();
         let t0 = std::time::Instant::now();
