@@ -13,7 +13,7 @@ use crate::design::Design;
 use crate::generalized::{GeneralizedPlant, MEASUREMENTS};
 use crate::output_feedback::{hinf_of, hinf_of_common_x, optimal_gamma, OfPlant, OutputFeedback};
 use crate::robust::{mass_grid_certificate, MassGrid, MassUncertainty};
-use crate::state_feedback::{hinf_sf, hinf_sf_robust, StateFeedback};
+use crate::state_feedback::{hinf_sf_mixed, hinf_sf_robust, StateFeedback};
 use crate::SynthError;
 use nalgebra::DMatrix;
 use std::collections::BTreeMap;
@@ -22,8 +22,9 @@ use vehicle::VehicleParams;
 
 pub const ALL: [&str; 7] = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_sf", "robust_of", "delay_sf", "ft_of"];
 
-/// Output feedback: relative γ back-off and bound on `X, Y` (SPEC §5).
-const OF_GAMMA_BACKOFF: f64 = 0.02;
+/// Relative γ back-off before choosing the controller (output feedback, SPEC §5: before
+/// reconstructing; `hinf_sf`: before minimising the H2 bound), and the bound on `X, Y`.
+const GAMMA_BACKOFF: f64 = 0.02;
 const OF_XY_BOUND: f64 = 1e3;
 /// Robust output feedback: half-width, in decades, of the multiplier search.
 const LAMBDA_DECADES: f64 = 1.0;
@@ -204,9 +205,11 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
         "hinf_sf" => {
             let g = GeneralizedPlant::new(params, design);
             let energy = design.constraints.then(|| design.design_energy());
-            let sf = hinf_sf(&g, design.lmi_margin, energy).map_err(lmi)?;
+            let mixed = hinf_sf_mixed(&g, design.lmi_margin, energy, GAMMA_BACKOFF).map_err(lmi)?;
+            let sf = &mixed.sf;
             let mut notes = vec![
                 "Thesis Th. 5.1 (eq. 5.4) corrected: the D_zu Y term (accelerations respond directly to the actuator forces) is included.".to_string(),
+                format!("gamma* = {:.6}; shipped: the (Q, Y) meeting Th. 5.1 at gamma = (1 + {GAMMA_BACKOFF}) gamma* that minimises the H2 bound of the z rows without feed-through from w (all but the tyre loads), with the same Lyapunov matrix: bound {:.4} (it was {:.4} at the gamma-optimal point, which the LMI leaves non-unique).", mixed.gamma_opt, mixed.h2_bound, mixed.h2_bound_at_optimum),
                 state_order_note(),
                 format!("LMI solver status {} after {} iterations", sf.solver_status, sf.iterations),
             ];
@@ -215,13 +218,19 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
             }
             let controller = Controller::static_gain(sf.k.clone());
             let (c_meas, d_meas) = full_state();
-            let certificate = certify(variant, &g, &c_meas, &d_meas, sf_inputs(), &controller, sf.gamma, notes)?;
-            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected)", sf.gamma, &sf_inputs(), &controller);
+            let mut certificate = certify(variant, &g, &c_meas, &d_meas, sf_inputs(), &controller, sf.gamma, notes)?;
+            certificate.details = serde_json::json!({
+                "gamma_opt": mixed.gamma_opt,
+                "gamma_backoff": GAMMA_BACKOFF,
+                "h2_bound": mixed.h2_bound,
+                "h2_bound_at_gamma_opt": mixed.h2_bound_at_optimum,
+            });
+            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", sf.gamma, &sf_inputs(), &controller);
             Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
         }
         "hinf_of" => {
             let g = GeneralizedPlant::new(params, design).with_sensor_noise(design);
-            let of = hinf_of(&g.of_plant(), design.lmi_margin, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
+            let of = hinf_of(&g.of_plant(), design.lmi_margin, GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
             let notes = vec![
                 "Thesis Th. 5.2 (eq. 5.9, which lacks blocks) replaced by the Scherer-Gahinet-Chilali / Gahinet-Apkarian LMI; controller rebuilt as in Remark 5.1 with M = I - XY, N = I.".to_string(),
                 format!("Measurements: {} (plant outputs of the same names).", MEASUREMENTS.join(", ")),
@@ -404,19 +413,19 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     let lambda = 10f64.powf(log_lambda);
     // Vertex form with X, Ĉ of the robust (vertex) state feedback.
     let sf_v = hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, eps, None).map_err(lmi)?;
-    let vertex = hinf_of_common_x(&[unc.vertices[0].of_plant(), unc.vertices[1].of_plant()], &unc.center.of_plant(), &sf_v.q, &sf_v.y, eps, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
+    let vertex = hinf_of_common_x(&[unc.vertices[0].of_plant(), unc.vertices[1].of_plant()], &unc.center.of_plant(), &sf_v.q, &sf_v.y, eps, GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
     // The norm-bounded controller is reconstructed only if it is the one shipped.
     let (shipped, name) = if vertex.gamma_opt <= nb_gamma_opt {
         (vertex.clone(), "vertex")
     } else {
         let g = norm_bounded_plant(&unc, lambda);
-        (hinf_of(&norm_bounded_of_plant(&g, &unc), eps, OF_GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?, "norm-bounded")
+        (hinf_of(&norm_bounded_of_plant(&g, &unc), eps, GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?, "norm-bounded")
     };
     let shipped = &shipped;
     let c = &unc.center;
     let grid = mass_grid_certificate(variant, &unc, &c.c_y, &c.d_yw, &shipped.controller, shipped.gamma)?;
     let notes = vec![
-        format!("Thesis Th. 6.2, robust to {}. Norm-bounded (COG) form: the uncertainty channel p = delta q, |delta| <= 1, as an extra normalised input/output of the Gahinet-Apkarian LMI (S-procedure multiplier lambda searched by golden section over log10 lambda in [{lo:.2}, {hi:.2}], {evaluations} evaluations): lambda = {lambda:.4e}, gamma* = {nb_gamma_opt:.6}. Vertex form (common X fixed to the robust state-feedback Q, see hinf_of_common_x): gamma* = {:.6}. Shipped: {name}, reconstructed at gamma = (1 + {OF_GAMMA_BACKOFF}) gamma*.", mass_range(design), vertex.gamma_opt),
+        format!("Thesis Th. 6.2, robust to {}. Norm-bounded (COG) form: the uncertainty channel p = delta q, |delta| <= 1, as an extra normalised input/output of the Gahinet-Apkarian LMI (S-procedure multiplier lambda searched by golden section over log10 lambda in [{lo:.2}, {hi:.2}], {evaluations} evaluations): lambda = {lambda:.4e}, gamma* = {nb_gamma_opt:.6}. Vertex form (common X fixed to the robust state-feedback Q, see hinf_of_common_x): gamma* = {:.6}. Shipped: {name}, reconstructed at gamma = (1 + {GAMMA_BACKOFF}) gamma*.", mass_range(design), vertex.gamma_opt),
         "The vertex form is a BMI (A_hat contains Y A(m) X and Y B_u(m) C_K); fixing X and C_hat to a robust state-feedback solution makes it linear, and each vertex LMI is still an exact congruence of the closed-loop bounded-real LMI with one Lyapunov matrix, so the guarantee holds on the whole mass range.".to_string(),
         format!("Measurements: {}.", MEASUREMENTS.join(", ")),
         reconstruction_note(shipped),
@@ -486,7 +495,7 @@ fn golden_section(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64, tol: f64) -> (
 
 fn reconstruction_note(of: &OutputFeedback) -> String {
     format!(
-        "Stage 1 optimum gamma* = {:.6}; reconstruction at gamma = (1 + {OF_GAMMA_BACKOFF}) gamma* with X, Y <= {OF_XY_BOUND} I and coupling margin t = {:.3e}; cond(I - XY) = {:.3e}.",
+        "Stage 1 optimum gamma* = {:.6}; reconstruction at gamma = (1 + {GAMMA_BACKOFF}) gamma* with X, Y <= {OF_XY_BOUND} I and coupling margin t = {:.3e}; cond(I - XY) = {:.3e}.",
         of.gamma_opt, of.coupling_margin, of.coupling_condition
     )
 }
@@ -494,7 +503,7 @@ fn reconstruction_note(of: &OutputFeedback) -> String {
 fn of_details(of: &OutputFeedback) -> serde_json::Value {
     serde_json::json!({
         "gamma_opt": of.gamma_opt,
-        "gamma_backoff": OF_GAMMA_BACKOFF,
+        "gamma_backoff": GAMMA_BACKOFF,
         "xy_bound": OF_XY_BOUND,
         "coupling_margin": of.coupling_margin,
         "coupling_condition": of.coupling_condition,

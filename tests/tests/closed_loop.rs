@@ -81,9 +81,7 @@ fn hinf_sf_beats_the_passive_car_on_the_bump_within_limits() {
 fn hinf_sf_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
     let road = iso_road(3, 20.0, 7);
     let (passive, active) = compare("ISO C 20 m/s", "hinf_sf", &road, 10.0);
-    // Measured 42.0 % roll reduction: short of the 50 % target. Weightings that reach 50 % here
-    // saturate the corner actuators on the bump or lift a wheel; guard what is achieved.
-    assert_comfort_targets(&passive, &active, 0.35);
+    assert_comfort_targets(&passive, &active, 0.5);
 }
 
 /// The continuous closed loop of the certificate's generalised plant and controller, in the
@@ -258,15 +256,16 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedb
     assert!(aw_saturated < plain_saturated);
 }
 
-/// Thesis ch. 7 with the plant's transport delay `tau`: `delay_sf` is certified for 20 ms (delay
-/// margin 95 ms in its certificate); `hinf_sf`'s delay margin is 21.8 ms (in the same
-/// certificate). The co-simulation (1 ms steps: ~0.5 ms more effective delay) must agree:
-/// `delay_sf` settles after the bump at 20 and 60 ms, `hinf_sf` settles at 20 ms and at 25 ms
-/// oscillates without decay (the linear loop is unstable; the actuator saturation bounds it to a
-/// limit cycle).
+/// Thesis ch. 7 with the plant's transport delay `tau`: the delay margins in `delay_sf`'s
+/// certificate — its own (92 ms, designed for 20 ms) and the nominal `hinf_sf`'s (230 ms) — must
+/// hold in co-simulation (1 ms steps: ~0.5 ms more effective delay): after the bump each loop
+/// settles at 90 % of its margin and oscillates without decay at 110 % (the linear loop is
+/// unstable there; the actuator saturation bounds it to a limit cycle).
 #[test]
-fn delay_sf_holds_its_design_delay_where_hinf_sf_loses_stability() {
+fn the_certified_delay_margins_hold_in_cosimulation() {
     let plant = load("plant");
+    let cert: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dist().join("delay_sf.certificate.json")).unwrap()).unwrap();
+    let margin = |key: &str| cert["details"][key].as_f64().unwrap();
     // After the bump (15 s run): |a_seat| over 13–15 s against the bump's peak, and the growth
     // of the oscillation from 10–12 s to 13–15 s (≥ 1: no decay).
     let settle = |variant: &str, tau: f64| {
@@ -275,15 +274,17 @@ fn delay_sf_holds_its_design_delay_where_hinf_sf_loses_stability() {
         let window = |a: usize, b: usize| log[a..b].iter().map(|r| r[0].abs()).fold(0.0, f64::max);
         let (early, late) = (window(10000, 12000), window(13000, 15000));
         let force = (8..12).map(|k| peak(&log[13000..], k)).fold(0.0, f64::max);
-        eprintln!("{variant}, tau = {} ms: seat RMS {:.4} m/s² (first 4 s {:.4}), |a_seat| 10–12 s {early:.2e}, 13–15 s {late:.2e}, corner force 13–15 s {force:.0} N", tau * 1e3, rms(&log, 0), rms(&log[..4000], 0));
+        eprintln!("{variant}, tau = {:.1} ms: seat RMS {:.4} m/s² (first 4 s {:.4}), |a_seat| 10–12 s {early:.2e}, 13–15 s {late:.2e}, corner force 13–15 s {force:.0} N", tau * 1e3, rms(&log, 0), rms(&log[..4000], 0));
         (late / peak(&log, 0), late / early)
     };
-    assert!(settle("delay_sf", 0.02).0 < 1e-4);
-    assert!(settle("delay_sf", 0.06).0 < 1e-3);
-    let (tail, growth) = settle("hinf_sf", 0.02);
-    assert!(tail < 1e-4 && growth < 1.0, "hinf_sf is still stable at 20 ms");
-    let (_, growth) = settle("hinf_sf", 0.025);
-    assert!(growth > 0.99, "hinf_sf must have lost stability at 25 ms (growth {growth})");
+    assert!(settle("delay_sf", 0.02).0 < 1e-4, "delay_sf settles at its design delay");
+    for (variant, key) in [("delay_sf", "delay_margin_s"), ("hinf_sf", "nominal_delay_margin_s")] {
+        let m = margin(key);
+        let (tail, growth) = settle(variant, 0.9 * m);
+        assert!(tail < 1e-2 && growth < 1.0, "{variant} must be stable at 90 % of its margin {m} s (tail {tail}, growth {growth})");
+        let (_, growth) = settle(variant, 1.1 * m);
+        assert!(growth > 0.99, "{variant} must have lost stability at 110 % of its margin {m} s (growth {growth})");
+    }
 }
 
 /// Thesis fig. 8.2: the FL actuator loses half its force at t = 2 s on an ISO class-C road.
