@@ -84,10 +84,15 @@ fn hinf_sf_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
     assert_comfort_targets(&passive, &active, 0.5);
 }
 
+/// `dist/<variant>.certificate.json`.
+fn certificate(variant: &str) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dist().join(format!("{variant}.certificate.json"))).unwrap()).unwrap()
+}
+
 /// The continuous closed loop of the certificate's generalised plant and controller, in the
 /// plant's states (first 16) and the controller's: `(A_cl, B_cl)` driven by the scaled road `w`.
 fn certified_closed_loop(variant: &str) -> (DMatrix<f64>, DMatrix<f64>, Vec<f64>) {
-    let cert: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dist().join(format!("{variant}.certificate.json"))).unwrap()).unwrap();
+    let cert = certificate(variant);
     let m = |v: &serde_json::Value, cols: usize| {
         let rows: Vec<Vec<f64>> = serde_json::from_value(v.clone()).unwrap();
         DMatrix::from_fn(rows.len(), cols, |i, j| rows[i][j])
@@ -264,7 +269,7 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedb
 #[test]
 fn the_certified_delay_margins_hold_in_cosimulation() {
     let plant = load("plant");
-    let cert: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dist().join("delay_sf.certificate.json")).unwrap()).unwrap();
+    let cert = certificate("delay_sf");
     let margin = |key: &str| cert["details"][key].as_f64().unwrap();
     // After the bump (15 s run): |a_seat| over 13–15 s against the bump's peak, and the growth
     // of the oscillation from 10–12 s to 13–15 s (≥ 1: no decay).
