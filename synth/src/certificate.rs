@@ -70,10 +70,23 @@ pub enum CertificateError {
     NotRobust { variant: String, mass: f64, norm: f64, gamma: f64 },
     #[error("{variant}: certified closed-loop norm {norm:.9} exceeds the claimed γ = {gamma:.9} by more than {NORM_TOLERANCE:e} relative")]
     NormAboveGamma { variant: String, norm: f64, gamma: f64 },
+    #[error("{variant}: the closed-loop H2 norm {norm} of the H2 rows is not finite and below the claimed bound {bound}: {reason}")]
+    H2AboveBound { variant: String, norm: f64, bound: f64, reason: String },
 }
 
 pub fn matrix_json(m: &DMatrix<f64>) -> serde_json::Value {
     serde_json::Value::Array((0..m.nrows()).map(|i| serde_json::json!((0..m.ncols()).map(|j| m[(i, j)]).collect::<Vec<_>>())).collect())
+}
+
+/// The mixed H2/H∞ designs' second claim: the closed loop's H2 norm on the rows `rows` of `z`
+/// ([`Lti::h2_norm`], from the Gramian) is at most the bound the LMI proves. Returns the norm.
+pub fn certify_h2(variant: &str, g: &GeneralizedPlant, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, k: &Controller, rows: &[usize], bound: f64) -> Result<f64, CertificateError> {
+    let fail = |norm: f64, reason: String| CertificateError::H2AboveBound { variant: variant.into(), norm, bound, reason };
+    let norm = closed_loop(g, c_meas, d_meas, k).select_outputs(rows).h2_norm().map_err(|e| fail(f64::INFINITY, e.to_string()))?;
+    if norm > bound * (1.0 + NORM_TOLERANCE) {
+        return Err(fail(norm, format!("exceeds it by more than {NORM_TOLERANCE:e} relative")));
+    }
+    Ok(norm)
 }
 
 /// Certify `controller` against the claimed `gamma`; an error is never an FMU.
@@ -141,6 +154,19 @@ mod tests {
             Err(CertificateError::NormAboveGamma { norm, .. }) => assert!((norm - c.norm_upper).abs() < 1e-9 * norm),
             other => panic!("expected NormAboveGamma, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn an_h2_claim_is_checked_against_the_gramian() {
+        let (g, k, _) = sf();
+        let (eye, zero) = (DMatrix::identity(16, 16), DMatrix::zeros(16, 8));
+        let rows = g.h2_rows();
+        let norm = certify_h2("test", &g, &eye, &zero, &k, &rows, 1e6).unwrap();
+        assert!(norm > 0.0);
+        assert!(matches!(certify_h2("test", &g, &eye, &zero, &k, &rows, norm * 0.99), Err(CertificateError::H2AboveBound { .. })));
+        // A tyre-load row feeds the road height through: no finite H2 norm, refused.
+        let with_tyre: Vec<usize> = (0..g.c_z.nrows()).collect();
+        assert!(matches!(certify_h2("test", &g, &eye, &zero, &k, &with_tyre, 1e6), Err(CertificateError::H2AboveBound { .. })));
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! `synth/designs/default.json`.
 
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 pub const DEFAULT_DESIGN_FILE: &str = include_str!("../designs/default.json");
 
@@ -78,6 +79,10 @@ pub struct Design {
     pub mass_grid_points: usize,
     /// Strictness margin ε of every LMI.
     pub lmi_margin: f64,
+    /// Per-variant changes to the fields above, e.g. `{"hinf_of": {"weight_alpha_roll": 0.8}}`:
+    /// each design has its own weights where one set does not suit all ([`Design::for_variant`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub overrides: BTreeMap<String, serde_json::Map<String, serde_json::Value>>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -86,6 +91,8 @@ pub enum DesignError {
     Syntax(String),
     #[error("design value '{name}' must be {expected}, got {value}")]
     Value { name: &'static str, expected: &'static str, value: f64 },
+    #[error("design override for '{variant}' is not valid: {reason}")]
+    Override { variant: String, reason: String },
 }
 
 impl Default for Design {
@@ -98,6 +105,31 @@ impl Design {
     pub fn from_json(json: &str) -> Result<Self, DesignError> {
         let d: Design = serde_json::from_str(json).map_err(|e| DesignError::Syntax(e.to_string()))?;
         d.validate()?;
+        for variant in d.overrides.keys() {
+            d.with_overrides(variant)?;
+        }
+        Ok(d)
+    }
+
+    /// This design with the fields of `overrides[variant]` replaced (the others, and the
+    /// overrides themselves, kept), validated like the whole file. A variant without overrides
+    /// gets the design unchanged.
+    pub fn with_overrides(&self, variant: &str) -> Result<Design, DesignError> {
+        let Some(changes) = self.overrides.get(variant) else { return Ok(self.clone()) };
+        let fail = |reason: String| DesignError::Override { variant: variant.into(), reason };
+        if changes.contains_key("overrides") || changes.contains_key("description") {
+            return Err(fail("only design values can be overridden".into()));
+        }
+        let mut value = serde_json::to_value(self).expect("a design serialises");
+        let fields = value.as_object_mut().expect("a design is an object");
+        for (key, v) in changes {
+            if !fields.contains_key(key) {
+                return Err(fail(format!("unknown field '{key}'")));
+            }
+            fields.insert(key.clone(), v.clone());
+        }
+        let d: Design = serde_json::from_value(value).map_err(|e| fail(e.to_string()))?;
+        d.validate().map_err(|e| fail(e.to_string()))?;
         Ok(d)
     }
 
@@ -169,6 +201,30 @@ mod tests {
         let bad = DEFAULT_DESIGN_FILE.replace("\"stroke_max\": 0.08", "\"stroke_max\": -0.08");
         assert!(matches!(Design::from_json(&bad), Err(DesignError::Value { name: "stroke_max", .. })));
         assert!(matches!(Design::from_json("{\"u_max\": 1}"), Err(DesignError::Syntax(_))));
+    }
+
+    #[test]
+    fn overrides_change_only_their_variant_and_bad_ones_are_refused() {
+        let d = Design::default();
+        let base = Design { overrides: BTreeMap::new(), ..d.clone() };
+        for (variant, changes) in &d.overrides {
+            let o = d.with_overrides(variant).unwrap();
+            let mut expected = serde_json::to_value(&base).unwrap();
+            for (k, v) in changes {
+                expected[k] = v.clone();
+            }
+            assert_eq!(serde_json::to_value(Design { overrides: BTreeMap::new(), ..o }).unwrap(), expected, "{variant}");
+        }
+        assert_eq!(d.with_overrides("no_such_variant_overridden").unwrap(), d);
+        let parse = |o: &str| {
+            let mut v: serde_json::Value = serde_json::from_str(DEFAULT_DESIGN_FILE).unwrap();
+            v["overrides"] = serde_json::json!({ "x": serde_json::from_str::<serde_json::Value>(o).unwrap() });
+            Design::from_json(&v.to_string())
+        };
+        assert!(parse(r#"{"weight_alpha_roll": 0.9}"#).is_ok());
+        for bad in [r#"{"weight_alpha_rol": 0.9}"#, r#"{"weight_alpha_roll": -1}"#, r#"{"weight_alpha_roll": "high"}"#, r#"{"overrides": {}}"#] {
+            assert!(matches!(parse(bad), Err(DesignError::Override { .. })), "{bad}");
+        }
     }
 
     #[test]

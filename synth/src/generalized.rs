@@ -137,6 +137,13 @@ impl GeneralizedPlant {
         self.a.nrows()
     }
 
+    /// The rows of `z` whose `D_zw` row is zero (all but the tyre loads, which carry the road
+    /// height straight through): the ones with an H2 norm for white `w` under a strictly proper
+    /// (or state-feedback) controller, which the mixed H2/H∞ designs minimise.
+    pub fn h2_rows(&self) -> Vec<usize> {
+        (0..self.c_z.nrows()).filter(|&i| self.d_zw.row(i).iter().all(|v| *v == 0.0)).collect()
+    }
+
     /// The matrices as the output-feedback LMI names them (`B₁ = B_w`, `C₁ = C_z`, …).
     pub fn of_plant(&self) -> crate::output_feedback::OfPlant<'_> {
         crate::output_feedback::OfPlant {

@@ -51,6 +51,8 @@ struct Balanced {
     b2: DMatrix<f64>,
     c1: DMatrix<f64>,
     c2: DMatrix<f64>,
+    /// `diag D`.
+    d: Vec<f64>,
 }
 
 impl Balanced {
@@ -79,9 +81,16 @@ impl Balanced {
                 break;
             }
         }
-        let dm = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(d.clone()));
-        let dinv = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(n, d.iter().map(|v| 1.0 / v)));
-        Balanced { a, b1: &dinv * p.b1, b2: &dinv * p.b2, c1: p.c1 * &dm, c2: p.c2 * &dm }
+        Self::with_scaling(p, d)
+    }
+    /// `p` in the coordinates `x = D x̄` of a given `D` (e.g. another plant's balancing).
+    fn with_scaling(p: &OfPlant, d: Vec<f64>) -> Self {
+        let (dm, dinv) = (Self::diag(&d, 1.0), Self::diag(&d, -1.0));
+        Balanced { a: &dinv * p.a * &dm, b1: &dinv * p.b1, b2: &dinv * p.b2, c1: p.c1 * &dm, c2: p.c2 * &dm, d }
+    }
+    /// `D^power`.
+    fn diag(d: &[f64], power: f64) -> DMatrix<f64> {
+        DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(d.len(), d.iter().map(|v| v.powf(power))))
     }
     fn plant<'a>(&'a self, p: &'a OfPlant) -> OfPlant<'a> {
         OfPlant { a: &self.a, b1: &self.b1, b2: &self.b2, c1: &self.c1, d11: p.d11, d12: p.d12, c2: &self.c2, d21: p.d21, unit_channels: p.unit_channels }
@@ -479,7 +488,19 @@ pub fn optimal_gamma_one_shot(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
 /// terms cancel in the Remark 5.1 reconstruction. Sound, but conservative: `X` is not optimised
 /// for output feedback.
 #[allow(clippy::too_many_arguments)]
+///
+/// Solved on the vertices balanced with the centre plant's scaling ([`Balanced`]): `X̄ = D⁻¹XD⁻¹`,
+/// `Ĉ̄ = ĈD⁻¹` (so `ĀX̄ + B̄₂Ĉ̄ = D⁻¹(AX + B₂Ĉ)D⁻¹`). Unbalanced, Clarabel stopped with
+/// NumericalError on stage 2 for some weights (roll weight 0.8).
 pub fn hinf_of_common_x(vertices: &[OfPlant], center: &OfPlant, x: &DMatrix<f64>, ch: &DMatrix<f64>, eps: f64, delta: f64, beta: f64) -> Result<OutputFeedback, LmiError> {
+    let balanced_center = Balanced::new(center);
+    let scaling = balanced_center.d.clone();
+    let balanced: Vec<Balanced> = vertices.iter().map(|v| Balanced::with_scaling(v, scaling.clone())).collect();
+    let vertices: Vec<OfPlant> = balanced.iter().zip(vertices).map(|(b, v)| b.plant(v)).collect();
+    let vertices = &vertices[..];
+    let center = &balanced_center.plant(center);
+    let dinv = Balanced::diag(&scaling, -1.0);
+    let (x, ch) = (&(&dinv * x * &dinv), &(ch * &dinv));
     let n = center.a.nrows();
     let (ny, nu) = (center.c2.nrows(), center.b2.ncols());
     let build = |prob: &mut Problem, gamma: &Affine, strict: f64| -> (Var, Var, Var) {

@@ -5,7 +5,7 @@
 
 use crate::anti_windup::{circle_check, mraw};
 use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
-use crate::certificate::{certify, closed_loop, matrix_json, Certificate, Controller};
+use crate::certificate::{certify, certify_h2, closed_loop, matrix_json, Certificate, Controller};
 use crate::fault::{certify_faults, observer_for_faults, with_detection, with_effectiveness, DetectionResidual, FaultBox};
 use crate::generalized::FORCE_UNIT;
 use crate::controller_file::controller_json;
@@ -73,6 +73,14 @@ pub fn nominal_of(variant: &str) -> Option<&'static str> {
 /// the same uncertainty ([`nominal_comparison`]).
 pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design) -> Result<Vec<(String, Synthesised)>, SynthError> {
     use rayon::prelude::*;
+    for name in design.overrides.keys() {
+        if name == "hinf_of_aw" {
+            return Err(SynthError::Usage("the design overrides 'hinf_of_aw', which is hinf_of's controller plus a compensator: override 'hinf_of'".into()));
+        }
+        if !ALL.contains(&name.as_str()) {
+            return Err(SynthError::Usage(format!("the design overrides unknown variant '{name}', expected one of {ALL:?}")));
+        }
+    }
     // Independent designs first, in parallel; then those built on another.
     let mut order: Vec<&str> = variants.iter().copied().filter(|v| *v != "hinf_of_aw").collect();
     if variants.contains(&"hinf_of_aw") && !order.contains(&"hinf_of") {
@@ -85,14 +93,14 @@ pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design
     let mut by_name: BTreeMap<String, Synthesised> = done.into_iter().collect();
     if variants.contains(&"hinf_of_aw") {
         let t = std::time::Instant::now();
-        let mut aw = hinf_of_aw(&by_name["hinf_of"], params, design)?;
+        let mut aw = hinf_of_aw(&by_name["hinf_of"], params, &design_for("hinf_of_aw", design)?)?;
         aw.seconds = t.elapsed().as_secs_f64();
         by_name.insert("hinf_of_aw".into(), aw);
     }
     for v in variants {
         if let Some(n) = nominal_of(v) {
             if let Some(nominal) = by_name.get(n).map(|s| s.controller.clone()) {
-                let (key, value) = nominal_comparison(v, &nominal, params, design);
+                let (key, value) = nominal_comparison(v, &nominal, params, &design_for(v, design)?);
                 let details = &mut by_name.get_mut(*v).expect("synthesised above").certificate.details;
                 details["nominal_design"] = serde_json::json!(n);
                 details[key] = value;
@@ -191,10 +199,17 @@ fn nominal_comparison(variant: &str, nominal: &Controller, params: &VehicleParam
     }
 }
 
-/// Synthesise and certify one design.
+/// The design `variant` is synthesised with: the file's values with the variant's overrides
+/// ([`Design::with_overrides`]); `hinf_of_aw`, `hinf_of`'s controller plus a compensator, with
+/// `hinf_of`'s.
+pub fn design_for(variant: &str, design: &Design) -> Result<Design, SynthError> {
+    Ok(design.with_overrides(if variant == "hinf_of_aw" { "hinf_of" } else { variant })?)
+}
+
+/// Synthesise and certify one design (with its overrides, [`design_for`]).
 pub fn synthesise(variant: &str, params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
     let t = std::time::Instant::now();
-    let mut s = synthesise_untimed(variant, params, design)?;
+    let mut s = synthesise_untimed(variant, params, &design_for(variant, design)?)?;
     s.seconds = t.elapsed().as_secs_f64();
     Ok(s)
 }
@@ -219,10 +234,13 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
             let controller = Controller::static_gain(sf.k.clone());
             let (c_meas, d_meas) = full_state();
             let mut certificate = certify(variant, &g, &c_meas, &d_meas, sf_inputs(), &controller, sf.gamma, notes)?;
+            let h2_norm = certify_h2(variant, &g, &c_meas, &d_meas, &controller, &g.h2_rows(), mixed.h2_bound)?;
             certificate.details = serde_json::json!({
                 "gamma_opt": mixed.gamma_opt,
                 "gamma_backoff": GAMMA_BACKOFF,
+                "h2_rows": g.h2_rows(),
                 "h2_bound": mixed.h2_bound,
+                "h2_norm": h2_norm,
                 "h2_bound_at_gamma_opt": mixed.h2_bound_at_optimum,
             });
             let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", sf.gamma, &sf_inputs(), &controller);

@@ -186,10 +186,9 @@ fn hinf_of_beats_the_passive_car_on_the_bump_within_limits() {
 fn hinf_of_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
     let road = iso_road(3, 20.0, 7);
     let (passive, active) = compare("ISO C 20 m/s", "hinf_of", &road, 10.0);
-    // Measured 47.7 % roll reduction since the analytic-centre reconstruction (the earlier
-    // controller reached 50.6 % with a weaker seat and bump figures): short of the 50 % target,
-    // guard what is achieved.
-    assert_comfort_targets(&passive, &active, 0.45);
+    // Measured 55.2 % roll reduction with the output-feedback designs' roll weight 0.8 (47.7 %
+    // at the shared 0.55).
+    assert_comfort_targets(&passive, &active, 0.5);
 }
 
 /// Thesis ch. 6: the robust designs on the lightest and the heaviest car of the range, against
