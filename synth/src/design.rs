@@ -80,7 +80,7 @@ pub struct Design {
     /// Strictness margin ε of every LMI.
     pub lmi_margin: f64,
     /// Per-variant changes to the fields above, e.g. `{"hinf_of": {"weight_alpha_roll": 0.8}}`:
-    /// each design has its own weights where one set does not suit all ([`Design::for_variant`]).
+    /// each design has its own weights where one set does not suit all ([`Design::with_overrides`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub overrides: BTreeMap<String, serde_json::Map<String, serde_json::Value>>,
 }

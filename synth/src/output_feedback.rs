@@ -487,11 +487,11 @@ pub fn optimal_gamma_one_shot(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
 /// controller (from `Â₀` and the centre plant `c`) does not depend on the vertex: the vertex
 /// terms cancel in the Remark 5.1 reconstruction. Sound, but conservative: `X` is not optimised
 /// for output feedback.
-#[allow(clippy::too_many_arguments)]
 ///
 /// Solved on the vertices balanced with the centre plant's scaling ([`Balanced`]): `X̄ = D⁻¹XD⁻¹`,
 /// `Ĉ̄ = ĈD⁻¹` (so `ĀX̄ + B̄₂Ĉ̄ = D⁻¹(AX + B₂Ĉ)D⁻¹`). Unbalanced, Clarabel stopped with
 /// NumericalError on stage 2 for some weights (roll weight 0.8).
+#[allow(clippy::too_many_arguments)]
 pub fn hinf_of_common_x(vertices: &[OfPlant], center: &OfPlant, x: &DMatrix<f64>, ch: &DMatrix<f64>, eps: f64, delta: f64, beta: f64) -> Result<OutputFeedback, LmiError> {
     let balanced_center = Balanced::new(center);
     let scaling = balanced_center.d.clone();

@@ -203,13 +203,22 @@ fn nominal_comparison(variant: &str, nominal: &Controller, params: &VehicleParam
 /// ([`Design::with_overrides`]); `hinf_of_aw`, `hinf_of`'s controller plus a compensator, with
 /// `hinf_of`'s.
 pub fn design_for(variant: &str, design: &Design) -> Result<Design, SynthError> {
-    Ok(design.with_overrides(if variant == "hinf_of_aw" { "hinf_of" } else { variant })?)
+    Ok(design.with_overrides(overridden_as(variant))?)
 }
 
-/// Synthesise and certify one design (with its overrides, [`design_for`]).
+/// The key of `variant`'s overrides in the design file.
+fn overridden_as(variant: &str) -> &str {
+    if variant == "hinf_of_aw" { "hinf_of" } else { variant }
+}
+
+/// Synthesise and certify one design (with its overrides, [`design_for`], which its certificate
+/// notes).
 pub fn synthesise(variant: &str, params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
     let t = std::time::Instant::now();
     let mut s = synthesise_untimed(variant, params, &design_for(variant, design)?)?;
+    if let Some(changes) = design.overrides.get(overridden_as(variant)) {
+        s.certificate.notes.push(format!("Design values overridden for {}: {}", overridden_as(variant), serde_json::Value::Object(changes.clone())));
+    }
     s.seconds = t.elapsed().as_secs_f64();
     Ok(s)
 }
@@ -532,6 +541,18 @@ fn of_details(of: &OutputFeedback) -> serde_json::Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn overrides_of_unknown_or_derived_variants_are_refused_before_any_synthesis() {
+        for (name, expected) in [("hinf_off", "unknown variant 'hinf_off'"), ("hinf_of_aw", "override 'hinf_of'")] {
+            let mut design = Design::default();
+            design.overrides.insert(name.into(), serde_json::Map::from_iter([("weight_alpha_roll".to_string(), serde_json::json!(0.9))]));
+            match synthesise_all(&ALL, &VehicleParams::default(), &design) {
+                Err(SynthError::Usage(m)) => assert!(m.contains(expected), "{m}"),
+                other => panic!("expected a usage error, got {:?}", other.map(|_| ())),
+            }
+        }
+    }
 
     #[test]
     fn golden_section_finds_the_minimum_of_a_parabola() {
