@@ -74,12 +74,15 @@ impl Lti {
         g.singular_values().max()
     }
 
+    /// `Ok` when asymptotically stable (a NaN abscissa is not).
+    fn require_stable(&self) -> Result<(), NormError> {
+        let abscissa = self.spectral_abscissa();
+        if abscissa < 0.0 { Ok(()) } else { Err(NormError::Unstable(abscissa)) }
+    }
+
     /// The H∞ norm to relative accuracy `tol` (bracket width `2·tol`).
     pub fn hinf_norm(&self, tol: f64) -> Result<Norm, NormError> {
-        let abscissa = self.spectral_abscissa();
-        if !(abscissa < 0.0) {
-            return Err(NormError::Unstable(abscissa));
-        }
+        self.require_stable()?;
         let (n, m, p) = (self.a.nrows(), self.b.ncols(), self.c.nrows());
         // Initial lower bound: D, DC gain, and the most lightly damped pole's frequency.
         let poles = self.a.complex_eigenvalues();
@@ -153,10 +156,7 @@ impl Lti {
     /// of any LMI bound; cubic in n², which is a fraction of a second for our n ≤ 32 (a
     /// Bartels–Stewart solver is not worth its code here).
     pub fn h2_norm(&self) -> Result<f64, NormError> {
-        let abscissa = self.spectral_abscissa();
-        if !(abscissa < 0.0) {
-            return Err(NormError::Unstable(abscissa));
-        }
+        self.require_stable()?;
         if self.d.amax() != 0.0 {
             return Err(NormError::Feedthrough(self.d.norm()));
         }

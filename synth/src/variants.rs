@@ -243,11 +243,12 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
             let controller = Controller::static_gain(sf.k.clone());
             let (c_meas, d_meas) = full_state();
             let mut certificate = certify(variant, &g, &c_meas, &d_meas, sf_inputs(), &controller, sf.gamma, notes)?;
-            let h2_norm = certify_h2(variant, &g, &c_meas, &d_meas, &controller, &g.h2_rows(), mixed.h2_bound)?;
+            let h2_rows = g.h2_rows();
+            let h2_norm = certify_h2(variant, &g, &c_meas, &d_meas, &controller, &h2_rows, mixed.h2_bound)?;
             certificate.details = serde_json::json!({
                 "gamma_opt": mixed.gamma_opt,
                 "gamma_backoff": GAMMA_BACKOFF,
-                "h2_rows": g.h2_rows(),
+                "h2_rows": h2_rows,
                 "h2_bound": mixed.h2_bound,
                 "h2_norm": h2_norm,
                 "h2_bound_at_gamma_opt": mixed.h2_bound_at_optimum,
