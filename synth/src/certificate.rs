@@ -70,6 +70,8 @@ pub enum CertificateError {
     NotRobust { variant: String, mass: f64, norm: f64, gamma: f64 },
     #[error("{variant}: certified closed-loop norm {norm:.9} exceeds the claimed γ = {gamma:.9} by more than {NORM_TOLERANCE:e} relative")]
     NormAboveGamma { variant: String, norm: f64, gamma: f64 },
+    #[error("{variant}: the energy-to-peak bound of {name} for the design energy, {peak} (computed from the Gramian), is not finite and below the LMI's {claimed} and the limit 1: {reason}")]
+    PeakAboveBound { variant: String, name: String, peak: f64, claimed: f64, reason: String },
     #[error("{variant}: the closed-loop H2 norm {norm} of the H2 rows is not finite and below the claimed bound {bound}: {reason}")]
     H2AboveBound { variant: String, norm: f64, bound: f64, reason: String },
 }
@@ -87,6 +89,37 @@ pub fn certify_h2(variant: &str, g: &GeneralizedPlant, c_meas: &DMatrix<f64>, d_
         return Err(fail(norm, format!("exceeds it by more than {NORM_TOLERANCE:e} relative")));
     }
     Ok(norm)
+}
+
+/// One constraint's peak bound for the design disturbance energy: the LMI's and the exact one.
+#[derive(Debug, Clone, Serialize)]
+pub struct PeakCheck {
+    pub name: String,
+    /// `max_t |cᵢ(t)|` over `‖w‖₂² ≤ E` (limit 1) that the LMI proves.
+    pub lmi_bound: f64,
+    /// The same from the closed loop's controllability Gramian ([`Lti::energy_to_peak`]).
+    pub gramian: f64,
+}
+
+/// The constraint LMIs' claim: for every disturbance of energy `energy`, each constraint output
+/// `cᵢ` of the closed loop stays within its limit 1. Checked with the exact energy-to-peak gain
+/// of the closed loop, which must be at most the LMI's bound (1e-6 relative) and at most 1.
+pub fn certify_peaks(variant: &str, g: &GeneralizedPlant, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, k: &Controller, energy: f64, claimed: &[(String, f64)]) -> Result<Vec<PeakCheck>, CertificateError> {
+    let cl = closed_loop(&g.constraint_plant(), c_meas, d_meas, k);
+    let gains = cl.energy_to_peak();
+    let mut checks = Vec::new();
+    for (i, (name, bound)) in claimed.iter().enumerate() {
+        let fail = |peak: f64, reason: String| CertificateError::PeakAboveBound { variant: variant.into(), name: name.clone(), peak, claimed: *bound, reason };
+        let peak = match &gains {
+            Ok(gains) => gains[i] * energy.sqrt(),
+            Err(e) => return Err(fail(f64::INFINITY, e.to_string())),
+        };
+        if peak > bound * (1.0 + NORM_TOLERANCE) || peak > 1.0 + NORM_TOLERANCE {
+            return Err(fail(peak, "exceeds it".into()));
+        }
+        checks.push(PeakCheck { name: name.clone(), lmi_bound: *bound, gramian: peak });
+    }
+    Ok(checks)
 }
 
 /// Certify `controller` against the claimed `gamma`; an error is never an FMU.
@@ -108,7 +141,8 @@ pub fn certify(variant: &str, g: &GeneralizedPlant, c_meas: &DMatrix<f64>, d_mea
         spectral_abscissa: cl.spectral_abscissa(),
         closed_loop_poles: poles,
         scaling: serde_json::json!({
-            "w": "road heights / road_height_scale (4), then road velocities / road_velocity_scale (4)",
+            "w": g.w_description(),
+            "road_model": g.road_model,
             "road_scale": g.road_scale,
             "u": format!("actuator forces in units of {FORCE_UNIT} N inside the generalised plant; the controller below is in N"),
         }),
@@ -167,6 +201,25 @@ mod tests {
         // A tyre-load row feeds the road height through: no finite H2 norm, refused.
         let with_tyre: Vec<usize> = (0..g.c_z.nrows()).collect();
         assert!(matches!(certify_h2("test", &g, &eye, &zero, &k, &with_tyre, 1e6), Err(CertificateError::H2AboveBound { .. })));
+    }
+
+    #[test]
+    fn peak_claims_are_checked_against_the_gramian() {
+        let d = Design { road_model: crate::design::RoadModel::Shaped { corner: 1.0 }, constraints: true, ..Design::default() };
+        let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d);
+        let (cm, dm, _) = g.state_measurement();
+        // Passive: the forces are 0, the strokes and tyre loads reach ~1.5–2 limits for the
+        // 5 cm bump's energy (see the README); at 1 % of that energy they are within the limits.
+        let passive = Controller::static_gain(DMatrix::zeros(5, g.n()));
+        let energy = d.design_energy() * 1e-2;
+        let generous: Vec<(String, f64)> = g.constraint_names.iter().map(|n| (n.clone(), 1.0)).collect();
+        let checks = certify_peaks("test", &g, &cm, &dm, &passive, energy, &generous).unwrap();
+        assert!(checks[..5].iter().all(|c| c.gramian == 0.0) && checks[5..].iter().all(|c| c.gramian > 0.05 && c.gramian < 1.0), "{checks:?}");
+        // A claimed bound 1 % below the true peak is refused, and so is a true peak above 1.
+        let mut under = generous.clone();
+        under[5].1 = checks[5].gramian * 0.99;
+        assert!(matches!(certify_peaks("test", &g, &cm, &dm, &passive, energy, &under), Err(CertificateError::PeakAboveBound { .. })));
+        assert!(matches!(certify_peaks("test", &g, &cm, &dm, &passive, d.design_energy(), &generous), Err(CertificateError::PeakAboveBound { .. })));
     }
 
     #[test]

@@ -6,6 +6,25 @@ use std::collections::BTreeMap;
 
 pub const DEFAULT_DESIGN_FILE: &str = include_str!("../designs/default.json");
 
+/// How the road enters the generalised plant's disturbance `w`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum RoadModel {
+    /// `w` = the four road heights over `road_height_scale` and the four road velocities over
+    /// `road_velocity_scale`, as eight independent channels (no road states). The worst case
+    /// may then move a height without its velocity, so the tyre load, which carries the height
+    /// straight through, has no energy-to-peak bound in this model.
+    Independent,
+    /// `w` = four road-velocity channels over `road_velocity_scale`; each road height is their
+    /// leaky integral, a state: `ż_r = −corner·z_r + road_velocity_scale·w` (the first-order
+    /// road-roughness filter of ISO 8608 practice, `corner = 2π n₀ V`, `n₀ ≈ 0.01 cycle/m`).
+    /// Height and velocity are then one signal, and the tyre deflection a state.
+    Shaped {
+        /// [rad/s], > 0.
+        corner: f64,
+    },
+}
+
 /// The bump whose energy bounds the disturbance in the peak (constraint) LMIs.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -54,7 +73,10 @@ pub struct Design {
     pub u_max_seat: f64,
     /// Suspension stroke limit [m].
     pub stroke_max: f64,
-    /// Impose the force and stroke limits as energy-to-peak LMIs.
+    /// Road model of `w` ([`RoadModel`]).
+    pub road_model: RoadModel,
+    /// Impose the force, stroke and tyre-load limits as energy-to-peak LMIs (state-feedback
+    /// designs; needs [`RoadModel::Shaped`], in which the tyre load has a bound).
     pub constraints: bool,
     pub design_bump: Bump,
     /// Robust designs (thesis ch. 6): lightest sprung mass [kg].
@@ -91,6 +113,8 @@ pub enum DesignError {
     Syntax(String),
     #[error("design value '{name}' must be {expected}, got {value}")]
     Value { name: &'static str, expected: &'static str, value: f64 },
+    #[error("design: {0}")]
+    Inconsistent(&'static str),
     #[error("design override for '{variant}' is not valid: {reason}")]
     Override { variant: String, reason: String },
 }
@@ -166,6 +190,14 @@ impl Design {
         if !(self.fault_rho_min > 0.0 && self.fault_rho_min < 1.0) {
             return Err(DesignError::Value { name: "fault_rho_min", expected: "in (0, 1)", value: self.fault_rho_min });
         }
+        if let RoadModel::Shaped { corner } = self.road_model {
+            if !(corner > 0.0 && corner.is_finite()) {
+                return Err(DesignError::Value { name: "road_model.shaped.corner", expected: "a finite number > 0", value: corner });
+            }
+        }
+        if self.constraints && self.road_model == RoadModel::Independent {
+            return Err(DesignError::Inconsistent("\"constraints\": true needs \"road_model\": {\"shaped\": {\"corner\": ...}}: with independent road heights the dynamic tyre load carries the height straight through and has no energy-to-peak bound"));
+        }
         if self.mass_grid_points < 2 {
             return Err(DesignError::Value { name: "mass_grid_points", expected: "at least 2", value: self.mass_grid_points as f64 });
         }
@@ -179,14 +211,32 @@ impl Design {
 
     /// `∫ ‖w‖² dt` of the design bump on the two left wheels (rear delayed), in scaled units:
     /// the disturbance energy the peak LMIs guarantee the limits for. Closed form of
-    /// `∫ (h/2)²(1 − cos)²` and `∫ (h/2 · 2π/L · V)² sin²` over the bump's duration `L/V`.
+    /// `∫ r² = ∫ (h/2)²(1 − cos)²` and `∫ ṙ² = ∫ (h/2 · 2π/L · V)² sin²` over the bump's
+    /// duration `L/V`; independent road: `∫ r²/s_h² + ṙ²/s_v²`; shaped road (`w = (ṙ + a r)/s_v`):
+    /// `∫ (ṙ² + a² r²)/s_v²` (the cross term `a [r²]` vanishes, `r` being 0 at both ends).
     pub fn design_energy(&self) -> f64 {
         let b = &self.design_bump;
         let duration = b.length / b.speed;
-        let height = (0.5 * b.height).powi(2) * 1.5 * duration / self.road_height_scale.powi(2);
+        let height = (0.5 * b.height).powi(2) * 1.5 * duration;
         let amp = 0.5 * b.height * 2.0 * std::f64::consts::PI / b.length * b.speed;
-        let velocity = amp * amp * 0.5 * duration / self.road_velocity_scale.powi(2);
-        2.0 * (height + velocity)
+        let velocity = amp * amp * 0.5 * duration;
+        let per_wheel = match self.road_model {
+            RoadModel::Independent => height / self.road_height_scale.powi(2) + velocity / self.road_velocity_scale.powi(2),
+            RoadModel::Shaped { corner } => (velocity + corner * corner * height) / self.road_velocity_scale.powi(2),
+        };
+        2.0 * per_wheel
+    }
+
+    /// `max_t |ṙ(t) + a r(t)|` of the design bump (`a` the shaped road's corner, 0 if
+    /// independent), bounded by `π h V / L + a h`: the largest road velocity the shaped road's
+    /// `w` carries straight into the tyre damper force.
+    pub fn design_bump_peak_velocity(&self) -> f64 {
+        let b = &self.design_bump;
+        let corner = match self.road_model {
+            RoadModel::Independent => 0.0,
+            RoadModel::Shaped { corner } => corner,
+        };
+        std::f64::consts::PI * b.height * b.speed / b.length + corner * b.height
     }
 }
 
@@ -228,19 +278,39 @@ mod tests {
     }
 
     #[test]
-    fn design_energy_matches_quadrature() {
-        let d = Design::default();
-        let b = d.design_bump;
-        let n = 200_000;
-        let dt = b.length / b.speed / n as f64;
-        let w = 2.0 * std::f64::consts::PI / b.length;
-        let mut e = 0.0;
-        for k in 0..n {
-            let x = b.speed * (k as f64 + 0.5) * dt;
-            let z = 0.5 * b.height * (1.0 - (w * x).cos()) / d.road_height_scale;
-            let v = 0.5 * b.height * w * b.speed * (w * x).sin() / d.road_velocity_scale;
-            e += 2.0 * (z * z + v * v) * dt;
+    fn design_energy_and_peak_velocity_match_quadrature() {
+        for road_model in [RoadModel::Independent, RoadModel::Shaped { corner: 1.3 }] {
+            let d = Design { road_model, ..Design::default() };
+            let b = d.design_bump;
+            let n = 200_000;
+            let dt = b.length / b.speed / n as f64;
+            let w = 2.0 * std::f64::consts::PI / b.length;
+            let (mut e, mut peak) = (0.0, 0.0f64);
+            for k in 0..n {
+                let x = b.speed * (k as f64 + 0.5) * dt;
+                let r = 0.5 * b.height * (1.0 - (w * x).cos());
+                let v = 0.5 * b.height * w * b.speed * (w * x).sin();
+                let (channels, velocity) = match road_model {
+                    RoadModel::Independent => ((r / d.road_height_scale).powi(2) + (v / d.road_velocity_scale).powi(2), v),
+                    RoadModel::Shaped { corner } => (((v + corner * r) / d.road_velocity_scale).powi(2), v + corner * r),
+                };
+                e += 2.0 * channels * dt;
+                peak = peak.max(velocity.abs());
+            }
+            assert!((e - d.design_energy()).abs() < 1e-8 * e, "{road_model:?}: {e} vs {}", d.design_energy());
+            // The closed-form bound is an upper bound, and within 10 % of the sampled peak.
+            let bound = d.design_bump_peak_velocity();
+            assert!(peak <= bound && peak > 0.9 * bound, "{road_model:?}: {peak} vs {bound}");
         }
-        assert!((e - d.design_energy()).abs() < 1e-8 * e, "{e} vs {}", d.design_energy());
+    }
+
+    #[test]
+    fn constraints_need_the_shaped_road_and_a_valid_corner() {
+        let on = DEFAULT_DESIGN_FILE.replace("\"constraints\": false", "\"constraints\": true");
+        assert!(matches!(Design::from_json(&on), Err(DesignError::Inconsistent(_))));
+        let shaped = |corner: &str| on.replace("\"road_model\": \"independent\"", &format!("\"road_model\": {{\"shaped\": {{\"corner\": {corner}}}}}"));
+        assert_eq!(Design::from_json(&shaped("1.2")).unwrap().road_model, RoadModel::Shaped { corner: 1.2 });
+        assert!(matches!(Design::from_json(&shaped("-1")), Err(DesignError::Value { name: "road_model.shaped.corner", .. })));
+        assert!(matches!(Design::from_json(&on.replace("\"road_model\": \"independent\"", "\"road_model\": \"filtered\"")), Err(DesignError::Syntax(_))));
     }
 }

@@ -151,11 +151,11 @@ impl Lti {
 }
 
 impl Lti {
-    /// The H2 norm `√tr(C P Cᵀ)`, `P` the controllability Gramian `AP + PAᵀ + BBᵀ = 0` solved
-    /// as its Kronecker linear system `(I ⊗ A + A ⊗ I) vec P = −vec BBᵀ` — exact and independent
-    /// of any LMI bound; cubic in n², which is a fraction of a second for our n ≤ 32 (a
-    /// Bartels–Stewart solver is not worth its code here).
-    pub fn h2_norm(&self) -> Result<f64, NormError> {
+    /// The controllability Gramian `P`, `AP + PAᵀ + BBᵀ = 0`, solved as its Kronecker linear
+    /// system `(I ⊗ A + A ⊗ I) vec P = −vec BBᵀ` — exact and independent of any LMI bound; cubic
+    /// in n², which is a fraction of a second for our n ≤ 32 (a Bartels–Stewart solver is not
+    /// worth its code here).
+    fn controllability_gramian(&self) -> Result<DMatrix<f64>, NormError> {
         self.require_stable()?;
         if self.d.amax() != 0.0 {
             return Err(NormError::Feedthrough(self.d.norm()));
@@ -165,8 +165,22 @@ impl Lti {
         let op = eye.kronecker(&self.a) + self.a.kronecker(&eye);
         let rhs = -(&self.b * self.b.transpose());
         let p = op.lu().solve(&DMatrix::from_column_slice(n * n, 1, rhs.as_slice())).expect("I ⊗ A + A ⊗ I is invertible for a stable A");
-        let p = DMatrix::from_column_slice(n, n, p.as_slice());
+        Ok(DMatrix::from_column_slice(n, n, p.as_slice()))
+    }
+
+    /// The H2 norm `√tr(C P Cᵀ)`, `P` the controllability Gramian.
+    pub fn h2_norm(&self) -> Result<f64, NormError> {
+        let p = self.controllability_gramian()?;
         Ok((&self.c * p * self.c.transpose()).trace().max(0.0).sqrt())
+    }
+
+    /// The energy-to-peak gain of each output, `sup { max_t |zᵢ(t)| : ‖w‖₂ ≤ 1 } = √(C P Cᵀ)ᵢᵢ`
+    /// (exact for one output: by Cauchy–Schwarz on `zᵢ(t) = ∫ cᵢ e^{A(t−s)} B w(s) ds`, attained
+    /// by the time-reversed impulse response; Wilson, IEEE TAC 34(1), 1989).
+    pub fn energy_to_peak(&self) -> Result<Vec<f64>, NormError> {
+        let p = self.controllability_gramian()?;
+        let cpc = &self.c * p * self.c.transpose();
+        Ok((0..self.c.nrows()).map(|i| cpc[(i, i)].max(0.0).sqrt()).collect())
     }
 
     /// The system from all inputs to the outputs `rows`.
@@ -181,6 +195,26 @@ mod tests {
 
     fn m(r: usize, c: usize, v: &[f64]) -> DMatrix<f64> {
         DMatrix::from_row_slice(r, c, v)
+    }
+
+    #[test]
+    fn energy_to_peak_of_a_lag_matches_its_closed_form_and_an_attaining_input() {
+        // 3/(s + 2): P = 1/4, gain 3/2; the input w(s) = e^{−2(t−s)} on [0, t] (normalised)
+        // attains it as t → ∞ (here t = 20: e^{−80} away).
+        let g = Lti::new(m(1, 1, &[-2.0]), m(1, 1, &[1.0]), m(2, 1, &[3.0, -1.0]), m(2, 1, &[0.0, 0.0]));
+        let peak = g.energy_to_peak().unwrap();
+        assert!((peak[0] - 1.5).abs() < 1e-12 && (peak[1] - 0.5).abs() < 1e-12, "{peak:?}");
+        let (t, steps) = (20.0, 200_000);
+        let h = t / steps as f64;
+        let (mut z, mut energy) = (0.0, 0.0);
+        for k in 0..steps {
+            let s = (k as f64 + 0.5) * h;
+            let w = (-2.0 * (t - s)).exp();
+            z += 3.0 * (-2.0 * (t - s)).exp() * w * h;
+            energy += w * w * h;
+        }
+        assert!((z / energy.sqrt() - 1.5).abs() < 1e-6, "{}", z / energy.sqrt());
+        assert!(matches!(Lti::new(m(1, 1, &[-2.0]), m(1, 1, &[1.0]), m(1, 1, &[1.0]), m(1, 1, &[0.1])).energy_to_peak(), Err(NormError::Feedthrough(_))));
     }
 
     #[test]

@@ -75,7 +75,13 @@ pub fn hinf_sf_mixed(g: &GeneralizedPlant, eps: f64, design_energy: Option<f64>,
     p.negative_definite("H∞ bounded-real LMI at the fixed γ", bounded_real_at(g, &q, &y, gamma), eps);
     p.positive_definite("Q ≻ 0", q.clone(), eps);
     let c2q = q.left(&c2).add(&y.left(&d2));
-    p.positive_definite("H2 bound W ⪰ γ (C₂Q + D₂Y) Q⁻¹ (C₂Q + D₂Y)ᵀ", Affine::symmetric_blocks(&[vec![Some(wv.expr()), Some(c2q)], vec![None, Some(q.scale(1.0 / gamma))]]), 0.0);
+    // This block is singular at the optimum by construction (W is the Schur complement), so the
+    // point the solver returns sits on its boundary. Unconstrained, margin 0 passes our check and
+    // is kept: the shipped controller was measured at it, and with margin ε its gain moves by up
+    // to 28 % for an H2 bound 0.02 % higher (the objective is flat in those directions). With the
+    // peak LMIs the boundary point failed the check by −3e-10; there the margin is ε.
+    let h2_margin = if design_energy.is_some() { eps } else { 0.0 };
+    p.positive_definite("H2 bound W ⪰ γ (C₂Q + D₂Y) Q⁻¹ (C₂Q + D₂Y)ᵀ", Affine::symmetric_blocks(&[vec![Some(wv.expr()), Some(c2q)], vec![None, Some(q.scale(1.0 / gamma))]]), h2_margin);
     p.positive_definite("t ≥ tr W", t.expr().sub(&wv.expr().trace()), 0.0);
     add_peak_constraints(&mut p, &[g], &q, &y, design_energy, eps);
     // The bound at the γ-optimal point sets the objective's scale (Clarabel stopped short of
@@ -205,19 +211,44 @@ pub fn hinf_sf_robust(plants: &[&GeneralizedPlant], norm_bounded: Option<&NormBo
 fn add_peak_constraints(p: &mut Problem, plants: &[&GeneralizedPlant], q: &Affine, y: &Affine, design_energy: Option<f64>, eps: f64) {
     let Some(energy) = design_energy else { return };
     let g = plants[0];
-    let nw = g.b_w.ncols();
     for gi in plants {
-        let energy_lmi = Affine::symmetric_blocks(&[
-            vec![Some(lyapunov_term(&gi.a, &gi.b_u, q, y)), Some(Affine::constant(g.b_w.clone()))],
-            vec![None, Some(Affine::identity(nw).scale(-1.0))],
-        ]);
-        p.negative_definite("energy LMI (V ≤ ‖w‖²)", energy_lmi, eps);
+        p.negative_definite("energy LMI (V ≤ ‖w‖²)", energy_lmi(gi, q, y), eps);
     }
     for i in 0..g.c_c.nrows() {
         let ci = q.left(&g.c_c.rows(i, 1).into_owned()).add(&y.left(&g.d_cu.rows(i, 1).into_owned()));
         let peak = Affine::symmetric_blocks(&[vec![Some(q.clone()), Some(ci.t())], vec![None, Some(Affine::constant(DMatrix::from_element(1, 1, 1.0 / energy)))]]);
-        p.positive_definite(&format!("peak bound on {}", g.constraint_names[i]), peak, 0.0);
+        p.positive_definite(&format!("peak bound on {}", g.constraint_names[i]), peak, eps);
     }
+}
+
+/// The smallest common energy-to-peak bound `max_i max_t |cᵢ(t)|` over the constraint outputs
+/// that any state feedback can prove with these LMIs for disturbances of energy `energy`
+/// (the energy and peak LMIs of [`add_peak_constraints`] at every plant, no H∞ part): above 1,
+/// the constraints cannot all be imposed, whatever γ. The diagnosis of an infeasible design.
+pub fn best_constraint_peak(plants: &[&GeneralizedPlant], energy: f64, eps: f64) -> Result<f64, LmiError> {
+    let g = plants[0];
+    let mut p = Problem::new();
+    let qv = p.symmetric(g.n());
+    let yv = p.full(g.b_u.ncols(), g.n());
+    let mu = p.scalar();
+    let (q, y) = (qv.expr(), yv.expr());
+    p.positive_definite("Q ≻ 0", q.clone(), eps);
+    for gi in plants {
+        p.negative_definite("energy LMI (V ≤ ‖w‖²)", energy_lmi(gi, &q, &y), eps);
+    }
+    for i in 0..g.c_c.nrows() {
+        let ci = q.left(&g.c_c.rows(i, 1).into_owned()).add(&y.left(&g.d_cu.rows(i, 1).into_owned()));
+        p.positive_definite("common peak bound", Affine::symmetric_blocks(&[vec![Some(q.clone()), Some(ci.t())], vec![None, Some(mu.expr())]]), eps);
+    }
+    p.minimise(&mu, 1.0);
+    let s = p.solve()?;
+    Ok((energy * mu.value(&s.x)[(0, 0)]).sqrt())
+}
+
+/// `He(AQ + B_uY) + B_w B_wᵀ ≺ 0` as one block LMI: `xᵀQ⁻¹x ≤ ‖w‖₂²` along every trajectory.
+fn energy_lmi(g: &GeneralizedPlant, q: &Affine, y: &Affine) -> Affine {
+    let nw = g.b_w.ncols();
+    Affine::symmetric_blocks(&[vec![Some(lyapunov_term(&g.a, &g.b_u, q, y)), Some(Affine::constant(g.b_w.clone()))], vec![None, Some(Affine::identity(nw).scale(-1.0))]])
 }
 
 /// `K = Y Q⁻¹` (in N) and the peak bounds `(Q, Y)` proves.

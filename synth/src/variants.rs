@@ -5,19 +5,19 @@
 
 use crate::anti_windup::{circle_check, mraw};
 use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
-use crate::certificate::{certify, certify_h2, closed_loop, matrix_json, Certificate, Controller};
+use crate::certificate::{certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate, Controller};
 use crate::fault::{certify_faults, observer_for_faults, with_detection, with_effectiveness, DetectionResidual, FaultBox};
 use crate::generalized::FORCE_UNIT;
 use crate::controller_file::controller_json;
-use crate::design::Design;
+use crate::design::{Design, RoadModel};
 use crate::generalized::{GeneralizedPlant, MEASUREMENTS};
 use crate::output_feedback::{hinf_of, hinf_of_common_x, optimal_gamma, OfPlant, OutputFeedback};
 use crate::robust::{mass_grid_certificate, MassGrid, MassUncertainty};
-use crate::state_feedback::{hinf_sf_mixed, hinf_sf_robust, StateFeedback};
+use crate::state_feedback::{best_constraint_peak, hinf_sf_mixed, hinf_sf_robust, StateFeedback};
 use crate::SynthError;
 use nalgebra::DMatrix;
 use std::collections::BTreeMap;
-use vehicle::model::{N_ROAD, N_STATES, STATES};
+use vehicle::model::STATES;
 use vehicle::VehicleParams;
 
 pub const ALL: [&str; 7] = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_sf", "robust_of", "delay_sf", "ft_of"];
@@ -40,13 +40,16 @@ pub struct Synthesised {
     pub seconds: f64,
 }
 
-/// The state-feedback "measurement": `y = x`, no `w` feed-through.
-fn full_state() -> (DMatrix<f64>, DMatrix<f64>) {
-    (DMatrix::identity(N_STATES, N_STATES), DMatrix::zeros(N_STATES, N_ROAD))
-}
+/// The variants whose synthesis imposes the constraint LMIs (`"constraints": true`).
+pub const CONSTRAINED: [&str; 2] = ["hinf_sf", "robust_sf"];
 
-fn sf_inputs() -> Vec<String> {
-    (1..=N_STATES).map(|k| format!("x[{k}]")).collect()
+/// The variants synthesised with the shaped road's states too ([`RoadModel::Shaped`]): the
+/// state-feedback ones. (The output-feedback LMIs stop with a NumericalError on that plant.)
+pub const ROAD_STATES: [&str; 3] = ["hinf_sf", "robust_sf", "delay_sf"];
+
+/// A state-feedback gain on `g`'s state as the controller on [`GeneralizedPlant::state_measurement`].
+fn sf_controller(g: &GeneralizedPlant, k: &DMatrix<f64>) -> Controller {
+    Controller::static_gain(g.gain_on_measurement(k))
 }
 
 fn of_inputs() -> Vec<String> {
@@ -193,8 +196,9 @@ fn nominal_comparison(variant: &str, nominal: &Controller, params: &VehicleParam
             ("nominal_design_over_masses", serde_json::to_value(MassGrid::evaluate(&unc, &unc.center.c_y, &unc.center.d_yw, nominal)).expect("serialisable"))
         }
         _ => {
-            let (c_meas, d_meas) = full_state();
-            ("nominal_design_over_masses", serde_json::to_value(MassGrid::evaluate(&MassUncertainty::new(params, design), &c_meas, &d_meas, nominal)).expect("serialisable"))
+            let unc = MassUncertainty::new(params, design);
+            let (c_meas, d_meas, _) = unc.center.state_measurement();
+            ("nominal_design_over_masses", serde_json::to_value(MassGrid::evaluate(&unc, &c_meas, &d_meas, nominal)).expect("serialisable"))
         }
     }
 }
@@ -225,24 +229,27 @@ pub fn synthesise(variant: &str, params: &VehicleParams, design: &Design) -> Res
 
 fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
     let lmi = |e| SynthError::Lmi(variant.into(), e);
+    if design.road_model != RoadModel::Independent && !ROAD_STATES.contains(&variant) {
+        return Err(SynthError::Usage(format!("{variant} is synthesised on the independent road model only (only {ROAD_STATES:?} take the shaped road's states): set \"road_model\" per variant with overrides")));
+    }
+    if design.constraints && !CONSTRAINED.contains(&variant) {
+        return Err(SynthError::Usage(format!("{variant} does not impose the constraint LMIs (only {CONSTRAINED:?} do): ask for them per variant, e.g. \"overrides\": {{\"hinf_sf\": {{\"constraints\": true, \"road_model\": {{\"shaped\": {{\"corner\": 1.0}}}}}}}}")));
+    }
     match variant {
         "hinf_sf" => {
             let g = GeneralizedPlant::new(params, design);
             let energy = design.constraints.then(|| design.design_energy());
-            let mixed = hinf_sf_mixed(&g, design.lmi_margin, energy, GAMMA_BACKOFF).map_err(lmi)?;
+            let mixed = hinf_sf_mixed(&g, design.lmi_margin, energy, GAMMA_BACKOFF).map_err(|e| constraint_diagnosis(variant, &[&g], design, SynthError::Lmi(variant.into(), e)))?;
             let sf = &mixed.sf;
-            let mut notes = vec![
+            let notes = vec![
                 "Thesis Th. 5.1 (eq. 5.4) corrected: the D_zu Y term (accelerations respond directly to the actuator forces) is included.".to_string(),
                 format!("gamma* = {:.6}; shipped: the (Q, Y) meeting Th. 5.1 at gamma = (1 + {GAMMA_BACKOFF}) gamma* that minimises the H2 bound of the z rows without feed-through from w (all but the tyre loads), with the same Lyapunov matrix: bound {:.4} (it was {:.4} at the gamma-optimal point, which the LMI leaves non-unique).", mixed.gamma_opt, mixed.h2_bound, mixed.h2_bound_at_optimum),
                 state_order_note(),
                 format!("LMI solver status {} after {} iterations", sf.solver_status, sf.iterations),
             ];
-            for (name, bound) in &sf.peak_bounds {
-                notes.push(format!("guaranteed peak of {name} for the design bump energy: {bound:.4} of its limit"));
-            }
-            let controller = Controller::static_gain(sf.k.clone());
-            let (c_meas, d_meas) = full_state();
-            let mut certificate = certify(variant, &g, &c_meas, &d_meas, sf_inputs(), &controller, sf.gamma, notes)?;
+            let controller = sf_controller(&g, &sf.k);
+            let (c_meas, d_meas, inputs) = g.state_measurement();
+            let mut certificate = certify(variant, &g, &c_meas, &d_meas, inputs.clone(), &controller, sf.gamma, notes)?;
             let h2_rows = g.h2_rows();
             let h2_norm = certify_h2(variant, &g, &c_meas, &d_meas, &controller, &h2_rows, mixed.h2_bound)?;
             certificate.details = serde_json::json!({
@@ -253,7 +260,8 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
                 "h2_norm": h2_norm,
                 "h2_bound_at_gamma_opt": mixed.h2_bound_at_optimum,
             });
-            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", sf.gamma, &sf_inputs(), &controller);
+            certify_constraints(&mut certificate, variant, &g, params.m_s, &c_meas, &d_meas, &controller, design, &sf.peak_bounds)?;
+            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", sf.gamma, &inputs, &controller);
             Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
         }
         "hinf_of" => {
@@ -280,6 +288,40 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
         "ft_of" => ft_of(params, design),
         other => Err(SynthError::Usage(format!("unknown variant '{other}', expected one of {ALL:?}"))),
     }
+}
+
+/// A constrained state-feedback synthesis that failed: if no state feedback can prove the
+/// constraints for the design bump ([`best_constraint_peak`] > 1), say so; otherwise `error`.
+fn constraint_diagnosis(variant: &str, plants: &[&GeneralizedPlant], design: &Design, error: SynthError) -> SynthError {
+    if !design.constraints {
+        return error;
+    }
+    match best_constraint_peak(plants, design.design_energy(), design.lmi_margin) {
+        Ok(best) if best > 1.0 => SynthError::ConstraintsInfeasible { variant: variant.into(), best, bump: design.design_bump },
+        _ => error,
+    }
+}
+
+/// With `"constraints": true`: check the constraint LMIs' peak bounds against the closed loop's
+/// Gramian ([`certify_peaks`]) and record both in the certificate (appended per call: the robust
+/// design checks each vertex).
+#[allow(clippy::too_many_arguments)]
+fn certify_constraints(certificate: &mut Certificate, variant: &str, g: &GeneralizedPlant, mass: f64, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, controller: &Controller, design: &Design, claimed: &[(String, f64)]) -> Result<(), SynthError> {
+    if !design.constraints {
+        return Ok(());
+    }
+    let energy = design.design_energy();
+    let checks = certify_peaks(variant, g, c_meas, d_meas, controller, energy, claimed)?;
+    if certificate.details["constraints"].is_null() {
+        certificate.notes.push(format!(
+            "Constraint LMIs (energy-to-peak, common Lyapunov matrix): for every road input of energy <= {energy:.4} (the design bump's: {} m high, {} m long, at {} m/s, left wheels), each actuator force stays below its limit, each stroke below {} m and each dynamic tyre load below the static load (the limit of its part without road feed-through is the static load less the tyre-damper force c_t * {:.3} m/s the bump can feed straight through). Each bound re-checked with the closed loop's controllability Gramian.",
+            design.design_bump.height, design.design_bump.length, design.design_bump.speed, design.stroke_max, design.design_bump_peak_velocity()
+        ));
+        certificate.details["constraints"] = serde_json::json!({"design_energy": energy, "design_bump": design.design_bump, "road_model": design.road_model, "checks": []});
+    }
+    let entry = serde_json::json!({"sprung_mass": mass, "peaks": checks});
+    certificate.details["constraints"]["checks"].as_array_mut().expect("an array").push(entry);
+    Ok(())
 }
 
 /// Thesis §5.1.4, Th. 5.3 (corrected): `hinf_of` plus a decoupled anti-windup compensator whose
@@ -336,21 +378,21 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
     if delayed_norm > sf.gamma * (1.0 + crate::certificate::NORM_TOLERANCE) {
         return Err(fail(format!("H-infinity norm {delayed_norm} with the delay exceeds gamma {}", sf.gamma)));
     }
-    let controller = Controller::static_gain(sf.k.clone());
+    let controller = sf_controller(&g, &sf.k);
     let notes = vec![
         format!("Thesis Prop. 7.1 replaced by the descriptor Lyapunov-Krasovskii LMI with Jensen's inequality (Fridman & Shaked 2002), u(t) = K x(t) applied at t + tau, tau = {tau} s, descriptor multiplier epsilon = {epsilon}."),
         format!("Certified with the delay e^(-s tau): delay margin {margin:.6} s >= {tau} s (unit-modulus eigenvalues of K (jwI - A)^-1 B_u); H-infinity norm of the delayed loop by frequency sweep {delayed_norm:.6} <= gamma. The norm fields below are those of the loop without delay."),
         state_order_note(),
     ];
-    let (c_meas, d_meas) = full_state();
-    let mut certificate = certify(variant, &g, &c_meas, &d_meas, sf_inputs(), &controller, sf.gamma, notes)?;
+    let (c_meas, d_meas, inputs) = g.state_measurement();
+    let mut certificate = certify(variant, &g, &c_meas, &d_meas, inputs.clone(), &controller, sf.gamma, notes)?;
     certificate.details = serde_json::json!({
         "design_delay_s": tau,
         "descriptor_epsilon": epsilon,
         "delay_margin_s": margin,
         "delayed_hinf_norm_sweep": delayed_norm,
     });
-    let json = controller_json(variant, "Delay-dependent H-infinity state feedback (thesis Prop. 7.1, Lyapunov-Krasovskii with Jensen)", sf.gamma, &sf_inputs(), &controller);
+    let json = controller_json(variant, "Delay-dependent H-infinity state feedback (thesis Prop. 7.1, Lyapunov-Krasovskii with Jensen)", sf.gamma, &inputs, &controller);
     Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "input delay", seconds: 0.0 })
 }
 
@@ -405,19 +447,28 @@ fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     let lmi = |e| SynthError::Lmi(variant.into(), e);
     let unc = MassUncertainty::new(params, design);
     let energy = design.constraints.then(|| design.design_energy());
-    let vertex = hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, design.lmi_margin, energy).map_err(lmi)?;
+    let vertices = [&unc.vertices[0], &unc.vertices[1]];
+    let vertex = hinf_sf_robust(&vertices, None, design.lmi_margin, energy).map_err(|e| constraint_diagnosis(variant, &vertices, design, lmi(e)))?;
     let nb = hinf_sf_robust(&[&unc.center], Some(&unc.norm_bounded), design.lmi_margin, None).map_err(lmi)?;
-    let (shipped, name): (&StateFeedback, &str) = if vertex.gamma <= nb.gamma { (&vertex, "vertex") } else { (&nb, "norm-bounded") };
-    let controller = Controller::static_gain(shipped.k.clone());
-    let (c_meas, d_meas) = full_state();
+    // The constraint LMIs are imposed in the vertex form only: with them, it is the one shipped.
+    let (shipped, name): (&StateFeedback, &str) = if vertex.gamma <= nb.gamma || design.constraints { (&vertex, "vertex") } else { (&nb, "norm-bounded") };
+    let controller = sf_controller(&unc.center, &shipped.k);
+    let (c_meas, d_meas, inputs) = unc.center.state_measurement();
     let grid = mass_grid_certificate(variant, &unc, &c_meas, &d_meas, &controller, shipped.gamma)?;
     let notes = vec![
         format!("Thesis Th. 6.1, robust to {}. Vertex form: the corrected Th. 5.1 LMI at both vertices with one (Q, Y): gamma = {:.6}. Norm-bounded (COG) form, thesis Lemma 1 with epsilon a decision variable (the thesis fixes it): gamma = {:.6}. Shipped: {name}.", mass_range(design), vertex.gamma, nb.gamma),
         "Not a BMI: for state feedback B_u(m) Y is affine in 1/m for the common Y = K Q, so each vertex LMI is linear and, affine in the plant data, holds between the vertices.".to_string(),
         state_order_note(),
     ];
-    let certificate = robust_certificate(variant, params, &unc, &c_meas, &d_meas, sf_inputs(), &controller, shipped.gamma, notes, &grid, serde_json::json!({"vertex_gamma": vertex.gamma, "norm_bounded_gamma": nb.gamma, "shipped": name}))?;
-    let json = controller_json(variant, "H-infinity state feedback robust to the sprung mass (thesis Th. 6.1)", shipped.gamma, &sf_inputs(), &controller);
+    let mut certificate = robust_certificate(variant, params, &unc, &c_meas, &d_meas, inputs.clone(), &controller, shipped.gamma, notes, &grid, serde_json::json!({"vertex_gamma": vertex.gamma, "norm_bounded_gamma": nb.gamma, "shipped": name}))?;
+    // The constraints' claim is checked at both vertices (the LMI's bounds hold with one Lyapunov
+    // matrix for the whole range; the Gramian check is per plant).
+    if design.constraints {
+        for (v, mass) in unc.vertices.iter().zip([unc.m_min, unc.m_max]) {
+            certify_constraints(&mut certificate, variant, v, mass, &c_meas, &d_meas, &controller, design, &shipped.peak_bounds)?;
+        }
+    }
+    let json = controller_json(variant, "H-infinity state feedback robust to the sprung mass (thesis Th. 6.1)", shipped.gamma, &inputs, &controller);
     Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "sprung mass", seconds: 0.0 })
 }
 
