@@ -112,10 +112,29 @@ fn infeasible_constraints_are_diagnosed_not_shipped() {
         }
         other => panic!("expected ConstraintsInfeasible, got {:?}", other.map(|s| s.certificate.gamma)),
     }
-    // The other designs refuse the constraints (and the output-feedback ones the road states)
-    // rather than ignore them.
-    let shaped = constrained(0.025);
+    // The other designs refuse the constraints, and two the road states, rather than ignore them.
+    let p = VehicleParams::default();
     for v in ["hinf_of", "delay_sf", "ft_of"] {
-        assert!(matches!(synthesise(v, &VehicleParams::default(), &shaped), Err(SynthError::Usage(_))), "{v}");
+        assert!(matches!(synthesise(v, &p, &constrained(0.025)), Err(SynthError::Usage(_))), "{v}");
     }
+    let shaped = Design { constraints: false, ..constrained(0.025) };
+    for v in ["robust_of", "ft_of"] {
+        assert!(matches!(synthesise(v, &p, &shaped), Err(SynthError::Usage(_))), "{v}");
+    }
+}
+
+/// On the shaped road the output feedback estimates the road heights too (a 20th-order
+/// controller, certified like any other), and its optimal γ equals the state feedback's, which
+/// reads them: the γ of both is set by channels no controller moves. (Output feedback can never do
+/// better than state feedback on the same plant; equal here, to the solvers' accuracy.)
+#[test]
+fn output_feedback_on_the_shaped_road_reaches_the_state_feedback_optimum() {
+    let (p, d) = (VehicleParams::default(), Design { road_model: RoadModel::Shaped { corner: 1.0 }, ..Design::default() });
+    let of = synthesise("hinf_of", &p, &d).unwrap();
+    let sf = synthesise("hinf_sf", &p, &d).unwrap();
+    assert_eq!(of.controller.a.nrows(), N_STATES + 4);
+    let (g_of, g_sf) = (of.certificate.details["gamma_opt"].as_f64().unwrap(), sf.certificate.details["gamma_opt"].as_f64().unwrap());
+    println!("shaped road: gamma* output feedback {g_of:.6}, state feedback {g_sf:.6}");
+    assert!(g_of >= g_sf * (1.0 - 1e-4) && g_of <= g_sf * (1.0 + 1e-3), "{g_of} vs {g_sf}");
+    assert!(of.certificate.spectral_abscissa < 0.0 && of.certificate.norm_upper <= of.certificate.gamma * (1.0 + 1e-6));
 }
