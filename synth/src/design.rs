@@ -75,8 +75,8 @@ pub struct Design {
     pub stroke_max: f64,
     /// Road model of `w` ([`RoadModel`]).
     pub road_model: RoadModel,
-    /// Impose the force, stroke and tyre-load limits as energy-to-peak LMIs (state-feedback
-    /// designs; needs [`RoadModel::Shaped`], in which the tyre load has a bound).
+    /// Impose the force, stroke and tyre-load limits as energy-to-peak LMIs (`hinf_sf`,
+    /// `robust_sf`, `hinf_of`; needs [`RoadModel::Shaped`], in which the tyre load has a bound).
     pub constraints: bool,
     pub design_bump: Bump,
     /// Robust designs (thesis ch. 6): lightest sprung mass [kg].

@@ -11,7 +11,7 @@ use crate::generalized::FORCE_UNIT;
 use crate::controller_file::controller_json;
 use crate::design::{Design, RoadModel};
 use crate::generalized::{GeneralizedPlant, MEASUREMENTS};
-use crate::output_feedback::{hinf_of, hinf_of_common_x, optimal_gamma, OfPlant, OutputFeedback};
+use crate::output_feedback::{hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OutputFeedback};
 use crate::robust::{mass_grid_certificate, MassGrid, MassUncertainty};
 use crate::state_feedback::{best_constraint_peak, hinf_sf_mixed, hinf_sf_robust, StateFeedback};
 use crate::SynthError;
@@ -41,7 +41,7 @@ pub struct Synthesised {
 }
 
 /// The variants whose synthesis imposes the constraint LMIs (`"constraints": true`).
-pub const CONSTRAINED: [&str; 2] = ["hinf_sf", "robust_sf"];
+pub const CONSTRAINED: [&str; 4] = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_sf"];
 
 /// The variants synthesised with the shaped road's states too ([`RoadModel::Shaped`]).
 /// `robust_of` stops there with a coupling LMI violated by 2e-6 and `ft_of` ran over 5 minutes
@@ -267,15 +267,25 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
         }
         "hinf_of" => {
             let g = GeneralizedPlant::new(params, design).with_sensor_noise(design);
-            let of = hinf_of(&g.of_plant(), design.lmi_margin, GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
-            let notes = vec![
+            let (of, peak_bounds) = if design.constraints {
+                let energy = design.design_energy();
+                let (of, bounds) = hinf_of_constrained(&g.of_plant(), &g.c_c, &g.d_cu, energy, design.lmi_margin, GAMMA_BACKOFF, OF_XY_BOUND).map_err(|e| constraint_diagnosis(variant, &[&g], design, lmi(e)))?;
+                (of, g.constraint_names.iter().cloned().zip(bounds).collect())
+            } else {
+                (hinf_of(&g.of_plant(), design.lmi_margin, GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?, Vec::new())
+            };
+            let mut notes = vec![
                 "Thesis Th. 5.2 (eq. 5.9, which lacks blocks) replaced by the Scherer-Gahinet-Chilali / Gahinet-Apkarian LMI; controller rebuilt as in Remark 5.1 with M = I - XY, N = I.".to_string(),
                 format!("Measurements: {} (plant outputs of the same names).", MEASUREMENTS.join(", ")),
                 format!("w is extended by one sensor-noise channel per measurement (strokes {} m, rates {}), which regularises the filtering problem.", design.noise_stroke, design.noise_rate),
                 reconstruction_note(&of),
             ];
+            if design.constraints {
+                notes.push("With the constraint LMIs: a strictly proper controller (D_K = 0, else the sensor noise would reach the forces directly), all controller variables in the SDP (they cannot be eliminated), stage 2's variables rebuilt directly.".into());
+            }
             let mut certificate = certify(variant, &g, &g.c_y, &g.d_yw, of_inputs(), &of.controller, of.gamma, notes)?;
             certificate.details = of_details(&of);
+            certify_constraints(&mut certificate, variant, &g, params.m_s, &g.c_y, &g.d_yw, &of.controller, design, &peak_bounds)?;
             let json = controller_json(variant, "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)", of.gamma, &of_inputs(), &of.controller);
             Ok(Synthesised { controller: of.controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
         }

@@ -114,7 +114,7 @@ fn infeasible_constraints_are_diagnosed_not_shipped() {
     }
     // The other designs refuse the constraints, and two the road states, rather than ignore them.
     let p = VehicleParams::default();
-    for v in ["hinf_of", "delay_sf", "ft_of"] {
+    for v in ["robust_of", "delay_sf", "ft_of"] {
         assert!(matches!(synthesise(v, &p, &constrained(0.025)), Err(SynthError::Usage(_))), "{v}");
     }
     let shaped = Design { constraints: false, ..constrained(0.025) };
@@ -137,4 +137,18 @@ fn output_feedback_on_the_shaped_road_reaches_the_state_feedback_optimum() {
     println!("shaped road: gamma* output feedback {g_of:.6}, state feedback {g_sf:.6}");
     assert!(g_of >= g_sf * (1.0 - 1e-4) && g_of <= g_sf * (1.0 + 1e-3), "{g_of} vs {g_sf}");
     assert!(of.certificate.spectral_abscissa < 0.0 && of.certificate.norm_upper <= of.certificate.gamma * (1.0 + 1e-6));
+}
+
+/// The constrained output feedback on the car (the LMI algebra is tested on a quarter car in
+/// `output_feedback`): certified within every limit for its 2.5 cm bump. About 4 minutes.
+#[test]
+#[ignore = "about 4 minutes: cargo test --release -p synth --test constraints -- --ignored"]
+fn constrained_output_feedback_is_certified_on_the_car() {
+    let s = synthesise("hinf_of", &VehicleParams::default(), &constrained(0.025)).expect("feasible at 2.5 cm");
+    assert_eq!(s.controller.d.amax(), 0.0, "strictly proper");
+    for c in s.certificate.details["constraints"]["checks"][0]["peaks"].as_array().unwrap() {
+        let (lmi, gram) = (c["lmi_bound"].as_f64().unwrap(), c["gramian"].as_f64().unwrap());
+        println!("{c}");
+        assert!(gram <= lmi * (1.0 + 1e-6) && lmi <= 1.0 + 1e-6, "{c}");
+    }
 }
