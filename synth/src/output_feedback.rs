@@ -657,45 +657,26 @@ mod tests {
         // y: stroke and body velocity, with noise.
         let c2 = DMatrix::from_row_slice(2, 4, &[1.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
         let d21 = DMatrix::from_row_slice(2, 3, &[0.0, 1e-3, 0.0, 0.0, 0.0, 5e-3]);
-        let p = OfPlant { a: &a, b1: &b1, b2: &b2, c1: &c1, d11: &d11, d12: &d12, c2: &c2, d21: &d21, unit_channels: 0 };
         // c: stroke over 5 cm, force over 5 kN (at 1 kN the constrained problem is infeasible
         // at this energy: Clarabel stops with InsufficientProgress).
         let c_c = DMatrix::from_row_slice(2, 4, &[20.0, -20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
         let d_cu = DMatrix::from_row_slice(2, 1, &[0.0, 0.2]);
-        // The closed loop's performance and constraint channels (`u = C_K x_K + D_K y`, in N).
-        let closed = |k: &Controller| {
-            let (ck, dk, nk) = (&k.c / FORCE_UNIT, &k.d / FORCE_UNIT, k.order());
-            let mut acl = DMatrix::zeros(4 + nk, 4 + nk);
-            acl.view_mut((0, 0), (4, 4)).copy_from(&(&a + &b2 * &dk * &c2));
-            acl.view_mut((0, 4), (4, nk)).copy_from(&(&b2 * &ck));
-            acl.view_mut((4, 0), (nk, 4)).copy_from(&(&k.b * &c2));
-            acl.view_mut((4, 4), (nk, nk)).copy_from(&k.a);
-            let mut bcl = DMatrix::zeros(4 + nk, 3);
-            bcl.view_mut((0, 0), (4, 3)).copy_from(&(&b1 + &b2 * &dk * &d21));
-            bcl.view_mut((4, 0), (nk, 3)).copy_from(&(&k.b * &d21));
-            let out = |c: &DMatrix<f64>, d: &DMatrix<f64>, d0: &DMatrix<f64>| {
-                let mut m = DMatrix::zeros(c.nrows(), 4 + nk);
-                m.view_mut((0, 0), (c.nrows(), 4)).copy_from(&(c + d * &dk * &c2));
-                m.view_mut((0, 4), (c.nrows(), nk)).copy_from(&(d * &ck));
-                (m, d0 + d * &dk * &d21)
-            };
-            let (cz, dz) = out(&c1, &d12, &d11);
-            let (cc, dc) = out(&c_c, &d_cu, &DMatrix::zeros(2, 3));
-            (Controller::new(acl.clone(), bcl.clone(), cz, dz), Controller::new(acl, bcl, cc, dc))
+        let g = GeneralizedPlant {
+            a, b_w: b1, b_u: b2, c_z: c1, d_zw: d11, d_zu: d12, c_y: c2, d_yw: d21, c_c, d_cu,
+            constraint_names: vec!["stroke".into(), "force".into()], road_scale: Vec::new(), road_model: crate::design::RoadModel::Independent,
         };
+        let p = g.of_plant();
         // The energy at which the unconstrained design's stroke peaks at 1.5 of its limit (its
         // force, with D_K ≠ 0, has no finite peak at all).
         let free = hinf_of(&p, 1e-7, 0.02, 1e3).unwrap();
-        let free_stroke = closed(&free.controller).1.select_outputs(&[0]).energy_to_peak().unwrap()[0];
+        let free_stroke = closed_loop(&g.constraint_plant(), &g.c_y, &g.d_yw, &free.controller).select_outputs(&[0]).energy_to_peak().unwrap()[0];
         let energy = (1.5 / free_stroke).powi(2);
-        let (of, bounds) = hinf_of_constrained(&p, &c_c, &d_cu, energy, 1e-7, 0.02, 1e3).unwrap();
-        let (perf, cons) = closed(&of.controller);
-        let norm = perf.hinf_norm(1e-9).unwrap();
+        let (of, bounds) = hinf_of_constrained(&p, &g.c_c, &g.d_cu, energy, 1e-7, 0.02, 1e3).unwrap();
+        let norm = closed_loop(&g, &g.c_y, &g.d_yw, &of.controller).hinf_norm(1e-9).unwrap();
         assert!(norm.upper <= of.gamma * (1.0 + 1e-6) && of.gamma >= free.gamma_opt * (1.0 - 1e-6), "{} vs γ {} (free γ* {})", norm.upper, of.gamma, free.gamma_opt);
-        for (gain, bound) in cons.energy_to_peak().unwrap().iter().zip(&bounds) {
-            let peak = gain * energy.sqrt();
-            assert!(peak <= bound * (1.0 + 1e-6) && *bound <= 1.0 + 1e-6, "peak {peak}, LMI bound {bound}");
-        }
+        // Each Gramian peak within the LMI's bound and within 1 (the certificate's check).
+        let claimed: Vec<(String, f64)> = g.constraint_names.iter().cloned().zip(bounds).collect();
+        crate::certificate::certify_peaks("test", &g, &g.c_y, &g.d_yw, &of.controller, energy, &claimed).unwrap();
     }
 
     #[test]

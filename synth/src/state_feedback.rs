@@ -214,11 +214,16 @@ fn add_peak_constraints(p: &mut Problem, plants: &[&GeneralizedPlant], q: &Affin
     for gi in plants {
         p.negative_definite("energy LMI (V ≤ ‖w‖²)", energy_lmi(gi, q, y), eps);
     }
+    let bound = Affine::constant(DMatrix::from_element(1, 1, 1.0 / energy));
     for i in 0..g.c_c.nrows() {
-        let ci = q.left(&g.c_c.rows(i, 1).into_owned()).add(&y.left(&g.d_cu.rows(i, 1).into_owned()));
-        let peak = Affine::symmetric_blocks(&[vec![Some(q.clone()), Some(ci.t())], vec![None, Some(Affine::constant(DMatrix::from_element(1, 1, 1.0 / energy)))]]);
-        p.positive_definite(&format!("peak bound on {}", g.constraint_names[i]), peak, eps);
+        p.positive_definite(&format!("peak bound on {}", g.constraint_names[i]), peak_lmi(g, i, q, y, &bound), eps);
     }
+}
+
+/// `[[Q, (cᵢQ + dᵢY)ᵀ], [cᵢQ + dᵢY, β]] ⪰ 0`: with `V = xᵀQ⁻¹x ≤ ‖w‖²`, `|cᵢ(t)|² ≤ β⁻¹‖w‖²`.
+fn peak_lmi(g: &GeneralizedPlant, i: usize, q: &Affine, y: &Affine, beta: &Affine) -> Affine {
+    let ci = q.left(&g.c_c.rows(i, 1).into_owned()).add(&y.left(&g.d_cu.rows(i, 1).into_owned()));
+    Affine::symmetric_blocks(&[vec![Some(q.clone()), Some(ci.t())], vec![None, Some(beta.clone())]])
 }
 
 /// The smallest common energy-to-peak bound `max_i max_t |cᵢ(t)|` over the constraint outputs
@@ -237,8 +242,7 @@ pub fn best_constraint_peak(plants: &[&GeneralizedPlant], energy: f64, eps: f64)
         p.negative_definite("energy LMI (V ≤ ‖w‖²)", energy_lmi(gi, &q, &y), eps);
     }
     for i in 0..g.c_c.nrows() {
-        let ci = q.left(&g.c_c.rows(i, 1).into_owned()).add(&y.left(&g.d_cu.rows(i, 1).into_owned()));
-        p.positive_definite("common peak bound", Affine::symmetric_blocks(&[vec![Some(q.clone()), Some(ci.t())], vec![None, Some(mu.expr())]]), eps);
+        p.positive_definite("common peak bound", peak_lmi(g, i, &q, &y, &mu.expr()), eps);
     }
     p.minimise(&mu, 1.0);
     let s = p.solve()?;

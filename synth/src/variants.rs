@@ -240,7 +240,7 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
         "hinf_sf" => {
             let g = GeneralizedPlant::new(params, design);
             let energy = design.constraints.then(|| design.design_energy());
-            let mixed = hinf_sf_mixed(&g, design.lmi_margin, energy, GAMMA_BACKOFF).map_err(|e| constraint_diagnosis(variant, &[&g], design, SynthError::Lmi(variant.into(), e)))?;
+            let mixed = hinf_sf_mixed(&g, design.lmi_margin, energy, GAMMA_BACKOFF).map_err(|e| constraint_diagnosis(variant, &[&g], design, lmi(e)))?;
             let sf = &mixed.sf;
             let notes = vec![
                 "Thesis Th. 5.1 (eq. 5.4) corrected: the D_zu Y term (accelerations respond directly to the actuator forces) is included.".to_string(),
@@ -301,8 +301,10 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
     }
 }
 
-/// A constrained state-feedback synthesis that failed: if no state feedback can prove the
-/// constraints for the design bump ([`best_constraint_peak`] > 1), say so; otherwise `error`.
+/// A constrained synthesis that failed: if no state feedback can prove the constraints for the
+/// design bump ([`best_constraint_peak`] > 1), say so — no output feedback can then either (its
+/// energy and peak LMIs contain the state-feedback ones with `Q = X`, `Y = Ĉ` as principal
+/// blocks); otherwise `error`.
 fn constraint_diagnosis(variant: &str, plants: &[&GeneralizedPlant], design: &Design, error: SynthError) -> SynthError {
     if !design.constraints {
         return error;
