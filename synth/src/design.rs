@@ -1,10 +1,12 @@
 //! The design file: every weight, scale and limit of a synthesis, JSON, defaults checked in at
-//! `synth/designs/default.json`.
+//! `synth/designs/default.json`; `synth/designs/constrained.json` is the same design with the
+//! thesis's limits imposed as LMIs (`make constrained`).
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 pub const DEFAULT_DESIGN_FILE: &str = include_str!("../designs/default.json");
+pub const CONSTRAINED_DESIGN_FILE: &str = include_str!("../designs/constrained.json");
 
 /// How the road enters the generalised plant's disturbance `w`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -302,6 +304,23 @@ mod tests {
             let bound = d.design_bump_peak_velocity();
             assert!(peak <= bound && peak > 0.9 * bound, "{road_model:?}: {peak} vs {bound}");
         }
+    }
+
+    /// The constrained design is the default one with the limits imposed: it differs in nothing
+    /// else, so its comparison with the shipped designs measures the constraints (and the road
+    /// model they need), not a drift between two files.
+    #[test]
+    fn constrained_design_is_the_default_with_the_limits_imposed() {
+        let (d, c) = (Design::default(), Design::from_json(CONSTRAINED_DESIGN_FILE).unwrap());
+        assert!(c.constraints && matches!(c.road_model, RoadModel::Shaped { .. }));
+        assert!(c.design_bump.height < d.design_bump.height);
+        let same = Design { road_model: d.road_model, constraints: d.constraints, design_bump: d.design_bump, ..c.clone() };
+        let strip = |d: &Design| {
+            let mut v = serde_json::to_value(d).unwrap();
+            v.as_object_mut().unwrap().remove("description");
+            v
+        };
+        assert_eq!(strip(&same), strip(&d));
     }
 
     #[test]
