@@ -13,6 +13,8 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := .make
+# A word list as master's comma-separated --controllers.
+commas = $(shell echo $(1) | tr ' ' ',')
 # libclang-dev + clang: bindgen in the fmi crate's fmi-sys; pkg-config, libopenblas-dev, gfortran:
 # clarabel's SDP support linked to Debian's OpenBLAS (synthesis).
 APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
@@ -32,18 +34,18 @@ all: fmus validate compare
 # Every scenario of scenarios/ with the passive car and each controller (master, in parallel):
 # results/report.md with the tables, the plots and the synthesis summary.
 compare: $(FMU_FILES) $(STAMP)/release
-	./target/release/master compare --scenarios scenarios --controllers $(shell echo $(CONTROLLERS) | tr ' ' ',') --out results --designs dist/synthesis.json
+	./target/release/master compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results --designs dist/synthesis.json
 
 # Opt-in: thesis ch. 5 with its limits imposed as LMIs (synth/designs/constrained.json: shaped
 # road, 2.5 cm design bump) for the designs that impose them, compared like the shipped ones:
-# dist/constrained/ and results/constrained/report.md (README "Constraint LMIs"). About a minute;
+# dist/constrained/ and results/constrained/report.md (README "Constraint LMIs"). One to two minutes;
 # the output feedback (`hinf_of`, one SDP of about 4 minutes) is left out.
 CONSTRAINED := hinf_sf robust_sf
 constrained: dist/road.fmu dist/plant.fmu $(STAMP)/release
 	./target/release/synth --design synth/designs/constrained.json --out dist/constrained $(CONSTRAINED)
 	cp dist/road.fmu dist/plant.fmu dist/constrained/
 	for v in $(CONSTRAINED); do ./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/constrained/$$v --out dist/constrained/$$v.fmu || exit 1; done
-	./target/release/master --dist dist/constrained compare --scenarios scenarios --controllers $(shell echo $(CONSTRAINED) | tr ' ' ',') --out results/constrained --designs dist/constrained/synthesis.json
+	./target/release/master --dist dist/constrained compare --scenarios scenarios --controllers $(call commas,$(CONSTRAINED)) --out results/constrained --designs dist/constrained/synthesis.json
 
 setup: $(STAMP)/apt $(STAMP)/venv
 

@@ -209,7 +209,7 @@ mod tests {
         let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d);
         let (cm, dm, _) = g.state_measurement();
         // Passive: the forces are 0, the strokes and tyre loads reach ~1.5–2 limits for the
-        // 5 cm bump's energy (see the README); at 1 % of that energy they are within the limits.
+        // 5 cm bump's energy; at 1 % of that energy they are within the limits.
         let passive = Controller::static_gain(DMatrix::zeros(5, g.n()));
         let energy = d.design_energy() * 1e-2;
         let generous: Vec<(String, f64)> = g.constraint_names.iter().map(|n| (n.clone(), 1.0)).collect();

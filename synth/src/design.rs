@@ -20,7 +20,10 @@ pub enum RoadModel {
     /// `w` = four road-velocity channels over `road_velocity_scale`; each road height is their
     /// leaky integral, a state: `ż_r = −corner·z_r + road_velocity_scale·w` (the first-order
     /// road-roughness filter of ISO 8608 practice, `corner = 2π n₀ V`, `n₀ ≈ 0.01 cycle/m`).
-    /// Height and velocity are then one signal, and the tyre deflection a state.
+    /// Height and velocity are then one signal, and the tyre deflection a state. The four filters
+    /// are independent, so they hold a static road warp of `road_velocity_scale / corner` per unit
+    /// `w` whose strokes no controller moves: at ISO's ~1 rad/s it alone sets γ (5.53 for every
+    /// controller, `synth/tests/constraints.rs`); `synth/designs/constrained.json` uses 5.
     Shaped {
         /// [rad/s], > 0.
         corner: f64,

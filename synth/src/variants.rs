@@ -234,7 +234,7 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
         return Err(SynthError::Usage(format!("{variant} is synthesised on the independent road model only (only {ROAD_STATES:?} take the shaped road's states): set \"road_model\" per variant with overrides")));
     }
     if design.constraints && !CONSTRAINED.contains(&variant) {
-        return Err(SynthError::Usage(format!("{variant} does not impose the constraint LMIs (only {CONSTRAINED:?} do): ask for them per variant, e.g. \"overrides\": {{\"hinf_sf\": {{\"constraints\": true, \"road_model\": {{\"shaped\": {{\"corner\": 1.0}}}}}}}}")));
+        return Err(SynthError::Usage(format!("{variant} does not impose the constraint LMIs (only {CONSTRAINED:?} do): ask for them per variant, e.g. \"overrides\": {{\"hinf_sf\": {{\"constraints\": true, \"road_model\": {{\"shaped\": {{\"corner\": 5.0}}}}}}}} (synth/designs/constrained.json)")));
     }
     match variant {
         "hinf_sf" => {
