@@ -7,7 +7,14 @@ use std::sync::Mutex;
 
 extern "C" {
     /// The C logger; its type is exactly `fmi2CallbackLogger`.
-    pub fn fmi_test_logger(env: *mut c_void, instance: *const c_char, status: c_int, category: *const c_char, format: *const c_char, ...);
+    pub fn fmi_test_logger(
+        env: *mut c_void,
+        instance: *const c_char,
+        status: c_int,
+        category: *const c_char,
+        format: *const c_char,
+        ...
+    );
 }
 
 /// One logged message.
@@ -29,7 +36,9 @@ pub struct LogCapture {
 #[repr(C)]
 #[derive(Clone, Copy)]
 pub struct Callbacks {
-    pub logger: Option<unsafe extern "C" fn(*mut c_void, *const c_char, c_int, *const c_char, *const c_char, ...)>,
+    pub logger: Option<
+        unsafe extern "C" fn(*mut c_void, *const c_char, c_int, *const c_char, *const c_char, ...),
+    >,
     pub allocate_memory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
     pub free_memory: Option<unsafe extern "C" fn(*mut c_void)>,
     pub step_finished: Option<unsafe extern "C" fn(*mut c_void, c_int)>,
@@ -82,8 +91,20 @@ extern "C" {
 }
 
 #[no_mangle]
-unsafe extern "C" fn fmi_test_record(env: *mut c_void, instance: *const c_char, status: c_int, category: *const c_char, message: *const c_char) {
-    let text = |p: *const c_char| if p.is_null() { String::new() } else { CStr::from_ptr(p).to_string_lossy().into_owned() };
+unsafe extern "C" fn fmi_test_record(
+    env: *mut c_void,
+    instance: *const c_char,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+) {
+    let text = |p: *const c_char| {
+        if p.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr(p).to_string_lossy().into_owned()
+        }
+    };
     if let Some(capture) = (env as *const LogCapture).as_ref() {
         capture.entries.lock().unwrap().push(Entry {
             instance: text(instance),

@@ -11,7 +11,9 @@
 pub mod spec;
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
-use fmu_core::{Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable};
+use fmu_core::{
+    Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable,
+};
 use nalgebra::DVector;
 use spec::Spec;
 use std::path::Path;
@@ -34,7 +36,11 @@ pub mod vr {
 fn limit_groups(spec: &Spec) -> Vec<(&'static str, Vec<usize>)> {
     let mut groups: Vec<(&'static str, Vec<usize>)> = Vec::new();
     for (i, s) in spec.outputs.iter().enumerate() {
-        let name = if s.name.ends_with("seat") { "u_max_seat" } else { "u_max" };
+        let name = if s.name.ends_with("seat") {
+            "u_max_seat"
+        } else {
+            "u_max"
+        };
         match groups.iter_mut().find(|g| g.0 == name) {
             Some(g) => g.1.push(i),
             None => groups.push((name, vec![i])),
@@ -49,7 +55,8 @@ pub const RESOURCE_FILE: &str = "controller.json";
 pub fn load_spec(resources: Option<&Path>) -> Result<Spec, String> {
     let dir = resources.ok_or("this controller FMU needs its resources/controller.json, but the importer passed no resource location")?;
     let path = dir.join(RESOURCE_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     Spec::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
@@ -57,24 +64,68 @@ pub fn load_spec(resources: Option<&Path>) -> Result<Spec, String> {
 pub fn description_for(spec: &Spec) -> ModelDescription {
     let mut vars = Vec::new();
     for (i, s) in spec.inputs.iter().enumerate() {
-        vars.push(Variable::real(s.name.clone(), vr::INPUT + i as u32, Causality::Input, unit(&s.unit), format!("Plant output {} read by the controller", s.name)).with_start(0.0));
+        vars.push(
+            Variable::real(
+                s.name.clone(),
+                vr::INPUT + i as u32,
+                Causality::Input,
+                unit(&s.unit),
+                format!("Plant output {} read by the controller", s.name),
+            )
+            .with_start(0.0),
+        );
     }
     for (i, s) in spec.outputs.iter().enumerate() {
-        let deps: Vec<String> = (0..spec.inputs.len()).filter(|&j| spec.d[(i, j)] != 0.0).map(|j| spec.inputs[j].name.clone()).collect();
-        vars.push(Variable::real(s.name.clone(), vr::OUTPUT + i as u32, Causality::Output, unit(&s.unit), format!("Force command for plant input {}", s.name)).depending_on(deps));
+        let deps: Vec<String> = (0..spec.inputs.len())
+            .filter(|&j| spec.d[(i, j)] != 0.0)
+            .map(|j| spec.inputs[j].name.clone())
+            .collect();
+        vars.push(
+            Variable::real(
+                s.name.clone(),
+                vr::OUTPUT + i as u32,
+                Causality::Output,
+                unit(&s.unit),
+                format!("Force command for plant input {}", s.name),
+            )
+            .depending_on(deps),
+        );
     }
-    vars.push(Variable::real("gamma", vr::GAMMA, Causality::CalculatedParameter, "1", "H-infinity level the synthesis guarantees (scaled w to z, see the certificate)"));
+    vars.push(Variable::real(
+        "gamma",
+        vr::GAMMA,
+        Causality::CalculatedParameter,
+        "1",
+        "H-infinity level the synthesis guarantees (scaled w to z, see the certificate)",
+    ));
     if let Some(aw) = &spec.anti_windup {
         for (k, (name, outputs)) in limit_groups(spec).into_iter().enumerate() {
-            let what = outputs.iter().map(|&i| spec.outputs[i].name.as_str()).collect::<Vec<_>>().join(", ");
+            let what = outputs
+                .iter()
+                .map(|&i| spec.outputs[i].name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ");
             vars.push(Variable::real(name, vr::LIMIT + k as u32, Causality::Parameter, "N", format!("Force limit the anti-windup compensator saturates {what} at (set it equal to the plant's {name})")).with_start(aw.u_max[outputs[0]]));
         }
     }
     if let Some(fd) = &spec.fault_detection {
-        let deps: Vec<String> = (0..spec.inputs.len()).filter(|&j| fd.d.column(j).iter().any(|v| *v != 0.0)).map(|j| spec.inputs[j].name.clone()).collect();
+        let deps: Vec<String> = (0..spec.inputs.len())
+            .filter(|&j| fd.d.column(j).iter().any(|v| *v != 0.0))
+            .map(|j| spec.inputs[j].name.clone())
+            .collect();
         vars.push(Variable::real("residual_norm", vr::RESIDUAL_NORM, Causality::Output, "N", "Detection residual: the smallest actuator force deficit consistent with the measurements (0 when healthy, whatever the road)").depending_on(deps.clone()));
         vars.push(Variable::boolean("fault_detected", vr::FAULT_DETECTED, Causality::Output, "True from the first communication point at which residual_norm exceeded fault_threshold (latched until re-initialisation)").depending_on(deps));
-        vars.push(Variable::real("fault_threshold", vr::FAULT_THRESHOLD, Causality::Parameter, "N", "Residual norm above which fault_detected is raised").with_start(fd.threshold).with_min(0.0));
+        vars.push(
+            Variable::real(
+                "fault_threshold",
+                vr::FAULT_THRESHOLD,
+                Causality::Parameter,
+                "N",
+                "Residual norm above which fault_detected is raised",
+            )
+            .with_start(fd.threshold)
+            .with_min(0.0),
+        );
     }
     ModelDescription {
         model_name: spec.variant.clone(),
@@ -83,7 +134,11 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         description: spec.description.clone(),
         version: format!("{}+{:016x}", env!("CARGO_PKG_VERSION"), spec.content_hash),
         capabilities: Capabilities::exact_stepping(false),
-        default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+        default_experiment: DefaultExperiment {
+            start_time: 0.0,
+            stop_time: 10.0,
+            step_size: 1e-3,
+        },
         variables: vars,
     }
     .with_derived_guid()
@@ -138,7 +193,12 @@ pub struct Controller {
 /// the fault detector `ξ̇ = A_d ξ + B_d y + B_du u` (input `[y; u]`, `u` the command sent).
 fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>) {
     if let Some(fd) = &spec.fault_detection {
-        let (n, m, ny, nu) = (spec.order(), fd.a.nrows(), spec.inputs.len(), spec.outputs.len());
+        let (n, m, ny, nu) = (
+            spec.order(),
+            fd.a.nrows(),
+            spec.inputs.len(),
+            spec.outputs.len(),
+        );
         let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
         a.view_mut((0, 0), (n, n)).copy_from(&spec.a);
         a.view_mut((n, n), (m, m)).copy_from(&fd.a);
@@ -148,8 +208,15 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
         b.view_mut((n, ny), (m, nu)).copy_from(&fd.b_u);
         return (a, b);
     }
-    let Some(aw) = &spec.anti_windup else { return (spec.a.clone(), spec.b.clone()) };
-    let (n, m, ny, nu) = (spec.order(), aw.a.nrows(), spec.inputs.len(), spec.outputs.len());
+    let Some(aw) = &spec.anti_windup else {
+        return (spec.a.clone(), spec.b.clone());
+    };
+    let (n, m, ny, nu) = (
+        spec.order(),
+        aw.a.nrows(),
+        spec.inputs.len(),
+        spec.outputs.len(),
+    );
     let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
     a.view_mut((0, 0), (n, n)).copy_from(&spec.a);
     a.view_mut((0, n), (n, m)).copy_from(&(-&spec.b * &aw.c));
@@ -172,7 +239,13 @@ impl Controller {
         if let Some(aw) = &self.spec.anti_windup {
             self.w.gemv(-1.0, &aw.c, &self.x.rows(n, aw.a.nrows()), 1.0);
         }
-        mat_vec_sum(self.yc.as_mut_slice(), &[(&self.spec.c, &self.x.as_slice()[..n]), (&self.spec.d, self.w.as_slice())]);
+        mat_vec_sum(
+            self.yc.as_mut_slice(),
+            &[
+                (&self.spec.c, &self.x.as_slice()[..n]),
+                (&self.spec.d, self.w.as_slice()),
+            ],
+        );
         match &self.spec.anti_windup {
             None => self.u.copy_from(&self.yc),
             Some(aw) => {
@@ -190,8 +263,13 @@ impl Controller {
     /// `‖r‖` of the fault detector (0 without one).
     fn residual_norm(&mut self) -> f64 {
         let n = self.spec.order();
-        let Some(fd) = &self.spec.fault_detection else { return 0.0 };
-        mat_vec_sum(self.r.as_mut_slice(), &[(&fd.c, &self.x.as_slice()[n..]), (&fd.d, self.y.as_slice())]);
+        let Some(fd) = &self.spec.fault_detection else {
+            return 0.0;
+        };
+        mat_vec_sum(
+            self.r.as_mut_slice(),
+            &[(&fd.c, &self.x.as_slice()[n..]), (&fd.d, self.y.as_slice())],
+        );
         self.r.norm()
     }
 
@@ -214,9 +292,20 @@ impl Model for Controller {
     fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
         let spec = load_spec(resources)?;
         let (a, b) = stepped_system(&spec);
-        let limits = spec.anti_windup.as_ref().map(|aw| aw.u_max.clone()).unwrap_or_default();
-        let limit_groups = if spec.anti_windup.is_some() { limit_groups(&spec) } else { Vec::new() };
-        let threshold = spec.fault_detection.as_ref().map_or(f64::INFINITY, |fd| fd.threshold);
+        let limits = spec
+            .anti_windup
+            .as_ref()
+            .map(|aw| aw.u_max.clone())
+            .unwrap_or_default();
+        let limit_groups = if spec.anti_windup.is_some() {
+            limit_groups(&spec)
+        } else {
+            Vec::new()
+        };
+        let threshold = spec
+            .fault_detection
+            .as_ref()
+            .map_or(f64::INFINITY, |fd| fd.threshold);
         let (nx, nv, nu, ny) = (a.nrows(), b.ncols(), spec.outputs.len(), spec.inputs.len());
         let nr = spec.fault_detection.as_ref().map_or(0, |fd| fd.c.nrows());
         Ok(Controller {
@@ -259,7 +348,10 @@ impl Model for Controller {
         match vr {
             vr::RESIDUAL_NORM => self.residual_norm(),
             vr::FAULT_THRESHOLD => self.threshold,
-            v if v >= vr::LIMIT => self.limit_groups.get((v - vr::LIMIT) as usize).map_or(f64::NAN, |(_, o)| self.limits[o[0]]),
+            v if v >= vr::LIMIT => self
+                .limit_groups
+                .get((v - vr::LIMIT) as usize)
+                .map_or(f64::NAN, |(_, o)| self.limits[o[0]]),
             vr::GAMMA => self.spec.gamma,
             v if v >= vr::OUTPUT => self.output((v - vr::OUTPUT) as usize),
             v => self.y[(v - vr::INPUT) as usize],
@@ -274,8 +366,13 @@ impl Model for Controller {
         if let Some(bad) = self.limits.iter().find(|l| !(**l > 0.0 && l.is_finite())) {
             return Err(format!("force limits must be finite and > 0, got {bad}"));
         }
-        if self.spec.fault_detection.is_some() && !(self.threshold > 0.0 && self.threshold.is_finite()) {
-            return Err(format!("fault_threshold must be finite and > 0, got {}", self.threshold));
+        if self.spec.fault_detection.is_some()
+            && !(self.threshold > 0.0 && self.threshold.is_finite())
+        {
+            return Err(format!(
+                "fault_threshold must be finite and > 0, got {}",
+                self.threshold
+            ));
         }
         self.x.fill(0.0);
         self.detected = false;
@@ -300,7 +397,10 @@ impl Model for Controller {
         self.v.rows_mut(0, ny).copy_from(&self.y);
         match (&self.spec.anti_windup, &self.spec.fault_detection) {
             (Some(_), _) => {
-                for (v, (u, yc)) in self.v.as_mut_slice()[ny..].iter_mut().zip(self.u.iter().zip(&self.yc)) {
+                for (v, (u, yc)) in self.v.as_mut_slice()[ny..]
+                    .iter_mut()
+                    .zip(self.u.iter().zip(&self.yc))
+                {
                     *v = u - yc;
                 }
             }
@@ -308,7 +408,13 @@ impl Model for Controller {
             (None, None) => {}
         }
         let d = self.cache.as_ref().unwrap();
-        mat_vec_sum(self.next.as_mut_slice(), &[(&d.phi, self.x.as_slice()), (&d.gamma_hold, self.v.as_slice())]);
+        mat_vec_sum(
+            self.next.as_mut_slice(),
+            &[
+                (&d.phi, self.x.as_slice()),
+                (&d.gamma_hold, self.v.as_slice()),
+            ],
+        );
         if !self.next.iter().all(|v| v.is_finite()) {
             return Err("controller state became non-finite; the step was discarded".into());
         }

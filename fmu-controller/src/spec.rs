@@ -118,19 +118,40 @@ pub enum SpecError {
     #[error("controller.json has format '{0}', expected '{FORMAT}'")]
     Format(String),
     #[error("controller.json: matrix {name} should be {rows}×{cols}, found {found}")]
-    Shape { name: &'static str, rows: usize, cols: usize, found: String },
+    Shape {
+        name: &'static str,
+        rows: usize,
+        cols: usize,
+        found: String,
+    },
     #[error("controller.json: matrix {0} contains a non-finite number")]
     NonFinite(&'static str),
     #[error("controller.json: {0}")]
     Invalid(String),
 }
 
-fn matrix(name: &'static str, rows: &[Vec<f64>], r: usize, c: usize) -> Result<DMatrix<f64>, SpecError> {
+fn matrix(
+    name: &'static str,
+    rows: &[Vec<f64>],
+    r: usize,
+    c: usize,
+) -> Result<DMatrix<f64>, SpecError> {
     // An empty dimension may be written as [] (no rows) or as rows of [] (no columns).
-    let ok = rows.len() == r && rows.iter().all(|row| row.len() == c) || (r == 0 && rows.is_empty()) || (c == 0 && rows.iter().all(|row| row.is_empty()) && rows.len() == r);
+    let ok = rows.len() == r && rows.iter().all(|row| row.len() == c)
+        || (r == 0 && rows.is_empty())
+        || (c == 0 && rows.iter().all(|row| row.is_empty()) && rows.len() == r);
     if !ok {
-        let found = format!("{} rows of lengths {:?}", rows.len(), rows.iter().map(|x| x.len()).collect::<Vec<_>>());
-        return Err(SpecError::Shape { name, rows: r, cols: c, found });
+        let found = format!(
+            "{} rows of lengths {:?}",
+            rows.len(),
+            rows.iter().map(|x| x.len()).collect::<Vec<_>>()
+        );
+        return Err(SpecError::Shape {
+            name,
+            rows: r,
+            cols: c,
+            found,
+        });
     }
     if rows.iter().flatten().any(|v| !v.is_finite()) {
         return Err(SpecError::NonFinite(name));
@@ -144,11 +165,21 @@ impl Spec {
         if raw.format != FORMAT {
             return Err(SpecError::Format(raw.format));
         }
-        if raw.variant.is_empty() || !raw.variant.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-            return Err(SpecError::Invalid(format!("variant '{}' is not a valid model identifier", raw.variant)));
+        if raw.variant.is_empty()
+            || !raw
+                .variant
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_')
+        {
+            return Err(SpecError::Invalid(format!(
+                "variant '{}' is not a valid model identifier",
+                raw.variant
+            )));
         }
         if raw.inputs.is_empty() || raw.outputs.is_empty() {
-            return Err(SpecError::Invalid("a controller needs inputs and outputs".into()));
+            return Err(SpecError::Invalid(
+                "a controller needs inputs and outputs".into(),
+            ));
         }
         let (n, ny, nu) = (raw.a.len(), raw.inputs.len(), raw.outputs.len());
         let anti_windup = match &raw.anti_windup {
@@ -156,7 +187,10 @@ impl Spec {
             Some(aw) => {
                 let m = aw.a.len();
                 if aw.u_max.len() != nu || !aw.u_max.iter().all(|u| *u > 0.0 && u.is_finite()) {
-                    return Err(SpecError::Invalid(format!("anti_windup.u_max must hold {nu} finite limits > 0, found {:?}", aw.u_max)));
+                    return Err(SpecError::Invalid(format!(
+                        "anti_windup.u_max must hold {nu} finite limits > 0, found {:?}",
+                        aw.u_max
+                    )));
                 }
                 Some(AntiWindup {
                     a: matrix("anti_windup.A", &aw.a, m, m)?,
@@ -168,17 +202,24 @@ impl Spec {
             }
         };
         if raw.anti_windup.is_some() && raw.fault_detection.is_some() {
-            return Err(SpecError::Invalid("a controller has either anti_windup or fault_detection, not both".into()));
+            return Err(SpecError::Invalid(
+                "a controller has either anti_windup or fault_detection, not both".into(),
+            ));
         }
         let fault_detection = match &raw.fault_detection {
             None => None,
             Some(fd) => {
                 if !(fd.threshold > 0.0 && fd.threshold.is_finite()) {
-                    return Err(SpecError::Invalid(format!("fault_detection.threshold must be finite and > 0, found {}", fd.threshold)));
+                    return Err(SpecError::Invalid(format!(
+                        "fault_detection.threshold must be finite and > 0, found {}",
+                        fd.threshold
+                    )));
                 }
                 let (m, nr) = (fd.a.len(), fd.c.len());
                 if nr == 0 {
-                    return Err(SpecError::Invalid("fault_detection needs at least one residual".into()));
+                    return Err(SpecError::Invalid(
+                        "fault_detection needs at least one residual".into(),
+                    ));
                 }
                 Some(FaultDetection {
                     a: matrix("fault_detection.A", &fd.a, m, m)?,
@@ -202,12 +243,22 @@ impl Spec {
             gamma: raw.gamma,
             inputs: raw.inputs,
             outputs: raw.outputs,
-            content_hash: text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)),
+            content_hash: text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+                (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+            }),
         };
-        let mut names: Vec<&str> = spec.inputs.iter().chain(&spec.outputs).map(|s| s.name.as_str()).collect();
+        let mut names: Vec<&str> = spec
+            .inputs
+            .iter()
+            .chain(&spec.outputs)
+            .map(|s| s.name.as_str())
+            .collect();
         names.sort_unstable();
         if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
-            return Err(SpecError::Invalid(format!("signal name '{}' appears twice", w[0])));
+            return Err(SpecError::Invalid(format!(
+                "signal name '{}' appears twice",
+                w[0]
+            )));
         }
         Ok(spec)
     }

@@ -31,12 +31,26 @@ fn dir_with(name: &str, content: Option<&str>) -> PathBuf {
     d
 }
 
-fn instantiate(log: &LogCapture, guid: &str, resources: Option<&Path>) -> (Fmi2Component, Box<fmi_test_logger::Callbacks>) {
+fn instantiate(
+    log: &LogCapture,
+    guid: &str,
+    resources: Option<&Path>,
+) -> (Fmi2Component, Box<fmi_test_logger::Callbacks>) {
     let cb = Box::new(log.callbacks());
     let name = CString::new("ctrl").unwrap();
     let guid = CString::new(guid).unwrap();
     let uri = resources.map(|p| CString::new(format!("file://{}", p.display())).unwrap());
-    let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), uri.as_ref().map_or(null(), |u| u.as_ptr()), &*cb as *const _ as *const CallbackFunctions, 0, 0) };
+    let c = unsafe {
+        fmi2Instantiate(
+            name.as_ptr(),
+            FMI2_CO_SIMULATION,
+            guid.as_ptr(),
+            uri.as_ref().map_or(null(), |u| u.as_ptr()),
+            &*cb as *const _ as *const CallbackFunctions,
+            0,
+            0,
+        )
+    };
     (c, cb)
 }
 
@@ -80,16 +94,35 @@ fn missing_corrupt_or_mismatched_controller_json_gives_null_with_a_message() {
     let guid = guid_of(SPEC);
     let (c, _cb) = instantiate(&log, &guid, Some(&dir_with("missing", None)));
     assert!(c.is_null());
-    assert!(log.contains("cannot read") && log.contains("controller.json"), "{:?}", log.messages());
+    assert!(
+        log.contains("cannot read") && log.contains("controller.json"),
+        "{:?}",
+        log.messages()
+    );
 
-    let (c, _cb) = instantiate(&log, &guid, Some(&dir_with("corrupt", Some("{\"format\": \"suspension-controller/1\", \"A\": [[1, 2]"))));
+    let (c, _cb) = instantiate(
+        &log,
+        &guid,
+        Some(&dir_with(
+            "corrupt",
+            Some("{\"format\": \"suspension-controller/1\", \"A\": [[1, 2]"),
+        )),
+    );
     assert!(c.is_null());
-    assert!(log.contains("controller.json is not valid"), "{:?}", log.messages());
+    assert!(
+        log.contains("controller.json is not valid"),
+        "{:?}",
+        log.messages()
+    );
 
     let bad_shape = SPEC.replace(r#""D": [[0.0, 0.5], [-1.0, 0.0]]"#, r#""D": [[0.0, 0.5]]"#);
     let (c, _cb) = instantiate(&log, &guid, Some(&dir_with("shape", Some(&bad_shape))));
     assert!(c.is_null());
-    assert!(log.contains("matrix D should be 2×2"), "{:?}", log.messages());
+    assert!(
+        log.contains("matrix D should be 2×2"),
+        "{:?}",
+        log.messages()
+    );
 
     // Same interface, other gains: the GUID the importer read from modelDescription.xml no
     // longer matches the controller.json beside the binary.
@@ -105,10 +138,22 @@ fn missing_corrupt_or_mismatched_controller_json_gives_null_with_a_message() {
 
 #[test]
 fn spec_rejects_non_finite_numbers_duplicates_and_bad_identifiers() {
-    assert!(matches!(Spec::from_json(&SPEC.replace("1.5", "NaN")), Err(spec::SpecError::Syntax(_))));
-    assert!(matches!(Spec::from_json(&SPEC.replace("\"v_body\"", "\"stroke_fl\"")), Err(spec::SpecError::Invalid(_))));
-    assert!(matches!(Spec::from_json(&SPEC.replace("test_ctrl", "test ctrl")), Err(spec::SpecError::Invalid(_))));
-    assert!(matches!(Spec::from_json(&SPEC.replace("suspension-controller/1", "other/2")), Err(spec::SpecError::Format(_))));
+    assert!(matches!(
+        Spec::from_json(&SPEC.replace("1.5", "NaN")),
+        Err(spec::SpecError::Syntax(_))
+    ));
+    assert!(matches!(
+        Spec::from_json(&SPEC.replace("\"v_body\"", "\"stroke_fl\"")),
+        Err(spec::SpecError::Invalid(_))
+    ));
+    assert!(matches!(
+        Spec::from_json(&SPEC.replace("test_ctrl", "test ctrl")),
+        Err(spec::SpecError::Invalid(_))
+    ));
+    assert!(matches!(
+        Spec::from_json(&SPEC.replace("suspension-controller/1", "other/2")),
+        Err(spec::SpecError::Format(_))
+    ));
 }
 
 /// Static controller `y_c = [10 y; 0]` with a scalar anti-windup state: `η̇ = −η + (u_fl − y_c,fl)`,
@@ -196,13 +241,19 @@ fn fault_detector_integrates_the_command_sent_and_latches_its_flag() {
             assert_eq!(fmi2DoStep(c, k as f64 * 0.1, 0.1, 1), 0);
             fmi2GetReal(c, &vr::RESIDUAL_NORM, 1, &mut r);
             let t = (k + 1) as f64 * 0.1;
-            assert!((r - 2.0 * (1.0 - (-t).exp())).abs() < 1e-14, "t = {t}: residual {r}");
+            assert!(
+                (r - 2.0 * (1.0 - (-t).exp())).abs() < 1e-14,
+                "t = {t}: residual {r}"
+            );
             fmi2GetBoolean(c, &vr::FAULT_DETECTED, 1, &mut flag);
             if flag != 0 && rose.is_none() {
                 rose = Some(t);
             }
         }
-        assert!((rose.unwrap() - 0.7).abs() < 1e-9, "first communication point with ξ > 1 is t = 0.7, got {rose:?}");
+        assert!(
+            (rose.unwrap() - 0.7).abs() < 1e-9,
+            "first communication point with ξ > 1 is t = 0.7, got {rose:?}"
+        );
         // The residual falls back under the threshold (y = 0: ξ decays); the flag stays latched.
         fmi2SetReal(c, &vr::INPUT, 1, &0.0);
         for k in 10..40 {
@@ -214,9 +265,15 @@ fn fault_detector_integrates_the_command_sent_and_latches_its_flag() {
         fmi2FreeInstance(c);
     }
     // A threshold that is not > 0 is refused, in the file and as a parameter.
-    assert!(matches!(Spec::from_json(&FD_SPEC.replace("\"threshold\": 1.0", "\"threshold\": 0.0")), Err(spec::SpecError::Invalid(_))));
+    assert!(matches!(
+        Spec::from_json(&FD_SPEC.replace("\"threshold\": 1.0", "\"threshold\": 0.0")),
+        Err(spec::SpecError::Invalid(_))
+    ));
     let with_aw = FD_SPEC.replace("\"fault_detection\"", "\"anti_windup\": {\"A\": [[-1.0]], \"B\": [[1.0]], \"C\": [[0.5]], \"F\": [[0.0]], \"u_max\": [4.0]}, \"fault_detection\"");
-    assert!(matches!(Spec::from_json(&with_aw), Err(spec::SpecError::Invalid(_))));
+    assert!(matches!(
+        Spec::from_json(&with_aw),
+        Err(spec::SpecError::Invalid(_))
+    ));
     let (c, _cb) = instantiate(&log, &guid_of(FD_SPEC), Some(&dir));
     unsafe {
         assert_ne!(fmi2SetReal(c, &vr::FAULT_THRESHOLD, 1, &-1.0), 0);
@@ -231,5 +288,9 @@ fn fault_detector_integrates_the_command_sent_and_latches_its_flag() {
         assert_ne!(fmi2ExitInitializationMode(c), 0);
         fmi2FreeInstance(c);
     }
-    assert!(log.contains("fault_threshold must be finite and > 0"), "{:?}", log.messages());
+    assert!(
+        log.contains("fault_threshold must be finite and > 0"),
+        "{:?}",
+        log.messages()
+    );
 }

@@ -26,9 +26,18 @@ pub enum Variability {
 /// The value type of a variable, with its start value where it has one.
 #[derive(Debug, Clone, PartialEq)]
 pub enum VarType {
-    Real { unit: &'static str, start: Option<f64>, min: Option<f64>, max: Option<f64> },
-    Integer { start: Option<i32> },
-    Boolean { start: Option<bool> },
+    Real {
+        unit: &'static str,
+        start: Option<f64>,
+        min: Option<f64>,
+        max: Option<f64>,
+    },
+    Integer {
+        start: Option<i32>,
+    },
+    Boolean {
+        start: Option<bool>,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -62,7 +71,13 @@ pub struct Variable {
 }
 
 impl Variable {
-    pub fn real(name: impl Into<String>, vr: ValueReference, causality: Causality, unit: &'static str, description: impl Into<String>) -> Self {
+    pub fn real(
+        name: impl Into<String>,
+        vr: ValueReference,
+        causality: Causality,
+        unit: &'static str,
+        description: impl Into<String>,
+    ) -> Self {
         let variability = match causality {
             Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
             Causality::Input | Causality::Output => Variability::Continuous,
@@ -73,27 +88,59 @@ impl Variable {
             description: description.into(),
             causality,
             variability,
-            kind: VarType::Real { unit, start: None, min: None, max: None },
+            kind: VarType::Real {
+                unit,
+                start: None,
+                min: None,
+                max: None,
+            },
             depends_on: Vec::new(),
         }
     }
 
     /// A Boolean variable (discrete: a Boolean cannot be continuous).
-    pub fn boolean(name: impl Into<String>, vr: ValueReference, causality: Causality, description: impl Into<String>) -> Self {
+    pub fn boolean(
+        name: impl Into<String>,
+        vr: ValueReference,
+        causality: Causality,
+        description: impl Into<String>,
+    ) -> Self {
         let variability = match causality {
             Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
             Causality::Input | Causality::Output => Variability::Discrete,
         };
-        Variable { name: name.into(), value_reference: vr, description: description.into(), causality, variability, kind: VarType::Boolean { start: None }, depends_on: Vec::new() }
+        Variable {
+            name: name.into(),
+            value_reference: vr,
+            description: description.into(),
+            causality,
+            variability,
+            kind: VarType::Boolean { start: None },
+            depends_on: Vec::new(),
+        }
     }
 
     /// An Integer variable with its start value (a parameter's, or an input's).
-    pub fn integer(name: impl Into<String>, vr: ValueReference, causality: Causality, start: i32, description: impl Into<String>) -> Self {
+    pub fn integer(
+        name: impl Into<String>,
+        vr: ValueReference,
+        causality: Causality,
+        start: i32,
+        description: impl Into<String>,
+    ) -> Self {
         let variability = match causality {
             Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
             Causality::Input | Causality::Output => Variability::Discrete,
         };
-        Variable { name: name.into(), value_reference: vr, description: description.into(), causality, variability, kind: VarType::Integer { start: Some(start) }, depends_on: Vec::new() }
+        Variable {
+            name: name.into(),
+            value_reference: vr,
+            description: description.into(),
+            causality,
+            variability,
+            kind: VarType::Integer { start: Some(start) },
+            depends_on: Vec::new(),
+        }
     }
 
     /// The start value of a Boolean variable.
@@ -235,11 +282,19 @@ impl ModelDescription {
     pub fn with_derived_guid(mut self) -> Self {
         self.guid = String::new();
         let xml = self.to_xml();
-        let h = |seed: u64| xml.bytes().fold(seed, |h, b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3));
+        let h = |seed: u64| {
+            xml.bytes().fold(seed, |h, b| {
+                (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+            })
+        };
         let (a, b) = (h(0xcbf2_9ce4_8422_2325), h(0x8422_2325_cbf2_9ce4));
         self.guid = format!(
             "{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}",
-            a >> 32, (a >> 16) & 0xffff, a & 0xffff, b >> 48, b & 0xffff_ffff_ffff
+            a >> 32,
+            (a >> 16) & 0xffff,
+            a & 0xffff,
+            b >> 48,
+            b & 0xffff_ffff_ffff
         );
         self
     }
@@ -260,7 +315,11 @@ impl ModelDescription {
                 return err(format!("duplicate variable name '{}'", v.name));
             }
             if !refs.insert((v.kind.base(), v.value_reference)) {
-                return err(format!("duplicate value reference {} ({:?})", v.value_reference, v.kind.base()));
+                return err(format!(
+                    "duplicate value reference {} ({:?})",
+                    v.value_reference,
+                    v.kind.base()
+                ));
             }
             let has_start = match &v.kind {
                 VarType::Real { start, unit, .. } => {
@@ -274,12 +333,22 @@ impl ModelDescription {
             };
             let needs_start = matches!(v.causality, Causality::Parameter | Causality::Input);
             if needs_start != has_start {
-                return err(format!("variable '{}' ({:?}) must {}have a start value", v.name, v.causality, if needs_start { "" } else { "not " }));
+                return err(format!(
+                    "variable '{}' ({:?}) must {}have a start value",
+                    v.name,
+                    v.causality,
+                    if needs_start { "" } else { "not " }
+                ));
             }
             for d in &v.depends_on {
                 match self.variable(d) {
                     Some(i) if i.causality == Causality::Input => {}
-                    _ => return err(format!("output '{}' depends on '{d}', which is not an input", v.name)),
+                    _ => {
+                        return err(format!(
+                            "output '{}' depends on '{d}', which is not an input",
+                            v.name
+                        ))
+                    }
                 }
             }
         }
@@ -323,16 +392,34 @@ impl ModelDescription {
                     .filter(|(_, e)| *e != 0)
                     .map(|(n, e)| format!(r#" {n}="{e}""#))
                     .collect();
-                writeln!(x, r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#, esc(u)).unwrap();
+                writeln!(
+                    x,
+                    r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#,
+                    esc(u)
+                )
+                .unwrap();
             }
             writeln!(x, "  </UnitDefinitions>").unwrap();
         }
         writeln!(x, "  <LogCategories>").unwrap();
         for cat in Category::ALL {
-            writeln!(x, r#"    <Category name="{}" description="{}"/>"#, cat.name(), esc(cat.description())).unwrap();
+            writeln!(
+                x,
+                r#"    <Category name="{}" description="{}"/>"#,
+                cat.name(),
+                esc(cat.description())
+            )
+            .unwrap();
         }
         writeln!(x, "  </LogCategories>").unwrap();
-        writeln!(x, r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#, num(e.start_time), num(e.stop_time), num(e.step_size)).unwrap();
+        writeln!(
+            x,
+            r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#,
+            num(e.start_time),
+            num(e.stop_time),
+            num(e.step_size)
+        )
+        .unwrap();
         writeln!(x, "  <ModelVariables>").unwrap();
         for (i, v) in self.variables.iter().enumerate() {
             let causality = match v.causality {
@@ -360,7 +447,12 @@ impl ModelDescription {
             )
             .unwrap();
             match &v.kind {
-                VarType::Real { unit, start, min, max } => {
+                VarType::Real {
+                    unit,
+                    start,
+                    min,
+                    max,
+                } => {
                     let mut attrs = String::new();
                     if !unit.is_empty() {
                         write!(attrs, r#" unit="{}""#, esc(unit)).unwrap();
@@ -388,16 +480,33 @@ impl ModelDescription {
             writeln!(x, "    </ScalarVariable>").unwrap();
         }
         writeln!(x, "  </ModelVariables>").unwrap();
-        let index = |name: &str| self.variables.iter().position(|v| v.name == name).expect("checked") + 1;
+        let index = |name: &str| {
+            self.variables
+                .iter()
+                .position(|v| v.name == name)
+                .expect("checked")
+                + 1
+        };
         writeln!(x, "  <ModelStructure>").unwrap();
-        let outputs: Vec<(usize, &Variable)> = self.variables.iter().enumerate().filter(|(_, v)| v.causality == Causality::Output).collect();
+        let outputs: Vec<(usize, &Variable)> = self
+            .variables
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.causality == Causality::Output)
+            .collect();
         if !outputs.is_empty() {
             writeln!(x, "    <Outputs>").unwrap();
             for (i, v) in &outputs {
                 let mut deps: Vec<usize> = v.depends_on.iter().map(|d| index(d)).collect();
                 deps.sort_unstable();
                 let list: Vec<String> = deps.iter().map(|d| d.to_string()).collect();
-                writeln!(x, r#"      <Unknown index="{}" dependencies="{}"/>"#, i + 1, list.join(" ")).unwrap();
+                writeln!(
+                    x,
+                    r#"      <Unknown index="{}" dependencies="{}"/>"#,
+                    i + 1,
+                    list.join(" ")
+                )
+                .unwrap();
             }
             writeln!(x, "    </Outputs>").unwrap();
         }
@@ -408,7 +517,12 @@ impl ModelDescription {
             .variables
             .iter()
             .enumerate()
-            .filter(|(_, v)| matches!(v.causality, Causality::Output | Causality::CalculatedParameter))
+            .filter(|(_, v)| {
+                matches!(
+                    v.causality,
+                    Causality::Output | Causality::CalculatedParameter
+                )
+            })
             .map(|(i, _)| i + 1)
             .collect();
         if !initial.is_empty() {
@@ -427,7 +541,9 @@ impl ModelDescription {
 impl ModelDescription {
     /// The variable table as Markdown (for the README): name, causality, unit, start, meaning.
     pub fn to_markdown_table(&self) -> String {
-        let mut t = String::from("| variable | causality | unit | default | description |\n|---|---|---|---|---|\n");
+        let mut t = String::from(
+            "| variable | causality | unit | default | description |\n|---|---|---|---|---|\n",
+        );
         for v in &self.variables {
             let causality = match v.causality {
                 Causality::Parameter => "parameter",
@@ -442,7 +558,13 @@ impl ModelDescription {
                 _ => String::new(),
             };
             let desc = v.description.replace('|', "\\|");
-            writeln!(t, "| `{}` | {causality} | {} | {start} | {desc} |", v.name, v.unit().unwrap_or("")).unwrap();
+            writeln!(
+                t,
+                "| `{}` | {causality} | {} | {start} | {desc} |",
+                v.name,
+                v.unit().unwrap_or("")
+            )
+            .unwrap();
         }
         t
     }
@@ -451,8 +573,14 @@ impl ModelDescription {
     pub fn splice_into(doc: &str, tag: &str, content: &str) -> Result<String, DescriptionError> {
         let begin = format!("<!-- {tag}:begin -->\n");
         let end = format!("<!-- {tag}:end -->");
-        let i = doc.find(&begin).ok_or_else(|| DescriptionError(format!("marker '{begin}' not found")))? + begin.len();
-        let j = doc[i..].find(&end).ok_or_else(|| DescriptionError(format!("marker '{end}' not found")))? + i;
+        let i = doc
+            .find(&begin)
+            .ok_or_else(|| DescriptionError(format!("marker '{begin}' not found")))?
+            + begin.len();
+        let j = doc[i..]
+            .find(&end)
+            .ok_or_else(|| DescriptionError(format!("marker '{end}' not found")))?
+            + i;
         Ok(format!("{}{}{}", &doc[..i], content, &doc[j..]))
     }
 }
@@ -464,7 +592,10 @@ fn num(v: f64) -> String {
 }
 
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 #[cfg(test)]
@@ -479,12 +610,17 @@ mod tests {
             description: "a <test> & \"quotes\"".into(),
             version: "1".into(),
             capabilities: Capabilities::exact_stepping(false),
-            default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 1.0, step_size: 1e-3 },
+            default_experiment: DefaultExperiment {
+                start_time: 0.0,
+                stop_time: 1.0,
+                step_size: 1e-3,
+            },
             variables: vec![
                 Variable::real("k", 0, Causality::Parameter, "N/m", "gain").with_start(2.5),
                 Variable::real("u", 1, Causality::Input, "N", "force").with_start(0.0),
                 Variable::real("y", 2, Causality::Output, "m", "position"),
-                Variable::real("a", 3, Causality::Output, "m/s2", "acceleration").depending_on(vec!["u".into()]),
+                Variable::real("a", 3, Causality::Output, "m/s2", "acceleration")
+                    .depending_on(vec!["u".into()]),
             ],
         }
     }
@@ -492,9 +628,18 @@ mod tests {
     #[test]
     fn xml_lists_outputs_with_their_input_dependencies_by_index() {
         let xml = sample().to_xml();
-        assert!(xml.contains(r#"<Unknown index="3" dependencies=""/>"#), "{xml}");
-        assert!(xml.contains(r#"<Unknown index="4" dependencies="2"/>"#), "{xml}");
-        assert!(xml.contains(r#"<Unit name="N/m"><BaseUnit kg="1" s="-2"/></Unit>"#), "{xml}");
+        assert!(
+            xml.contains(r#"<Unknown index="3" dependencies=""/>"#),
+            "{xml}"
+        );
+        assert!(
+            xml.contains(r#"<Unknown index="4" dependencies="2"/>"#),
+            "{xml}"
+        );
+        assert!(
+            xml.contains(r#"<Unit name="N/m"><BaseUnit kg="1" s="-2"/></Unit>"#),
+            "{xml}"
+        );
         assert!(xml.contains("a &lt;test&gt; &amp; &quot;quotes&quot;"));
         assert!(xml.contains(r#"start="2.5""#));
         assert!(xml.contains(r#"stepSize="0.001""#));
@@ -505,7 +650,11 @@ mod tests {
         assert!(sample().check().is_ok());
         let mut d = sample();
         d.variables[1].value_reference = 0;
-        assert!(d.check().unwrap_err().0.contains("duplicate value reference"));
+        assert!(d
+            .check()
+            .unwrap_err()
+            .0
+            .contains("duplicate value reference"));
         let mut d = sample();
         d.variables[2] = Variable::real("y", 2, Causality::Output, "m", "").with_start(1.0);
         assert!(d.check().unwrap_err().0.contains("must not have a start"));
@@ -513,7 +662,8 @@ mod tests {
         d.variables[3].depends_on = vec!["k".into()];
         assert!(d.check().unwrap_err().0.contains("not an input"));
         let mut d = sample();
-        d.variables[0] = Variable::real("k", 0, Causality::Parameter, "furlong", "").with_start(1.0);
+        d.variables[0] =
+            Variable::real("k", 0, Causality::Parameter, "furlong", "").with_start(1.0);
         assert!(d.check().unwrap_err().0.contains("unknown unit"));
     }
 }

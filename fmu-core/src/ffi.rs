@@ -25,7 +25,9 @@ unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], S
     if n == 0 {
         Ok(&[])
     } else if ptr.is_null() {
-        Err(format!("argument '{what}' is NULL but {n} elements were announced"))
+        Err(format!(
+            "argument '{what}' is NULL but {n} elements were announced"
+        ))
     } else {
         Ok(std::slice::from_raw_parts(ptr, n))
     }
@@ -35,14 +37,17 @@ unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut 
     if n == 0 {
         Ok(&mut [])
     } else if ptr.is_null() {
-        Err(format!("argument '{what}' is NULL but {n} elements were announced"))
+        Err(format!(
+            "argument '{what}' is NULL but {n} elements were announced"
+        ))
     } else {
         Ok(std::slice::from_raw_parts_mut(ptr, n))
     }
 }
 
 unsafe fn out_ptr<'a, T>(ptr: *mut T, what: &str) -> Result<&'a mut T, String> {
-    ptr.as_mut().ok_or_else(|| format!("argument '{what}' is NULL"))
+    ptr.as_mut()
+        .ok_or_else(|| format!("argument '{what}' is NULL"))
 }
 
 /// The instance behind `c`, if `c` points at a live instance of this model.
@@ -53,7 +58,12 @@ unsafe fn instance<'a, M: Model>(c: Fmi2Component) -> Option<&'a mut Instance<M>
 
 /// Run `body` on the instance if the call is legal in its state; log and enter `Error`
 /// otherwise. A panic becomes `fmi2Error` (the instance can still be reset or freed).
-unsafe fn call<M: Model>(c: Fmi2Component, func: &str, mask: Mask, body: impl FnOnce(&mut Instance<M>) -> Result<Status, String>) -> Fmi2Status {
+unsafe fn call<M: Model>(
+    c: Fmi2Component,
+    func: &str,
+    mask: Mask,
+    body: impl FnOnce(&mut Instance<M>) -> Result<Status, String>,
+) -> Fmi2Status {
     let Some(inst) = instance::<M>(c) else {
         return Status::Error as Fmi2Status;
     };
@@ -74,7 +84,10 @@ unsafe fn call<M: Model>(c: Fmi2Component, func: &str, mask: Mask, body: impl Fn
         }
         Err(payload) => {
             // The instance may be half-updated: only reset, free or a saved state can help.
-            inst.logger.error(&format!("{func}: internal error: {}", panic_message(&*payload)));
+            inst.logger.error(&format!(
+                "{func}: internal error: {}",
+                panic_message(&*payload)
+            ));
             inst.state = FmiState::Error;
             Status::Error as Fmi2Status
         }
@@ -82,7 +95,11 @@ unsafe fn call<M: Model>(c: Fmi2Component, func: &str, mask: Mask, body: impl Fn
 }
 
 unsafe fn c_str<'a>(p: Fmi2String) -> Option<Result<&'a str, String>> {
-    (!p.is_null()).then(|| CStr::from_ptr(p).to_str().map_err(|_| "string argument is not valid UTF-8".to_string()))
+    (!p.is_null()).then(|| {
+        CStr::from_ptr(p)
+            .to_str()
+            .map_err(|_| "string argument is not valid UTF-8".to_string())
+    })
 }
 
 pub fn types_platform() -> *const c_char {
@@ -111,15 +128,30 @@ pub unsafe fn instantiate<M: Model>(
         };
         let name = match c_str(instance_name) {
             Some(Ok(n)) => n.to_string(),
-            Some(Err(e)) => return fail(&Logger::new(&callbacks, "", true), &format!("instanceName: {e}")),
+            Some(Err(e)) => {
+                return fail(
+                    &Logger::new(&callbacks, "", true),
+                    &format!("instanceName: {e}"),
+                )
+            }
             None => return fail(&Logger::new(&callbacks, "", true), "instanceName is NULL"),
         };
-        let texts = (c_str(guid).transpose(), c_str(resource_location).transpose());
+        let texts = (
+            c_str(guid).transpose(),
+            c_str(resource_location).transpose(),
+        );
         let (guid, location) = match texts {
             (Ok(g), Ok(l)) => (g, l),
             (Err(e), _) | (_, Err(e)) => return fail(&Logger::new(&callbacks, &name, true), &e),
         };
-        match Instance::<M>::instantiate(&name, fmu_type, guid, location, &callbacks, logging_on != FMI2_FALSE) {
+        match Instance::<M>::instantiate(
+            &name,
+            fmu_type,
+            guid,
+            location,
+            &callbacks,
+            logging_on != FMI2_FALSE,
+        ) {
             Ok(inst) => Some(Box::into_raw(inst) as Fmi2Component),
             Err((logger, msg)) => fail(&logger, &msg),
         }
@@ -131,7 +163,10 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
         let Some(inst) = instance::<M>(c) else { return };
         if !inst.state.is_in(sm::FREE_INSTANCE) {
-            inst.logger.error(&format!("fmi2FreeInstance: illegal call in state {}", inst.state.name()));
+            inst.logger.error(&format!(
+                "fmi2FreeInstance: illegal call in state {}",
+                inst.state.name()
+            ));
         }
         // Free the FMU states the importer did not free: they belong to this instance.
         for addr in inst.fmu_states.drain() {
@@ -142,7 +177,12 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
     }));
 }
 
-pub unsafe fn set_debug_logging<M: Model>(c: Fmi2Component, logging_on: Fmi2Boolean, n: usize, categories: *const Fmi2String) -> Fmi2Status {
+pub unsafe fn set_debug_logging<M: Model>(
+    c: Fmi2Component,
+    logging_on: Fmi2Boolean,
+    n: usize,
+    categories: *const Fmi2String,
+) -> Fmi2Status {
     call::<M>(c, "fmi2SetDebugLogging", sm::SET_DEBUG_LOGGING, |inst| {
         let ptrs = slice(categories, n, "categories")?;
         let mut names = Vec::with_capacity(n);
@@ -153,18 +193,39 @@ pub unsafe fn set_debug_logging<M: Model>(c: Fmi2Component, logging_on: Fmi2Bool
     })
 }
 
-pub unsafe fn setup_experiment<M: Model>(c: Fmi2Component, tol_defined: Fmi2Boolean, tol: f64, start: f64, stop_defined: Fmi2Boolean, stop: f64) -> Fmi2Status {
+pub unsafe fn setup_experiment<M: Model>(
+    c: Fmi2Component,
+    tol_defined: Fmi2Boolean,
+    tol: f64,
+    start: f64,
+    stop_defined: Fmi2Boolean,
+    stop: f64,
+) -> Fmi2Status {
     call::<M>(c, "fmi2SetupExperiment", sm::SETUP_EXPERIMENT, |inst| {
-        inst.setup_experiment((tol_defined != FMI2_FALSE).then_some(tol), start, (stop_defined != FMI2_FALSE).then_some(stop))
+        inst.setup_experiment(
+            (tol_defined != FMI2_FALSE).then_some(tol),
+            start,
+            (stop_defined != FMI2_FALSE).then_some(stop),
+        )
     })
 }
 
 pub unsafe fn enter_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(c, "fmi2EnterInitializationMode", sm::ENTER_INITIALIZATION_MODE, |inst| inst.enter_initialization_mode())
+    call::<M>(
+        c,
+        "fmi2EnterInitializationMode",
+        sm::ENTER_INITIALIZATION_MODE,
+        |inst| inst.enter_initialization_mode(),
+    )
 }
 
 pub unsafe fn exit_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(c, "fmi2ExitInitializationMode", sm::EXIT_INITIALIZATION_MODE, |inst| inst.exit_initialization_mode())
+    call::<M>(
+        c,
+        "fmi2ExitInitializationMode",
+        sm::EXIT_INITIALIZATION_MODE,
+        |inst| inst.exit_initialization_mode(),
+    )
 }
 
 pub unsafe fn terminate<M: Model>(c: Fmi2Component) -> Fmi2Status {
@@ -175,23 +236,56 @@ pub unsafe fn reset<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(c, "fmi2Reset", sm::RESET, |inst| inst.reset())
 }
 
-pub unsafe fn get_real<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut f64) -> Fmi2Status {
-    call::<M>(c, "fmi2GetReal", sm::GET_VALUES, |inst| inst.get_real(slice(vr, n, "vr")?, slice_mut(value, n, "value")?))
+pub unsafe fn get_real<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *mut f64,
+) -> Fmi2Status {
+    call::<M>(c, "fmi2GetReal", sm::GET_VALUES, |inst| {
+        inst.get_real(slice(vr, n, "vr")?, slice_mut(value, n, "value")?)
+    })
 }
 
-pub unsafe fn set_real<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const f64) -> Fmi2Status {
-    call::<M>(c, "fmi2SetReal", sm::SET_VALUES, |inst| inst.set_real(slice(vr, n, "vr")?, slice(value, n, "value")?))
+pub unsafe fn set_real<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *const f64,
+) -> Fmi2Status {
+    call::<M>(c, "fmi2SetReal", sm::SET_VALUES, |inst| {
+        inst.set_real(slice(vr, n, "vr")?, slice(value, n, "value")?)
+    })
 }
 
-pub unsafe fn get_integer<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2Integer) -> Fmi2Status {
-    call::<M>(c, "fmi2GetInteger", sm::GET_VALUES, |inst| inst.get_integer(slice(vr, n, "vr")?, slice_mut(value, n, "value")?))
+pub unsafe fn get_integer<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *mut Fmi2Integer,
+) -> Fmi2Status {
+    call::<M>(c, "fmi2GetInteger", sm::GET_VALUES, |inst| {
+        inst.get_integer(slice(vr, n, "vr")?, slice_mut(value, n, "value")?)
+    })
 }
 
-pub unsafe fn set_integer<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2Integer) -> Fmi2Status {
-    call::<M>(c, "fmi2SetInteger", sm::SET_VALUES, |inst| inst.set_integer(slice(vr, n, "vr")?, slice(value, n, "value")?))
+pub unsafe fn set_integer<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *const Fmi2Integer,
+) -> Fmi2Status {
+    call::<M>(c, "fmi2SetInteger", sm::SET_VALUES, |inst| {
+        inst.set_integer(slice(vr, n, "vr")?, slice(value, n, "value")?)
+    })
 }
 
-pub unsafe fn get_boolean<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2Boolean) -> Fmi2Status {
+pub unsafe fn get_boolean<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *mut Fmi2Boolean,
+) -> Fmi2Status {
     call::<M>(c, "fmi2GetBoolean", sm::GET_VALUES, |inst| {
         let vrs = slice(vr, n, "vr")?;
         let out = slice_mut(value, n, "value")?;
@@ -204,21 +298,39 @@ pub unsafe fn get_boolean<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueRefere
     })
 }
 
-pub unsafe fn set_boolean<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2Boolean) -> Fmi2Status {
+pub unsafe fn set_boolean<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *const Fmi2Boolean,
+) -> Fmi2Status {
     call::<M>(c, "fmi2SetBoolean", sm::SET_VALUES, |inst| {
-        let values: Vec<bool> = slice(value, n, "value")?.iter().map(|v| *v != FMI2_FALSE).collect();
+        let values: Vec<bool> = slice(value, n, "value")?
+            .iter()
+            .map(|v| *v != FMI2_FALSE)
+            .collect();
         inst.set_boolean(slice(vr, n, "vr")?, &values)
     })
 }
 
-pub unsafe fn get_string<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *mut Fmi2String) -> Fmi2Status {
+pub unsafe fn get_string<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *mut Fmi2String,
+) -> Fmi2Status {
     call::<M>(c, "fmi2GetString", sm::GET_VALUES, |inst| {
         slice_mut(value, n, "value")?;
         inst.check_string_refs(slice(vr, n, "vr")?)
     })
 }
 
-pub unsafe fn set_string<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, value: *const Fmi2String) -> Fmi2Status {
+pub unsafe fn set_string<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    value: *const Fmi2String,
+) -> Fmi2Status {
     call::<M>(c, "fmi2SetString", sm::SET_VALUES, |inst| {
         slice(value, n, "value")?;
         inst.check_string_refs(slice(vr, n, "vr")?)
@@ -226,7 +338,10 @@ pub unsafe fn set_string<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReferen
 }
 
 /// Is `state` an FMU state this instance handed out and has not freed?
-fn owned_state<M: Model>(inst: &Instance<M>, state: Fmi2FmuState) -> Result<&'static mut FmuStateBox, String> {
+fn owned_state<M: Model>(
+    inst: &Instance<M>,
+    state: Fmi2FmuState,
+) -> Result<&'static mut FmuStateBox, String> {
     if state.is_null() {
         return Err("FMU state is NULL".into());
     }
@@ -278,18 +393,30 @@ pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuStat
     })
 }
 
-pub unsafe fn serialized_fmu_state_size<M: Model>(c: Fmi2Component, state: Fmi2FmuState, size: *mut usize) -> Fmi2Status {
+pub unsafe fn serialized_fmu_state_size<M: Model>(
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+    size: *mut usize,
+) -> Fmi2Status {
     call::<M>(c, "fmi2SerializedFMUstateSize", sm::FMU_STATE, |inst| {
         *out_ptr(size, "size")? = owned_state(inst, state)?.bytes.len();
         Ok(Status::Ok)
     })
 }
 
-pub unsafe fn serialize_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState, bytes: *mut Fmi2Byte, size: usize) -> Fmi2Status {
+pub unsafe fn serialize_fmu_state<M: Model>(
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+    bytes: *mut Fmi2Byte,
+    size: usize,
+) -> Fmi2Status {
     call::<M>(c, "fmi2SerializeFMUstate", sm::FMU_STATE, |inst| {
         let src = &owned_state(inst, state)?.bytes;
         if size < src.len() {
-            return Err(format!("buffer of {size} bytes is smaller than the serialized state ({} bytes)", src.len()));
+            return Err(format!(
+                "buffer of {size} bytes is smaller than the serialized state ({} bytes)",
+                src.len()
+            ));
         }
         let dst = slice_mut(bytes as *mut u8, src.len(), "serializedState")?;
         dst.copy_from_slice(src);
@@ -297,7 +424,12 @@ pub unsafe fn serialize_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuStat
     })
 }
 
-pub unsafe fn deserialize_fmu_state<M: Model>(c: Fmi2Component, bytes: *const Fmi2Byte, size: usize, state: *mut Fmi2FmuState) -> Fmi2Status {
+pub unsafe fn deserialize_fmu_state<M: Model>(
+    c: Fmi2Component,
+    bytes: *const Fmi2Byte,
+    size: usize,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
     call::<M>(c, "fmi2DeSerializeFMUstate", sm::FMU_STATE, |inst| {
         let out = out_ptr(state, "FMUstate")?;
         let data = slice(bytes as *const u8, size, "serializedState")?.to_vec();
@@ -312,32 +444,64 @@ pub unsafe fn deserialize_fmu_state<M: Model>(c: Fmi2Component, bytes: *const Fm
 }
 
 pub unsafe fn get_directional_derivative<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(c, "fmi2GetDirectionalDerivative", sm::DIRECTIONAL_DERIVATIVE, |_| {
-        Err("not provided (providesDirectionalDerivative = false)".into())
-    })
+    call::<M>(
+        c,
+        "fmi2GetDirectionalDerivative",
+        sm::DIRECTIONAL_DERIVATIVE,
+        |_| Err("not provided (providesDirectionalDerivative = false)".into()),
+    )
 }
 
-pub unsafe fn set_real_input_derivatives<M: Model>(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, order: *const Fmi2Integer, value: *const f64) -> Fmi2Status {
-    call::<M>(c, "fmi2SetRealInputDerivatives", sm::SET_REAL_INPUT_DERIVATIVES, |inst| {
-        inst.set_real_input_derivatives(slice(vr, n, "vr")?, slice(order, n, "order")?, slice(value, n, "value")?)
-    })
+pub unsafe fn set_real_input_derivatives<M: Model>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    n: usize,
+    order: *const Fmi2Integer,
+    value: *const f64,
+) -> Fmi2Status {
+    call::<M>(
+        c,
+        "fmi2SetRealInputDerivatives",
+        sm::SET_REAL_INPUT_DERIVATIVES,
+        |inst| {
+            inst.set_real_input_derivatives(
+                slice(vr, n, "vr")?,
+                slice(order, n, "order")?,
+                slice(value, n, "value")?,
+            )
+        },
+    )
 }
 
 pub unsafe fn get_real_output_derivatives<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(c, "fmi2GetRealOutputDerivatives", sm::GET_REAL_OUTPUT_DERIVATIVES, |_| {
-        Err("not provided (maxOutputDerivativeOrder = 0)".into())
-    })
+    call::<M>(
+        c,
+        "fmi2GetRealOutputDerivatives",
+        sm::GET_REAL_OUTPUT_DERIVATIVES,
+        |_| Err("not provided (maxOutputDerivativeOrder = 0)".into()),
+    )
 }
 
-pub unsafe fn do_step<M: Model>(c: Fmi2Component, current: f64, step: f64, _no_prior: Fmi2Boolean) -> Fmi2Status {
-    call::<M>(c, "fmi2DoStep", sm::DO_STEP, |inst| inst.do_step(current, step))
+pub unsafe fn do_step<M: Model>(
+    c: Fmi2Component,
+    current: f64,
+    step: f64,
+    _no_prior: Fmi2Boolean,
+) -> Fmi2Status {
+    call::<M>(c, "fmi2DoStep", sm::DO_STEP, |inst| {
+        inst.do_step(current, step)
+    })
 }
 
 pub unsafe fn cancel_step<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(c, "fmi2CancelStep", sm::CANCEL_STEP, |_| Ok(Status::Ok))
 }
 
-pub unsafe fn get_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Status) -> Fmi2Status {
+pub unsafe fn get_status<M: Model>(
+    c: Fmi2Component,
+    kind: Fmi2StatusKind,
+    value: *mut Fmi2Status,
+) -> Fmi2Status {
     call::<M>(c, "fmi2GetStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         let (status, v) = inst.get_status(kind);
@@ -346,7 +510,11 @@ pub unsafe fn get_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value
     })
 }
 
-pub unsafe fn get_real_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut f64) -> Fmi2Status {
+pub unsafe fn get_real_status<M: Model>(
+    c: Fmi2Component,
+    kind: Fmi2StatusKind,
+    value: *mut f64,
+) -> Fmi2Status {
     call::<M>(c, "fmi2GetRealStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         let (status, v) = inst.get_real_status(kind);
@@ -355,14 +523,22 @@ pub unsafe fn get_real_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, 
     })
 }
 
-pub unsafe fn get_integer_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Integer) -> Fmi2Status {
+pub unsafe fn get_integer_status<M: Model>(
+    c: Fmi2Component,
+    kind: Fmi2StatusKind,
+    value: *mut Fmi2Integer,
+) -> Fmi2Status {
     call::<M>(c, "fmi2GetIntegerStatus", sm::GET_STATUS, |inst| {
         out_ptr(value, "value")?;
         Ok(inst.status_unavailable("fmi2GetIntegerStatus", kind))
     })
 }
 
-pub unsafe fn get_boolean_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2Boolean) -> Fmi2Status {
+pub unsafe fn get_boolean_status<M: Model>(
+    c: Fmi2Component,
+    kind: Fmi2StatusKind,
+    value: *mut Fmi2Boolean,
+) -> Fmi2Status {
     call::<M>(c, "fmi2GetBooleanStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         let (status, v) = inst.get_boolean_status(kind);
@@ -371,7 +547,11 @@ pub unsafe fn get_boolean_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKin
     })
 }
 
-pub unsafe fn get_string_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind, value: *mut Fmi2String) -> Fmi2Status {
+pub unsafe fn get_string_status<M: Model>(
+    c: Fmi2Component,
+    kind: Fmi2StatusKind,
+    value: *mut Fmi2String,
+) -> Fmi2Status {
     call::<M>(c, "fmi2GetStringStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         *out = c"".as_ptr();
@@ -383,7 +563,10 @@ pub unsafe fn get_string_status<M: Model>(c: Fmi2Component, kind: Fmi2StatusKind
 /// `modelDescription.xml`, 1 the Markdown variable table. The packager loads the built library
 /// and calls this, so the XML in an FMU always comes from the binary beside it. The string is
 /// freed with [`free_string`]; NULL on error (message on stderr: this is a build-time tool call).
-pub unsafe fn description_document<M: Model>(resources: *const c_char, format: std::os::raw::c_int) -> *mut c_char {
+pub unsafe fn description_document<M: Model>(
+    resources: *const c_char,
+    format: std::os::raw::c_int,
+) -> *mut c_char {
     let result = catch_unwind(AssertUnwindSafe(|| {
         let dir = match c_str(resources) {
             None => None,
@@ -392,7 +575,11 @@ pub unsafe fn description_document<M: Model>(resources: *const c_char, format: s
         };
         let d = M::description(dir.as_deref())?;
         d.check().map_err(|e| e.to_string())?;
-        Ok(if format == 1 { d.to_markdown_table() } else { d.to_xml() })
+        Ok(if format == 1 {
+            d.to_markdown_table()
+        } else {
+            d.to_xml()
+        })
     }));
     match result {
         Ok(Ok(text)) => crate::logger::to_cstring(&text).into_raw(),
@@ -422,42 +609,281 @@ macro_rules! export_fmi2 {
             use $crate::types::*;
             type M = $model;
 
-            #[no_mangle] pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char { ffi::types_platform() }
-            #[no_mangle] pub extern "C" fn fmi2GetVersion() -> *const c_char { ffi::version() }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SetDebugLogging(c: Fmi2Component, on: Fmi2Boolean, n: usize, cats: *const Fmi2String) -> Fmi2Status { ffi::set_debug_logging::<M>(c, on, n, cats) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2Instantiate(name: Fmi2String, ty: Fmi2Type, guid: Fmi2String, res: Fmi2String, f: *const CallbackFunctions, visible: Fmi2Boolean, log: Fmi2Boolean) -> Fmi2Component { ffi::instantiate::<M>(name, ty, guid, res, f, visible, log) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2FreeInstance(c: Fmi2Component) { ffi::free_instance::<M>(c) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SetupExperiment(c: Fmi2Component, td: Fmi2Boolean, tol: f64, start: f64, sd: Fmi2Boolean, stop: f64) -> Fmi2Status { ffi::setup_experiment::<M>(c, td, tol, start, sd, stop) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Fmi2Component) -> Fmi2Status { ffi::enter_initialization_mode::<M>(c) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Fmi2Component) -> Fmi2Status { ffi::exit_initialization_mode::<M>(c) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2Terminate(c: Fmi2Component) -> Fmi2Status { ffi::terminate::<M>(c) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2Reset(c: Fmi2Component) -> Fmi2Status { ffi::reset::<M>(c) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetReal(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *mut f64) -> Fmi2Status { ffi::get_real::<M>(c, vr, n, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetInteger(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *mut Fmi2Integer) -> Fmi2Status { ffi::get_integer::<M>(c, vr, n, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetBoolean(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *mut Fmi2Boolean) -> Fmi2Status { ffi::get_boolean::<M>(c, vr, n, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetString(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *mut Fmi2String) -> Fmi2Status { ffi::get_string::<M>(c, vr, n, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SetReal(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *const f64) -> Fmi2Status { ffi::set_real::<M>(c, vr, n, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SetInteger(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *const Fmi2Integer) -> Fmi2Status { ffi::set_integer::<M>(c, vr, n, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SetBoolean(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *const Fmi2Boolean) -> Fmi2Status { ffi::set_boolean::<M>(c, vr, n, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SetString(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, v: *const Fmi2String) -> Fmi2Status { ffi::set_string::<M>(c, vr, n, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetFMUstate(c: Fmi2Component, s: *mut Fmi2FmuState) -> Fmi2Status { ffi::get_fmu_state::<M>(c, s) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SetFMUstate(c: Fmi2Component, s: Fmi2FmuState) -> Fmi2Status { ffi::set_fmu_state::<M>(c, s) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2FreeFMUstate(c: Fmi2Component, s: *mut Fmi2FmuState) -> Fmi2Status { ffi::free_fmu_state::<M>(c, s) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: Fmi2Component, s: Fmi2FmuState, size: *mut usize) -> Fmi2Status { ffi::serialized_fmu_state_size::<M>(c, s, size) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SerializeFMUstate(c: Fmi2Component, s: Fmi2FmuState, b: *mut Fmi2Byte, size: usize) -> Fmi2Status { ffi::serialize_fmu_state::<M>(c, s, b, size) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2DeSerializeFMUstate(c: Fmi2Component, b: *const Fmi2Byte, size: usize, s: *mut Fmi2FmuState) -> Fmi2Status { ffi::deserialize_fmu_state::<M>(c, b, size, s) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetDirectionalDerivative(c: Fmi2Component, _u: *const Fmi2ValueReference, _nu: usize, _z: *const Fmi2ValueReference, _nz: usize, _dv: *const f64, _dz: *mut f64) -> Fmi2Status { ffi::get_directional_derivative::<M>(c) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2SetRealInputDerivatives(c: Fmi2Component, vr: *const Fmi2ValueReference, n: usize, o: *const Fmi2Integer, v: *const f64) -> Fmi2Status { ffi::set_real_input_derivatives::<M>(c, vr, n, o, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(c: Fmi2Component, _vr: *const Fmi2ValueReference, _n: usize, _o: *const Fmi2Integer, _v: *mut f64) -> Fmi2Status { ffi::get_real_output_derivatives::<M>(c) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2DoStep(c: Fmi2Component, t: f64, h: f64, np: Fmi2Boolean) -> Fmi2Status { ffi::do_step::<M>(c, t, h, np) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2CancelStep(c: Fmi2Component) -> Fmi2Status { ffi::cancel_step::<M>(c) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2Status) -> Fmi2Status { ffi::get_status::<M>(c, k, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetRealStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut f64) -> Fmi2Status { ffi::get_real_status::<M>(c, k, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetIntegerStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2Integer) -> Fmi2Status { ffi::get_integer_status::<M>(c, k, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetBooleanStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2Boolean) -> Fmi2Status { ffi::get_boolean_status::<M>(c, k, v) }
-            #[no_mangle] pub unsafe extern "C" fn fmuCoreDescription(resources: *const c_char, format: std::os::raw::c_int) -> *mut c_char { ffi::description_document::<M>(resources, format) }
-            #[no_mangle] pub unsafe extern "C" fn fmuCoreFreeString(s: *mut c_char) { ffi::free_string(s) }
-            #[no_mangle] pub unsafe extern "C" fn fmi2GetStringStatus(c: Fmi2Component, k: Fmi2StatusKind, v: *mut Fmi2String) -> Fmi2Status { ffi::get_string_status::<M>(c, k, v) }
+            #[no_mangle]
+            pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char {
+                ffi::types_platform()
+            }
+            #[no_mangle]
+            pub extern "C" fn fmi2GetVersion() -> *const c_char {
+                ffi::version()
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetDebugLogging(
+                c: Fmi2Component,
+                on: Fmi2Boolean,
+                n: usize,
+                cats: *const Fmi2String,
+            ) -> Fmi2Status {
+                ffi::set_debug_logging::<M>(c, on, n, cats)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2Instantiate(
+                name: Fmi2String,
+                ty: Fmi2Type,
+                guid: Fmi2String,
+                res: Fmi2String,
+                f: *const CallbackFunctions,
+                visible: Fmi2Boolean,
+                log: Fmi2Boolean,
+            ) -> Fmi2Component {
+                ffi::instantiate::<M>(name, ty, guid, res, f, visible, log)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2FreeInstance(c: Fmi2Component) {
+                ffi::free_instance::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetupExperiment(
+                c: Fmi2Component,
+                td: Fmi2Boolean,
+                tol: f64,
+                start: f64,
+                sd: Fmi2Boolean,
+                stop: f64,
+            ) -> Fmi2Status {
+                ffi::setup_experiment::<M>(c, td, tol, start, sd, stop)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Fmi2Component) -> Fmi2Status {
+                ffi::enter_initialization_mode::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Fmi2Component) -> Fmi2Status {
+                ffi::exit_initialization_mode::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2Terminate(c: Fmi2Component) -> Fmi2Status {
+                ffi::terminate::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2Reset(c: Fmi2Component) -> Fmi2Status {
+                ffi::reset::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetReal(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                v: *mut f64,
+            ) -> Fmi2Status {
+                ffi::get_real::<M>(c, vr, n, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetInteger(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                v: *mut Fmi2Integer,
+            ) -> Fmi2Status {
+                ffi::get_integer::<M>(c, vr, n, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetBoolean(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                v: *mut Fmi2Boolean,
+            ) -> Fmi2Status {
+                ffi::get_boolean::<M>(c, vr, n, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetString(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                v: *mut Fmi2String,
+            ) -> Fmi2Status {
+                ffi::get_string::<M>(c, vr, n, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetReal(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                v: *const f64,
+            ) -> Fmi2Status {
+                ffi::set_real::<M>(c, vr, n, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetInteger(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                v: *const Fmi2Integer,
+            ) -> Fmi2Status {
+                ffi::set_integer::<M>(c, vr, n, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetBoolean(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                v: *const Fmi2Boolean,
+            ) -> Fmi2Status {
+                ffi::set_boolean::<M>(c, vr, n, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetString(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                v: *const Fmi2String,
+            ) -> Fmi2Status {
+                ffi::set_string::<M>(c, vr, n, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetFMUstate(
+                c: Fmi2Component,
+                s: *mut Fmi2FmuState,
+            ) -> Fmi2Status {
+                ffi::get_fmu_state::<M>(c, s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetFMUstate(
+                c: Fmi2Component,
+                s: Fmi2FmuState,
+            ) -> Fmi2Status {
+                ffi::set_fmu_state::<M>(c, s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2FreeFMUstate(
+                c: Fmi2Component,
+                s: *mut Fmi2FmuState,
+            ) -> Fmi2Status {
+                ffi::free_fmu_state::<M>(c, s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
+                c: Fmi2Component,
+                s: Fmi2FmuState,
+                size: *mut usize,
+            ) -> Fmi2Status {
+                ffi::serialized_fmu_state_size::<M>(c, s, size)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SerializeFMUstate(
+                c: Fmi2Component,
+                s: Fmi2FmuState,
+                b: *mut Fmi2Byte,
+                size: usize,
+            ) -> Fmi2Status {
+                ffi::serialize_fmu_state::<M>(c, s, b, size)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
+                c: Fmi2Component,
+                b: *const Fmi2Byte,
+                size: usize,
+                s: *mut Fmi2FmuState,
+            ) -> Fmi2Status {
+                ffi::deserialize_fmu_state::<M>(c, b, size, s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
+                c: Fmi2Component,
+                _u: *const Fmi2ValueReference,
+                _nu: usize,
+                _z: *const Fmi2ValueReference,
+                _nz: usize,
+                _dv: *const f64,
+                _dz: *mut f64,
+            ) -> Fmi2Status {
+                ffi::get_directional_derivative::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
+                c: Fmi2Component,
+                vr: *const Fmi2ValueReference,
+                n: usize,
+                o: *const Fmi2Integer,
+                v: *const f64,
+            ) -> Fmi2Status {
+                ffi::set_real_input_derivatives::<M>(c, vr, n, o, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
+                c: Fmi2Component,
+                _vr: *const Fmi2ValueReference,
+                _n: usize,
+                _o: *const Fmi2Integer,
+                _v: *mut f64,
+            ) -> Fmi2Status {
+                ffi::get_real_output_derivatives::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2DoStep(
+                c: Fmi2Component,
+                t: f64,
+                h: f64,
+                np: Fmi2Boolean,
+            ) -> Fmi2Status {
+                ffi::do_step::<M>(c, t, h, np)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2CancelStep(c: Fmi2Component) -> Fmi2Status {
+                ffi::cancel_step::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetStatus(
+                c: Fmi2Component,
+                k: Fmi2StatusKind,
+                v: *mut Fmi2Status,
+            ) -> Fmi2Status {
+                ffi::get_status::<M>(c, k, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetRealStatus(
+                c: Fmi2Component,
+                k: Fmi2StatusKind,
+                v: *mut f64,
+            ) -> Fmi2Status {
+                ffi::get_real_status::<M>(c, k, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetIntegerStatus(
+                c: Fmi2Component,
+                k: Fmi2StatusKind,
+                v: *mut Fmi2Integer,
+            ) -> Fmi2Status {
+                ffi::get_integer_status::<M>(c, k, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetBooleanStatus(
+                c: Fmi2Component,
+                k: Fmi2StatusKind,
+                v: *mut Fmi2Boolean,
+            ) -> Fmi2Status {
+                ffi::get_boolean_status::<M>(c, k, v)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmuCoreDescription(
+                resources: *const c_char,
+                format: std::os::raw::c_int,
+            ) -> *mut c_char {
+                ffi::description_document::<M>(resources, format)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmuCoreFreeString(s: *mut c_char) {
+                ffi::free_string(s)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetStringStatus(
+                c: Fmi2Component,
+                k: Fmi2StatusKind,
+                v: *mut Fmi2String,
+            ) -> Fmi2Status {
+                ffi::get_string_status::<M>(c, k, v)
+            }
         }
         pub use fmi2_exports::*;
     };
@@ -465,11 +891,38 @@ macro_rules! export_fmi2 {
 
 /// The 34 FMI 2.0 function names every FMU of ours exports (checked against the `.so`).
 pub const EXPORTED_FUNCTIONS: [&str; 34] = [
-    "fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate", "fmi2FreeInstance",
-    "fmi2SetupExperiment", "fmi2EnterInitializationMode", "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset",
-    "fmi2GetReal", "fmi2GetInteger", "fmi2GetBoolean", "fmi2GetString", "fmi2SetReal", "fmi2SetInteger",
-    "fmi2SetBoolean", "fmi2SetString", "fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate",
-    "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate", "fmi2GetDirectionalDerivative",
-    "fmi2SetRealInputDerivatives", "fmi2GetRealOutputDerivatives", "fmi2DoStep", "fmi2CancelStep", "fmi2GetStatus",
-    "fmi2GetRealStatus", "fmi2GetIntegerStatus", "fmi2GetBooleanStatus", "fmi2GetStringStatus",
+    "fmi2GetTypesPlatform",
+    "fmi2GetVersion",
+    "fmi2SetDebugLogging",
+    "fmi2Instantiate",
+    "fmi2FreeInstance",
+    "fmi2SetupExperiment",
+    "fmi2EnterInitializationMode",
+    "fmi2ExitInitializationMode",
+    "fmi2Terminate",
+    "fmi2Reset",
+    "fmi2GetReal",
+    "fmi2GetInteger",
+    "fmi2GetBoolean",
+    "fmi2GetString",
+    "fmi2SetReal",
+    "fmi2SetInteger",
+    "fmi2SetBoolean",
+    "fmi2SetString",
+    "fmi2GetFMUstate",
+    "fmi2SetFMUstate",
+    "fmi2FreeFMUstate",
+    "fmi2SerializedFMUstateSize",
+    "fmi2SerializeFMUstate",
+    "fmi2DeSerializeFMUstate",
+    "fmi2GetDirectionalDerivative",
+    "fmi2SetRealInputDerivatives",
+    "fmi2GetRealOutputDerivatives",
+    "fmi2DoStep",
+    "fmi2CancelStep",
+    "fmi2GetStatus",
+    "fmi2GetRealStatus",
+    "fmi2GetIntegerStatus",
+    "fmi2GetBooleanStatus",
+    "fmi2GetStringStatus",
 ];

@@ -53,7 +53,11 @@ impl<'a> StateReader<'a> {
         StateReader { bytes, pos: 0 }
     }
     fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
-        let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or("FMU state is truncated")?;
+        let end = self
+            .pos
+            .checked_add(n)
+            .filter(|&e| e <= self.bytes.len())
+            .ok_or("FMU state is truncated")?;
         let s = &self.bytes[self.pos..end];
         self.pos = end;
         Ok(s)
@@ -82,7 +86,10 @@ impl<'a> StateReader<'a> {
     pub fn f64s_exact(&mut self, n: usize, what: &str) -> Result<Vec<f64>, String> {
         let v = self.f64s()?;
         if v.len() != n {
-            return Err(format!("FMU state has {} values for {what}, expected {n}", v.len()));
+            return Err(format!(
+                "FMU state has {} values for {what}, expected {n}",
+                v.len()
+            ));
         }
         Ok(v)
     }
@@ -94,14 +101,19 @@ impl<'a> StateReader<'a> {
         if self.pos == self.bytes.len() {
             Ok(())
         } else {
-            Err(format!("FMU state has {} unexpected trailing bytes", self.bytes.len() - self.pos))
+            Err(format!(
+                "FMU state has {} unexpected trailing bytes",
+                self.bytes.len() - self.pos
+            ))
         }
     }
 }
 
 /// FNV-1a, 64 bit: detects corruption (not tampering; nothing here is secret).
 fn checksum(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ *b as u64).wrapping_mul(0x0000_0100_0000_01b3))
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ *b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// A decoded FMU state.
@@ -135,17 +147,25 @@ pub fn decode(guid: &str, bytes: &[u8]) -> Result<Snapshot, String> {
     let mut r = StateReader::new(&body[MAGIC.len()..]);
     let stored_guid = r.bytes()?;
     if stored_guid != guid.as_bytes() {
-        return Err(format!("FMU state belongs to GUID {}, not {guid}", String::from_utf8_lossy(stored_guid)));
+        return Err(format!(
+            "FMU state belongs to GUID {}, not {guid}",
+            String::from_utf8_lossy(stored_guid)
+        ));
     }
     let state_byte = r.take(1)?[0];
-    let state = FmiState::from_u8(state_byte).ok_or_else(|| format!("FMU state has invalid FMI state {state_byte}"))?;
+    let state = FmiState::from_u8(state_byte)
+        .ok_or_else(|| format!("FMU state has invalid FMI state {state_byte}"))?;
     let time = r.f64()?;
     if !time.is_finite() {
         return Err("FMU state has a non-finite time".into());
     }
     let payload = r.bytes()?.to_vec();
     r.finish()?;
-    Ok(Snapshot { state, time, payload })
+    Ok(Snapshot {
+        state,
+        time,
+        payload,
+    })
 }
 
 #[cfg(test)]
@@ -156,7 +176,14 @@ mod tests {
         let mut w = StateWriter::default();
         w.f64s(&[1.0, -2.5, f64::MIN_POSITIVE]);
         w.bool(true);
-        encode("{g}", &Snapshot { state: FmiState::StepComplete, time: 0.125, payload: w.into_bytes() })
+        encode(
+            "{g}",
+            &Snapshot {
+                state: FmiState::StepComplete,
+                time: 0.125,
+                payload: w.into_bytes(),
+            },
+        )
     }
 
     #[test]
@@ -176,8 +203,14 @@ mod tests {
         for i in 0..good.len() {
             let mut bad = good.clone();
             bad[i] ^= 0x40;
-            assert!(decode("{g}", &bad).is_err(), "flipping byte {i} was accepted");
-            assert!(decode("{g}", &good[..i]).is_err(), "truncation to {i} bytes was accepted");
+            assert!(
+                decode("{g}", &bad).is_err(),
+                "flipping byte {i} was accepted"
+            );
+            assert!(
+                decode("{g}", &good[..i]).is_err(),
+                "truncation to {i} bytes was accepted"
+            );
         }
         assert!(decode("{other}", &good).unwrap_err().contains("GUID"));
     }

@@ -1,12 +1,16 @@
 //! One FMU instance and the FMI 2.0 Co-Simulation semantics of every call, in safe Rust.
 //! The C ABI layer ([`crate::ffi`]) only converts pointers and catches panics.
 
-use crate::description::{BaseType, Causality, ModelDescription, ValueReference, VarType, Variable};
+use crate::description::{
+    BaseType, Causality, ModelDescription, ValueReference, VarType, Variable,
+};
 use crate::fmu_state::{self, Snapshot, StateReader, StateWriter};
 use crate::logger::{Category, Logger};
 use crate::model::Model;
 use crate::state_machine::FmiState;
-use crate::types::{status_kind, CallbackFunctions, Fmi2StatusKind, Fmi2Type, Status, FMI2_CO_SIMULATION};
+use crate::types::{
+    status_kind, CallbackFunctions, Fmi2StatusKind, Fmi2Type, Status, FMI2_CO_SIMULATION,
+};
 use crate::uri;
 use std::collections::HashSet;
 use std::path::PathBuf;
@@ -58,7 +62,12 @@ impl<M: Model> Instance<M> {
     ) -> Result<Box<Self>, (Logger, String)> {
         let logger = Logger::new(callbacks, instance_name, logging_on);
         if fmu_type != FMI2_CO_SIMULATION {
-            return Err((logger, format!("fmuType {fmu_type} requested, but this FMU supports Co-Simulation (1) only")));
+            return Err((
+                logger,
+                format!(
+                    "fmuType {fmu_type} requested, but this FMU supports Co-Simulation (1) only"
+                ),
+            ));
         }
         let resources = match resource_location {
             None => None,
@@ -73,7 +82,15 @@ impl<M: Model> Instance<M> {
         };
         match guid {
             Some(g) if g == description.guid => {}
-            Some(g) => return Err((logger, format!("GUID mismatch: this binary is {}, the importer passed {g}", description.guid))),
+            Some(g) => {
+                return Err((
+                    logger,
+                    format!(
+                        "GUID mismatch: this binary is {}, the importer passed {g}",
+                        description.guid
+                    ),
+                ))
+            }
             None => return Err((logger, "fmuGUID is NULL".into())),
         }
         let model = match M::instantiate(resources.as_deref()) {
@@ -92,7 +109,10 @@ impl<M: Model> Instance<M> {
         logger.event(&format!(
             "fmi2Instantiate: {} instantiated (resources: {})",
             description.model_identifier,
-            resources.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "none".into())
+            resources
+                .as_ref()
+                .map(|p| p.display().to_string())
+                .unwrap_or_else(|| "none".into())
         ));
         Ok(Box::new(Instance {
             magic: INSTANCE_MAGIC,
@@ -121,12 +141,21 @@ impl<M: Model> Instance<M> {
         self.time
     }
 
-    pub fn set_debug_logging(&mut self, logging_on: bool, categories: &[&str]) -> Result<Status, String> {
+    pub fn set_debug_logging(
+        &mut self,
+        logging_on: bool,
+        categories: &[&str],
+    ) -> Result<Status, String> {
         self.logger.configure(logging_on, categories)?;
         Ok(Status::Ok)
     }
 
-    pub fn setup_experiment(&mut self, _tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> Result<Status, String> {
+    pub fn setup_experiment(
+        &mut self,
+        _tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> Result<Status, String> {
         if !start_time.is_finite() {
             return Err(format!("startTime must be finite, got {start_time}"));
         }
@@ -149,7 +178,10 @@ impl<M: Model> Instance<M> {
     pub fn exit_initialization_mode(&mut self) -> Result<Status, String> {
         self.model.exit_initialization(self.start_time)?;
         self.state = FmiState::StepComplete;
-        self.logger.event(&format!("fmi2ExitInitializationMode: initialised at t = {}", self.time));
+        self.logger.event(&format!(
+            "fmi2ExitInitializationMode: initialised at t = {}",
+            self.time
+        ));
         Ok(Status::Ok)
     }
 
@@ -178,7 +210,10 @@ impl<M: Model> Instance<M> {
     }
 
     fn initialising(&self) -> bool {
-        matches!(self.state, FmiState::Instantiated | FmiState::InitializationMode)
+        matches!(
+            self.state,
+            FmiState::Instantiated | FmiState::InitializationMode
+        )
     }
 
     /// Check that every `vr` may be set now; nothing is changed if one may not.
@@ -187,14 +222,25 @@ impl<M: Model> Instance<M> {
         for &vr in vrs {
             let v = self.variable(base, vr)?;
             if !v.settable(initialising) {
-                let when = if initialising { "" } else { " after initialisation" };
-                return Err(format!("variable '{}' ({:?}, {:?}) cannot be set{when}", v.name, v.causality, v.variability));
+                let when = if initialising {
+                    ""
+                } else {
+                    " after initialisation"
+                };
+                return Err(format!(
+                    "variable '{}' ({:?}, {:?}) cannot be set{when}",
+                    v.name, v.causality, v.variability
+                ));
             }
         }
         Ok(())
     }
 
-    pub fn get_real(&mut self, vrs: &[ValueReference], values: &mut [f64]) -> Result<Status, String> {
+    pub fn get_real(
+        &mut self,
+        vrs: &[ValueReference],
+        values: &mut [f64],
+    ) -> Result<Status, String> {
         for &vr in vrs {
             self.variable(BaseType::Real, vr)?;
         }
@@ -211,21 +257,34 @@ impl<M: Model> Instance<M> {
             let v = self.variable(BaseType::Real, vr)?;
             let name = &v.name;
             if !v.settable(initialising) {
-                let when = if initialising { "" } else { " after initialisation" };
-                return Err(format!("variable '{name}' ({:?}, {:?}) cannot be set{when}", v.causality, v.variability));
+                let when = if initialising {
+                    ""
+                } else {
+                    " after initialisation"
+                };
+                return Err(format!(
+                    "variable '{name}' ({:?}, {:?}) cannot be set{when}",
+                    v.causality, v.variability
+                ));
             }
             if !value.is_finite() {
                 return Err(format!("value of '{name}' must be finite, got {value}"));
             }
             if let VarType::Real { min, max, .. } = &v.kind {
                 if let Some(m) = min.filter(|m| value < *m) {
-                    return Err(format!("value {value} of '{name}' is below its minimum {m}"));
+                    return Err(format!(
+                        "value {value} of '{name}' is below its minimum {m}"
+                    ));
                 }
                 if let Some(m) = max.filter(|m| value > *m) {
-                    return Err(format!("value {value} of '{name}' is above its maximum {m}"));
+                    return Err(format!(
+                        "value {value} of '{name}' is above its maximum {m}"
+                    ));
                 }
             }
-            self.model.check_real(vr, value).map_err(|e| format!("rejected value for '{name}': {e}"))?;
+            self.model
+                .check_real(vr, value)
+                .map_err(|e| format!("rejected value for '{name}': {e}"))?;
         }
         for (&vr, &value) in vrs.iter().zip(values) {
             self.model.set_real(vr, value);
@@ -233,7 +292,11 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
-    pub fn get_integer(&mut self, vrs: &[ValueReference], values: &mut [i32]) -> Result<Status, String> {
+    pub fn get_integer(
+        &mut self,
+        vrs: &[ValueReference],
+        values: &mut [i32],
+    ) -> Result<Status, String> {
         for &vr in vrs {
             self.variable(BaseType::Integer, vr)?;
         }
@@ -243,7 +306,11 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
-    pub fn set_integer(&mut self, vrs: &[ValueReference], values: &[i32]) -> Result<Status, String> {
+    pub fn set_integer(
+        &mut self,
+        vrs: &[ValueReference],
+        values: &[i32],
+    ) -> Result<Status, String> {
         self.check_settable(BaseType::Integer, vrs)?;
         for (&vr, &value) in vrs.iter().zip(values) {
             self.model.set_integer(vr, value);
@@ -251,7 +318,11 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
-    pub fn get_boolean(&mut self, vrs: &[ValueReference], values: &mut [bool]) -> Result<Status, String> {
+    pub fn get_boolean(
+        &mut self,
+        vrs: &[ValueReference],
+        values: &mut [bool],
+    ) -> Result<Status, String> {
         for &vr in vrs {
             self.variable(BaseType::Boolean, vr)?;
         }
@@ -261,7 +332,11 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
-    pub fn set_boolean(&mut self, vrs: &[ValueReference], values: &[bool]) -> Result<Status, String> {
+    pub fn set_boolean(
+        &mut self,
+        vrs: &[ValueReference],
+        values: &[bool],
+    ) -> Result<Status, String> {
         self.check_settable(BaseType::Boolean, vrs)?;
         for (&vr, &value) in vrs.iter().zip(values) {
             self.model.set_boolean(vr, value);
@@ -272,12 +347,19 @@ impl<M: Model> Instance<M> {
     /// Our FMUs have no String variables: any value reference is unknown.
     pub fn check_string_refs(&self, vrs: &[ValueReference]) -> Result<Status, String> {
         match vrs.first() {
-            Some(vr) => Err(format!("unknown value reference {vr} for type String (this FMU has no String variables)")),
+            Some(vr) => Err(format!(
+                "unknown value reference {vr} for type String (this FMU has no String variables)"
+            )),
             None => Ok(Status::Ok),
         }
     }
 
-    pub fn set_real_input_derivatives(&mut self, vrs: &[ValueReference], orders: &[i32], values: &[f64]) -> Result<Status, String> {
+    pub fn set_real_input_derivatives(
+        &mut self,
+        vrs: &[ValueReference],
+        orders: &[i32],
+        values: &[f64],
+    ) -> Result<Status, String> {
         if !self.description.capabilities.can_interpolate_inputs {
             return Err("this FMU cannot interpolate inputs (canInterpolateInputs = false)".into());
         }
@@ -287,10 +369,16 @@ impl<M: Model> Instance<M> {
                 return Err(format!("variable '{}' is not an input", v.name));
             }
             if order != 1 {
-                return Err(format!("derivative order {order} for '{}' not supported (only 1)", v.name));
+                return Err(format!(
+                    "derivative order {order} for '{}' not supported (only 1)",
+                    v.name
+                ));
             }
             if !value.is_finite() {
-                return Err(format!("derivative of '{}' must be finite, got {value}", v.name));
+                return Err(format!(
+                    "derivative of '{}' must be finite, got {value}",
+                    v.name
+                ));
             }
         }
         for (&vr, &value) in vrs.iter().zip(values) {
@@ -301,14 +389,24 @@ impl<M: Model> Instance<M> {
 
     pub fn do_step(&mut self, current: f64, step: f64) -> Result<Status, String> {
         if !(step > 0.0) || !step.is_finite() {
-            return Err(format!("communicationStepSize must be a finite number > 0, got {step}"));
+            return Err(format!(
+                "communicationStepSize must be a finite number > 0, got {step}"
+            ));
         }
-        if !current.is_finite() || (current - self.time).abs() > TIME_TOLERANCE * current.abs().max(1.0) {
-            return Err(format!("currentCommunicationPoint {current} does not match the FMU's time {}", self.time));
+        if !current.is_finite()
+            || (current - self.time).abs() > TIME_TOLERANCE * current.abs().max(1.0)
+        {
+            return Err(format!(
+                "currentCommunicationPoint {current} does not match the FMU's time {}",
+                self.time
+            ));
         }
         if let Some(stop) = self.stop_time {
             if current + step > stop + TIME_TOLERANCE * stop.abs().max(1.0) {
-                return Err(format!("step to {} goes beyond stopTime {stop}", current + step));
+                return Err(format!(
+                    "step to {} goes beyond stopTime {stop}",
+                    current + step
+                ));
             }
         }
         self.model.do_step(current, step)?;
@@ -318,7 +416,11 @@ impl<M: Model> Instance<M> {
 
     /// `fmi2Discard`, logged, for a status kind this FMU has no value for.
     pub fn status_unavailable(&self, func: &str, kind: Fmi2StatusKind) -> Status {
-        self.logger.log(Status::Discard, Category::StatusWarning, &format!("{func}: status kind {kind} is not available (steps are synchronous)"));
+        self.logger.log(
+            Status::Discard,
+            Category::StatusWarning,
+            &format!("{func}: status kind {kind} is not available (steps are synchronous)"),
+        );
         Status::Discard
     }
 
@@ -349,7 +451,11 @@ impl<M: Model> Instance<M> {
         self.model.save(&mut w);
         fmu_state::encode(
             &self.description.guid,
-            &Snapshot { state: self.state, time: self.time, payload: w.into_bytes() },
+            &Snapshot {
+                state: self.state,
+                time: self.time,
+                payload: w.into_bytes(),
+            },
         )
     }
 
@@ -365,7 +471,10 @@ impl<M: Model> Instance<M> {
         self.model.restore(&mut reader)?;
         self.state = snap.state;
         self.time = snap.time;
-        self.logger.event(&format!("fmi2SetFMUstate: restored state at t = {}", self.time));
+        self.logger.event(&format!(
+            "fmi2SetFMUstate: restored state at t = {}",
+            self.time
+        ));
         Ok(Status::Ok)
     }
 }

@@ -20,5 +20,8 @@ pub mod state_machine;
 pub mod types;
 pub mod uri;
 
-pub use description::{Capabilities, Causality, DefaultExperiment, ModelDescription, ValueReference, Variability, VarType, Variable};
+pub use description::{
+    Capabilities, Causality, DefaultExperiment, ModelDescription, ValueReference, VarType,
+    Variability, Variable,
+};
 pub use model::Model;

@@ -18,7 +18,11 @@ pub enum Category {
 }
 
 impl Category {
-    pub const ALL: [Category; 3] = [Category::StatusError, Category::StatusWarning, Category::Events];
+    pub const ALL: [Category; 3] = [
+        Category::StatusError,
+        Category::StatusWarning,
+        Category::Events,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -30,9 +34,13 @@ impl Category {
 
     pub fn description(self) -> &'static str {
         match self {
-            Category::StatusError => "Why a call returned fmi2Error (logged even when loggingOn is false)",
+            Category::StatusError => {
+                "Why a call returned fmi2Error (logged even when loggingOn is false)"
+            }
             Category::StatusWarning => "Why a call returned fmi2Warning or fmi2Discard",
-            Category::Events => "Instantiation, initialisation, FMU state save/restore and other events",
+            Category::Events => {
+                "Instantiation, initialisation, FMU state save/restore and other events"
+            }
         }
     }
 

@@ -67,7 +67,13 @@ const fn m(states: &[FmiState]) -> Mask {
 
 /// Every state except `Fatal`: free, reset and FMU-state functions.
 pub const ANY_BUT_FATAL: Mask = m(&[
-    S::Instantiated, S::InitializationMode, S::StepComplete, S::StepFailed, S::StepCanceled, S::Terminated, S::Error,
+    S::Instantiated,
+    S::InitializationMode,
+    S::StepComplete,
+    S::StepFailed,
+    S::StepCanceled,
+    S::Terminated,
+    S::Error,
 ]);
 pub const SET_DEBUG_LOGGING: Mask = ANY_BUT_FATAL;
 pub const FREE_INSTANCE: Mask = ANY_BUT_FATAL;
@@ -77,12 +83,31 @@ pub const SETUP_EXPERIMENT: Mask = m(&[S::Instantiated]);
 pub const ENTER_INITIALIZATION_MODE: Mask = m(&[S::Instantiated]);
 pub const EXIT_INITIALIZATION_MODE: Mask = m(&[S::InitializationMode]);
 pub const TERMINATE: Mask = m(&[S::StepComplete, S::StepFailed, S::StepCanceled]);
-pub const GET_VALUES: Mask = m(&[S::InitializationMode, S::StepComplete, S::StepFailed, S::StepCanceled, S::Terminated, S::Error]);
+pub const GET_VALUES: Mask = m(&[
+    S::InitializationMode,
+    S::StepComplete,
+    S::StepFailed,
+    S::StepCanceled,
+    S::Terminated,
+    S::Error,
+]);
 pub const SET_VALUES: Mask = m(&[S::Instantiated, S::InitializationMode, S::StepComplete]);
 pub const DIRECTIONAL_DERIVATIVE: Mask = GET_VALUES;
-pub const SET_REAL_INPUT_DERIVATIVES: Mask = m(&[S::Instantiated, S::InitializationMode, S::StepComplete]);
-pub const GET_REAL_OUTPUT_DERIVATIVES: Mask = m(&[S::StepComplete, S::StepFailed, S::StepCanceled, S::Terminated, S::Error]);
+pub const SET_REAL_INPUT_DERIVATIVES: Mask =
+    m(&[S::Instantiated, S::InitializationMode, S::StepComplete]);
+pub const GET_REAL_OUTPUT_DERIVATIVES: Mask = m(&[
+    S::StepComplete,
+    S::StepFailed,
+    S::StepCanceled,
+    S::Terminated,
+    S::Error,
+]);
 pub const DO_STEP: Mask = m(&[S::StepComplete]);
 /// Only legal while an asynchronous step is in progress, which never happens here.
 pub const CANCEL_STEP: Mask = Mask(0);
-pub const GET_STATUS: Mask = m(&[S::StepComplete, S::StepFailed, S::StepCanceled, S::Terminated]);
+pub const GET_STATUS: Mask = m(&[
+    S::StepComplete,
+    S::StepFailed,
+    S::StepCanceled,
+    S::Terminated,
+]);

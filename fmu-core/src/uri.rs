@@ -18,8 +18,13 @@ impl std::fmt::Display for UriError {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
         match self {
             UriError::NotFileScheme(u) => write!(f, "resource location '{u}' is not a file: URI"),
-            UriError::RemoteHost(u) => write!(f, "resource location '{u}' names a remote host; only local files are supported"),
-            UriError::BadPercentEncoding(u) => write!(f, "resource location '{u}' has an invalid percent-encoding"),
+            UriError::RemoteHost(u) => write!(
+                f,
+                "resource location '{u}' names a remote host; only local files are supported"
+            ),
+            UriError::BadPercentEncoding(u) => {
+                write!(f, "resource location '{u}' has an invalid percent-encoding")
+            }
         }
     }
 }
@@ -44,7 +49,8 @@ pub fn resource_path(uri: &str) -> Result<PathBuf, UriError> {
     if !path.starts_with('/') {
         return Err(UriError::NotFileScheme(uri.to_string()));
     }
-    let decoded = percent_decode(path).ok_or_else(|| UriError::BadPercentEncoding(uri.to_string()))?;
+    let decoded =
+        percent_decode(path).ok_or_else(|| UriError::BadPercentEncoding(uri.to_string()))?;
     let os: std::ffi::OsString = std::os::unix::ffi::OsStringExt::from_vec(decoded);
     Ok(PathBuf::from(os))
 }
@@ -74,24 +80,57 @@ mod tests {
 
     #[test]
     fn accepts_the_three_local_forms_with_and_without_trailing_slash() {
-        for uri in ["file:///tmp/fmu/resources", "file:/tmp/fmu/resources", "file://localhost/tmp/fmu/resources", "FILE:///tmp/fmu/resources"] {
-            assert_eq!(resource_path(uri).unwrap(), PathBuf::from("/tmp/fmu/resources"), "{uri}");
+        for uri in [
+            "file:///tmp/fmu/resources",
+            "file:/tmp/fmu/resources",
+            "file://localhost/tmp/fmu/resources",
+            "FILE:///tmp/fmu/resources",
+        ] {
+            assert_eq!(
+                resource_path(uri).unwrap(),
+                PathBuf::from("/tmp/fmu/resources"),
+                "{uri}"
+            );
         }
-        assert_eq!(resource_path("file:///tmp/fmu/resources/").unwrap(), PathBuf::from("/tmp/fmu/resources/"));
+        assert_eq!(
+            resource_path("file:///tmp/fmu/resources/").unwrap(),
+            PathBuf::from("/tmp/fmu/resources/")
+        );
     }
 
     #[test]
     fn decodes_percent_escapes_including_utf8() {
-        assert_eq!(resource_path("file:///tmp/my%20fmu/r%C3%A9sources").unwrap(), PathBuf::from("/tmp/my fmu/résources"));
+        assert_eq!(
+            resource_path("file:///tmp/my%20fmu/r%C3%A9sources").unwrap(),
+            PathBuf::from("/tmp/my fmu/résources")
+        );
     }
 
     #[test]
     fn rejects_other_schemes_hosts_and_bad_escapes() {
-        assert!(matches!(resource_path("http://x/res"), Err(UriError::NotFileScheme(_))));
-        assert!(matches!(resource_path("/tmp/res"), Err(UriError::NotFileScheme(_))));
-        assert!(matches!(resource_path("file:relative/res"), Err(UriError::NotFileScheme(_))));
-        assert!(matches!(resource_path("file://server/share"), Err(UriError::RemoteHost(_))));
-        assert!(matches!(resource_path("file:///tmp/%zz"), Err(UriError::BadPercentEncoding(_))));
-        assert!(matches!(resource_path("file:///tmp/%2"), Err(UriError::BadPercentEncoding(_))));
+        assert!(matches!(
+            resource_path("http://x/res"),
+            Err(UriError::NotFileScheme(_))
+        ));
+        assert!(matches!(
+            resource_path("/tmp/res"),
+            Err(UriError::NotFileScheme(_))
+        ));
+        assert!(matches!(
+            resource_path("file:relative/res"),
+            Err(UriError::NotFileScheme(_))
+        ));
+        assert!(matches!(
+            resource_path("file://server/share"),
+            Err(UriError::RemoteHost(_))
+        ));
+        assert!(matches!(
+            resource_path("file:///tmp/%zz"),
+            Err(UriError::BadPercentEncoding(_))
+        ));
+        assert!(matches!(
+            resource_path("file:///tmp/%2"),
+            Err(UriError::BadPercentEncoding(_))
+        ));
     }
 }

@@ -34,17 +34,28 @@ impl Model for Lag {
             description: "first-order lag".into(),
             version: "1".into(),
             capabilities: Capabilities::exact_stepping(false),
-            default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 1.0, step_size: 0.01 },
+            default_experiment: DefaultExperiment {
+                start_time: 0.0,
+                stop_time: 1.0,
+                step_size: 0.01,
+            },
             variables: vec![
-                Variable::real("T", VR_T, Causality::Parameter, "s", "time constant").with_start(0.5),
+                Variable::real("T", VR_T, Causality::Parameter, "s", "time constant")
+                    .with_start(0.5),
                 Variable::real("u", VR_U, Causality::Input, "1", "input").with_start(0.0),
                 Variable::real("y", VR_Y, Causality::Output, "1", "output"),
-                Variable::real("u_echo", VR_U_ECHO, Causality::Output, "1", "input echo").depending_on(vec!["u".into()]),
+                Variable::real("u_echo", VR_U_ECHO, Causality::Output, "1", "input echo")
+                    .depending_on(vec!["u".into()]),
             ],
         })
     }
     fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
-        Ok(Lag { time_constant: 0.5, u: 0.0, y: 0.0, resources_seen: resources.map(|p| p.display().to_string()) })
+        Ok(Lag {
+            time_constant: 0.5,
+            u: 0.0,
+            y: 0.0,
+            resources_seen: resources.map(|p| p.display().to_string()),
+        })
     }
     fn check_real(&self, vr: u32, value: f64) -> Result<(), String> {
         if vr == VR_T && value <= 0.0 {
@@ -105,16 +116,32 @@ impl<'a> Fmu<'a> {
     fn new(log: &'a LogCapture, logging_on: bool) -> Self {
         Self::with(log, GUID, Some("file:///tmp/lag/resources"), logging_on).expect("instantiate")
     }
-    fn with(log: &'a LogCapture, guid: &str, resources: Option<&str>, logging_on: bool) -> Option<Self> {
+    fn with(
+        log: &'a LogCapture,
+        guid: &str,
+        resources: Option<&str>,
+        logging_on: bool,
+    ) -> Option<Self> {
         let cb = Box::new(log.callbacks());
         let name = CString::new("lag1").unwrap();
         let guid = CString::new(guid).unwrap();
         let res = resources.map(|r| CString::new(r).unwrap());
         let c = unsafe {
-            fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), res.as_ref().map_or(null(), |r| r.as_ptr()),
-                &*cb as *const _ as *const CallbackFunctions, 0, logging_on as i32)
+            fmi2Instantiate(
+                name.as_ptr(),
+                FMI2_CO_SIMULATION,
+                guid.as_ptr(),
+                res.as_ref().map_or(null(), |r| r.as_ptr()),
+                &*cb as *const _ as *const CallbackFunctions,
+                0,
+                logging_on as i32,
+            )
         };
-        (!c.is_null()).then_some(Fmu { c, _log: log, _cb: cb })
+        (!c.is_null()).then_some(Fmu {
+            c,
+            _log: log,
+            _cb: cb,
+        })
     }
     fn init(&self) {
         unsafe {
@@ -149,7 +176,10 @@ impl Drop for Fmu<'_> {
 fn version_and_platform_strings() {
     unsafe {
         assert_eq!(CStr::from_ptr(fmi2GetVersion()).to_str().unwrap(), "2.0");
-        assert_eq!(CStr::from_ptr(fmi2GetTypesPlatform()).to_str().unwrap(), "default");
+        assert_eq!(
+            CStr::from_ptr(fmi2GetTypesPlatform()).to_str().unwrap(),
+            "default"
+        );
     }
 }
 
@@ -168,7 +198,12 @@ fn lag_steps_exactly_through_the_c_api() {
 
 impl Fmu<'_> {
     fn model_resources(&self) -> Option<String> {
-        unsafe { (*(self.c as *mut fmu_core::instance::Instance<Lag>)).model().resources_seen.clone() }
+        unsafe {
+            (*(self.c as *mut fmu_core::instance::Instance<Lag>))
+                .model()
+                .resources_seen
+                .clone()
+        }
     }
 }
 
@@ -177,7 +212,11 @@ fn illegal_do_step_before_init_is_an_error() {
     let log = LogCapture::default();
     let fmu = Fmu::new(&log, false);
     assert_eq!(fmu.step(0.0, 0.1), ERROR);
-    assert!(log.contains("fmi2DoStep: illegal call in state Instantiated"), "{:?}", log.messages());
+    assert!(
+        log.contains("fmi2DoStep: illegal call in state Instantiated"),
+        "{:?}",
+        log.messages()
+    );
     assert_eq!(fmu.state(), fmu_core::state_machine::FmiState::Error);
     // Error is final until reset: even a legal-looking call is refused.
     assert_eq!(unsafe { fmi2EnterInitializationMode(fmu.c) }, ERROR);
@@ -204,7 +243,11 @@ fn illegal_sequences_are_refused_with_their_state_named() {
     assert!(log.contains("fmi2DoStep: illegal call in state Terminated"));
     unsafe { fmi2Reset(fmu.c) };
     fmu.init();
-    assert_eq!(unsafe { fmi2CancelStep(fmu.c) }, ERROR, "no asynchronous step is ever in progress");
+    assert_eq!(
+        unsafe { fmi2CancelStep(fmu.c) },
+        ERROR,
+        "no asynchronous step is ever in progress"
+    );
 }
 
 #[test]
@@ -217,16 +260,56 @@ fn wrong_guid_wrong_type_and_bad_uri_give_null_with_a_message() {
     let cb = log.callbacks();
     let name = CString::new("x").unwrap();
     let guid = CString::new(GUID).unwrap();
-    let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_MODEL_EXCHANGE, guid.as_ptr(), null(), &cb as *const _ as *const CallbackFunctions, 0, 0) };
+    let c = unsafe {
+        fmi2Instantiate(
+            name.as_ptr(),
+            FMI2_MODEL_EXCHANGE,
+            guid.as_ptr(),
+            null(),
+            &cb as *const _ as *const CallbackFunctions,
+            0,
+            0,
+        )
+    };
     assert!(c.is_null());
     assert!(log.contains("supports Co-Simulation (1) only"));
-    let c = unsafe { fmi2Instantiate(null(), FMI2_CO_SIMULATION, guid.as_ptr(), null(), &cb as *const _ as *const CallbackFunctions, 0, 0) };
+    let c = unsafe {
+        fmi2Instantiate(
+            null(),
+            FMI2_CO_SIMULATION,
+            guid.as_ptr(),
+            null(),
+            &cb as *const _ as *const CallbackFunctions,
+            0,
+            0,
+        )
+    };
     assert!(c.is_null());
     assert!(log.contains("instanceName is NULL"));
-    let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, null(), null(), &cb as *const _ as *const CallbackFunctions, 0, 0) };
+    let c = unsafe {
+        fmi2Instantiate(
+            name.as_ptr(),
+            FMI2_CO_SIMULATION,
+            null(),
+            null(),
+            &cb as *const _ as *const CallbackFunctions,
+            0,
+            0,
+        )
+    };
     assert!(c.is_null());
     assert!(log.contains("fmuGUID is NULL"));
-    let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), null(), null(), 0, 0) };
+    let c = unsafe {
+        fmi2Instantiate(
+            name.as_ptr(),
+            FMI2_CO_SIMULATION,
+            guid.as_ptr(),
+            null(),
+            null(),
+            0,
+            0,
+        )
+    };
     assert!(c.is_null(), "no callbacks: refused, and nothing to log to");
 }
 
@@ -234,7 +317,10 @@ fn wrong_guid_wrong_type_and_bad_uri_give_null_with_a_message() {
 fn resource_uris_of_every_importer_are_accepted() {
     let log = LogCapture::default();
     for (uri, path) in [
-        (Some("file:///tmp/a%20b/resources"), Some("/tmp/a b/resources")),
+        (
+            Some("file:///tmp/a%20b/resources"),
+            Some("/tmp/a b/resources"),
+        ),
         (Some("file:/tmp/r/"), Some("/tmp/r/")),
         (Some("file://localhost/tmp/r"), Some("/tmp/r")),
         (None, None),
@@ -250,14 +336,23 @@ fn null_pointers_unknown_references_and_wrong_causality_are_errors() {
     let fmu = Fmu::new(&log, false);
     fmu.init();
     let mut v = [0.0; 2];
-    assert_eq!(unsafe { fmi2GetReal(fmu.c, null(), 2, v.as_mut_ptr()) }, ERROR);
+    assert_eq!(
+        unsafe { fmi2GetReal(fmu.c, null(), 2, v.as_mut_ptr()) },
+        ERROR
+    );
     assert!(log.contains("fmi2GetReal: argument 'vr' is NULL"));
     unsafe { fmi2Reset(fmu.c) };
     fmu.init();
-    assert_eq!(unsafe { fmi2GetReal(fmu.c, [VR_Y].as_ptr(), 1, null_mut()) }, ERROR);
+    assert_eq!(
+        unsafe { fmi2GetReal(fmu.c, [VR_Y].as_ptr(), 1, null_mut()) },
+        ERROR
+    );
     unsafe { fmi2Reset(fmu.c) };
     fmu.init();
-    assert_eq!(unsafe { fmi2GetReal(fmu.c, [VR_Y, 99].as_ptr(), 2, v.as_mut_ptr()) }, ERROR);
+    assert_eq!(
+        unsafe { fmi2GetReal(fmu.c, [VR_Y, 99].as_ptr(), 2, v.as_mut_ptr()) },
+        ERROR
+    );
     assert!(log.contains("fmi2GetReal: unknown value reference 99 for type Real"));
     unsafe { fmi2Reset(fmu.c) };
     fmu.init();
@@ -265,7 +360,11 @@ fn null_pointers_unknown_references_and_wrong_causality_are_errors() {
     assert!(log.contains("variable 'y' (Output, Continuous) cannot be set"));
     unsafe { fmi2Reset(fmu.c) };
     fmu.init();
-    assert_eq!(fmu.set(VR_T, 1.0), ERROR, "fixed parameter after initialisation");
+    assert_eq!(
+        fmu.set(VR_T, 1.0),
+        ERROR,
+        "fixed parameter after initialisation"
+    );
     assert!(log.contains("variable 'T' (Parameter, Fixed) cannot be set after initialisation"));
     unsafe { fmi2Reset(fmu.c) };
     fmu.init();
@@ -293,8 +392,17 @@ fn nan_or_infinite_input_is_refused_and_nothing_changes() {
     for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
         // The first value is fine, the second is not: neither may be applied.
         let values = [0.75, bad];
-        assert_eq!(unsafe { fmi2SetReal(fmu.c, vrs.as_ptr(), 2, values.as_ptr()) }, ERROR);
-        assert!(log.contains(&format!("fmi2SetReal: value of 'u' must be finite, got {bad}")), "{:?}", log.messages());
+        assert_eq!(
+            unsafe { fmi2SetReal(fmu.c, vrs.as_ptr(), 2, values.as_ptr()) },
+            ERROR
+        );
+        assert!(
+            log.contains(&format!(
+                "fmi2SetReal: value of 'u' must be finite, got {bad}"
+            )),
+            "{:?}",
+            log.messages()
+        );
         assert_eq!(fmu.get(VR_U), 0.25, "state unchanged");
         // fmi2Error leaves the instance in Error (FMI 2.0.4 §2.1.3); a saved state recovers it.
         assert_eq!(fmu.state(), fmu_core::state_machine::FmiState::Error);
@@ -317,10 +425,18 @@ fn non_positive_and_mismatched_steps_are_errors() {
     let log = LogCapture::default();
     let fmu = Fmu::new(&log, false);
     for (t, h, msg) in [
-        (0.0, 0.0, "communicationStepSize must be a finite number > 0, got 0"),
+        (
+            0.0,
+            0.0,
+            "communicationStepSize must be a finite number > 0, got 0",
+        ),
         (0.0, -0.1, "got -0.1"),
         (0.0, f64::NAN, "got NaN"),
-        (0.5, 0.1, "currentCommunicationPoint 0.5 does not match the FMU's time 0"),
+        (
+            0.5,
+            0.1,
+            "currentCommunicationPoint 0.5 does not match the FMU's time 0",
+        ),
     ] {
         unsafe { fmi2Reset(fmu.c) };
         fmu.init();
@@ -358,7 +474,11 @@ fn panic_in_the_model_becomes_fmi2error_not_a_crash() {
     fmu.set(VR_U, 666.0);
     assert_eq!(fmu.step(0.0, 0.1), ERROR);
     assert!(log.contains("fmi2DoStep: internal error: the number of the beast"));
-    assert_eq!(unsafe { fmi2Reset(fmu.c) }, OK, "the instance can still be reset");
+    assert_eq!(
+        unsafe { fmi2Reset(fmu.c) },
+        OK,
+        "the instance can still be reset"
+    );
 }
 
 #[test]
@@ -382,12 +502,22 @@ fn fmu_state_restores_exactly_and_moves_between_instances_by_value() {
     let mut size = 0usize;
     assert_eq!(unsafe { fmi2SerializedFMUstateSize(a.c, s, &mut size) }, OK);
     let mut bytes = vec![0 as Fmi2Byte; size];
-    assert_eq!(unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) }, OK);
-    assert_eq!(unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size - 1) }, ERROR, "buffer too small");
+    assert_eq!(
+        unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) },
+        OK
+    );
+    assert_eq!(
+        unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size - 1) },
+        ERROR,
+        "buffer too small"
+    );
     unsafe { fmi2Reset(a.c) };
     let b = Fmu::new(&log, false);
     let mut sb: Fmi2FmuState = null_mut();
-    assert_eq!(unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) }, OK);
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) },
+        OK
+    );
     assert_eq!(unsafe { fmi2SetFMUstate(b.c, sb) }, OK);
     assert_eq!(b.state(), fmu_core::state_machine::FmiState::StepComplete);
     b.step(0.1, 0.1);
@@ -401,7 +531,11 @@ fn fmu_state_restores_exactly_and_moves_between_instances_by_value() {
     assert!(log.contains("not created by this instance"));
     assert_eq!(unsafe { fmi2FreeFMUstate(a.c, &mut sa) }, OK);
     assert!(sa.is_null());
-    assert_eq!(unsafe { fmi2FreeFMUstate(a.c, &mut sa) }, OK, "freeing NULL is a no-op");
+    assert_eq!(
+        unsafe { fmi2FreeFMUstate(a.c, &mut sa) },
+        OK,
+        "freeing NULL is a no-op"
+    );
 }
 
 #[test]
@@ -424,15 +558,29 @@ fn corrupted_serialized_state_is_rejected_without_crash() {
         let mut out: Fmi2FmuState = null_mut();
         unsafe { fmi2Reset(a.c) };
         a.init();
-        assert_eq!(unsafe { fmi2DeSerializeFMUstate(a.c, bad.as_ptr(), size, &mut out) }, ERROR, "byte {i}");
+        assert_eq!(
+            unsafe { fmi2DeSerializeFMUstate(a.c, bad.as_ptr(), size, &mut out) },
+            ERROR,
+            "byte {i}"
+        );
         assert!(out.is_null());
     }
-    assert!(log.contains("fmi2DeSerializeFMUstate: FMU state is corrupted (checksum mismatch)") || log.contains("bad magic"));
+    assert!(
+        log.contains("fmi2DeSerializeFMUstate: FMU state is corrupted (checksum mismatch)")
+            || log.contains("bad magic")
+    );
     let mut out: Fmi2FmuState = null_mut();
     unsafe { fmi2Reset(a.c) };
-    assert_eq!(unsafe { fmi2DeSerializeFMUstate(a.c, bytes.as_ptr(), size / 2, &mut out) }, ERROR, "truncated");
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(a.c, bytes.as_ptr(), size / 2, &mut out) },
+        ERROR,
+        "truncated"
+    );
     unsafe { fmi2Reset(a.c) };
-    assert_eq!(unsafe { fmi2DeSerializeFMUstate(a.c, bytes.as_ptr(), size, &mut out) }, OK);
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(a.c, bytes.as_ptr(), size, &mut out) },
+        OK
+    );
     assert_eq!(unsafe { fmi2SetFMUstate(a.c, out) }, OK);
     assert_eq!(a.get(VR_Y), y);
 }
@@ -441,21 +589,37 @@ fn corrupted_serialized_state_is_rejected_without_crash() {
 fn logging_honours_logging_on_and_categories() {
     let log = LogCapture::default();
     let quiet = Fmu::new(&log, false);
-    assert!(log.entries().is_empty(), "no event messages with loggingOn = false");
+    assert!(
+        log.entries().is_empty(),
+        "no event messages with loggingOn = false"
+    );
     quiet.step(0.0, 0.1);
     let e = log.entries();
     assert_eq!(e.len(), 1, "errors are logged regardless: {e:?}");
-    assert_eq!((e[0].status, e[0].category.as_str(), e[0].instance.as_str()), (ERROR, "logStatusError", "lag1"));
+    assert_eq!(
+        (e[0].status, e[0].category.as_str(), e[0].instance.as_str()),
+        (ERROR, "logStatusError", "lag1")
+    );
     log.clear();
     let loud = Fmu::new(&log, true);
     assert!(log.contains("fmi2Instantiate: lag instantiated"));
     log.clear();
     let cats = [c"logStatusError".as_ptr()];
-    assert_eq!(unsafe { fmi2SetDebugLogging(loud.c, 1, 1, cats.as_ptr()) }, OK);
+    assert_eq!(
+        unsafe { fmi2SetDebugLogging(loud.c, 1, 1, cats.as_ptr()) },
+        OK
+    );
     loud.init();
-    assert!(log.entries().is_empty(), "logEvents switched off: {:?}", log.messages());
+    assert!(
+        log.entries().is_empty(),
+        "logEvents switched off: {:?}",
+        log.messages()
+    );
     let bad = [c"logEverything".as_ptr()];
-    assert_eq!(unsafe { fmi2SetDebugLogging(loud.c, 1, 1, bad.as_ptr()) }, ERROR);
+    assert_eq!(
+        unsafe { fmi2SetDebugLogging(loud.c, 1, 1, bad.as_ptr()) },
+        ERROR
+    );
     assert!(log.contains("unknown log category 'logEverything'"));
 }
 
@@ -465,8 +629,15 @@ fn percent_signs_in_messages_reach_the_logger_verbatim() {
     let fmu = Fmu::new(&log, false);
     // An unknown category name with printf conversions is echoed in the error message.
     let cats = [c"%s%n%x".as_ptr()];
-    assert_eq!(unsafe { fmi2SetDebugLogging(fmu.c, 1, 1, cats.as_ptr()) }, ERROR);
-    assert!(log.contains("unknown log category '%s%n%x'"), "{:?}", log.messages());
+    assert_eq!(
+        unsafe { fmi2SetDebugLogging(fmu.c, 1, 1, cats.as_ptr()) },
+        ERROR
+    );
+    assert!(
+        log.contains("unknown log category '%s%n%x'"),
+        "{:?}",
+        log.messages()
+    );
 }
 
 #[test]
@@ -476,15 +647,31 @@ fn status_queries() {
     fmu.init();
     fmu.step(0.0, 0.25);
     let mut t = 0.0;
-    assert_eq!(unsafe { fmi2GetRealStatus(fmu.c, status_kind::LAST_SUCCESSFUL_TIME, &mut t) }, OK);
+    assert_eq!(
+        unsafe { fmi2GetRealStatus(fmu.c, status_kind::LAST_SUCCESSFUL_TIME, &mut t) },
+        OK
+    );
     assert_eq!(t, 0.25);
     let mut b = 1;
-    assert_eq!(unsafe { fmi2GetBooleanStatus(fmu.c, status_kind::TERMINATED, &mut b) }, OK);
+    assert_eq!(
+        unsafe { fmi2GetBooleanStatus(fmu.c, status_kind::TERMINATED, &mut b) },
+        OK
+    );
     assert_eq!(b, 0);
     let mut s = 0;
-    assert_eq!(unsafe { fmi2GetStatus(fmu.c, status_kind::PENDING_STATUS, &mut s) }, DISCARD);
-    assert_eq!(fmu.step(0.25, 0.25), OK, "Discard does not break the instance");
-    assert_eq!(unsafe { fmi2GetDirectionalDerivative(fmu.c, null(), 0, null(), 0, null(), null_mut()) }, ERROR);
+    assert_eq!(
+        unsafe { fmi2GetStatus(fmu.c, status_kind::PENDING_STATUS, &mut s) },
+        DISCARD
+    );
+    assert_eq!(
+        fmu.step(0.25, 0.25),
+        OK,
+        "Discard does not break the instance"
+    );
+    assert_eq!(
+        unsafe { fmi2GetDirectionalDerivative(fmu.c, null(), 0, null(), 0, null(), null_mut()) },
+        ERROR
+    );
     assert!(log.contains("providesDirectionalDerivative = false"));
 }
 

@@ -58,8 +58,13 @@ struct Library(libloading::Library);
 impl Library {
     fn load(path: &Path) -> Result<Self, String> {
         // SAFETY: our own freshly built library, without initialisers that have effects.
-        let lib = unsafe { libloading::Library::new(path) }.map_err(|e| format!("cannot load {}: {e}", path.display()))?;
-        let missing: Vec<&str> = EXPORTED_FUNCTIONS.iter().copied().filter(|n| unsafe { lib.get::<*const ()>(n.as_bytes()) }.is_err()).collect();
+        let lib = unsafe { libloading::Library::new(path) }
+            .map_err(|e| format!("cannot load {}: {e}", path.display()))?;
+        let missing: Vec<&str> = EXPORTED_FUNCTIONS
+            .iter()
+            .copied()
+            .filter(|n| unsafe { lib.get::<*const ()>(n.as_bytes()) }.is_err())
+            .collect();
         if !missing.is_empty() {
             return Err(format!("{} does not export {missing:?}", path.display()));
         }
@@ -72,9 +77,18 @@ impl Library {
         type Free = unsafe extern "C" fn(*mut c_char);
         let dir = resources.map(|p| CString::new(p.to_string_lossy().as_bytes()).unwrap());
         unsafe {
-            let describe = self.0.get::<Describe>(b"fmuCoreDescription").map_err(|e| format!("library has no fmuCoreDescription: {e}"))?;
-            let free = self.0.get::<Free>(b"fmuCoreFreeString").map_err(|e| format!("library has no fmuCoreFreeString: {e}"))?;
-            let p = describe(dir.as_ref().map_or(std::ptr::null(), |d| d.as_ptr()), format);
+            let describe = self
+                .0
+                .get::<Describe>(b"fmuCoreDescription")
+                .map_err(|e| format!("library has no fmuCoreDescription: {e}"))?;
+            let free = self
+                .0
+                .get::<Free>(b"fmuCoreFreeString")
+                .map_err(|e| format!("library has no fmuCoreFreeString: {e}"))?;
+            let p = describe(
+                dir.as_ref().map_or(std::ptr::null(), |d| d.as_ptr()),
+                format,
+            );
             if p.is_null() {
                 return Err("the library could not describe itself (see the message above)".into());
             }
@@ -88,19 +102,26 @@ impl Library {
 /// `modelIdentifier` from the XML the library produced.
 fn model_identifier(xml: &str) -> Result<String, String> {
     let key = "modelIdentifier=\"";
-    let i = xml.find(key).ok_or("modelDescription.xml has no modelIdentifier")? + key.len();
+    let i = xml
+        .find(key)
+        .ok_or("modelDescription.xml has no modelIdentifier")?
+        + key.len();
     let j = xml[i..].find('"').ok_or("unterminated modelIdentifier")? + i;
     Ok(xml[i..j].to_string())
 }
 
 fn read_dir_files(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, String> {
     let mut files = Vec::new();
-    let entries = std::fs::read_dir(dir).map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
+    let entries =
+        std::fs::read_dir(dir).map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
     for entry in entries {
         let path = entry.map_err(|e| e.to_string())?.path();
         if path.is_file() {
             let name = path.file_name().unwrap().to_string_lossy().into_owned();
-            files.push((name, std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?));
+            files.push((
+                name,
+                std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?,
+            ));
         }
     }
     files.sort();
@@ -109,7 +130,11 @@ fn read_dir_files(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, String> {
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
-        Command::Fmu { lib, resources, out } => {
+        Command::Fmu {
+            lib,
+            resources,
+            out,
+        } => {
             let library = Library::load(&lib)?;
             let xml = library.document(resources.as_deref(), 0)?;
             let id = model_identifier(&xml)?;
@@ -118,21 +143,35 @@ fn run(cli: Cli) -> Result<(), String> {
                 None => Vec::new(),
             };
             fmu_core::package::write_fmu(&out, &xml, &id, &lib, &files)?;
-            println!("wrote {} (modelIdentifier {id}, {} resource file(s))", out.display(), files.len());
+            println!(
+                "wrote {} (modelIdentifier {id}, {} resource file(s))",
+                out.display(),
+                files.len()
+            );
             Ok(())
         }
-        Command::Description { lib, resources, xml, readme, tag } => {
+        Command::Description {
+            lib,
+            resources,
+            xml,
+            readme,
+            tag,
+        } => {
             let library = Library::load(&lib)?;
             if let Some(path) = xml {
-                std::fs::write(&path, library.document(resources.as_deref(), 0)?).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                std::fs::write(&path, library.document(resources.as_deref(), 0)?)
+                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
                 println!("wrote {}", path.display());
             }
             if let Some(path) = readme {
                 let tag = tag.ok_or("--readme needs --tag")?;
-                let doc = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+                let doc = std::fs::read_to_string(&path)
+                    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
                 let table = library.document(resources.as_deref(), 1)?;
-                let doc = ModelDescription::splice_into(&doc, &tag, &table).map_err(|e| e.to_string())?;
-                std::fs::write(&path, doc).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                let doc =
+                    ModelDescription::splice_into(&doc, &tag, &table).map_err(|e| e.to_string())?;
+                std::fs::write(&path, doc)
+                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
                 println!("updated {} ({tag})", path.display());
             }
             Ok(())

@@ -15,10 +15,26 @@ struct Instance {
 
 fn instance(setup: &[(&str, f64)]) -> Instance {
     let d = Plant::model_description();
-    let cb = Box::new(CallbackFunctions { logger: None, allocate_memory: None, free_memory: None, step_finished: None, component_environment: std::ptr::null_mut() });
+    let cb = Box::new(CallbackFunctions {
+        logger: None,
+        allocate_memory: None,
+        free_memory: None,
+        step_finished: None,
+        component_environment: std::ptr::null_mut(),
+    });
     let name = CString::new("bench").unwrap();
     let guid = CString::new(d.guid.clone()).unwrap();
-    let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), null(), &*cb, 0, 0) };
+    let c = unsafe {
+        fmi2Instantiate(
+            name.as_ptr(),
+            FMI2_CO_SIMULATION,
+            guid.as_ptr(),
+            null(),
+            &*cb,
+            0,
+            0,
+        )
+    };
     for (n, v) in setup {
         let vr = d.variable(n).unwrap().value_reference;
         assert_eq!(unsafe { fmi2SetReal(c, &vr, 1, v) }, 0);
@@ -34,14 +50,31 @@ fn instance(setup: &[(&str, f64)]) -> Instance {
 fn bench(c: &mut Criterion) {
     let h = 1e-3;
     let d = Plant::model_description();
-    let inputs: Vec<u32> = input_names().iter().map(|n| d.variable(n).unwrap().value_reference).collect();
-    let outputs: Vec<u32> = d.variables.iter().filter(|v| v.causality == fmu_core::Causality::Output).map(|v| v.value_reference).collect();
+    let inputs: Vec<u32> = input_names()
+        .iter()
+        .map(|n| d.variable(n).unwrap().value_reference)
+        .collect();
+    let outputs: Vec<u32> = d
+        .variables
+        .iter()
+        .filter(|v| v.causality == fmu_core::Causality::Output)
+        .map(|v| v.value_reference)
+        .collect();
 
     for (label, setup) in [
         ("do_step 1 ms, ideal actuators", vec![]),
-        ("do_step 1 ms, tau = 20 ms (whole steps)", vec![("tau", 0.02)]),
-        ("do_step 1 ms, tau = 20.5 ms (two sub-steps)", vec![("tau", 0.0205)]),
-        ("do_step 1 ms, 20 Hz actuator lag", vec![("actuator_bandwidth", 20.0)]),
+        (
+            "do_step 1 ms, tau = 20 ms (whole steps)",
+            vec![("tau", 0.02)],
+        ),
+        (
+            "do_step 1 ms, tau = 20.5 ms (two sub-steps)",
+            vec![("tau", 0.0205)],
+        ),
+        (
+            "do_step 1 ms, 20 Hz actuator lag",
+            vec![("actuator_bandwidth", 20.0)],
+        ),
     ] {
         let inst = instance(&setup);
         let mut t = 0.0;

@@ -8,10 +8,15 @@
 pub mod simulator;
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
-use fmu_core::{Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable};
+use fmu_core::{
+    Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable,
+};
 use simulator::{ActuatorParams, Simulator};
 use std::path::Path;
-use vehicle::model::{physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS, N_PHYSICAL_OUTPUTS, N_ROAD, STATES};
+use vehicle::model::{
+    physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS, N_PHYSICAL_OUTPUTS,
+    N_ROAD, STATES,
+};
 use vehicle::params::{Admissible, PARAMETERS};
 use vehicle::VehicleParams;
 
@@ -48,7 +53,12 @@ struct ActuatorSpec {
 macro_rules! act {
     ($name:literal, $unit:literal, $min:expr, $max:expr, $strict:expr, $desc:literal, |$p:ident| $field:expr) => {
         ActuatorSpec {
-            name: $name, unit: $unit, description: $desc, min: $min, max: $max, strict: $strict,
+            name: $name,
+            unit: $unit,
+            description: $desc,
+            min: $min,
+            max: $max,
+            strict: $strict,
             get: |$p| $field,
             set: |$p, v| $field = v,
         }
@@ -57,16 +67,96 @@ macro_rules! act {
 
 /// Actuator parameters (SPEC §2): limits, delay, bandwidth and the fault profile.
 const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
-    act!("u_max", "N", 0.0, None, true, "Force limit of each corner actuator (saturation)", |p| p.u_max),
-    act!("u_max_seat", "N", 0.0, None, true, "Force limit of the seat actuator (saturation)", |p| p.u_max_seat),
-    act!("tau", "s", 0.0, Some(1.0), false, "Transport delay between force command and actuator (0 = none)", |p| p.tau),
-    act!("actuator_bandwidth", "Hz", 0.0, None, false, "Bandwidth of the first-order actuator lag (0 = ideal actuator)", |p| p.bandwidth),
-    act!("fault_time", "s", f64::NEG_INFINITY, None, false, "Time at which the actuator faults start (thesis fig. 8.2)", |p| p.fault_time),
-    act!("fault_loss_fl", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the FL actuator after fault_time (0 = healthy, 1 = dead)", |p| p.fault_loss[0]),
-    act!("fault_loss_fr", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the FR actuator after fault_time", |p| p.fault_loss[1]),
-    act!("fault_loss_rl", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the RL actuator after fault_time", |p| p.fault_loss[2]),
-    act!("fault_loss_rr", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the RR actuator after fault_time", |p| p.fault_loss[3]),
-    act!("fault_loss_seat", "1", 0.0, Some(1.0), false, "Loss of effectiveness of the seat actuator after fault_time", |p| p.fault_loss[4]),
+    act!(
+        "u_max",
+        "N",
+        0.0,
+        None,
+        true,
+        "Force limit of each corner actuator (saturation)",
+        |p| p.u_max
+    ),
+    act!(
+        "u_max_seat",
+        "N",
+        0.0,
+        None,
+        true,
+        "Force limit of the seat actuator (saturation)",
+        |p| p.u_max_seat
+    ),
+    act!(
+        "tau",
+        "s",
+        0.0,
+        Some(1.0),
+        false,
+        "Transport delay between force command and actuator (0 = none)",
+        |p| p.tau
+    ),
+    act!(
+        "actuator_bandwidth",
+        "Hz",
+        0.0,
+        None,
+        false,
+        "Bandwidth of the first-order actuator lag (0 = ideal actuator)",
+        |p| p.bandwidth
+    ),
+    act!(
+        "fault_time",
+        "s",
+        f64::NEG_INFINITY,
+        None,
+        false,
+        "Time at which the actuator faults start (thesis fig. 8.2)",
+        |p| p.fault_time
+    ),
+    act!(
+        "fault_loss_fl",
+        "1",
+        0.0,
+        Some(1.0),
+        false,
+        "Loss of effectiveness of the FL actuator after fault_time (0 = healthy, 1 = dead)",
+        |p| p.fault_loss[0]
+    ),
+    act!(
+        "fault_loss_fr",
+        "1",
+        0.0,
+        Some(1.0),
+        false,
+        "Loss of effectiveness of the FR actuator after fault_time",
+        |p| p.fault_loss[1]
+    ),
+    act!(
+        "fault_loss_rl",
+        "1",
+        0.0,
+        Some(1.0),
+        false,
+        "Loss of effectiveness of the RL actuator after fault_time",
+        |p| p.fault_loss[2]
+    ),
+    act!(
+        "fault_loss_rr",
+        "1",
+        0.0,
+        Some(1.0),
+        false,
+        "Loss of effectiveness of the RR actuator after fault_time",
+        |p| p.fault_loss[3]
+    ),
+    act!(
+        "fault_loss_seat",
+        "1",
+        0.0,
+        Some(1.0),
+        false,
+        "Loss of effectiveness of the seat actuator after fault_time",
+        |p| p.fault_loss[4]
+    ),
 ];
 
 /// Names of the 13 inputs in value-reference order.
@@ -92,17 +182,45 @@ fn static_variables() -> Vec<Variable> {
     let mut v = Vec::new();
     let mut push = |name: String, unit, desc: String| {
         let vr = vr::STATIC + v.len() as u32;
-        v.push(Variable::real(name, vr, Causality::CalculatedParameter, unit, desc));
+        v.push(Variable::real(
+            name,
+            vr,
+            Causality::CalculatedParameter,
+            unit,
+            desc,
+        ));
     };
     for c in CORNERS {
-        push(format!("static_stroke_{c}"), "m", format!("Suspension stroke {} at static equilibrium under gravity (negative = compressed)", c.to_uppercase()));
+        push(
+            format!("static_stroke_{c}"),
+            "m",
+            format!(
+                "Suspension stroke {} at static equilibrium under gravity (negative = compressed)",
+                c.to_uppercase()
+            ),
+        );
     }
-    push("static_stroke_seat".into(), "m", "Seat stroke at static equilibrium under gravity".into());
+    push(
+        "static_stroke_seat".into(),
+        "m",
+        "Seat stroke at static equilibrium under gravity".into(),
+    );
     for c in CORNERS {
-        push(format!("static_tire_defl_{c}"), "m", format!("Tyre deflection {} at static equilibrium (negative = compressed)", c.to_uppercase()));
+        push(
+            format!("static_tire_defl_{c}"),
+            "m",
+            format!(
+                "Tyre deflection {} at static equilibrium (negative = compressed)",
+                c.to_uppercase()
+            ),
+        );
     }
     for c in CORNERS {
-        push(format!("static_tire_load_{c}"), "N", format!("Tyre load {} at static equilibrium", c.to_uppercase()));
+        push(
+            format!("static_tire_load_{c}"),
+            "N",
+            format!("Tyre load {} at static equilibrium", c.to_uppercase()),
+        );
     }
     v
 }
@@ -137,13 +255,31 @@ impl Plant {
         let act_defaults = ActuatorParams::default();
         let mut vars = Vec::new();
         for (i, s) in PARAMETERS.iter().enumerate() {
-            let v = Variable::real(s.name, vr::VEHICLE + i as u32, Causality::Parameter, s.unit, s.description).with_start((s.get)(&defaults));
+            let v = Variable::real(
+                s.name,
+                vr::VEHICLE + i as u32,
+                Causality::Parameter,
+                s.unit,
+                s.description,
+            )
+            .with_start((s.get)(&defaults));
             // XML `min` is inclusive: 0 for positive and non-negative parameters (check_real
             // refuses 0 where it must), none for the seat offsets, which may be negative.
-            vars.push(if s.admissible == Admissible::Finite { v } else { v.with_min(0.0) });
+            vars.push(if s.admissible == Admissible::Finite {
+                v
+            } else {
+                v.with_min(0.0)
+            });
         }
         for (i, s) in ACTUATOR_PARAMETERS.iter().enumerate() {
-            let mut v = Variable::real(s.name, vr::ACTUATOR + i as u32, Causality::Parameter, s.unit, s.description).with_start((s.get)(&act_defaults));
+            let mut v = Variable::real(
+                s.name,
+                vr::ACTUATOR + i as u32,
+                Causality::Parameter,
+                s.unit,
+                s.description,
+            )
+            .with_start((s.get)(&act_defaults));
             if s.min.is_finite() {
                 v = v.with_min(s.min);
             }
@@ -155,22 +291,64 @@ impl Plant {
         vars.extend(static_variables());
         for (i, name) in input_names().into_iter().enumerate() {
             let (unit, desc) = match i {
-                0..4 => ("m", format!("Road height under the {} wheel", CORNERS[i].to_uppercase())),
-                4..8 => ("m/s", format!("Road vertical velocity under the {} wheel (time derivative of road_z_{})", CORNERS[i - 4].to_uppercase(), CORNERS[i - 4])),
-                _ => ("N", format!("Force command of the {} actuator (positive extends it)", ACTUATORS[i - 8].to_uppercase())),
+                0..4 => (
+                    "m",
+                    format!("Road height under the {} wheel", CORNERS[i].to_uppercase()),
+                ),
+                4..8 => (
+                    "m/s",
+                    format!(
+                        "Road vertical velocity under the {} wheel (time derivative of road_z_{})",
+                        CORNERS[i - 4].to_uppercase(),
+                        CORNERS[i - 4]
+                    ),
+                ),
+                _ => (
+                    "N",
+                    format!(
+                        "Force command of the {} actuator (positive extends it)",
+                        ACTUATORS[i - 8].to_uppercase()
+                    ),
+                ),
             };
-            vars.push(Variable::real(name, vr::INPUT + i as u32, Causality::Input, unit, desc).with_start(0.0));
+            vars.push(
+                Variable::real(name, vr::INPUT + i as u32, Causality::Input, unit, desc)
+                    .with_start(0.0),
+            );
         }
         for (k, (name, unit, desc)) in STATES.iter().enumerate() {
-            vars.push(Variable::real(format!("x[{}]", k + 1), vr::STATE + k as u32, Causality::Output, unit, format!("State {name}: {desc}, from static equilibrium")));
+            vars.push(Variable::real(
+                format!("x[{}]", k + 1),
+                vr::STATE + k as u32,
+                Causality::Output,
+                unit,
+                format!("State {name}: {desc}, from static equilibrium"),
+            ));
         }
         // Direct feed-through, for the worst case of the actuator model (no delay, no lag).
         let inputs = input_names();
         for (k, row) in physical_outputs(&defaults).iter().enumerate() {
             let mut deps: Vec<String> = Vec::new();
-            deps.extend((0..N_ROAD).filter(|&j| row.d_r[j] != 0.0).map(|j| inputs[j].clone()));
-            deps.extend((0..N_ACTUATORS).filter(|&j| row.d_u[j] != 0.0).map(|j| inputs[N_ROAD + j].clone()));
-            vars.push(Variable::real(row.name.clone(), vr::OUTPUT + k as u32, Causality::Output, row.unit, row.description.clone()).depending_on(deps));
+            deps.extend(
+                (0..N_ROAD)
+                    .filter(|&j| row.d_r[j] != 0.0)
+                    .map(|j| inputs[j].clone()),
+            );
+            deps.extend(
+                (0..N_ACTUATORS)
+                    .filter(|&j| row.d_u[j] != 0.0)
+                    .map(|j| inputs[N_ROAD + j].clone()),
+            );
+            vars.push(
+                Variable::real(
+                    row.name.clone(),
+                    vr::OUTPUT + k as u32,
+                    Causality::Output,
+                    row.unit,
+                    row.description.clone(),
+                )
+                .depending_on(deps),
+            );
         }
         for (i, a) in ACTUATORS.iter().enumerate() {
             vars.push(
@@ -198,7 +376,12 @@ impl Model for Plant {
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, String> {
-        Ok(Plant { sim: Simulator::new(VehicleParams::default(), ActuatorParams::default()), outputs: vec![0.0; N_PHYSICAL_OUTPUTS], forces: [0.0; N_ACTUATORS], outputs_valid: false })
+        Ok(Plant {
+            sim: Simulator::new(VehicleParams::default(), ActuatorParams::default()),
+            outputs: vec![0.0; N_PHYSICAL_OUTPUTS],
+            forces: [0.0; N_ACTUATORS],
+            outputs_valid: false,
+        })
     }
 
     fn check_real(&self, vr: ValueReference, value: f64) -> Result<(), String> {
@@ -207,11 +390,22 @@ impl Model for Plant {
             return p.set(spec.name, value).map_err(|e| e.to_string());
         }
         if let Some(spec) = actuator_param(vr) {
-            let below = if spec.strict { value <= spec.min } else { value < spec.min };
+            let below = if spec.strict {
+                value <= spec.min
+            } else {
+                value < spec.min
+            };
             if below || spec.max.is_some_and(|m| value > m) {
-                let lower = if spec.strict { format!("> {}", spec.min) } else { format!(">= {}", spec.min) };
+                let lower = if spec.strict {
+                    format!("> {}", spec.min)
+                } else {
+                    format!(">= {}", spec.min)
+                };
                 let upper = spec.max.map(|m| format!(" and <= {m}")).unwrap_or_default();
-                return Err(format!("{} must be {lower}{upper} {}, got {value}", spec.name, spec.unit));
+                return Err(format!(
+                    "{} must be {lower}{upper} {}, got {value}",
+                    spec.name, spec.unit
+                ));
             }
         }
         Ok(())
@@ -227,7 +421,11 @@ impl Model for Plant {
             self.sim.invalidate();
             self.invalidate_outputs();
         } else if let Some(k) = input_index(vr) {
-            let slot = if k < N_ROAD { &mut self.sim.road[k] } else { &mut self.sim.command[k - N_ROAD] };
+            let slot = if k < N_ROAD {
+                &mut self.sim.road[k]
+            } else {
+                &mut self.sim.command[k - N_ROAD]
+            };
             // A master sets every input at every communication point; an unchanged value
             // keeps the outputs already computed.
             if slot.to_bits() != value.to_bits() {
@@ -252,7 +450,11 @@ impl Model for Plant {
         } else if (vr::STATIC..vr::STATIC + N_STATIC as u32).contains(&vr) {
             static_values(self.sim.static_equilibrium())[(vr - vr::STATIC) as usize]
         } else if let Some(k) = input_index(vr) {
-            if k < N_ROAD { self.sim.road[k] } else { self.sim.command[k - N_ROAD] }
+            if k < N_ROAD {
+                self.sim.road[k]
+            } else {
+                self.sim.command[k - N_ROAD]
+            }
         } else {
             // Instance::get_real only passes value references of the variable table.
             self.sim.state()[(vr - vr::STATE) as usize]
@@ -282,8 +484,14 @@ impl Model for Plant {
     }
 
     fn save(&self, out: &mut StateWriter) {
-        let params: Vec<f64> = PARAMETERS.iter().map(|s| (s.get)(&self.sim.params)).collect();
-        let act: Vec<f64> = ACTUATOR_PARAMETERS.iter().map(|s| (s.get)(&self.sim.actuator)).collect();
+        let params: Vec<f64> = PARAMETERS
+            .iter()
+            .map(|s| (s.get)(&self.sim.params))
+            .collect();
+        let act: Vec<f64> = ACTUATOR_PARAMETERS
+            .iter()
+            .map(|s| (s.get)(&self.sim.actuator))
+            .collect();
         out.f64s(&params);
         out.f64s(&act);
         out.f64s(&self.sim.save());
@@ -319,15 +527,20 @@ impl Model for Plant {
 }
 
 fn vehicle_param(vr: ValueReference) -> Option<&'static vehicle::params::ParamSpec> {
-    vr.checked_sub(vr::VEHICLE).and_then(|i| PARAMETERS.get(i as usize)).filter(|_| vr < vr::ACTUATOR)
+    vr.checked_sub(vr::VEHICLE)
+        .and_then(|i| PARAMETERS.get(i as usize))
+        .filter(|_| vr < vr::ACTUATOR)
 }
 
 fn actuator_param(vr: ValueReference) -> Option<&'static ActuatorSpec> {
-    vr.checked_sub(vr::ACTUATOR).and_then(|i| ACTUATOR_PARAMETERS.get(i as usize))
+    vr.checked_sub(vr::ACTUATOR)
+        .and_then(|i| ACTUATOR_PARAMETERS.get(i as usize))
 }
 
 fn input_index(vr: ValueReference) -> Option<usize> {
-    vr.checked_sub(vr::INPUT).map(|k| k as usize).filter(|&k| k < N_ROAD + N_ACTUATORS)
+    vr.checked_sub(vr::INPUT)
+        .map(|k| k as usize)
+        .filter(|&k| k < N_ROAD + N_ACTUATORS)
 }
 
 fmu_core::export_fmi2!(Plant);

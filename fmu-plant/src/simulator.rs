@@ -17,7 +17,9 @@
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
 use vehicle::exact::{discretize, mat_vec_sum, Discretization};
-use vehicle::model::{physical_outputs, StateSpace, StaticEquilibrium, N_ACTUATORS, N_ROAD, N_STATES};
+use vehicle::model::{
+    physical_outputs, StateSpace, StaticEquilibrium, N_ACTUATORS, N_ROAD, N_STATES,
+};
 use vehicle::VehicleParams;
 
 /// Number of inputs of the linear part: road heights and velocities, then actuator outputs.
@@ -44,17 +46,32 @@ pub struct ActuatorParams {
 
 impl Default for ActuatorParams {
     fn default() -> Self {
-        ActuatorParams { u_max: 2500.0, u_max_seat: 1000.0, tau: 0.0, bandwidth: 0.0, fault_time: 2.0, fault_loss: [0.0; N_ACTUATORS] }
+        ActuatorParams {
+            u_max: 2500.0,
+            u_max_seat: 1000.0,
+            tau: 0.0,
+            bandwidth: 0.0,
+            fault_time: 2.0,
+            fault_loss: [0.0; N_ACTUATORS],
+        }
     }
 }
 
 impl ActuatorParams {
     fn limit(&self, i: usize) -> f64 {
-        if i < 4 { self.u_max } else { self.u_max_seat }
+        if i < 4 {
+            self.u_max
+        } else {
+            self.u_max_seat
+        }
     }
 
     fn effectiveness(&self, i: usize, t: f64) -> f64 {
-        if t >= self.fault_time { 1.0 - self.fault_loss[i] } else { 1.0 }
+        if t >= self.fault_time {
+            1.0 - self.fault_loss[i]
+        } else {
+            1.0
+        }
     }
 }
 
@@ -67,10 +84,18 @@ struct Segment {
 }
 
 impl Segment {
-    const ZERO: Segment = Segment { start: f64::NEG_INFINITY, value: [0.0; N_ACTUATORS], slope: [0.0; N_ACTUATORS] };
+    const ZERO: Segment = Segment {
+        start: f64::NEG_INFINITY,
+        value: [0.0; N_ACTUATORS],
+        slope: [0.0; N_ACTUATORS],
+    };
 
     fn at(&self, i: usize, t: f64) -> f64 {
-        if self.slope[i] == 0.0 { self.value[i] } else { self.value[i] + self.slope[i] * (t - self.start) }
+        if self.slope[i] == 0.0 {
+            self.value[i]
+        } else {
+            self.value[i] + self.slope[i] * (t - self.start)
+        }
     }
 }
 
@@ -95,26 +120,37 @@ impl System {
     fn new(p: &VehicleParams, act: &ActuatorParams) -> Self {
         let ss = StateSpace::new(p);
         let lag = act.bandwidth > 0.0;
-        let n = if lag { N_STATES + N_ACTUATORS } else { N_STATES };
+        let n = if lag {
+            N_STATES + N_ACTUATORS
+        } else {
+            N_STATES
+        };
         let mut a = DMatrix::zeros(n, n);
         let mut b = DMatrix::zeros(n, N_INPUTS);
         a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
         b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&ss.b_r);
         if lag {
             let w = 2.0 * std::f64::consts::PI * act.bandwidth;
-            a.view_mut((0, N_STATES), (N_STATES, N_ACTUATORS)).copy_from(&ss.b_u);
+            a.view_mut((0, N_STATES), (N_STATES, N_ACTUATORS))
+                .copy_from(&ss.b_u);
             for i in 0..N_ACTUATORS {
                 a[(N_STATES + i, N_STATES + i)] = -w;
                 b[(N_STATES + i, N_ROAD + i)] = w;
             }
         } else {
-            b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS)).copy_from(&ss.b_u);
+            b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
+                .copy_from(&ss.b_u);
         }
         let mut out_terms = Vec::new();
         let mut out_start = vec![0];
         for row in physical_outputs(p) {
             let coefficients = row.c.iter().chain(&row.d_r).chain(&row.d_u);
-            out_terms.extend(coefficients.enumerate().filter(|(_, v)| **v != 0.0).map(|(k, v)| (k, *v)));
+            out_terms.extend(
+                coefficients
+                    .enumerate()
+                    .filter(|(_, v)| **v != 0.0)
+                    .map(|(k, v)| (k, *v)),
+            );
             out_start.push(out_terms.len());
         }
         System {
@@ -130,7 +166,11 @@ impl System {
 
     /// The discretisation for step `h`, from the cache or computed (matrix exponential).
     fn discretization(&mut self, h: f64) -> &Discretization {
-        if let Some(pos) = self.cache.iter().position(|d| d.step.to_bits() == h.to_bits()) {
+        if let Some(pos) = self
+            .cache
+            .iter()
+            .position(|d| d.step.to_bits() == h.to_bits())
+        {
             return &self.cache[pos];
         }
         if self.cache.len() == CACHE_SIZE {
@@ -173,7 +213,10 @@ pub enum StepError {
 impl std::fmt::Display for StepError {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
         match self {
-            StepError::NonFinite(t) => write!(f, "the state became non-finite at t = {t}; the step was discarded"),
+            StepError::NonFinite(t) => write!(
+                f,
+                "the state became non-finite at t = {t}; the step was discarded"
+            ),
         }
     }
 }
@@ -245,7 +288,12 @@ impl Simulator {
 
     /// The command segment in force at time `s` (zero before the first step).
     fn segment_at(&self, s: f64) -> Segment {
-        self.history.iter().rev().find(|g| g.start <= s).copied().unwrap_or(Segment::ZERO)
+        self.history
+            .iter()
+            .rev()
+            .find(|g| g.start <= s)
+            .copied()
+            .unwrap_or(Segment::ZERO)
     }
 
     /// Actuator output before the lag, from the command segment `seg`, at time `t`.
@@ -263,7 +311,11 @@ impl Simulator {
         let now = self.time;
         // With no delay the current (just set) command acts at once.
         let seg = if self.actuator.tau == 0.0 {
-            Segment { start: now, value: self.command, slope: [0.0; N_ACTUATORS] }
+            Segment {
+                start: now,
+                value: self.command,
+                slope: [0.0; N_ACTUATORS],
+            }
         } else {
             self.segment_at(now - self.actuator.tau)
         };
@@ -278,9 +330,14 @@ impl Simulator {
         z[..N_STATES].copy_from_slice(self.state());
         z[N_STATES..N_STATES + N_ROAD].copy_from_slice(&self.road);
         z[N_STATES + N_ROAD..].copy_from_slice(&f);
-        let sys = self.system.as_ref().expect("applied_force built the system");
+        let sys = self
+            .system
+            .as_ref()
+            .expect("applied_force built the system");
         for (y, range) in out.iter_mut().zip(sys.out_start.windows(2)) {
-            *y = sys.out_terms[range[0]..range[1]].iter().fold(0.0, |acc, &(k, v)| acc + v * z[k]);
+            *y = sys.out_terms[range[0]..range[1]]
+                .iter()
+                .fold(0.0, |acc, &(k, v)| acc + v * z[k]);
         }
         f
     }
@@ -291,14 +348,23 @@ impl Simulator {
         self.system();
         let tau = self.actuator.tau;
         let end = t + h;
-        self.history.push_back(Segment { start: t, value: self.command, slope: self.command_slope });
+        self.history.push_back(Segment {
+            start: t,
+            value: self.command,
+            slope: self.command_slope,
+        });
 
         // Breakpoints: delayed segment starts, the fault, then limit crossings inside pieces.
         let mut breaks = std::mem::take(&mut self.breaks);
         breaks.clear();
         breaks.extend([t, end]);
         if tau > 0.0 {
-            breaks.extend(self.history.iter().map(|g| g.start + tau).filter(|&s| s > t && s < end));
+            breaks.extend(
+                self.history
+                    .iter()
+                    .map(|g| g.start + tau)
+                    .filter(|&s| s > t && s < end),
+            );
         }
         if self.actuator.fault_time > t && self.actuator.fault_time < end {
             breaks.push(self.actuator.fault_time);
@@ -354,7 +420,10 @@ impl Simulator {
             let d = self.system.as_mut().unwrap().discretization(b - a);
             let (x, wa, dw) = (xi.as_slice(), wa.as_slice(), dw.as_slice());
             if ramp {
-                mat_vec_sum(next.as_mut_slice(), &[(&d.phi, x), (&d.gamma_hold, wa), (&d.gamma_ramp, dw)]);
+                mat_vec_sum(
+                    next.as_mut_slice(),
+                    &[(&d.phi, x), (&d.gamma_hold, wa), (&d.gamma_ramp, dw)],
+                );
             } else {
                 mat_vec_sum(next.as_mut_slice(), &[(&d.phi, x), (&d.gamma_hold, wa)]);
             }
@@ -410,7 +479,10 @@ impl Simulator {
     /// Restore what [`Simulator::save`] wrote, for the current parameters.
     pub fn restore(&mut self, v: &[f64]) -> Result<(), String> {
         let mut it = v.iter().copied();
-        let mut next = || it.next().ok_or_else(|| "plant state is truncated".to_string());
+        let mut next = || {
+            it.next()
+                .ok_or_else(|| "plant state is truncated".to_string())
+        };
         let time = next()?;
         let mut arr = |n: usize| -> Result<Vec<f64>, String> { (0..n).map(|_| next()).collect() };
         let road = arr(N_ROAD)?;
@@ -418,9 +490,15 @@ impl Simulator {
         let command = arr(N_ACTUATORS)?;
         let command_slope = arr(N_ACTUATORS)?;
         let n = arr(1)?[0];
-        let expected = if self.actuator.bandwidth > 0.0 { N_STATES + N_ACTUATORS } else { N_STATES };
+        let expected = if self.actuator.bandwidth > 0.0 {
+            N_STATES + N_ACTUATORS
+        } else {
+            N_STATES
+        };
         if n != expected as f64 {
-            return Err(format!("plant state has {n} states, the parameters need {expected}"));
+            return Err(format!(
+                "plant state has {n} states, the parameters need {expected}"
+            ));
         }
         let xi = arr(expected)?;
         let count = arr(1)?[0];

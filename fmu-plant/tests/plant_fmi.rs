@@ -24,12 +24,30 @@ impl<'a> Plant<'a> {
         let cb = Box::new(log.callbacks());
         let name = CString::new("plant").unwrap();
         let guid = CString::new(desc.guid.clone()).unwrap();
-        let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), null(), &*cb as *const _ as *const CallbackFunctions, 0, 0) };
+        let c = unsafe {
+            fmi2Instantiate(
+                name.as_ptr(),
+                FMI2_CO_SIMULATION,
+                guid.as_ptr(),
+                null(),
+                &*cb as *const _ as *const CallbackFunctions,
+                0,
+                0,
+            )
+        };
         assert!(!c.is_null(), "{:?}", log.messages());
-        Plant { c, desc, _log: log, _cb: cb }
+        Plant {
+            c,
+            desc,
+            _log: log,
+            _cb: cb,
+        }
     }
     fn vr(&self, name: &str) -> u32 {
-        self.desc.variable(name).unwrap_or_else(|| panic!("no variable {name}")).value_reference
+        self.desc
+            .variable(name)
+            .unwrap_or_else(|| panic!("no variable {name}"))
+            .value_reference
     }
     fn set(&self, name: &str, v: f64) -> i32 {
         let vr = self.vr(name);
@@ -67,7 +85,10 @@ impl Drop for Plant<'_> {
 }
 
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 fn max_abs(a: &[f64]) -> f64 {
@@ -78,7 +99,10 @@ fn max_abs(a: &[f64]) -> f64 {
 fn checked_in_model_description_is_not_stale() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../modelDescription/plant.xml");
     let on_disk = std::fs::read_to_string(path).expect("modelDescription/plant.xml exists");
-    assert!(on_disk == fmu_plant::Plant::model_description().to_xml(), "modelDescription/plant.xml is stale: run `make descriptions` and commit it");
+    assert!(
+        on_disk == fmu_plant::Plant::model_description().to_xml(),
+        "modelDescription/plant.xml is stale: run `make descriptions` and commit it"
+    );
 }
 
 #[test]
@@ -86,15 +110,24 @@ fn readme_variable_table_is_not_stale() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
     let readme = std::fs::read_to_string(path).expect("README.md exists");
     let table = fmu_plant::Plant::model_description().to_markdown_table();
-    let expected = fmu_core::ModelDescription::splice_into(&readme, "plant-variables", &table).expect("README has the plant-variables markers");
-    assert!(readme == expected, "README.md's plant variable table is stale: run `make descriptions` and commit it");
+    let expected = fmu_core::ModelDescription::splice_into(&readme, "plant-variables", &table)
+        .expect("README has the plant-variables markers");
+    assert!(
+        readme == expected,
+        "README.md's plant variable table is stale: run `make descriptions` and commit it"
+    );
 }
 
 #[test]
 fn description_has_every_variable_the_issue_names_with_units() {
     let d = fmu_plant::Plant::model_description();
     d.check().unwrap();
-    let unit = |n: &str| d.variable(n).unwrap_or_else(|| panic!("missing {n}")).unit().unwrap();
+    let unit = |n: &str| {
+        d.variable(n)
+            .unwrap_or_else(|| panic!("missing {n}"))
+            .unit()
+            .unwrap()
+    };
     for c in ["fl", "fr", "rl", "rr"] {
         assert_eq!(unit(&format!("road_z_{c}")), "m");
         assert_eq!(unit(&format!("road_v_{c}")), "m/s");
@@ -105,9 +138,26 @@ fn description_has_every_variable_the_issue_names_with_units() {
         assert_eq!(unit(&format!("f_{c}")), "N");
         assert_eq!(unit(&format!("fault_loss_{c}")), "1");
     }
-    for (n, u) in [("u_seat", "N"), ("a_seat", "m/s2"), ("a_body", "m/s2"), ("alpha_roll", "rad/s2"), ("alpha_pitch", "rad/s2"),
-        ("stroke_seat", "m"), ("f_seat", "N"), ("u_max", "N"), ("tau", "s"), ("fault_time", "s"), ("actuator_bandwidth", "Hz"),
-        ("m_s", "kg"), ("I_x", "kg.m2"), ("k_t", "N/m"), ("c_t", "N.s/m"), ("x[1]", "m"), ("x[2]", "rad"), ("x[16]", "m/s")] {
+    for (n, u) in [
+        ("u_seat", "N"),
+        ("a_seat", "m/s2"),
+        ("a_body", "m/s2"),
+        ("alpha_roll", "rad/s2"),
+        ("alpha_pitch", "rad/s2"),
+        ("stroke_seat", "m"),
+        ("f_seat", "N"),
+        ("u_max", "N"),
+        ("tau", "s"),
+        ("fault_time", "s"),
+        ("actuator_bandwidth", "Hz"),
+        ("m_s", "kg"),
+        ("I_x", "kg.m2"),
+        ("k_t", "N/m"),
+        ("c_t", "N.s/m"),
+        ("x[1]", "m"),
+        ("x[2]", "rad"),
+        ("x[16]", "m/s"),
+    ] {
         assert_eq!(unit(n), u, "{n}");
     }
     // a_seat feeds through from the seat actuator command only, not from the road.
@@ -152,22 +202,40 @@ fn run_fl(setup: &[(&str, f64)], h: f64, steps: usize, cmd: impl Fn(f64) -> f64)
 #[test]
 fn delay_shifts_the_response_by_tau() {
     let h = 1e-3;
-    let cmd = |t: f64| if t >= 0.05 { 1500.0 * (1.0 + (7.0 * t).sin()) } else { 0.0 };
+    let cmd = |t: f64| {
+        if t >= 0.05 {
+            1500.0 * (1.0 + (7.0 * t).sin())
+        } else {
+            0.0
+        }
+    };
     let plain = run_fl(&[], h, 400, cmd);
     // τ a whole number of steps: the trajectory is the plain one, delayed.
     let delayed = run_fl(&[("tau", 0.02)], h, 400, cmd);
     for k in 20..400 {
-        assert!(max_diff(&delayed[k], &plain[k - 20]) < 1e-12 * max_abs(&plain[k - 20]).max(1e-9), "step {k}");
+        assert!(
+            max_diff(&delayed[k], &plain[k - 20]) < 1e-12 * max_abs(&plain[k - 20]).max(1e-9),
+            "step {k}"
+        );
     }
     // τ between steps: cut into two pieces per step. The same physics at half the step, with
     // the command changing only every other half step, is an independent construction.
     let half = run_fl(&[("tau", 0.0205)], h, 400, cmd);
-    let fine = run_fl(&[("tau", 0.0205)], h / 2.0, 800, |t| cmd((t / h).floor() * h));
+    let fine = run_fl(&[("tau", 0.0205)], h / 2.0, 800, |t| {
+        cmd((t / h).floor() * h)
+    });
     let scale = max_abs(&fine[799]);
     for k in 0..400 {
-        assert!(max_diff(&half[k], &fine[2 * k + 1]) < 1e-10 * scale, "step {k}: {}", max_diff(&half[k], &fine[2 * k + 1]));
+        assert!(
+            max_diff(&half[k], &fine[2 * k + 1]) < 1e-10 * scale,
+            "step {k}: {}",
+            max_diff(&half[k], &fine[2 * k + 1])
+        );
     }
-    assert!(max_diff(&half[399], &delayed[399]) > 1e-6 * scale, "a half-step more delay must show");
+    assert!(
+        max_diff(&half[399], &delayed[399]) > 1e-6 * scale,
+        "a half-step more delay must show"
+    );
 }
 
 #[test]
@@ -196,7 +264,11 @@ fn saturation_clips_the_command_and_ramps_are_cut_where_they_cross_the_limit() {
     b.set("u_fl", 2500.0);
     assert_eq!(b.step(0.25, 0.25), OK);
     let (xa, xb) = (a.states(), b.states());
-    assert!(max_diff(&xa, &xb) < 1e-13 * max_abs(&xb), "{}", max_diff(&xa, &xb));
+    assert!(
+        max_diff(&xa, &xb) < 1e-13 * max_abs(&xb),
+        "{}",
+        max_diff(&xa, &xb)
+    );
     // Without the cut (an unsaturated ramp to 5 kN) the answer is clearly different.
     let c = Plant::new(&log);
     c.set("u_max", 1e9);
@@ -247,7 +319,11 @@ fn actuator_bandwidth_is_a_first_order_lag() {
         p.step(k as f64 * 0.002, 0.002);
     }
     let expected = 800.0 * (1.0 - (-2.0 * std::f64::consts::PI * f_a * 0.1).exp());
-    assert!((p.get("f_seat") - expected).abs() < 1e-9, "{} vs {expected}", p.get("f_seat"));
+    assert!(
+        (p.get("f_seat") - expected).abs() < 1e-9,
+        "{} vs {expected}",
+        p.get("f_seat")
+    );
 }
 
 #[test]
@@ -260,7 +336,10 @@ fn input_derivatives_ramp_the_road_exactly() {
     one.set("road_v_fl", 0.1);
     one.step(0.0, 0.2);
     let z = one.get("road_z_fl");
-    assert!((z - 0.02).abs() < 1e-15, "inputs move to their value at t + h");
+    assert!(
+        (z - 0.02).abs() < 1e-15,
+        "inputs move to their value at t + h"
+    );
     let two = Plant::new(&log);
     two.init(0.0);
     two.set("road_v_fl", 0.1);
@@ -297,13 +376,25 @@ fn variable_step_sizes_agree_with_uniform_ones() {
 fn inadmissible_parameters_are_refused_with_a_message() {
     let log = LogCapture::default();
     for (name, value, msg) in [
-        ("m_s", -1500.0, "fmi2SetReal: value -1500 of 'm_s' is below its minimum 0"),
-        ("k_t", 0.0, "fmi2SetReal: rejected value for 'k_t': parameter 'k_t' must be a number > 0, got 0"),
+        (
+            "m_s",
+            -1500.0,
+            "fmi2SetReal: value -1500 of 'm_s' is below its minimum 0",
+        ),
+        (
+            "k_t",
+            0.0,
+            "fmi2SetReal: rejected value for 'k_t': parameter 'k_t' must be a number > 0, got 0",
+        ),
         ("I_y", 0.0, "parameter 'I_y' must be a number > 0, got 0"),
         ("c_seat", -1.0, "below its minimum 0"),
         ("u_max", 0.0, "u_max must be > 0 N, got 0"),
         ("tau", -0.01, "value -0.01 of 'tau' is below its minimum 0"),
-        ("fault_loss_rr", 1.5, "value 1.5 of 'fault_loss_rr' is above its maximum 1"),
+        (
+            "fault_loss_rr",
+            1.5,
+            "value 1.5 of 'fault_loss_rr' is above its maximum 1",
+        ),
     ] {
         let p = Plant::new(&log);
         let default = match p.desc.variable(name).unwrap().kind {
@@ -320,7 +411,13 @@ fn inadmissible_parameters_are_refused_with_a_message() {
 #[test]
 fn serialized_state_with_delay_history_continues_bit_identically_in_another_instance() {
     let log = LogCapture::default();
-    let setup = [("tau", 0.0237), ("actuator_bandwidth", 12.0), ("fault_time", 0.3), ("fault_loss_seat", 0.7), ("m_s", 1650.0)];
+    let setup = [
+        ("tau", 0.0237),
+        ("actuator_bandwidth", 12.0),
+        ("fault_time", 0.3),
+        ("fault_loss_seat", 0.7),
+        ("m_s", 1650.0),
+    ];
     let a = Plant::new(&log);
     for (n, v) in setup {
         a.set(n, v);
@@ -339,12 +436,18 @@ fn serialized_state_with_delay_history_continues_bit_identically_in_another_inst
     let mut size = 0;
     unsafe { fmi2SerializedFMUstateSize(a.c, s, &mut size) };
     let mut bytes = vec![0 as Fmi2Byte; size];
-    assert_eq!(unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) }, OK);
+    assert_eq!(
+        unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) },
+        OK
+    );
 
     // A fresh instance with default parameters takes the whole state, parameters included.
     let b = Plant::new(&log);
     let mut sb: Fmi2FmuState = null_mut();
-    assert_eq!(unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) }, OK);
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) },
+        OK
+    );
     assert_eq!(unsafe { fmi2SetFMUstate(b.c, sb) }, OK);
     assert_eq!(b.get("m_s"), 1650.0);
     for k in 137..400 {
@@ -356,7 +459,10 @@ fn serialized_state_with_delay_history_continues_bit_identically_in_another_inst
             assert_eq!(p.step(t, 1e-3), OK);
         }
         let (xa, xb) = (a.states(), b.states());
-        assert!(xa.iter().zip(&xb).all(|(x, y)| x.to_bits() == y.to_bits()), "diverged at step {k}");
+        assert!(
+            xa.iter().zip(&xb).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "diverged at step {k}"
+        );
         assert_eq!(a.get("f_seat").to_bits(), b.get("f_seat").to_bits());
     }
     assert!(max_abs(&a.states()) > 0.0);

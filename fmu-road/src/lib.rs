@@ -7,7 +7,9 @@
 //! independent or identical), so it is not a parameter.
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
-use fmu_core::{Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable};
+use fmu_core::{
+    Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable,
+};
 use std::path::Path;
 use vehicle::model::CORNERS;
 use vehicle::road::{Profile, Road, Side};
@@ -47,21 +49,63 @@ const INTEGERS: [(&str, i32, &str); 4] = [
     ("seed", 1, "Profile 2: seed of the random phases (the same seed gives the same road everywhere)"),
 ];
 
-const OUTPUT_NAMES: [&str; 8] = ["road_z_fl", "road_z_fr", "road_z_rl", "road_z_rr", "road_v_fl", "road_v_fr", "road_v_rl", "road_v_rr"];
+const OUTPUT_NAMES: [&str; 8] = [
+    "road_z_fl",
+    "road_z_fr",
+    "road_z_rl",
+    "road_z_rr",
+    "road_v_fl",
+    "road_v_fr",
+    "road_v_rl",
+    "road_v_rr",
+];
 
 pub fn model_description() -> ModelDescription {
     let mut vars = Vec::new();
     for (i, (name, unit, start, desc)) in REALS.iter().enumerate() {
-        vars.push(Variable::real(*name, vr::REAL + i as u32, Causality::Parameter, unit, *desc).with_start(*start));
+        vars.push(
+            Variable::real(
+                *name,
+                vr::REAL + i as u32,
+                Causality::Parameter,
+                unit,
+                *desc,
+            )
+            .with_start(*start),
+        );
     }
     for (i, (name, start, desc)) in INTEGERS.iter().enumerate() {
-        vars.push(Variable::integer(*name, vr::INTEGER + i as u32, Causality::Parameter, *start, *desc));
+        vars.push(Variable::integer(
+            *name,
+            vr::INTEGER + i as u32,
+            Causality::Parameter,
+            *start,
+            *desc,
+        ));
     }
-    vars.push(Variable::boolean("identical_tracks", vr::BOOLEAN, Causality::Parameter, "Profile 2: the right track is the left one (otherwise independent)").with_boolean_start(false));
+    vars.push(
+        Variable::boolean(
+            "identical_tracks",
+            vr::BOOLEAN,
+            Causality::Parameter,
+            "Profile 2: the right track is the left one (otherwise independent)",
+        )
+        .with_boolean_start(false),
+    );
     for (k, name) in OUTPUT_NAMES.iter().enumerate() {
         let c = CORNERS[k % 4].to_uppercase();
-        let (unit, desc) = if k < 4 { ("m", format!("Road height under the {c} wheel")) } else { ("m/s", format!("Road vertical velocity under the {c} wheel (exact time derivative of road_z_{})", CORNERS[k % 4])) };
-        vars.push(Variable::real(*name, vr::OUTPUT + k as u32, Causality::Output, unit, desc));
+        let (unit, desc) = if k < 4 {
+            ("m", format!("Road height under the {c} wheel"))
+        } else {
+            ("m/s", format!("Road vertical velocity under the {c} wheel (exact time derivative of road_z_{})", CORNERS[k % 4]))
+        };
+        vars.push(Variable::real(
+            *name,
+            vr::OUTPUT + k as u32,
+            Causality::Output,
+            unit,
+            desc,
+        ));
     }
     ModelDescription {
         model_name: "road".into(),
@@ -89,7 +133,10 @@ pub struct RoadFmu {
 
 impl RoadFmu {
     fn real(&self, name: &str) -> f64 {
-        self.reals[REALS.iter().position(|r| r.0 == name).expect("known parameter")]
+        self.reals[REALS
+            .iter()
+            .position(|r| r.0 == name)
+            .expect("known parameter")]
     }
 
     /// The road of the current parameters, or why they do not make one.
@@ -99,7 +146,11 @@ impl RoadFmu {
             0 => Side::Left,
             1 => Side::Right,
             2 => Side::Both,
-            other => return Err(format!("side must be 0 (left), 1 (right) or 2 (both), got {other}")),
+            other => {
+                return Err(format!(
+                    "side must be 0 (left), 1 (right) or 2 (both), got {other}"
+                ))
+            }
         };
         let profile = match profile {
             1 => Profile::Bump { height: self.real("bump_height"), length: self.real("bump_length"), side },
@@ -118,7 +169,12 @@ impl RoadFmu {
             }
             other => return Err(format!("profile must be 1 (bump), 2 (ISO 8608), 3 (sine sweep) or 4 (pothole/step), got {other}")),
         };
-        Road::new(profile, self.real("speed"), self.real("wheelbase"), self.real("start_distance"))
+        Road::new(
+            profile,
+            self.real("speed"),
+            self.real("wheelbase"),
+            self.real("start_distance"),
+        )
     }
 }
 
@@ -132,7 +188,14 @@ impl Model for RoadFmu {
         for (slot, r) in reals.iter_mut().zip(&REALS) {
             *slot = r.2;
         }
-        Ok(RoadFmu { reals, integers: INTEGERS.map(|i| i.1), identical_tracks: false, time: 0.0, road: None, outputs: None })
+        Ok(RoadFmu {
+            reals,
+            integers: INTEGERS.map(|i| i.1),
+            identical_tracks: false,
+            time: 0.0,
+            road: None,
+            outputs: None,
+        })
     }
 
     fn set_real(&mut self, vr: ValueReference, value: f64) {
@@ -196,7 +259,14 @@ impl Model for RoadFmu {
         let identical = input.bool()?;
         let time = input.f64()?;
         input.finish()?;
-        let mut next = RoadFmu { reals: reals.try_into().expect("length checked"), integers: [0; 4], identical_tracks: identical, time, road: None, outputs: None };
+        let mut next = RoadFmu {
+            reals: reals.try_into().expect("length checked"),
+            integers: [0; 4],
+            identical_tracks: identical,
+            time,
+            road: None,
+            outputs: None,
+        };
         for (slot, v) in next.integers.iter_mut().zip(&integers) {
             *slot = *v as i32;
         }

@@ -19,12 +19,25 @@ impl Inst {
         let cb = Box::new(log.callbacks());
         let name = CString::new("road").unwrap();
         let guid = CString::new(model_description().guid).unwrap();
-        let c = unsafe { fmi2Instantiate(name.as_ptr(), FMI2_CO_SIMULATION, guid.as_ptr(), null(), &*cb as *const _ as *const CallbackFunctions, 0, 0) };
+        let c = unsafe {
+            fmi2Instantiate(
+                name.as_ptr(),
+                FMI2_CO_SIMULATION,
+                guid.as_ptr(),
+                null(),
+                &*cb as *const _ as *const CallbackFunctions,
+                0,
+                0,
+            )
+        };
         assert!(!c.is_null(), "{:?}", log.messages());
         Inst { c, _cb: cb }
     }
     fn vr(name: &str) -> u32 {
-        model_description().variable(name).unwrap_or_else(|| panic!("no variable {name}")).value_reference
+        model_description()
+            .variable(name)
+            .unwrap_or_else(|| panic!("no variable {name}"))
+            .value_reference
     }
     fn set_real(&self, name: &str, v: f64) -> Fmi2Status {
         unsafe { fmi2SetReal(self.c, &Self::vr(name), 1, &v) }
@@ -42,7 +55,10 @@ impl Inst {
     fn outputs(&self) -> [f64; 8] {
         let vrs: Vec<u32> = (0..8).map(|k| vr::OUTPUT + k).collect();
         let mut out = [0.0; 8];
-        assert_eq!(unsafe { fmi2GetReal(self.c, vrs.as_ptr(), 8, out.as_mut_ptr()) }, 0);
+        assert_eq!(
+            unsafe { fmi2GetReal(self.c, vrs.as_ptr(), 8, out.as_mut_ptr()) },
+            0
+        );
         out
     }
 }
@@ -64,7 +80,18 @@ fn outputs_are_the_profile_at_the_time_reached_for_any_step() {
         assert_eq!(fmu.set_int(name, v), 0);
     }
     assert_eq!(fmu.init(), 0, "{:?}", log.messages());
-    let road = Road::new(Profile::Iso { class: 4, seed: 42, identical_tracks: false, fade_in: 1.0 }, 17.0, 2.4, -2.4).unwrap();
+    let road = Road::new(
+        Profile::Iso {
+            class: 4,
+            seed: 42,
+            identical_tracks: false,
+            fade_in: 1.0,
+        },
+        17.0,
+        2.4,
+        -2.4,
+    )
+    .unwrap();
     let mut t = 0.0;
     for k in 0..300 {
         let h = [1e-3, 0.0137, 0.25][k % 3];
@@ -79,11 +106,31 @@ fn outputs_are_the_profile_at_the_time_reached_for_any_step() {
 #[test]
 fn bad_parameters_fail_initialisation_with_a_message() {
     for (what, int, real, message) in [
-        ("profile", Some(("profile", 7)), None, "profile must be 1 (bump)"),
-        ("class", Some(("iso_class", 9)), None, "iso_class must be 1 (A)"),
+        (
+            "profile",
+            Some(("profile", 7)),
+            None,
+            "profile must be 1 (bump)",
+        ),
+        (
+            "class",
+            Some(("iso_class", 9)),
+            None,
+            "iso_class must be 1 (A)",
+        ),
         ("side", Some(("side", 3)), None, "side must be 0 (left)"),
-        ("speed", None, Some(("speed", 0.0)), "speed must be finite and > 0"),
-        ("bump", None, Some(("bump_length", -1.0)), "bump_length must be finite and > 0"),
+        (
+            "speed",
+            None,
+            Some(("speed", 0.0)),
+            "speed must be finite and > 0",
+        ),
+        (
+            "bump",
+            None,
+            Some(("bump_length", -1.0)),
+            "bump_length must be finite and > 0",
+        ),
     ] {
         let log = LogCapture::default();
         let fmu = Inst::new(&log);
@@ -116,13 +163,19 @@ fn fmu_state_round_trips_with_its_parameters() {
     let mut size = 0;
     unsafe { fmi2SerializedFMUstateSize(a.c, s, &mut size) };
     let mut bytes = vec![0 as Fmi2Byte; size];
-    assert_eq!(unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) }, 0);
+    assert_eq!(
+        unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) },
+        0
+    );
     let at_one = a.outputs();
     // A fresh instance with default parameters (a bump) takes the sweep and its time.
     let b = Inst::new(&log);
     assert_eq!(b.init(), 0);
     let mut sb: Fmi2FmuState = null_mut();
-    assert_eq!(unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) }, 0);
+    assert_eq!(
+        unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) },
+        0
+    );
     assert_eq!(unsafe { fmi2SetFMUstate(b.c, sb) }, 0);
     assert_eq!(b.outputs(), at_one);
     unsafe {
@@ -135,10 +188,26 @@ fn fmu_state_round_trips_with_its_parameters() {
 
 #[test]
 fn checked_in_description_and_readme_table_are_current() {
-    let xml = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../modelDescription/road.xml")).expect("modelDescription/road.xml exists");
-    assert!(xml == model_description().to_xml(), "modelDescription/road.xml is stale: run `make descriptions` and commit it");
-    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
-    let expected = fmu_core::ModelDescription::splice_into(&readme, "road-variables", &model_description().to_markdown_table()).unwrap();
-    assert!(readme == expected, "README.md's road variable table is stale: run `make descriptions` and commit it");
+    let xml = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../modelDescription/road.xml"
+    ))
+    .expect("modelDescription/road.xml exists");
+    assert!(
+        xml == model_description().to_xml(),
+        "modelDescription/road.xml is stale: run `make descriptions` and commit it"
+    );
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
+    let expected = fmu_core::ModelDescription::splice_into(
+        &readme,
+        "road-variables",
+        &model_description().to_markdown_table(),
+    )
+    .unwrap();
+    assert!(
+        readme == expected,
+        "README.md's road variable table is stale: run `make descriptions` and commit it"
+    );
     model_description().check().unwrap();
 }

@@ -16,12 +16,37 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-pub const ROAD: [&str; 8] = ["road_z_fl", "road_z_fr", "road_z_rl", "road_z_rr", "road_v_fl", "road_v_fr", "road_v_rl", "road_v_rr"];
+pub const ROAD: [&str; 8] = [
+    "road_z_fl",
+    "road_z_fr",
+    "road_z_rl",
+    "road_z_rr",
+    "road_v_fl",
+    "road_v_fr",
+    "road_v_rl",
+    "road_v_rr",
+];
 pub const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
 /// The plant outputs every run records.
 pub const RECORD: [&str; 18] = [
-    "a_seat", "alpha_roll", "alpha_pitch", "a_body", "stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr", "stroke_seat", "tire_load_fl", "tire_load_fr", "tire_load_rl", "tire_load_rr", "f_fl", "f_fr",
-    "f_rl", "f_rr", "f_seat",
+    "a_seat",
+    "alpha_roll",
+    "alpha_pitch",
+    "a_body",
+    "stroke_fl",
+    "stroke_fr",
+    "stroke_rl",
+    "stroke_rr",
+    "stroke_seat",
+    "tire_load_fl",
+    "tire_load_fr",
+    "tire_load_rl",
+    "tire_load_rr",
+    "f_fl",
+    "f_fr",
+    "f_rl",
+    "f_rr",
+    "f_seat",
 ];
 /// Controller outputs recorded when the controller has them.
 pub const CONTROLLER_RECORD: [&str; 2] = ["residual_norm", "fault_detected"];
@@ -72,24 +97,45 @@ pub struct Scenario {
 
 impl Scenario {
     pub fn load(path: &Path) -> Result<Scenario, MasterError> {
-        let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read scenario {}: {e}", path.display())))?;
-        let s: Scenario = serde_json::from_str(&text).map_err(|e| err(format!("scenario {}: {e}", path.display())))?;
-        s.validate().map_err(|e| err(format!("scenario {}: {e}", path.display())))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| err(format!("cannot read scenario {}: {e}", path.display())))?;
+        let s: Scenario = serde_json::from_str(&text)
+            .map_err(|e| err(format!("scenario {}: {e}", path.display())))?;
+        s.validate()
+            .map_err(|e| err(format!("scenario {}: {e}", path.display())))?;
         Ok(s)
     }
 
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.step > 0.0 && self.step.is_finite() && self.duration > 0.0 && self.duration.is_finite()) {
-            return Err(format!("duration and step must be finite and > 0 (got {} and {})", self.duration, self.step));
+        if !(self.step > 0.0
+            && self.step.is_finite()
+            && self.duration > 0.0
+            && self.duration.is_finite())
+        {
+            return Err(format!(
+                "duration and step must be finite and > 0 (got {} and {})",
+                self.duration, self.step
+            ));
         }
         if self.duration / self.step > 1e8 {
             return Err("more than 1e8 steps".into());
         }
         if !(self.metrics_from >= 0.0 && self.metrics_from < self.duration) {
-            return Err(format!("metrics_from must be in [0, duration), got {}", self.metrics_from));
+            return Err(format!(
+                "metrics_from must be in [0, duration), got {}",
+                self.metrics_from
+            ));
         }
-        if self.name.is_empty() || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
-            return Err(format!("name '{}' must be non-empty, letters, digits, - and _ only", self.name));
+        if self.name.is_empty()
+            || !self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            return Err(format!(
+                "name '{}' must be non-empty, letters, digits, - and _ only",
+                self.name
+            ));
         }
         Ok(())
     }
@@ -99,7 +145,9 @@ impl Scenario {
     }
 
     pub fn wants(&self, controller: &str) -> bool {
-        self.controllers.as_ref().is_none_or(|c| c.iter().any(|n| n == controller))
+        self.controllers
+            .as_ref()
+            .is_none_or(|c| c.iter().any(|n| n == controller))
     }
 }
 
@@ -113,18 +161,39 @@ impl Fmu {
     pub fn load(dist: &Path, name: &str) -> Result<Fmu, MasterError> {
         let path = dist.join(format!("{name}.fmu"));
         if !path.exists() {
-            return Err(err(format!("{} not found (run `make` to build the FMUs)", path.display())));
+            return Err(err(format!(
+                "{} not found (run `make` to build the FMUs)",
+                path.display()
+            )));
         }
-        let import = fmi::import::from_path(&path).map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
-        Ok(Fmu { name: name.into(), import })
+        let import = fmi::import::from_path(&path)
+            .map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
+        Ok(Fmu {
+            name: name.into(),
+            import,
+        })
     }
 
     pub(crate) fn variable(&self, name: &str) -> Option<(u32, &ScalarVariableElement, String)> {
-        self.import.model_description().model_variables.variables.iter().find(|v| v.name == name).map(|v| (v.value_reference, &v.elem, format!("{:?}", v.causality).to_lowercase()))
+        self.import
+            .model_description()
+            .model_variables
+            .variables
+            .iter()
+            .find(|v| v.name == name)
+            .map(|v| {
+                (
+                    v.value_reference,
+                    &v.elem,
+                    format!("{:?}", v.causality).to_lowercase(),
+                )
+            })
     }
 
     pub fn vr(&self, name: &str) -> Result<u32, MasterError> {
-        self.variable(name).map(|v| v.0).ok_or_else(|| err(format!("{} has no variable '{name}'", self.name)))
+        self.variable(name)
+            .map(|v| v.0)
+            .ok_or_else(|| err(format!("{} has no variable '{name}'", self.name)))
     }
 
     pub fn has(&self, name: &str) -> bool {
@@ -132,16 +201,35 @@ impl Fmu {
     }
 
     pub fn names_with_causality(&self, causality: &str) -> Vec<String> {
-        self.import.model_description().model_variables.variables.iter().filter(|v| format!("{:?}", v.causality).eq_ignore_ascii_case(causality)).map(|v| v.name.clone()).collect()
+        self.import
+            .model_description()
+            .model_variables
+            .variables
+            .iter()
+            .filter(|v| format!("{:?}", v.causality).eq_ignore_ascii_case(causality))
+            .map(|v| v.name.clone())
+            .collect()
     }
 
     /// `value` as the type of parameter `name` (an Integer must fit an `fmi2Integer`).
     pub fn typed(&self, name: &str, value: &serde_json::Value) -> Result<Typed, MasterError> {
-        let (_, elem, _) = self.variable(name).ok_or_else(|| err(format!("{} has no parameter '{name}'", self.name)))?;
-        let bad = || err(format!("{}: parameter '{name}' cannot take {value}", self.name));
+        let (_, elem, _) = self
+            .variable(name)
+            .ok_or_else(|| err(format!("{} has no parameter '{name}'", self.name)))?;
+        let bad = || {
+            err(format!(
+                "{}: parameter '{name}' cannot take {value}",
+                self.name
+            ))
+        };
         Ok(match elem {
             ScalarVariableElement::Real(_) => Typed::Real(value.as_f64().ok_or_else(bad)?),
-            ScalarVariableElement::Integer(_) => Typed::Integer(value.as_i64().and_then(|v| i32::try_from(v).ok()).ok_or_else(bad)?),
+            ScalarVariableElement::Integer(_) => Typed::Integer(
+                value
+                    .as_i64()
+                    .and_then(|v| i32::try_from(v).ok())
+                    .ok_or_else(bad)?,
+            ),
             ScalarVariableElement::Boolean(_) => Typed::Boolean(value.as_bool().ok_or_else(bad)?),
             _ => return Err(bad()),
         })
@@ -149,7 +237,10 @@ impl Fmu {
 
     /// Instantiate, set `params`, initialise.
     fn start(&self, params: &[(String, Typed)]) -> Result<Instance<CS>, MasterError> {
-        let mut i: Instance<CS> = self.import.instantiate_cs(&self.name, false, false).map_err(|e| err(format!("{}: instantiate: {e}", self.name)))?;
+        let mut i: Instance<CS> = self
+            .import
+            .instantiate_cs(&self.name, false, false)
+            .map_err(|e| err(format!("{}: instantiate: {e}", self.name)))?;
         for (name, value) in params {
             let vr = self.vr(name)?;
             let status = match *value {
@@ -159,9 +250,16 @@ impl Fmu {
             };
             status.map_err(|e| err(format!("{}: setting '{name}' = {value:?}: {e}", self.name)))?;
         }
-        i.setup_experiment(None, 0.0, None).map_err(|e| err(format!("{}: {e}", self.name)))?;
-        Common::enter_initialization_mode(&mut i).map_err(|e| err(format!("{}: {e}", self.name)))?;
-        Common::exit_initialization_mode(&mut i).map_err(|e| err(format!("{}: initialisation failed ({e}); see its log", self.name)))?;
+        i.setup_experiment(None, 0.0, None)
+            .map_err(|e| err(format!("{}: {e}", self.name)))?;
+        Common::enter_initialization_mode(&mut i)
+            .map_err(|e| err(format!("{}: {e}", self.name)))?;
+        Common::exit_initialization_mode(&mut i).map_err(|e| {
+            err(format!(
+                "{}: initialisation failed ({e}); see its log",
+                self.name
+            ))
+        })?;
         Ok(i)
     }
 }
@@ -177,13 +275,31 @@ pub enum Typed {
 /// The scenario's parameters of road, plant and controller, typed. A controller parameter of
 /// the same name as a plant override (the force limits of an anti-windup controller) gets it
 /// too; a controller input of that name does not.
-pub fn scenario_parameters(scenario: &Scenario, road: &Fmu, plant: &Fmu, controller: Option<&Fmu>) -> Result<[Vec<(String, Typed)>; 3], MasterError> {
-    let road_values = scenario.road.iter().map(|(k, v)| Ok((k.clone(), road.typed(k, v)?))).collect::<Result<Vec<_>, MasterError>>()?;
-    let plant_values = scenario.plant.iter().map(|(k, v)| Ok((k.clone(), plant.typed(k, &serde_json::json!(v))?))).collect::<Result<Vec<_>, MasterError>>()?;
+pub fn scenario_parameters(
+    scenario: &Scenario,
+    road: &Fmu,
+    plant: &Fmu,
+    controller: Option<&Fmu>,
+) -> Result<[Vec<(String, Typed)>; 3], MasterError> {
+    let road_values = scenario
+        .road
+        .iter()
+        .map(|(k, v)| Ok((k.clone(), road.typed(k, v)?)))
+        .collect::<Result<Vec<_>, MasterError>>()?;
+    let plant_values = scenario
+        .plant
+        .iter()
+        .map(|(k, v)| Ok((k.clone(), plant.typed(k, &serde_json::json!(v))?)))
+        .collect::<Result<Vec<_>, MasterError>>()?;
     let ctrl_values = match controller {
         Some(c) => {
             let inputs = c.names_with_causality("input");
-            scenario.plant.iter().filter(|(k, _)| c.has(k) && !inputs.contains(k)).map(|(k, v)| Ok((k.clone(), c.typed(k, &serde_json::json!(v))?))).collect::<Result<Vec<_>, MasterError>>()?
+            scenario
+                .plant
+                .iter()
+                .filter(|(k, _)| c.has(k) && !inputs.contains(k))
+                .map(|(k, v)| Ok((k.clone(), c.typed(k, &serde_json::json!(v))?)))
+                .collect::<Result<Vec<_>, MasterError>>()?
         }
         None => Vec::new(),
     };
@@ -229,9 +345,17 @@ impl Run {
 /// Check that every input of `controller` is an output of `plant`.
 pub fn check_connections(plant: &Fmu, controller: &Fmu) -> Result<(), MasterError> {
     let outputs = plant.names_with_causality("output");
-    let missing: Vec<String> = controller.names_with_causality("input").into_iter().filter(|n| !outputs.contains(n)).collect();
+    let missing: Vec<String> = controller
+        .names_with_causality("input")
+        .into_iter()
+        .filter(|n| !outputs.contains(n))
+        .collect();
     if !missing.is_empty() {
-        return Err(err(format!("controller {} reads {} which the plant does not output", controller.name, missing.join(", "))));
+        return Err(err(format!(
+            "controller {} reads {} which the plant does not output",
+            controller.name,
+            missing.join(", ")
+        )));
     }
     for f in FORCES {
         controller.vr(f)?;
@@ -247,11 +371,17 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     if let Some(c) = &ctrl {
         check_connections(&plant, c)?;
     }
-    let [road_params, plant_params, ctrl_params] = scenario_parameters(scenario, &road, &plant, ctrl.as_ref())?;
+    let [road_params, plant_params, ctrl_params] =
+        scenario_parameters(scenario, &road, &plant, ctrl.as_ref())?;
     let mut r = road.start(&road_params)?;
     let mut p = plant.start(&plant_params)?;
     let mut c = ctrl.as_ref().map(|c| c.start(&ctrl_params)).transpose()?;
-    let vrs = |f: &Fmu, names: &[&str]| names.iter().map(|n| f.vr(n)).collect::<Result<Vec<u32>, _>>();
+    let vrs = |f: &Fmu, names: &[&str]| {
+        names
+            .iter()
+            .map(|n| f.vr(n))
+            .collect::<Result<Vec<u32>, _>>()
+    };
     let road_out = vrs(&road, &ROAD)?;
     let road_in = vrs(&plant, &ROAD)?;
     let force_in = vrs(&plant, &FORCES)?;
@@ -260,14 +390,50 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
         Some(cf) => {
             let inputs = cf.names_with_causality("input");
             let names: Vec<&str> = inputs.iter().map(|s| s.as_str()).collect();
-            let extra: Vec<&str> = CONTROLLER_RECORD.iter().copied().filter(|n| cf.has(n)).collect();
-            let booleans: Vec<bool> = extra.iter().map(|n| matches!(cf.variable(n).map(|v| v.1), Some(ScalarVariableElement::Boolean(_)))).collect();
-            (vrs(&plant, &names)?, vrs(cf, &names)?, vrs(cf, &FORCES)?, extra.iter().map(|n| cf.vr(n)).collect::<Result<Vec<_>, _>>()?.into_iter().zip(booleans).collect::<Vec<_>>(), extra)
+            let extra: Vec<&str> = CONTROLLER_RECORD
+                .iter()
+                .copied()
+                .filter(|n| cf.has(n))
+                .collect();
+            let booleans: Vec<bool> = extra
+                .iter()
+                .map(|n| {
+                    matches!(
+                        cf.variable(n).map(|v| v.1),
+                        Some(ScalarVariableElement::Boolean(_))
+                    )
+                })
+                .collect();
+            (
+                vrs(&plant, &names)?,
+                vrs(cf, &names)?,
+                vrs(cf, &FORCES)?,
+                extra
+                    .iter()
+                    .map(|n| cf.vr(n))
+                    .collect::<Result<Vec<_>, _>>()?
+                    .into_iter()
+                    .zip(booleans)
+                    .collect::<Vec<_>>(),
+                extra,
+            )
         }
         None => (vec![], vec![], vec![], vec![], vec![]),
     };
     let mut static_tire_load = [0.0; 4];
-    p.get_real(&vrs(&plant, &["static_tire_load_fl", "static_tire_load_fr", "static_tire_load_rl", "static_tire_load_rr"])?, &mut static_tire_load).map_err(|e| err(format!("plant: {e}")))?;
+    p.get_real(
+        &vrs(
+            &plant,
+            &[
+                "static_tire_load_fl",
+                "static_tire_load_fr",
+                "static_tire_load_rl",
+                "static_tire_load_rr",
+            ],
+        )?,
+        &mut static_tire_load,
+    )
+    .map_err(|e| err(format!("plant: {e}")))?;
     let fail = |who: &str, e: fmi::fmi2::Fmi2Error| err(format!("{who}: {e}"));
     let h = scenario.step;
     let steps = scenario.steps();
@@ -279,24 +445,32 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     let mut y = vec![0.0; y_from.len()];
     let mut u = [0.0; 5];
     let mut row = vec![0.0; rec.len()];
-    let step_err = |who: &str, t: f64, e: fmi::fmi2::Fmi2Error| err(format!("{who}: fmi2DoStep at t = {t}: {e}"));
+    let step_err = |who: &str, t: f64, e: fmi::fmi2::Fmi2Error| {
+        err(format!("{who}: fmi2DoStep at t = {t}: {e}"))
+    };
     let started = std::time::Instant::now();
     // The road at t_0; afterwards each iteration leaves the road at t_{k+1} in the plant.
-    r.get_real(&road_out, &mut road_values).map_err(|e| fail("road", e))?;
-    p.set_real(&road_in, &road_values).map_err(|e| fail("plant", e))?;
+    r.get_real(&road_out, &mut road_values)
+        .map_err(|e| fail("road", e))?;
+    p.set_real(&road_in, &road_values)
+        .map_err(|e| fail("plant", e))?;
     for k in 0..steps {
         let t = k as f64 * h;
         if let Some(c) = c.as_mut() {
             p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
             c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
-            c.get_real(&u_from, &mut u).map_err(|e| fail("controller", e))?;
+            c.get_real(&u_from, &mut u)
+                .map_err(|e| fail("controller", e))?;
             p.set_real(&force_in, &u).map_err(|e| fail("plant", e))?;
-            c.do_step(t, h, true).map_err(|e| step_err("controller", t, e))?;
+            c.do_step(t, h, true)
+                .map_err(|e| step_err("controller", t, e))?;
         }
         r.do_step(t, h, true).map_err(|e| step_err("road", t, e))?;
         p.do_step(t, h, true).map_err(|e| step_err("plant", t, e))?;
-        r.get_real(&road_out, &mut road_values).map_err(|e| fail("road", e))?;
-        p.set_real(&road_in, &road_values).map_err(|e| fail("plant", e))?;
+        r.get_real(&road_out, &mut road_values)
+            .map_err(|e| fail("road", e))?;
+        p.set_real(&road_in, &road_values)
+            .map_err(|e| fail("plant", e))?;
         p.get_real(&rec, &mut row).map_err(|e| fail("plant", e))?;
         data.extend_from_slice(&row);
         if let Some(c) = c.as_mut() {
@@ -306,11 +480,13 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
                 for (vr, boolean) in &c_rec {
                     let value = if *boolean {
                         let mut b = [0];
-                        c.get_boolean(&[*vr], &mut b).map_err(|e| fail("controller", e))?;
+                        c.get_boolean(&[*vr], &mut b)
+                            .map_err(|e| fail("controller", e))?;
                         b[0] as f64
                     } else {
                         let mut v = [0.0];
-                        c.get_real(&[*vr], &mut v).map_err(|e| fail("controller", e))?;
+                        c.get_real(&[*vr], &mut v)
+                            .map_err(|e| fail("controller", e))?;
                         v[0]
                     };
                     data.push(value);
@@ -319,7 +495,13 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
         }
         time.push(t + h);
     }
-    Ok(Run { columns, time, data, static_tire_load, loop_seconds: started.elapsed().as_secs_f64() })
+    Ok(Run {
+        columns,
+        time,
+        data,
+        static_tire_load,
+        loop_seconds: started.elapsed().as_secs_f64(),
+    })
 }
 
 /// `dist/` beside the executable's workspace, or as given.

@@ -8,13 +8,17 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use master::cosim::{run, MasterError, Scenario};
+use master::report::{
+    design_table, figures, load_designs, plot, scenario_table, summary_table, Figures,
+};
 use master::structure::Loop;
-use master::report::{design_table, figures, load_designs, plot, scenario_table, summary_table, Figures};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
-#[command(about = "Co-simulation master for the suspension FMUs (road -> plant -> controller, Gauss-Seidel)")]
+#[command(
+    about = "Co-simulation master for the suspension FMUs (road -> plant -> controller, Gauss-Seidel)"
+)]
 struct Cli {
     /// Directory with road.fmu, plant.fmu and the controller FMUs.
     #[arg(long, default_value = "dist", global = true)]
@@ -73,25 +77,48 @@ fn scenarios_in(path: &Path) -> Result<Vec<Scenario>, MasterError> {
     if path.is_file() {
         return Ok(vec![Scenario::load(path)?]);
     }
-    let mut files: Vec<PathBuf> = std::fs::read_dir(path).map_err(|e| MasterError(format!("cannot read {}: {e}", path.display())))?.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "json")).collect();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(path)
+        .map_err(|e| MasterError(format!("cannot read {}: {e}", path.display())))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
     files.sort();
     if files.is_empty() {
-        return Err(MasterError(format!("no scenario (*.json) in {}", path.display())));
+        return Err(MasterError(format!(
+            "no scenario (*.json) in {}",
+            path.display()
+        )));
     }
     files.iter().map(|f| Scenario::load(f)).collect()
 }
 
-fn compare(dist: &Path, scenarios: &[Scenario], controllers: &[String], out: &Path, designs: Option<&Path>) -> Result<String, MasterError> {
+fn compare(
+    dist: &Path,
+    scenarios: &[Scenario],
+    controllers: &[String],
+    out: &Path,
+    designs: Option<&Path>,
+) -> Result<String, MasterError> {
     let designs = designs.map(load_designs).transpose()?;
     let io = |e: std::io::Error| MasterError(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(io)?;
     let jobs: Vec<(usize, Option<String>)> = scenarios
         .iter()
         .enumerate()
-        .flat_map(|(i, s)| std::iter::once((i, None)).chain(controllers.iter().filter(|c| s.wants(c)).map(move |c| (i, Some(c.clone())))))
+        .flat_map(|(i, s)| {
+            std::iter::once((i, None)).chain(
+                controllers
+                    .iter()
+                    .filter(|c| s.wants(c))
+                    .map(move |c| (i, Some(c.clone()))),
+            )
+        })
         .collect();
     let bar = ProgressBar::new(jobs.len() as u64);
-    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} {msg}").expect("valid template"));
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} {msg}")
+            .expect("valid template"),
+    );
     let t0 = std::time::Instant::now();
     let runs: Vec<_> = jobs
         .par_iter()
@@ -107,14 +134,25 @@ fn compare(dist: &Path, scenarios: &[Scenario], controllers: &[String], out: &Pa
     let mut tables = String::new();
     let mut all: Vec<Vec<(String, Figures)>> = Vec::new();
     for (i, s) in scenarios.iter().enumerate() {
-        let mine: Vec<&(usize, String, master::cosim::Run)> = runs.iter().filter(|r| r.0 == i).collect();
+        let mine: Vec<&(usize, String, master::cosim::Run)> =
+            runs.iter().filter(|r| r.0 == i).collect();
         let dir = out.join(&s.name);
         std::fs::create_dir_all(&dir).map_err(io)?;
         for (_, name, r) in &mine {
             r.write_csv(&dir.join(format!("{name}.csv")))?;
         }
-        let figs: Vec<(String, Figures)> = mine.iter().map(|(_, n, r)| (n.clone(), figures(r, s))).collect();
-        plot(&out.join(format!("{}.svg", s.name)), s, &mine.iter().map(|(_, n, r)| (n.clone(), r)).collect::<Vec<_>>())?;
+        let figs: Vec<(String, Figures)> = mine
+            .iter()
+            .map(|(_, n, r)| (n.clone(), figures(r, s)))
+            .collect();
+        plot(
+            &out.join(format!("{}.svg", s.name)),
+            s,
+            &mine
+                .iter()
+                .map(|(_, n, r)| (n.clone(), r))
+                .collect::<Vec<_>>(),
+        )?;
         tables += &scenario_table(s, &figs);
         tables += &format!("\n![{0}]({0}.svg)\n\n", s.name);
         all.push(figs);
@@ -138,20 +176,47 @@ fn compare(dist: &Path, scenarios: &[Scenario], controllers: &[String], out: &Pa
 fn main() {
     let cli = Cli::parse();
     let result = match &cli.command {
-        Command::Run { scenario, controller, out } => Scenario::load(scenario).and_then(|s| {
+        Command::Run {
+            scenario,
+            controller,
+            out,
+        } => Scenario::load(scenario).and_then(|s| {
             let r = run(&cli.dist, &s, controller.as_deref())?;
             r.write_csv(out)?;
-            Ok(format!("wrote {} ({} steps, loop {:.4} s, {:.0}x real time)\n", out.display(), r.time.len(), r.loop_seconds, s.duration / r.loop_seconds))
+            Ok(format!(
+                "wrote {} ({} steps, loop {:.4} s, {:.0}x real time)\n",
+                out.display(),
+                r.time.len(),
+                r.loop_seconds,
+                s.duration / r.loop_seconds
+            ))
         }),
-        Command::Osp(LoopArgs { scenario, controller, out }) => Scenario::load(scenario)
+        Command::Osp(LoopArgs {
+            scenario,
+            controller,
+            out,
+        }) => Scenario::load(scenario)
             .and_then(|s| Loop::new(&cli.dist, &s, controller))
-            .and_then(|l| std::fs::write(out, l.osp()).map_err(|e| MasterError(format!("cannot write {}: {e}", out.display()))))
+            .and_then(|l| {
+                std::fs::write(out, l.osp())
+                    .map_err(|e| MasterError(format!("cannot write {}: {e}", out.display())))
+            })
             .map(|_| format!("wrote {}\n", out.display())),
-        Command::Ssp(LoopArgs { scenario, controller, out }) => Scenario::load(scenario)
+        Command::Ssp(LoopArgs {
+            scenario,
+            controller,
+            out,
+        }) => Scenario::load(scenario)
             .and_then(|s| Loop::new(&cli.dist, &s, controller))
             .and_then(|l| l.write_ssp(&cli.dist, out))
             .map(|_| format!("wrote {}\n", out.display())),
-        Command::Compare { scenarios, controllers, out, designs } => scenarios_in(scenarios).and_then(|s| compare(&cli.dist, &s, controllers, out, designs.as_deref())),
+        Command::Compare {
+            scenarios,
+            controllers,
+            out,
+            designs,
+        } => scenarios_in(scenarios)
+            .and_then(|s| compare(&cli.dist, &s, controllers, out, designs.as_deref())),
     };
     match result {
         Ok(msg) => print!("{msg}"),

@@ -24,17 +24,33 @@ fn wk_sections() -> [Section; 4] {
     let (w1, w2, w3, w4, w5, w6) = (w(0.4), w(100.0), w(12.5), w(12.5), w(2.37), w(3.35));
     let (q1, q4, q5, q6) = (std::f64::consts::FRAC_1_SQRT_2, 0.63, 0.91, 0.91);
     [
-        Section { b: [0.0, 0.0, 1.0], a: [w1 * w1, w1 / q1] },
-        Section { b: [w2 * w2, 0.0, 0.0], a: [w2 * w2, w2 / q1] },
-        Section { b: [w4 * w4, w4 * w4 / w3, 0.0], a: [w4 * w4, w4 / q4] },
-        Section { b: [w5 * w5, w5 / q5, 1.0], a: [w6 * w6, w6 / q6] },
+        Section {
+            b: [0.0, 0.0, 1.0],
+            a: [w1 * w1, w1 / q1],
+        },
+        Section {
+            b: [w2 * w2, 0.0, 0.0],
+            a: [w2 * w2, w2 / q1],
+        },
+        Section {
+            b: [w4 * w4, w4 * w4 / w3, 0.0],
+            a: [w4 * w4, w4 / q4],
+        },
+        Section {
+            b: [w5 * w5, w5 / q5, 1.0],
+            a: [w6 * w6, w6 / q6],
+        },
     ]
 }
 
 /// `|W_k(j 2π f)|`.
 pub fn wk_gain(f: f64) -> f64 {
     let s = Complex64::new(0.0, 2.0 * PI * f);
-    wk_sections().iter().map(|x| (x.b[2] * s * s + x.b[1] * s + x.b[0]) / (s * s + x.a[1] * s + x.a[0])).product::<Complex64>().norm()
+    wk_sections()
+        .iter()
+        .map(|x| (x.b[2] * s * s + x.b[1] * s + x.b[0]) / (s * s + x.a[1] * s + x.a[0]))
+        .product::<Complex64>()
+        .norm()
 }
 
 /// `signal` sampled every `h` seconds, filtered by `W_k`, starting at rest.
@@ -45,7 +61,10 @@ pub fn wk_filter(signal: &[f64], h: f64) -> Vec<f64> {
         // y = [b₀ − b₂a₀, b₁ − b₂a₁] x + b₂ u.
         let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -sec.a[0], -sec.a[1]]);
         let b = DMatrix::from_column_slice(2, 1, &[0.0, 1.0]);
-        let c = [sec.b[0] - sec.b[2] * sec.a[0], sec.b[1] - sec.b[2] * sec.a[1]];
+        let c = [
+            sec.b[0] - sec.b[2] * sec.a[0],
+            sec.b[1] - sec.b[2] * sec.a[1],
+        ];
         let d = vehicle::exact::discretize(&a, &b, h);
         let mut x = DVector::zeros(2);
         let input = out.clone();
@@ -75,7 +94,9 @@ pub fn vdv(x: &[f64], h: f64) -> f64 {
 /// `(frequencies [Hz], PSD [unit²/Hz])`.
 pub fn welch_psd(x: &[f64], h: f64, segment: usize) -> (Vec<f64>, Vec<f64>) {
     let n = segment.min(x.len()).max(8);
-    let window: Vec<f64> = (0..n).map(|k| 0.5 - 0.5 * (2.0 * PI * k as f64 / n as f64).cos()).collect();
+    let window: Vec<f64> = (0..n)
+        .map(|k| 0.5 - 0.5 * (2.0 * PI * k as f64 / n as f64).cos())
+        .collect();
     let norm: f64 = window.iter().map(|w| w * w).sum::<f64>();
     let fft = rustfft::FftPlanner::new().plan_fft_forward(n);
     let mut psd = vec![0.0; n / 2 + 1];
@@ -83,7 +104,9 @@ pub fn welch_psd(x: &[f64], h: f64, segment: usize) -> (Vec<f64>, Vec<f64>) {
     let mut start = 0;
     while start + n <= x.len() {
         let mean = x[start..start + n].iter().sum::<f64>() / n as f64;
-        let mut buf: Vec<Complex64> = (0..n).map(|k| Complex64::new((x[start + k] - mean) * window[k], 0.0)).collect();
+        let mut buf: Vec<Complex64> = (0..n)
+            .map(|k| Complex64::new((x[start + k] - mean) * window[k], 0.0))
+            .collect();
         fft.process(&mut buf);
         for (k, p) in psd.iter_mut().enumerate() {
             let scale = if k == 0 || k == n / 2 { 1.0 } else { 2.0 };
@@ -93,7 +116,10 @@ pub fn welch_psd(x: &[f64], h: f64, segment: usize) -> (Vec<f64>, Vec<f64>) {
         start += n / 2;
     }
     let freqs = (0..psd.len()).map(|k| k as f64 / (n as f64 * h)).collect();
-    (freqs, psd.into_iter().map(|p| p / count.max(1) as f64).collect())
+    (
+        freqs,
+        psd.into_iter().map(|p| p / count.max(1) as f64).collect(),
+    )
 }
 
 #[cfg(test)]
@@ -103,7 +129,13 @@ mod tests {
     /// ISO 2631-1 Table values of `W_k`.
     #[test]
     fn wk_gain_matches_the_standard_table() {
-        for (f, expected) in [(1.0, 0.482), (4.0, 0.967), (6.3, 1.054), (12.5, 0.902), (16.0, 0.769)] {
+        for (f, expected) in [
+            (1.0, 0.482),
+            (4.0, 0.967),
+            (6.3, 1.054),
+            (12.5, 0.902),
+            (16.0, 0.769),
+        ] {
             let g = wk_gain(f);
             assert!((g - expected).abs() < 0.0015, "{f} Hz: {g} vs {expected}");
         }
@@ -114,17 +146,25 @@ mod tests {
     fn discrete_filter_has_the_analogue_gain() {
         let h = 1e-3;
         for f in [1.0, 4.0, 12.5] {
-            let x: Vec<f64> = (0..20000).map(|k| (2.0 * PI * f * k as f64 * h).sin()).collect();
+            let x: Vec<f64> = (0..20000)
+                .map(|k| (2.0 * PI * f * k as f64 * h).sin())
+                .collect();
             let y = wk_filter(&x, h);
             let steady = rms(&y[10000..]) * 2f64.sqrt();
-            assert!((steady - wk_gain(f)).abs() < 2e-3 * wk_gain(f), "{f} Hz: {steady} vs {}", wk_gain(f));
+            assert!(
+                (steady - wk_gain(f)).abs() < 2e-3 * wk_gain(f),
+                "{f} Hz: {steady} vs {}",
+                wk_gain(f)
+            );
         }
     }
 
     #[test]
     fn vdv_rms_and_psd_of_known_signals() {
         let h = 1e-3;
-        let x: Vec<f64> = (0..100_000).map(|k| 2.0 * (2.0 * PI * 5.0 * k as f64 * h).sin()).collect();
+        let x: Vec<f64> = (0..100_000)
+            .map(|k| 2.0 * (2.0 * PI * 5.0 * k as f64 * h).sin())
+            .collect();
         assert!((rms(&x) - 2f64.sqrt()).abs() < 1e-6);
         // ∫ (A sin)^4 = 3/8 A^4 T.
         assert!((vdv(&x, h) - (3.0 / 8.0 * 16.0 * 100.0f64).powf(0.25)).abs() < 1e-3);
@@ -133,7 +173,12 @@ mod tests {
         let df = f[1] - f[0];
         let var: f64 = p.iter().sum::<f64>() * df;
         assert!((var - 2.0).abs() < 0.02, "{var}");
-        let k = p.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
+        let k = p
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap()
+            .0;
         assert!((f[k] - 5.0).abs() <= df);
     }
 }

@@ -27,14 +27,38 @@ pub struct Figures {
 }
 
 pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
-    let col = |n: &str| run.column(n).unwrap_or_else(|| panic!("run has no column {n}"));
-    let from = run.time.iter().position(|t| *t > scenario.metrics_from + 1e-12).unwrap_or(0);
+    let col = |n: &str| {
+        run.column(n)
+            .unwrap_or_else(|| panic!("run has no column {n}"))
+    };
+    let from = run
+        .time
+        .iter()
+        .position(|t| *t > scenario.metrics_from + 1e-12)
+        .unwrap_or(0);
     let window = |x: Vec<f64>| x[from..].to_vec();
     let weighted = window(wk_filter(&col("a_seat"), scenario.step));
-    let strokes = ["stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr"].map(|n| peak(&window(col(n)))).into_iter().fold(0.0, f64::max);
-    let tyre = ["tire_load_fl", "tire_load_fr", "tire_load_rl", "tire_load_rr"].iter().zip(run.static_tire_load).map(|(n, s)| peak(&window(col(n))) / s).fold(0.0, f64::max);
-    let force = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"].map(|n| peak(&window(col(n)))).into_iter().fold(0.0, f64::max);
-    let detection_time = run.column("fault_detected").and_then(|f| f.iter().position(|v| *v > 0.5).map(|k| run.time[k]));
+    let strokes = ["stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr"]
+        .map(|n| peak(&window(col(n))))
+        .into_iter()
+        .fold(0.0, f64::max);
+    let tyre = [
+        "tire_load_fl",
+        "tire_load_fr",
+        "tire_load_rl",
+        "tire_load_rr",
+    ]
+    .iter()
+    .zip(run.static_tire_load)
+    .map(|(n, s)| peak(&window(col(n))) / s)
+    .fold(0.0, f64::max);
+    let force = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"]
+        .map(|n| peak(&window(col(n))))
+        .into_iter()
+        .fold(0.0, f64::max);
+    let detection_time = run
+        .column("fault_detected")
+        .and_then(|f| f.iter().position(|v| *v > 0.5).map(|k| run.time[k]));
     Figures {
         wk_rms_seat: rms(&weighted),
         vdv_seat: vdv(&weighted, scenario.step),
@@ -77,12 +101,17 @@ pub fn scenario_table(scenario: &Scenario, results: &[(String, Figures)]) -> Str
             rel(f.rms_roll, |p| p.rms_roll),
             rel(f.rms_pitch, |p| p.rms_pitch),
             match passive {
-                Some(ps) if name != "passive" => format!("{:.2} ({})", 100.0 * f.max_stroke, pct(f.max_stroke, ps.max_stroke)),
+                Some(ps) if name != "passive" => format!(
+                    "{:.2} ({})",
+                    100.0 * f.max_stroke,
+                    pct(f.max_stroke, ps.max_stroke)
+                ),
                 _ => format!("{:.2}", 100.0 * f.max_stroke),
             },
             rel(f.max_tyre_ratio, |p| p.max_tyre_ratio),
             f.peak_force,
-            f.detection_time.map_or("-".into(), |t| format!("at {t:.3} s")),
+            f.detection_time
+                .map_or("-".into(), |t| format!("at {t:.3} s")),
         );
     }
     t
@@ -90,7 +119,11 @@ pub fn scenario_table(scenario: &Scenario, results: &[(String, Figures)]) -> Str
 
 /// One summary table: W_k RMS seat acceleration of each controller in each scenario, as % of
 /// the passive car's.
-pub fn summary_table(scenarios: &[Scenario], results: &[Vec<(String, Figures)>], controllers: &[String]) -> String {
+pub fn summary_table(
+    scenarios: &[Scenario],
+    results: &[Vec<(String, Figures)>],
+    controllers: &[String],
+) -> String {
     let mut t = String::from("| controller |");
     for s in scenarios {
         t += &format!(" {} |", s.name);
@@ -103,9 +136,14 @@ pub fn summary_table(scenarios: &[Scenario], results: &[Vec<(String, Figures)>],
     for name in &names {
         t += &format!("| `{name}` |");
         for r in results {
-            let passive = r.iter().find(|(n, _)| n == "passive").map(|x| x.1.wk_rms_seat);
+            let passive = r
+                .iter()
+                .find(|(n, _)| n == "passive")
+                .map(|x| x.1.wk_rms_seat);
             t += &match (r.iter().find(|(n, _)| n == name), passive) {
-                (Some((_, f)), Some(p)) if name != "passive" => format!(" {:.4} ({}) |", f.wk_rms_seat, pct(f.wk_rms_seat, p)),
+                (Some((_, f)), Some(p)) if name != "passive" => {
+                    format!(" {:.4} ({}) |", f.wk_rms_seat, pct(f.wk_rms_seat, p))
+                }
                 (Some((_, f)), _) => format!(" {:.4} |", f.wk_rms_seat),
                 (None, _) => " |".to_string(),
             };
@@ -115,7 +153,17 @@ pub fn summary_table(scenarios: &[Scenario], results: &[Vec<(String, Figures)>],
     t
 }
 
-const COLORS: [RGBColor; 9] = [BLACK, RGBColor(31, 119, 180), RGBColor(255, 127, 14), RGBColor(44, 160, 44), RGBColor(214, 39, 40), RGBColor(148, 103, 189), RGBColor(140, 86, 75), RGBColor(227, 119, 194), RGBColor(23, 190, 207)];
+const COLORS: [RGBColor; 9] = [
+    BLACK,
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+];
 
 /// Seat acceleration against time and its PSD (Welch), passive and each controller: one SVG.
 pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result<(), MasterError> {
@@ -123,47 +171,103 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
     let root = SVGBackend::new(path, (1100, 900)).into_drawing_area();
     root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
     let (top, bottom) = root.split_vertically(450);
-    let series: Vec<(String, Vec<f64>, Vec<f64>)> = runs.iter().map(|(n, r)| (n.clone(), r.time.clone(), r.column("a_seat").unwrap_or_default())).collect();
+    let series: Vec<(String, Vec<f64>, Vec<f64>)> = runs
+        .iter()
+        .map(|(n, r)| {
+            (
+                n.clone(),
+                r.time.clone(),
+                r.column("a_seat").unwrap_or_default(),
+            )
+        })
+        .collect();
     let amax = series.iter().map(|s| peak(&s.2)).fold(1e-6, f64::max) * 1.05;
     let mut chart = ChartBuilder::on(&top)
-        .caption(format!("{}: seat acceleration", scenario.name), ("sans-serif", 20))
+        .caption(
+            format!("{}: seat acceleration", scenario.name),
+            ("sans-serif", 20),
+        )
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(60)
         .build_cartesian_2d(0.0..scenario.duration, -amax..amax)
         .map_err(|x| e(x.to_string()))?;
-    chart.configure_mesh().x_desc("t [s]").y_desc("a_seat [m/s²]").draw().map_err(|x| e(x.to_string()))?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc("a_seat [m/s²]")
+        .draw()
+        .map_err(|x| e(x.to_string()))?;
     for (k, (name, t, a)) in series.iter().enumerate() {
         let color = COLORS[k % COLORS.len()];
         // At most ~4000 points per line (the SVG stays small; the PSD below uses every sample).
         let stride = (t.len() / 4000).max(1);
         chart
-            .draw_series(LineSeries::new(t.iter().copied().zip(a.iter().copied()).step_by(stride), color.stroke_width(1)))
+            .draw_series(LineSeries::new(
+                t.iter().copied().zip(a.iter().copied()).step_by(stride),
+                color.stroke_width(1),
+            ))
             .map_err(|x| e(x.to_string()))?
             .label(name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(|x| e(x.to_string()))?;
-    let segment = ((4.0 / scenario.step) as usize).next_power_of_two().min(series.first().map_or(8, |s| s.2.len()).next_power_of_two() / 2).max(64);
-    let psds: Vec<(String, Vec<f64>, Vec<f64>)> = series.iter().map(|(n, _, a)| {
-        let (f, p) = welch_psd(a, scenario.step, segment);
-        (n.clone(), f, p)
-    }).collect();
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|x| e(x.to_string()))?;
+    let segment = ((4.0 / scenario.step) as usize)
+        .next_power_of_two()
+        .min(series.first().map_or(8, |s| s.2.len()).next_power_of_two() / 2)
+        .max(64);
+    let psds: Vec<(String, Vec<f64>, Vec<f64>)> = series
+        .iter()
+        .map(|(n, _, a)| {
+            let (f, p) = welch_psd(a, scenario.step, segment);
+            (n.clone(), f, p)
+        })
+        .collect();
     let (fmin, fmax) = (0.2f64, 50.0f64);
-    let pmax = psds.iter().flat_map(|s| s.1.iter().zip(&s.2).filter(|(f, _)| **f >= fmin && **f <= fmax).map(|(_, p)| *p)).fold(1e-12, f64::max) * 2.0;
+    let pmax = psds
+        .iter()
+        .flat_map(|s| {
+            s.1.iter()
+                .zip(&s.2)
+                .filter(|(f, _)| **f >= fmin && **f <= fmax)
+                .map(|(_, p)| *p)
+        })
+        .fold(1e-12, f64::max)
+        * 2.0;
     let pmin = pmax * 1e-7;
     let mut chart = ChartBuilder::on(&bottom)
-        .caption("PSD of the seat acceleration (Welch, Hann)", ("sans-serif", 20))
+        .caption(
+            "PSD of the seat acceleration (Welch, Hann)",
+            ("sans-serif", 20),
+        )
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(60)
         .build_cartesian_2d((fmin..fmax).log_scale(), (pmin..pmax).log_scale())
         .map_err(|x| e(x.to_string()))?;
-    chart.configure_mesh().x_desc("f [Hz]").y_desc("(m/s²)²/Hz").draw().map_err(|x| e(x.to_string()))?;
+    chart
+        .configure_mesh()
+        .x_desc("f [Hz]")
+        .y_desc("(m/s²)²/Hz")
+        .draw()
+        .map_err(|x| e(x.to_string()))?;
     for (k, (name, f, p)) in psds.iter().enumerate() {
         let color = COLORS[k % COLORS.len()];
-        let points = f.iter().zip(p).filter(|(f, p)| **f >= fmin && **f <= fmax && **p > pmin).map(|(f, p)| (*f, *p));
-        chart.draw_series(LineSeries::new(points, color.stroke_width(1))).map_err(|x| e(x.to_string()))?.label(name.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+        let points = f
+            .iter()
+            .zip(p)
+            .filter(|(f, p)| **f >= fmin && **f <= fmax && **p > pmin)
+            .map(|(f, p)| (*f, *p));
+        chart
+            .draw_series(LineSeries::new(points, color.stroke_width(1)))
+            .map_err(|x| e(x.to_string()))?
+            .label(name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
     }
     root.present().map_err(|x| e(x.to_string()))?;
     Ok(())
@@ -185,20 +289,41 @@ pub fn load_designs(path: &Path) -> Result<Vec<Design>, MasterError> {
     struct File {
         designs: Vec<Design>,
     }
-    let text = std::fs::read_to_string(path).map_err(|e| MasterError(format!("cannot read {}: {e}", path.display())))?;
-    Ok(serde_json::from_str::<File>(&text).map_err(|e| MasterError(format!("{}: {e}", path.display())))?.designs)
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| MasterError(format!("cannot read {}: {e}", path.display())))?;
+    Ok(serde_json::from_str::<File>(&text)
+        .map_err(|e| MasterError(format!("{}: {e}", path.display())))?
+        .designs)
 }
 
 /// Per design: what it is robust to, γ, the certified norm, the synthesis time (from `synth`),
 /// and the `W_k` RMS seat acceleration in its own scenario (the first that showcases it) against
 /// the passive car and against its nominal design in the same scenario.
-pub fn design_table(designs: &[Design], scenarios: &[Scenario], results: &[Vec<(String, Figures)>]) -> String {
+pub fn design_table(
+    designs: &[Design],
+    scenarios: &[Scenario],
+    results: &[Vec<(String, Figures)>],
+) -> String {
     let mut t = String::from("| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | synthesis | own scenario | W_k RMS seat [m/s²] | vs passive | vs nominal design |\n|---|---|---|---|---|---|---|---|---|\n");
     for d in designs {
-        let own = scenarios.iter().position(|s| s.showcases.iter().any(|v| v == &d.variant));
-        let find = |i: usize, name: &str| results[i].iter().find(|(n, _)| n == name).map(|x| x.1.wk_rms_seat);
+        let own = scenarios
+            .iter()
+            .position(|s| s.showcases.iter().any(|v| v == &d.variant));
+        let find = |i: usize, name: &str| {
+            results[i]
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|x| x.1.wk_rms_seat)
+        };
         let (scenario, seat, passive, nominal) = match own {
-            Some(i) => (scenarios[i].name.clone(), find(i, &d.variant), find(i, "passive"), d.nominal_design.as_deref().and_then(|n| find(i, n).map(|v| (n, v)))),
+            Some(i) => (
+                scenarios[i].name.clone(),
+                find(i, &d.variant),
+                find(i, "passive"),
+                d.nominal_design
+                    .as_deref()
+                    .and_then(|n| find(i, n).map(|v| (n, v))),
+            ),
             None => ("-".into(), None, None, None),
         };
         t += &format!(

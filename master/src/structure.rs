@@ -4,7 +4,10 @@
 //! connect road, plant and one controller by name and carry the scenario's parameters as
 //! initial values; the communication step is the scenario's.
 
-use crate::cosim::{check_connections, err, scenario_parameters, Fmu, MasterError, Scenario, Typed, FORCES, RECORD, ROAD};
+use crate::cosim::{
+    check_connections, err, scenario_parameters, Fmu, MasterError, Scenario, Typed, FORCES, RECORD,
+    ROAD,
+};
 use std::io::Write;
 use std::path::Path;
 
@@ -39,14 +42,30 @@ impl Loop {
         let ctrl = Fmu::load(dist, controller)?;
         check_connections(&plant, &ctrl)?;
         let measured = ctrl.names_with_causality("input");
-        let [road_values, plant_values, ctrl_values] = scenario_parameters(scenario, &road, &plant, Some(&ctrl))?;
+        let [road_values, plant_values, ctrl_values] =
+            scenario_parameters(scenario, &road, &plant, Some(&ctrl))?;
         let mut connections = Vec::new();
-        connections.extend(ROAD.iter().map(|n| ("road".to_string(), "plant".to_string(), n.to_string())));
-        connections.extend(measured.iter().map(|n| ("plant".to_string(), controller.to_string(), n.clone())));
-        connections.extend(FORCES.iter().map(|n| (controller.to_string(), "plant".to_string(), n.to_string())));
+        connections.extend(
+            ROAD.iter()
+                .map(|n| ("road".to_string(), "plant".to_string(), n.to_string())),
+        );
+        connections.extend(
+            measured
+                .iter()
+                .map(|n| ("plant".to_string(), controller.to_string(), n.clone())),
+        );
+        connections.extend(
+            FORCES
+                .iter()
+                .map(|n| (controller.to_string(), "plant".to_string(), n.to_string())),
+        );
         Ok(Loop {
             scenario: scenario.clone(),
-            components: vec![("road".into(), road_values), ("plant".into(), plant_values), (controller.into(), ctrl_values)],
+            components: vec![
+                ("road".into(), road_values),
+                ("plant".into(), plant_values),
+                (controller.into(), ctrl_values),
+            ],
             connections,
             measured,
             controller: controller.into(),
@@ -61,7 +80,10 @@ impl Loop {
         for (name, values) in &self.components {
             x += &format!("    <Simulator name=\"{name}\" source=\"{name}.fmu\" stepSize=\"{h:e}\">\n      <InitialValues>\n");
             for (k, v) in values {
-                x += &format!("        <InitialValue variable=\"{k}\">{}</InitialValue>\n", v.xml(""));
+                x += &format!(
+                    "        <InitialValue variable=\"{k}\">{}</InitialValue>\n",
+                    v.xml("")
+                );
             }
             x += "      </InitialValues>\n    </Simulator>\n";
         }
@@ -92,7 +114,10 @@ impl Loop {
             if !values.is_empty() {
                 x += &format!("        <ssd:ParameterBindings>\n          <ssd:ParameterBinding>\n            <ssd:ParameterValues>\n              <ssv:ParameterSet version=\"1.0\" name=\"{}\">\n                <ssv:Parameters>\n", s.name);
                 for (k, v) in values {
-                    x += &format!("                  <ssv:Parameter name=\"{k}\">{}</ssv:Parameter>\n", v.xml("ssv:"));
+                    x += &format!(
+                        "                  <ssv:Parameter name=\"{k}\">{}</ssv:Parameter>\n",
+                        v.xml("ssv:")
+                    );
                 }
                 x += "                </ssv:Parameters>\n              </ssv:ParameterSet>\n            </ssd:ParameterValues>\n          </ssd:ParameterBinding>\n        </ssd:ParameterBindings>\n";
             }
@@ -113,7 +138,13 @@ impl Loop {
     fn connectors(&self, name: &str) -> Vec<(String, &'static str)> {
         let mut out: Vec<(String, &'static str)> = Vec::new();
         for (from, to, n) in &self.connections {
-            let kind = if from == name { "output" } else if to == name { "input" } else { continue };
+            let kind = if from == name {
+                "output"
+            } else if to == name {
+                "input"
+            } else {
+                continue;
+            };
             if !out.iter().any(|(m, _)| m == n) {
                 out.push((n.clone(), kind));
             }
@@ -133,13 +164,21 @@ impl Loop {
         let io = |e: &dyn std::fmt::Display| err(format!("cannot write {}: {e}", out.display()));
         let file = std::fs::File::create(out).map_err(|e| io(&e))?;
         let mut zip = zip::ZipWriter::new(file);
-        let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
-        zip.start_file("SystemStructure.ssd", options).map_err(|e| io(&e))?;
+        let options = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated);
+        zip.start_file("SystemStructure.ssd", options)
+            .map_err(|e| io(&e))?;
         zip.write_all(self.ssd().as_bytes()).map_err(|e| io(&e))?;
         for (name, _) in &self.components {
-            let bytes = std::fs::read(dist.join(format!("{name}.fmu"))).map_err(|e| err(format!("cannot read {name}.fmu: {e}")))?;
+            let bytes = std::fs::read(dist.join(format!("{name}.fmu")))
+                .map_err(|e| err(format!("cannot read {name}.fmu: {e}")))?;
             // FMUs are zip archives already: store them as they are.
-            zip.start_file(format!("resources/{name}.fmu"), zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored)).map_err(|e| io(&e))?;
+            zip.start_file(
+                format!("resources/{name}.fmu"),
+                zip::write::SimpleFileOptions::default()
+                    .compression_method(zip::CompressionMethod::Stored),
+            )
+            .map_err(|e| io(&e))?;
             zip.write_all(&bytes).map_err(|e| io(&e))?;
         }
         zip.finish().map_err(|e| io(&e))?;
@@ -148,5 +187,8 @@ impl Loop {
 }
 
 fn xml_escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }

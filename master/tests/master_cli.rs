@@ -10,11 +10,20 @@ fn dist() -> PathBuf {
 }
 
 fn scenario(name: &str) -> Scenario {
-    Scenario::load(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenarios").join(format!("{name}.json"))).unwrap()
+    Scenario::load(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenarios")
+            .join(format!("{name}.json")),
+    )
+    .unwrap()
 }
 
 fn scenario_error(text: &str) -> String {
-    let path = std::env::temp_dir().join(format!("master-scenario-{}-{}.json", std::process::id(), text.len()));
+    let path = std::env::temp_dir().join(format!(
+        "master-scenario-{}-{}.json",
+        std::process::id(),
+        text.len()
+    ));
     std::fs::write(&path, text).unwrap();
     Scenario::load(&path).unwrap_err().0
 }
@@ -22,13 +31,21 @@ fn scenario_error(text: &str) -> String {
 #[test]
 fn bad_scenario_files_are_refused_with_the_reason() {
     let good = r#"{"name": "x", "duration": 1.0, "step": 0.001, "road": {"profile": 1}}"#;
-    assert!(scenario_error(&good.replace("0.001", "-0.001")).contains("duration and step must be finite and > 0"));
-    assert!(scenario_error(&good.replace("\"road\"", "\"roads\"")).contains("unknown field `roads`"));
+    assert!(scenario_error(&good.replace("0.001", "-0.001"))
+        .contains("duration and step must be finite and > 0"));
+    assert!(
+        scenario_error(&good.replace("\"road\"", "\"roads\"")).contains("unknown field `roads`")
+    );
     assert!(scenario_error(&good.replace("\"x\"", "\"a b\"")).contains("letters, digits"));
     assert!(scenario_error("{\"name\": ").contains("EOF"));
-    assert!(Scenario::load(Path::new("/nonexistent/s.json")).unwrap_err().0.contains("cannot read scenario"));
+    assert!(Scenario::load(Path::new("/nonexistent/s.json"))
+        .unwrap_err()
+        .0
+        .contains("cannot read scenario"));
     // Every checked-in scenario loads.
-    for entry in std::fs::read_dir(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenarios")).unwrap() {
+    for entry in
+        std::fs::read_dir(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenarios")).unwrap()
+    {
         Scenario::load(&entry.unwrap().path()).unwrap();
     }
 }
@@ -43,17 +60,32 @@ fn a_controller_reading_what_the_plant_lacks_is_refused() {
     assert!(e.contains("has no variable 'u_fl'"), "{e}");
     // The plant as its own controller reads road and force inputs the plant does not output.
     let e = check_connections(&plant, &plant).unwrap_err().0;
-    assert!(e.contains("reads road_z_fl") && e.contains("which the plant does not output"), "{e}");
+    assert!(
+        e.contains("reads road_z_fl") && e.contains("which the plant does not output"),
+        "{e}"
+    );
     check_connections(&plant, &Fmu::load(&dist(), "hinf_of").unwrap()).unwrap();
-    assert!(Fmu::load(&dist(), "no_such").err().unwrap().0.contains("run `make`"));
+    assert!(Fmu::load(&dist(), "no_such")
+        .err()
+        .unwrap()
+        .0
+        .contains("run `make`"));
     // A road parameter that does not exist fails the run with its name.
     let mut s = scenario("bump");
     s.road.insert("bump_heigth".into(), serde_json::json!(0.1));
-    assert!(run(&dist(), &s, None).err().unwrap().0.contains("bump_heigth"));
+    assert!(run(&dist(), &s, None)
+        .err()
+        .unwrap()
+        .0
+        .contains("bump_heigth"));
     // A bad road parameter value fails initialisation, not silently.
     let mut s = scenario("bump");
     s.road.insert("profile".into(), serde_json::json!(9));
-    assert!(run(&dist(), &s, None).err().unwrap().0.contains("initialisation failed"));
+    assert!(run(&dist(), &s, None)
+        .err()
+        .unwrap()
+        .0
+        .contains("initialisation failed"));
 }
 
 #[test]
@@ -62,10 +94,21 @@ fn a_run_is_the_test_helpers_loop_on_the_same_fmus() {
     let r = run(&dist(), &Scenario { duration: 3.0, ..s }, Some("hinf_of")).unwrap();
     let plant = integration_tests::load("plant");
     let ctrl = integration_tests::load("hinf_of");
-    let reference = integration_tests::run_loop(&plant, Some(&ctrl), &integration_tests::iso_road(3, 20.0, 7), 1e-3, 3000, &["a_seat", "f_fl"]);
+    let reference = integration_tests::run_loop(
+        &plant,
+        Some(&ctrl),
+        &integration_tests::iso_road(3, 20.0, 7),
+        1e-3,
+        3000,
+        &["a_seat", "f_fl"],
+    );
     let a = r.column("a_seat").unwrap();
     let f = r.column("f_fl").unwrap();
-    let worst = reference.iter().zip(a.iter().zip(&f)).map(|(x, (a, f))| ((x[0] - a).abs() / 1.0).max((x[1] - f).abs() / 1000.0)).fold(0.0, f64::max);
+    let worst = reference
+        .iter()
+        .zip(a.iter().zip(&f))
+        .map(|(x, (a, f))| ((x[0] - a).abs() / 1.0).max((x[1] - f).abs() / 1000.0))
+        .fold(0.0, f64::max);
     assert!(worst < 1e-9, "master and test helper differ by {worst}");
     assert_eq!(r.time.len(), 3000);
     assert!((r.time[2999] - 3.0).abs() < 1e-9);
@@ -81,18 +124,39 @@ fn system_descriptions_carry_typed_parameters_and_refuse_bad_ones() {
     assert!(values("road").contains(&("iso_class".into(), Typed::Integer(4))));
     assert!(values("plant").contains(&("u_max".into(), Typed::Real(300.0))));
     // The anti-windup controller gets the force limits it shares with the plant.
-    assert_eq!(values("hinf_of_aw"), vec![("u_max".into(), Typed::Real(300.0)), ("u_max_seat".into(), Typed::Real(100.0))]);
+    assert_eq!(
+        values("hinf_of_aw"),
+        vec![
+            ("u_max".into(), Typed::Real(300.0)),
+            ("u_max_seat".into(), Typed::Real(100.0))
+        ]
+    );
     // 8 road signals, the controller's measurements, 5 commands.
     assert_eq!(l.connections.len(), 8 + l.measured.len() + 5);
     let ssd = l.ssd();
-    assert!(ssd.contains("<ssv:Parameter name=\"iso_class\"><ssv:Integer value=\"4\"/></ssv:Parameter>"), "{ssd}");
-    assert!(ssd.contains("startElement=\"hinf_of_aw\" startConnector=\"u_seat\" endElement=\"plant\""));
-    assert!(l.osp().contains("<InitialValue variable=\"u_max\"><Real value=\"3e2\"/></InitialValue>"));
+    assert!(
+        ssd.contains(
+            "<ssv:Parameter name=\"iso_class\"><ssv:Integer value=\"4\"/></ssv:Parameter>"
+        ),
+        "{ssd}"
+    );
+    assert!(
+        ssd.contains("startElement=\"hinf_of_aw\" startConnector=\"u_seat\" endElement=\"plant\"")
+    );
+    assert!(l
+        .osp()
+        .contains("<InitialValue variable=\"u_max\"><Real value=\"3e2\"/></InitialValue>"));
     // A value the variable's type cannot take is refused with the names.
     let mut bad = scenario("bump");
     bad.road.insert("profile".into(), serde_json::json!(1.5));
     let e = Loop::new(&dist(), &bad, "hinf_of").err().unwrap().0;
-    assert!(e.contains("road: parameter 'profile' cannot take 1.5"), "{e}");
-    let e = Loop::new(&dist(), &scenario("bump"), "no_such").err().unwrap().0;
+    assert!(
+        e.contains("road: parameter 'profile' cannot take 1.5"),
+        "{e}"
+    );
+    let e = Loop::new(&dist(), &scenario("bump"), "no_such")
+        .err()
+        .unwrap()
+        .0;
     assert!(e.contains("no_such.fmu not found"), "{e}");
 }

@@ -57,9 +57,24 @@ pub fn mraw(g: &GeneralizedPlant, eps: f64) -> Result<AntiWindup, LmiError> {
     }
     let minus_gamma = |k: usize| gamma.expr().map_scalar(&(-DMatrix::identity(k, k)));
     let lmi = Affine::symmetric_blocks(&[
-        vec![Some(q.left(&g.a).add(&x.left(&g.b_u)).he()), Some(x.t().sub(&u.left(&g.b_u))), Some(Affine::zeros(n, nu)), Some(q.left(&g.c_z).add(&x.left(&g.d_zu)).t())],
-        vec![None, Some(u.scale(-2.0)), Some(Affine::identity(nu)), Some(u.right(&g.d_zu.transpose()).scale(-1.0))],
-        vec![None, None, Some(minus_gamma(nu)), Some(Affine::zeros(nu, nz))],
+        vec![
+            Some(q.left(&g.a).add(&x.left(&g.b_u)).he()),
+            Some(x.t().sub(&u.left(&g.b_u))),
+            Some(Affine::zeros(n, nu)),
+            Some(q.left(&g.c_z).add(&x.left(&g.d_zu)).t()),
+        ],
+        vec![
+            None,
+            Some(u.scale(-2.0)),
+            Some(Affine::identity(nu)),
+            Some(u.right(&g.d_zu.transpose()).scale(-1.0)),
+        ],
+        vec![
+            None,
+            None,
+            Some(minus_gamma(nu)),
+            Some(Affine::zeros(nu, nz)),
+        ],
         vec![None, None, None, Some(minus_gamma(nz))],
     ]);
     p.negative_definite("anti-windup sector LMI", lmi, eps);
@@ -72,7 +87,11 @@ pub fn mraw(g: &GeneralizedPlant, eps: f64) -> Result<AntiWindup, LmiError> {
     let qm = qv.value(&s.x);
     let f = xv.value(&s.x) * qm.cholesky().expect("Q ≻ 0 was checked").inverse();
     let w = DVector::from_iterator(nu, u_diag.iter().map(|v| 1.0 / v.value(&s.x)[(0, 0)]));
-    Ok(AntiWindup { f, gamma: gamma.value(&s.x)[(0, 0)], w })
+    Ok(AntiWindup {
+        f,
+        gamma: gamma.value(&s.x)[(0, 0)],
+        w,
+    })
 }
 
 /// The result of the frequency-domain re-check.
@@ -93,16 +112,27 @@ impl CircleCheck {
 
 /// `A + B_u F` Hurwitz and `He(W (I + T(jω))) ≻ 0` on 2000 log-spaced frequencies in
 /// `[1e-3, 1e5]` rad/s plus `ω = 0` (as `ω → ∞`, `T → 0` and the condition is `W ≻ 0`).
-pub fn circle_check(a: &DMatrix<f64>, b: &DMatrix<f64>, f: &DMatrix<f64>, w: &DVector<f64>) -> CircleCheck {
+pub fn circle_check(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    f: &DMatrix<f64>,
+    w: &DVector<f64>,
+) -> CircleCheck {
     let a_cl = a + b * f;
-    let spectral_abscissa = a_cl.complex_eigenvalues().iter().map(|l| l.re).fold(f64::NEG_INFINITY, f64::max);
+    let spectral_abscissa = a_cl
+        .complex_eigenvalues()
+        .iter()
+        .map(|l| l.re)
+        .fold(f64::NEG_INFINITY, f64::max);
     let n = a.nrows();
     let nu = b.ncols();
     let ac = a_cl.map(|v| Complex::new(v, 0.0));
     let bc = b.map(|v| Complex::new(v, 0.0));
     let fc = f.map(|v| Complex::new(v, 0.0));
     let wmax = w.max();
-    let frequencies: Vec<f64> = std::iter::once(0.0).chain((0..2000).map(|k| 10f64.powf(-3.0 + 8.0 * k as f64 / 1999.0))).collect();
+    let frequencies: Vec<f64> = std::iter::once(0.0)
+        .chain((0..2000).map(|k| 10f64.powf(-3.0 + 8.0 * k as f64 / 1999.0)))
+        .collect();
     let mut min_margin = f64::INFINITY;
     for &om in &frequencies {
         let m = DMatrix::<Complex<f64>>::identity(n, n) * Complex::new(0.0, om) - &ac;
@@ -129,7 +159,11 @@ pub fn circle_check(a: &DMatrix<f64>, b: &DMatrix<f64>, f: &DMatrix<f64>, w: &DV
         let lmin = nalgebra::SymmetricEigen::new(emb).eigenvalues.min() / wmax;
         min_margin = min_margin.min(lmin);
     }
-    CircleCheck { spectral_abscissa, min_margin, frequencies: frequencies.len() }
+    CircleCheck {
+        spectral_abscissa,
+        min_margin,
+        frequencies: frequencies.len(),
+    }
 }
 
 #[cfg(test)]

@@ -6,7 +6,11 @@ use serde_json::json;
 
 /// Unit of a plant output by name (states `x[k]`, physical outputs).
 pub fn plant_output_unit(name: &str) -> &'static str {
-    if let Some(k) = name.strip_prefix("x[").and_then(|s| s.strip_suffix(']')).and_then(|s| s.parse::<usize>().ok()) {
+    if let Some(k) = name
+        .strip_prefix("x[")
+        .and_then(|s| s.strip_suffix(']'))
+        .and_then(|s| s.parse::<usize>().ok())
+    {
         return vehicle::model::STATES[k - 1].1;
     }
     vehicle::model::physical_outputs(&vehicle::VehicleParams::default())
@@ -16,7 +20,13 @@ pub fn plant_output_unit(name: &str) -> &'static str {
         .unwrap_or_else(|| panic!("the plant has no output {name}"))
 }
 
-pub fn controller_json(variant: &str, description: &str, gamma: f64, inputs: &[String], k: &Controller) -> serde_json::Value {
+pub fn controller_json(
+    variant: &str,
+    description: &str,
+    gamma: f64,
+    inputs: &[String],
+    k: &Controller,
+) -> serde_json::Value {
     json!({
         "format": "suspension-controller/1",
         "variant": variant,

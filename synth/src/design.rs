@@ -117,7 +117,11 @@ pub enum DesignError {
     #[error("design file is not valid: {0}")]
     Syntax(String),
     #[error("design value '{name}' must be {expected}, got {value}")]
-    Value { name: &'static str, expected: &'static str, value: f64 },
+    Value {
+        name: &'static str,
+        expected: &'static str,
+        value: f64,
+    },
     #[error("design: {0}")]
     Inconsistent(&'static str),
     #[error("design override for '{variant}' is not valid: {reason}")]
@@ -126,13 +130,15 @@ pub enum DesignError {
 
 impl Default for Design {
     fn default() -> Self {
-        Design::from_json(DEFAULT_DESIGN_FILE).expect("the checked-in default design is valid (tested)")
+        Design::from_json(DEFAULT_DESIGN_FILE)
+            .expect("the checked-in default design is valid (tested)")
     }
 }
 
 impl Design {
     pub fn from_json(json: &str) -> Result<Self, DesignError> {
-        let d: Design = serde_json::from_str(json).map_err(|e| DesignError::Syntax(e.to_string()))?;
+        let d: Design =
+            serde_json::from_str(json).map_err(|e| DesignError::Syntax(e.to_string()))?;
         d.validate()?;
         for variant in d.overrides.keys() {
             d.with_overrides(variant)?;
@@ -144,8 +150,13 @@ impl Design {
     /// overrides themselves, kept), validated like the whole file. A variant without overrides
     /// gets the design unchanged.
     pub fn with_overrides(&self, variant: &str) -> Result<Design, DesignError> {
-        let Some(changes) = self.overrides.get(variant) else { return Ok(self.clone()) };
-        let fail = |reason: String| DesignError::Override { variant: variant.into(), reason };
+        let Some(changes) = self.overrides.get(variant) else {
+            return Ok(self.clone());
+        };
+        let fail = |reason: String| DesignError::Override {
+            variant: variant.into(),
+            reason,
+        };
         if changes.contains_key("overrides") || changes.contains_key("description") {
             return Err(fail("only design values can be overridden".into()));
         }
@@ -183,32 +194,67 @@ impl Design {
         ];
         for (name, value) in positive {
             if !(value > 0.0 && value.is_finite()) {
-                return Err(DesignError::Value { name, expected: "a finite number > 0", value });
+                return Err(DesignError::Value {
+                    name,
+                    expected: "a finite number > 0",
+                    value,
+                });
             }
         }
         if !(self.mass_min > 0.0 && self.mass_min < self.mass_max && self.mass_max.is_finite()) {
-            return Err(DesignError::Value { name: "mass_min, mass_max", expected: "0 < mass_min < mass_max < inf", value: self.mass_min });
+            return Err(DesignError::Value {
+                name: "mass_min, mass_max",
+                expected: "0 < mass_min < mass_max < inf",
+                value: self.mass_min,
+            });
         }
         if !(self.fault_h2_weight >= 0.0 && self.fault_h2_weight.is_finite()) {
-            return Err(DesignError::Value { name: "fault_h2_weight", expected: "a finite number >= 0", value: self.fault_h2_weight });
+            return Err(DesignError::Value {
+                name: "fault_h2_weight",
+                expected: "a finite number >= 0",
+                value: self.fault_h2_weight,
+            });
         }
         if !(self.fault_rho_min > 0.0 && self.fault_rho_min < 1.0) {
-            return Err(DesignError::Value { name: "fault_rho_min", expected: "in (0, 1)", value: self.fault_rho_min });
+            return Err(DesignError::Value {
+                name: "fault_rho_min",
+                expected: "in (0, 1)",
+                value: self.fault_rho_min,
+            });
         }
         if let RoadModel::Shaped { corner } = self.road_model {
             if !(corner > 0.0 && corner.is_finite()) {
-                return Err(DesignError::Value { name: "road_model.shaped.corner", expected: "a finite number > 0", value: corner });
+                return Err(DesignError::Value {
+                    name: "road_model.shaped.corner",
+                    expected: "a finite number > 0",
+                    value: corner,
+                });
             }
         }
         if self.constraints && self.road_model == RoadModel::Independent {
             return Err(DesignError::Inconsistent("\"constraints\": true needs \"road_model\": {\"shaped\": {\"corner\": ...}}: with independent road heights the dynamic tyre load carries the height straight through and has no energy-to-peak bound"));
         }
         if self.mass_grid_points < 2 {
-            return Err(DesignError::Value { name: "mass_grid_points", expected: "at least 2", value: self.mass_grid_points as f64 });
+            return Err(DesignError::Value {
+                name: "mass_grid_points",
+                expected: "at least 2",
+                value: self.mass_grid_points as f64,
+            });
         }
-        for (name, value) in [("weight_a_seat", self.weight_a_seat), ("weight_alpha_roll", self.weight_alpha_roll), ("weight_alpha_pitch", self.weight_alpha_pitch), ("weight_a_body", self.weight_a_body), ("weight_stroke", self.weight_stroke), ("weight_tyre_load", self.weight_tyre_load)] {
+        for (name, value) in [
+            ("weight_a_seat", self.weight_a_seat),
+            ("weight_alpha_roll", self.weight_alpha_roll),
+            ("weight_alpha_pitch", self.weight_alpha_pitch),
+            ("weight_a_body", self.weight_a_body),
+            ("weight_stroke", self.weight_stroke),
+            ("weight_tyre_load", self.weight_tyre_load),
+        ] {
             if !(value >= 0.0 && value.is_finite()) {
-                return Err(DesignError::Value { name, expected: "a finite number >= 0", value });
+                return Err(DesignError::Value {
+                    name,
+                    expected: "a finite number >= 0",
+                    value,
+                });
             }
         }
         Ok(())
@@ -226,8 +272,13 @@ impl Design {
         let amp = 0.5 * b.height * 2.0 * std::f64::consts::PI / b.length * b.speed;
         let velocity = amp * amp * 0.5 * duration;
         let per_wheel = match self.road_model {
-            RoadModel::Independent => height / self.road_height_scale.powi(2) + velocity / self.road_velocity_scale.powi(2),
-            RoadModel::Shaped { corner } => (velocity + corner * corner * height) / self.road_velocity_scale.powi(2),
+            RoadModel::Independent => {
+                height / self.road_height_scale.powi(2)
+                    + velocity / self.road_velocity_scale.powi(2)
+            }
+            RoadModel::Shaped { corner } => {
+                (velocity + corner * corner * height) / self.road_velocity_scale.powi(2)
+            }
         };
         2.0 * per_wheel
     }
@@ -254,38 +305,70 @@ mod tests {
         let d = Design::default();
         assert_eq!(d.u_max, 2500.0);
         let bad = DEFAULT_DESIGN_FILE.replace("\"stroke_max\": 0.08", "\"stroke_max\": -0.08");
-        assert!(matches!(Design::from_json(&bad), Err(DesignError::Value { name: "stroke_max", .. })));
-        assert!(matches!(Design::from_json("{\"u_max\": 1}"), Err(DesignError::Syntax(_))));
+        assert!(matches!(
+            Design::from_json(&bad),
+            Err(DesignError::Value {
+                name: "stroke_max",
+                ..
+            })
+        ));
+        assert!(matches!(
+            Design::from_json("{\"u_max\": 1}"),
+            Err(DesignError::Syntax(_))
+        ));
     }
 
     #[test]
     fn overrides_change_only_their_variant_and_bad_ones_are_refused() {
         let d = Design::default();
-        let base = Design { overrides: BTreeMap::new(), ..d.clone() };
+        let base = Design {
+            overrides: BTreeMap::new(),
+            ..d.clone()
+        };
         for (variant, changes) in &d.overrides {
             let o = d.with_overrides(variant).unwrap();
             let mut expected = serde_json::to_value(&base).unwrap();
             for (k, v) in changes {
                 expected[k] = v.clone();
             }
-            assert_eq!(serde_json::to_value(Design { overrides: BTreeMap::new(), ..o }).unwrap(), expected, "{variant}");
+            assert_eq!(
+                serde_json::to_value(Design {
+                    overrides: BTreeMap::new(),
+                    ..o
+                })
+                .unwrap(),
+                expected,
+                "{variant}"
+            );
         }
         assert_eq!(d.with_overrides("no_such_variant_overridden").unwrap(), d);
         let parse = |o: &str| {
             let mut v: serde_json::Value = serde_json::from_str(DEFAULT_DESIGN_FILE).unwrap();
-            v["overrides"] = serde_json::json!({ "x": serde_json::from_str::<serde_json::Value>(o).unwrap() });
+            v["overrides"] =
+                serde_json::json!({ "x": serde_json::from_str::<serde_json::Value>(o).unwrap() });
             Design::from_json(&v.to_string())
         };
         assert!(parse(r#"{"weight_alpha_roll": 0.9}"#).is_ok());
-        for bad in [r#"{"weight_alpha_rol": 0.9}"#, r#"{"weight_alpha_roll": -1}"#, r#"{"weight_alpha_roll": "high"}"#, r#"{"overrides": {}}"#] {
-            assert!(matches!(parse(bad), Err(DesignError::Override { .. })), "{bad}");
+        for bad in [
+            r#"{"weight_alpha_rol": 0.9}"#,
+            r#"{"weight_alpha_roll": -1}"#,
+            r#"{"weight_alpha_roll": "high"}"#,
+            r#"{"overrides": {}}"#,
+        ] {
+            assert!(
+                matches!(parse(bad), Err(DesignError::Override { .. })),
+                "{bad}"
+            );
         }
     }
 
     #[test]
     fn design_energy_and_peak_velocity_match_quadrature() {
         for road_model in [RoadModel::Independent, RoadModel::Shaped { corner: 1.3 }] {
-            let d = Design { road_model, ..Design::default() };
+            let d = Design {
+                road_model,
+                ..Design::default()
+            };
             let b = d.design_bump;
             let n = 200_000;
             let dt = b.length / b.speed / n as f64;
@@ -296,16 +379,29 @@ mod tests {
                 let r = 0.5 * b.height * (1.0 - (w * x).cos());
                 let v = 0.5 * b.height * w * b.speed * (w * x).sin();
                 let (channels, velocity) = match road_model {
-                    RoadModel::Independent => ((r / d.road_height_scale).powi(2) + (v / d.road_velocity_scale).powi(2), v),
-                    RoadModel::Shaped { corner } => (((v + corner * r) / d.road_velocity_scale).powi(2), v + corner * r),
+                    RoadModel::Independent => (
+                        (r / d.road_height_scale).powi(2) + (v / d.road_velocity_scale).powi(2),
+                        v,
+                    ),
+                    RoadModel::Shaped { corner } => (
+                        ((v + corner * r) / d.road_velocity_scale).powi(2),
+                        v + corner * r,
+                    ),
                 };
                 e += 2.0 * channels * dt;
                 peak = peak.max(velocity.abs());
             }
-            assert!((e - d.design_energy()).abs() < 1e-8 * e, "{road_model:?}: {e} vs {}", d.design_energy());
+            assert!(
+                (e - d.design_energy()).abs() < 1e-8 * e,
+                "{road_model:?}: {e} vs {}",
+                d.design_energy()
+            );
             // The closed-form bound is an upper bound, and within 10 % of the sampled peak.
             let bound = d.design_bump_peak_velocity();
-            assert!(peak <= bound && peak > 0.9 * bound, "{road_model:?}: {peak} vs {bound}");
+            assert!(
+                peak <= bound && peak > 0.9 * bound,
+                "{road_model:?}: {peak} vs {bound}"
+            );
         }
     }
 
@@ -314,10 +410,18 @@ mod tests {
     /// model they need), not a drift between two files.
     #[test]
     fn constrained_design_is_the_default_with_the_limits_imposed() {
-        let (d, c) = (Design::default(), Design::from_json(CONSTRAINED_DESIGN_FILE).unwrap());
+        let (d, c) = (
+            Design::default(),
+            Design::from_json(CONSTRAINED_DESIGN_FILE).unwrap(),
+        );
         assert!(c.constraints && matches!(c.road_model, RoadModel::Shaped { .. }));
         assert!(c.design_bump.height < d.design_bump.height);
-        let same = Design { road_model: d.road_model, constraints: d.constraints, design_bump: d.design_bump, ..c.clone() };
+        let same = Design {
+            road_model: d.road_model,
+            constraints: d.constraints,
+            design_bump: d.design_bump,
+            ..c.clone()
+        };
         let strip = |d: &Design| {
             let mut v = serde_json::to_value(d).unwrap();
             v.as_object_mut().unwrap().remove("description");
@@ -329,10 +433,33 @@ mod tests {
     #[test]
     fn constraints_need_the_shaped_road_and_a_valid_corner() {
         let on = DEFAULT_DESIGN_FILE.replace("\"constraints\": false", "\"constraints\": true");
-        assert!(matches!(Design::from_json(&on), Err(DesignError::Inconsistent(_))));
-        let shaped = |corner: &str| on.replace("\"road_model\": \"independent\"", &format!("\"road_model\": {{\"shaped\": {{\"corner\": {corner}}}}}"));
-        assert_eq!(Design::from_json(&shaped("1.2")).unwrap().road_model, RoadModel::Shaped { corner: 1.2 });
-        assert!(matches!(Design::from_json(&shaped("-1")), Err(DesignError::Value { name: "road_model.shaped.corner", .. })));
-        assert!(matches!(Design::from_json(&on.replace("\"road_model\": \"independent\"", "\"road_model\": \"filtered\"")), Err(DesignError::Syntax(_))));
+        assert!(matches!(
+            Design::from_json(&on),
+            Err(DesignError::Inconsistent(_))
+        ));
+        let shaped = |corner: &str| {
+            on.replace(
+                "\"road_model\": \"independent\"",
+                &format!("\"road_model\": {{\"shaped\": {{\"corner\": {corner}}}}}"),
+            )
+        };
+        assert_eq!(
+            Design::from_json(&shaped("1.2")).unwrap().road_model,
+            RoadModel::Shaped { corner: 1.2 }
+        );
+        assert!(matches!(
+            Design::from_json(&shaped("-1")),
+            Err(DesignError::Value {
+                name: "road_model.shaped.corner",
+                ..
+            })
+        ));
+        assert!(matches!(
+            Design::from_json(&on.replace(
+                "\"road_model\": \"independent\"",
+                "\"road_model\": \"filtered\""
+            )),
+            Err(DesignError::Syntax(_))
+        ));
     }
 }

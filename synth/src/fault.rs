@@ -28,8 +28,8 @@
 //! recomputes the closed-loop H∞ norm at every vertex by Hamiltonian bisection.
 
 use crate::certificate::{closed_loop, CertificateError, Controller, NORM_TOLERANCE};
-use crate::hinf_norm::Lti;
 use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
+use crate::hinf_norm::Lti;
 use crate::lmi::{Affine, LmiError, Problem};
 use crate::state_feedback::NormBounded;
 use nalgebra::DMatrix;
@@ -44,7 +44,17 @@ pub struct FaultBox {
 impl FaultBox {
     /// The `2⁵` vertices, healthy first.
     pub fn vertices(&self) -> Vec<[f64; N_ACTUATORS]> {
-        (0..1usize << N_ACTUATORS).map(|bits| std::array::from_fn(|i| if bits >> i & 1 == 1 { self.rho_min } else { 1.0 })).collect()
+        (0..1usize << N_ACTUATORS)
+            .map(|bits| {
+                std::array::from_fn(|i| {
+                    if bits >> i & 1 == 1 {
+                        self.rho_min
+                    } else {
+                        1.0
+                    }
+                })
+            })
+            .collect()
     }
 
     /// `D_ρ = ρ_c I + r Δ`, `Δ = diag(δᵢ)`, `|δᵢ| ≤ 1`: `(ρ_c, r)`.
@@ -63,7 +73,14 @@ impl FaultBox {
         h.view_mut((n, 0), (nz, nu)).copy_from(&(&g.d_zu * r));
         let mut e = DMatrix::zeros(nu, n + nu);
         e.view_mut((0, n), (nu, nu)).fill_with_identity();
-        (center, NormBounded { h, e, diagonal: true })
+        (
+            center,
+            NormBounded {
+                h,
+                e,
+                diagonal: true,
+            },
+        )
     }
 }
 
@@ -73,7 +90,11 @@ impl FaultBox {
 pub fn with_effectiveness(g: &GeneralizedPlant, rho: &[f64]) -> GeneralizedPlant {
     assert_eq!(rho.len(), g.b_u.ncols(), "one effectiveness per actuator");
     let d = DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(rho));
-    GeneralizedPlant { b_u: &g.b_u * &d, d_zu: &g.d_zu * &d, ..g.clone() }
+    GeneralizedPlant {
+        b_u: &g.b_u * &d,
+        d_zu: &g.d_zu * &d,
+        ..g.clone()
+    }
 }
 
 /// An observer-based controller `x̂̇ = A x̂ + B_u u + L (y − C_y x̂)`, `u = F x̂`.
@@ -97,7 +118,12 @@ impl ObserverBased {
     /// `A_K = A + B_u F − L C_y`, `B_K = L`, `C_K = F` (in N), `D_K = 0`.
     pub fn controller(&self, g: &GeneralizedPlant) -> Controller {
         let a = &g.a + &g.b_u * &self.f - &self.l * &g.c_y;
-        Controller::new(a, self.l.clone(), &self.f * FORCE_UNIT, DMatrix::zeros(self.f.nrows(), self.l.ncols()))
+        Controller::new(
+            a,
+            self.l.clone(),
+            &self.f * FORCE_UNIT,
+            DMatrix::zeros(self.f.nrows(), self.l.ncols()),
+        )
     }
 }
 
@@ -117,8 +143,20 @@ impl ObserverBased {
 /// ```
 /// `A_ρ = A + ρ_c B F`. The bound holds pointwise in time, so for any time-varying `ρ(t)` in the
 /// box, a fault that switches on at `t = 2 s` included.
-pub fn observer_for_faults(g: &GeneralizedPlant, faults: &FaultBox, f: &DMatrix<f64>, eps: f64, h2_weight: f64) -> Result<ObserverBased, LmiError> {
-    let (n, ny, nw, nz, nu) = (g.n(), g.c_y.nrows(), g.b_w.ncols(), g.c_z.nrows(), g.b_u.ncols());
+pub fn observer_for_faults(
+    g: &GeneralizedPlant,
+    faults: &FaultBox,
+    f: &DMatrix<f64>,
+    eps: f64,
+    h2_weight: f64,
+) -> Result<ObserverBased, LmiError> {
+    let (n, ny, nw, nz, nu) = (
+        g.n(),
+        g.c_y.nrows(),
+        g.b_w.ncols(),
+        g.c_z.nrows(),
+        g.b_u.ncols(),
+    );
     let (rc, r) = faults.center_radius();
     let mut p = Problem::new();
     let p1v = p.symmetric(n);
@@ -136,14 +174,41 @@ pub fn observer_for_faults(g: &GeneralizedPlant, faults: &FaultBox, f: &DMatrix<
     let lmi = Affine::symmetric_blocks(&[
         vec![
             Some(p1.right(&(&g.a + &bf * rc)).he().add(&ft_s_f)),
-            Some(p1.right(&(&bf * -rc)).add(&p2.right(&(&bf * (rc - 1.0))).t()).sub(&ft_s_f)),
+            Some(
+                p1.right(&(&bf * -rc))
+                    .add(&p2.right(&(&bf * (rc - 1.0))).t())
+                    .sub(&ft_s_f),
+            ),
             Some(p1.right(&g.b_w)),
             Some(p1.right(&(&g.b_u * r))),
             Some(Affine::constant((&g.c_z + &dzu_f * rc).transpose())),
         ],
-        vec![None, Some(p2.right(&(&g.a - &bf * (rc - 1.0))).sub(&lam.right(&g.c_y)).he().add(&ft_s_f)), Some(p2.right(&g.b_w).sub(&lam.right(&g.d_yw))), Some(p2.right(&(&g.b_u * r))), Some(Affine::constant(-(&dzu_f * rc).transpose()))],
-        vec![None, None, Some(minus_gamma(nw)), None, Some(Affine::constant(g.d_zw.transpose()))],
-        vec![None, None, None, Some(s_m.scale(-1.0)), Some(Affine::constant((&g.d_zu * r).transpose()))],
+        vec![
+            None,
+            Some(
+                p2.right(&(&g.a - &bf * (rc - 1.0)))
+                    .sub(&lam.right(&g.c_y))
+                    .he()
+                    .add(&ft_s_f),
+            ),
+            Some(p2.right(&g.b_w).sub(&lam.right(&g.d_yw))),
+            Some(p2.right(&(&g.b_u * r))),
+            Some(Affine::constant(-(&dzu_f * rc).transpose())),
+        ],
+        vec![
+            None,
+            None,
+            Some(minus_gamma(nw)),
+            None,
+            Some(Affine::constant(g.d_zw.transpose())),
+        ],
+        vec![
+            None,
+            None,
+            None,
+            Some(s_m.scale(-1.0)),
+            Some(Affine::constant((&g.d_zu * r).transpose())),
+        ],
         vec![None, None, None, None, Some(minus_gamma(nz))],
     ]);
     p.negative_definite("robust bounded-real LMI over the fault box", lmi, eps);
@@ -160,16 +225,38 @@ pub fn observer_for_faults(g: &GeneralizedPlant, faults: &FaultBox, f: &DMatrix<
     let nu_v = p.scalar();
     if h2_weight > 0.0 {
         let zv = p.symmetric(nw);
-        let lyapunov = p2.right(&g.a).sub(&lam.right(&g.c_y)).he().add(&Affine::constant(f.transpose() * f));
+        let lyapunov = p2
+            .right(&g.a)
+            .sub(&lam.right(&g.c_y))
+            .he()
+            .add(&Affine::constant(f.transpose() * f));
         p.negative_definite("H2 observability LMI of F e", lyapunov, eps);
         let b_tilde = p2.right(&g.b_w).sub(&lam.right(&g.d_yw));
-        p.positive_definite("H2 trace LMI", Affine::symmetric_blocks(&[vec![Some(zv.expr()), Some(b_tilde.t())], vec![None, Some(p2.clone())]]), eps);
+        p.positive_definite(
+            "H2 trace LMI",
+            Affine::symmetric_blocks(&[
+                vec![Some(zv.expr()), Some(b_tilde.t())],
+                vec![None, Some(p2.clone())],
+            ]),
+            eps,
+        );
         p.positive_definite("nu > trace Z", nu_v.expr().sub(&zv.expr().trace()), eps);
         p.minimise(&nu_v, h2_weight);
     }
     let sol = p.solve()?;
-    let l = p2v.value(&sol.x).lu().solve(&lamv.value(&sol.x)).expect("P2 ≻ 0 was checked at the solution");
-    Ok(ObserverBased { f: f.clone(), l, gamma: gamma.value(&sol.x)[(0, 0)], estimation_h2: (h2_weight > 0.0).then(|| nu_v.value(&sol.x)[(0, 0)].sqrt()), multiplier: s.iter().map(|v| v.value(&sol.x)[(0, 0)]).collect(), solver_status: sol.status })
+    let l = p2v
+        .value(&sol.x)
+        .lu()
+        .solve(&lamv.value(&sol.x))
+        .expect("P2 ≻ 0 was checked at the solution");
+    Ok(ObserverBased {
+        f: f.clone(),
+        l,
+        gamma: gamma.value(&sol.x)[(0, 0)],
+        estimation_h2: (h2_weight > 0.0).then(|| nu_v.value(&sol.x)[(0, 0)].sqrt()),
+        multiplier: s.iter().map(|v| v.value(&sol.x)[(0, 0)]).collect(),
+        solver_status: sol.status,
+    })
 }
 
 /// The detection residual: a first-order parity relation of the measurements that the road
@@ -204,12 +291,19 @@ impl DetectionResidual {
         let v_t = svd.v_t.expect("requested");
         let tol = 1e-9 * svd.singular_values.max();
         // Rows of Vᵀ for zero singular values span the null space of Mᵀ (Vᵀ is 2ny × 2ny).
-        let null: Vec<usize> = (0..2 * ny).filter(|&k| svd.singular_values.get(k).is_none_or(|s| *s <= tol)).collect();
+        let null: Vec<usize> = (0..2 * ny)
+            .filter(|&k| svd.singular_values.get(k).is_none_or(|s| *s <= tol))
+            .collect();
         let basis = DMatrix::from_fn(null.len(), 2 * ny, |i, j| v_t[(null[i], j)]);
         let pi = basis.columns(0, ny).into_owned();
         let kappa = basis.columns(ny, ny).into_owned();
         let gm = &pi * &g.c_y * &g.b_u / FORCE_UNIT;
-        DetectionResidual { pi, kappa, g: gm, time_constant }
+        DetectionResidual {
+            pi,
+            kappa,
+            g: gm,
+            time_constant,
+        }
     }
 
     pub fn order(&self) -> usize {
@@ -237,14 +331,23 @@ impl DetectionResidual {
     pub fn detector(&self) -> Detector {
         let (m, t) = (self.order(), self.time_constant);
         let to_force = self.to_force();
-        Detector { a: DMatrix::identity(m, m) * (-1.0 / t), b: &self.kappa + &self.pi / t, b_u: self.g.clone(), c: -&to_force, d: &to_force * &self.pi }
+        Detector {
+            a: DMatrix::identity(m, m) * (-1.0 / t),
+            b: &self.kappa + &self.pi / t,
+            b_u: self.g.clone(),
+            c: -&to_force,
+            d: &to_force * &self.pi,
+        }
     }
 }
 
 /// The whole `ft_of` controller as one LTI system from `y`: states `[x̂; ξ]`, outputs `u` (N)
 /// and, separately, the residual's `(C_r, D_r)` on those states — for the certificate. (The FMU
 /// feeds the detector the command it actually sent, held over the step.)
-pub fn with_detection(k: &Controller, det: &DetectionResidual) -> (Controller, DMatrix<f64>, DMatrix<f64>) {
+pub fn with_detection(
+    k: &Controller,
+    det: &DetectionResidual,
+) -> (Controller, DMatrix<f64>, DMatrix<f64>) {
     let d = det.detector();
     let (n, m, ny, nu) = (k.order(), det.order(), k.b.ncols(), k.c.nrows());
     let mut a = DMatrix::zeros(n + m, n + m);
@@ -253,7 +356,8 @@ pub fn with_detection(k: &Controller, det: &DetectionResidual) -> (Controller, D
     a.view_mut((n, n), (m, m)).copy_from(&d.a);
     let mut b = DMatrix::zeros(n + m, ny);
     b.view_mut((0, 0), (n, ny)).copy_from(&k.b);
-    b.view_mut((n, 0), (m, ny)).copy_from(&(&d.b + &d.b_u * &k.d));
+    b.view_mut((n, 0), (m, ny))
+        .copy_from(&(&d.b + &d.b_u * &k.d));
     let mut c = DMatrix::zeros(nu, n + m);
     c.view_mut((0, 0), (nu, n)).copy_from(&k.c);
     let mut c_r = DMatrix::zeros(d.c.nrows(), n + m);
@@ -287,14 +391,31 @@ pub struct FaultCertificate {
 /// reach `u`, so they change no `w → z` map (and, unobservable, they only slow the Hamiltonian
 /// bisection down); `k` is used for the residual checks.
 #[allow(clippy::too_many_arguments)]
-pub fn certify_faults(variant: &str, g: &GeneralizedPlant, faults: &FaultBox, ob: &ObserverBased, det: &DetectionResidual, k: &Controller, c_r: &DMatrix<f64>, d_r: &DMatrix<f64>) -> Result<FaultCertificate, CertificateError> {
-    let fail = |reason: String| CertificateError::Fault { variant: variant.into(), reason };
+pub fn certify_faults(
+    variant: &str,
+    g: &GeneralizedPlant,
+    faults: &FaultBox,
+    ob: &ObserverBased,
+    det: &DetectionResidual,
+    k: &Controller,
+    c_r: &DMatrix<f64>,
+    d_r: &DMatrix<f64>,
+) -> Result<FaultCertificate, CertificateError> {
+    let fail = |reason: String| CertificateError::Fault {
+        variant: variant.into(),
+        reason,
+    };
     let control = ob.controller(g);
     let mut vertex_norms = Vec::new();
     for rho in faults.vertices() {
-        let norm = closed_loop(&with_effectiveness(g, &rho), &g.c_y, &g.d_yw, &control).hinf_norm(1e-8).map_err(|e| fail(format!("at effectiveness {rho:?}: {e}")))?;
+        let norm = closed_loop(&with_effectiveness(g, &rho), &g.c_y, &g.d_yw, &control)
+            .hinf_norm(1e-8)
+            .map_err(|e| fail(format!("at effectiveness {rho:?}: {e}")))?;
         if norm.upper > ob.gamma * (1.0 + NORM_TOLERANCE) {
-            return Err(fail(format!("at effectiveness {rho:?} the closed-loop norm {} exceeds gamma {}", norm.upper, ob.gamma)));
+            return Err(fail(format!(
+                "at effectiveness {rho:?} the closed-loop norm {} exceeds gamma {}",
+                norm.upper, ob.gamma
+            )));
         }
         vertex_norms.push(norm.upper);
     }
@@ -302,10 +423,21 @@ pub fn certify_faults(variant: &str, g: &GeneralizedPlant, faults: &FaultBox, ob
     let (rc, r) = faults.center_radius();
     let center = with_effectiveness(g, &[rc; N_ACTUATORS]);
     let (n, nw, nz, nu) = (g.n(), g.b_w.ncols(), g.c_z.nrows(), g.b_u.ncols());
-    let aug = center.with_uncertainty_channel(&(&g.b_u * r), &(&g.d_zu * r), &DMatrix::zeros(nu, n), &DMatrix::identity(nu, nu));
+    let aug = center.with_uncertainty_channel(
+        &(&g.b_u * r),
+        &(&g.d_zu * r),
+        &DMatrix::zeros(nu, n),
+        &DMatrix::identity(nu, nu),
+    );
     let mut m = closed_loop(&aug, &g.c_y, &aug.d_yw, &control);
-    let in_scale: Vec<f64> = (0..nw).map(|_| ob.gamma.powf(-0.5)).chain(ob.multiplier.iter().map(|s| s.powf(-0.5))).collect();
-    let out_scale: Vec<f64> = (0..nz).map(|_| ob.gamma.powf(-0.5)).chain(ob.multiplier.iter().map(|s| s.sqrt())).collect();
+    let in_scale: Vec<f64> = (0..nw)
+        .map(|_| ob.gamma.powf(-0.5))
+        .chain(ob.multiplier.iter().map(|s| s.powf(-0.5)))
+        .collect();
+    let out_scale: Vec<f64> = (0..nz)
+        .map(|_| ob.gamma.powf(-0.5))
+        .chain(ob.multiplier.iter().map(|s| s.sqrt()))
+        .collect();
     for (j, s) in in_scale.iter().enumerate() {
         m.b.column_mut(j).scale_mut(*s);
         m.d.column_mut(j).scale_mut(*s);
@@ -314,7 +446,10 @@ pub fn certify_faults(variant: &str, g: &GeneralizedPlant, faults: &FaultBox, ob
         m.c.row_mut(i).scale_mut(*s);
         m.d.row_mut(i).scale_mut(*s);
     }
-    let small_gain = m.hinf_norm(1e-8).map_err(|e| fail(format!("the scaled fault loop: {e}")))?.upper;
+    let small_gain = m
+        .hinf_norm(1e-8)
+        .map_err(|e| fail(format!("the scaled fault loop: {e}")))?
+        .upper;
     if small_gain > 1.0 + NORM_TOLERANCE {
         return Err(fail(format!("the scaled small-gain norm {small_gain} exceeds 1: the LMI's claim on the fault box does not hold")));
     }
@@ -323,22 +458,44 @@ pub fn certify_faults(variant: &str, g: &GeneralizedPlant, faults: &FaultBox, ob
     let healthy = closed_loop(g, &g.c_y, &g.d_yw, k);
     let nk = k.order();
     let mut c_res = DMatrix::zeros(c_r.nrows(), n + nk);
-    c_res.view_mut((0, 0), (c_r.nrows(), n)).copy_from(&(d_r * &g.c_y));
+    c_res
+        .view_mut((0, 0), (c_r.nrows(), n))
+        .copy_from(&(d_r * &g.c_y));
     c_res.view_mut((0, n), (c_r.nrows(), nk)).copy_from(c_r);
     let road = g.road_scale.len();
-    let residual = Lti::new(healthy.a.clone(), healthy.b.columns(0, road).into_owned(), c_res, (d_r * &g.d_yw).columns(0, road).into_owned());
-    let frequencies: Vec<f64> = (0..400).map(|k| 10f64.powf(-2.0 + 5.0 * k as f64 / 399.0)).collect();
-    let road_to_residual = frequencies.iter().map(|w| residual.sigma_max(*w)).fold(residual.d.norm(), f64::max);
+    let residual = Lti::new(
+        healthy.a.clone(),
+        healthy.b.columns(0, road).into_owned(),
+        c_res,
+        (d_r * &g.d_yw).columns(0, road).into_owned(),
+    );
+    let frequencies: Vec<f64> = (0..400)
+        .map(|k| 10f64.powf(-2.0 + 5.0 * k as f64 / 399.0))
+        .collect();
+    let road_to_residual = frequencies
+        .iter()
+        .map(|w| residual.sigma_max(*w))
+        .fold(residual.d.norm(), f64::max);
     // A unit of scaled road moves a tyre force of order k_t · 5 cm ≈ 1e4 N: 1e-3 N is rounding.
     if road_to_residual > ROAD_DECOUPLING_TOLERANCE {
         return Err(fail(format!("the road reaches the detection residual (gain {road_to_residual:e} N per unit road): it is not decoupled")));
     }
     let projection = det.to_force() * &det.g * det.time_constant;
     let residual_dc_per_actuator: Vec<f64> = (0..nu).map(|i| projection.column(i).norm()).collect();
-    if residual_dc_per_actuator.iter().any(|v| v.is_nan() || *v <= 0.05) {
+    if residual_dc_per_actuator
+        .iter()
+        .any(|v| v.is_nan() || *v <= 0.05)
+    {
         return Err(fail(format!("an actuator's deficit barely reaches the residual (DC gains {residual_dc_per_actuator:?}): its faults are not detectable")));
     }
-    Ok(FaultCertificate { worst_vertex_norm: vertex_norms.iter().copied().fold(0.0, f64::max), vertex_norms, scaled_small_gain_norm: small_gain, road_to_residual, residual_dc_per_actuator, frequencies: frequencies.len() })
+    Ok(FaultCertificate {
+        worst_vertex_norm: vertex_norms.iter().copied().fold(0.0, f64::max),
+        vertex_norms,
+        scaled_small_gain_norm: small_gain,
+        road_to_residual,
+        residual_dc_per_actuator,
+        frequencies: frequencies.len(),
+    })
 }
 
 #[cfg(test)]
@@ -372,26 +529,50 @@ mod tests {
         let d = Design::default();
         let g = GeneralizedPlant::new(&VehicleParams::default(), &d);
         let det = DetectionResidual::new(&g, 0.05);
-        assert_eq!(det.order(), 3, "the body's heave, roll and pitch momentum balances");
+        assert_eq!(
+            det.order(),
+            3,
+            "the body's heave, roll and pitch momentum balances"
+        );
         let dt = det.detector();
         let rho = [0.5, 1.0, 0.8, 1.0, 0.3];
         let b_applied = with_effectiveness(&g, &rho).b_u / FORCE_UNIT;
         let cx = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
-        let expected_dc = det.to_force() * &det.g * det.time_constant * (DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(&rho)) - DMatrix::identity(5, 5));
+        let expected_dc = det.to_force()
+            * &det.g
+            * det.time_constant
+            * (DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(&rho))
+                - DMatrix::identity(5, 5));
         for w in [0.1, 1.0, 8.0, 70.0, 400.0] {
             let jw = Complex::new(0.0, w);
-            let plant = (DMatrix::<Complex<f64>>::identity(16, 16) * jw - cx(&g.a)).try_inverse().unwrap();
-            let filter = (DMatrix::<Complex<f64>>::identity(3, 3) * jw - cx(&dt.a)).try_inverse().unwrap();
+            let plant = (DMatrix::<Complex<f64>>::identity(16, 16) * jw - cx(&g.a))
+                .try_inverse()
+                .unwrap();
+            let filter = (DMatrix::<Complex<f64>>::identity(3, 3) * jw - cx(&dt.a))
+                .try_inverse()
+                .unwrap();
             // y per input, then r = (C_d (jω − A_d)⁻¹ B_d + D_d) y + C_d (jω − A_d)⁻¹ B_du u.
             let from_y = cx(&dt.c) * &filter * cx(&dt.b) + cx(&dt.d);
             let road = &from_y * cx(&g.c_y) * &plant * cx(&g.b_w);
-            let command = &from_y * cx(&g.c_y) * &plant * cx(&b_applied) + cx(&dt.c) * &filter * cx(&dt.b_u);
+            let command =
+                &from_y * cx(&g.c_y) * &plant * cx(&b_applied) + cx(&dt.c) * &filter * cx(&dt.b_u);
             let expected = cx(&expected_dc) / (Complex::new(1.0, 0.0) + jw * det.time_constant);
-            assert!(road.norm() < 1e-7, "ω = {w}: road reaches the residual, gain {}", road.norm());
-            assert!((&command - &expected).norm() < 1e-8 * expected.norm(), "ω = {w}: {} vs {}", command, expected);
+            assert!(
+                road.norm() < 1e-7,
+                "ω = {w}: road reaches the residual, gain {}",
+                road.norm()
+            );
+            assert!(
+                (&command - &expected).norm() < 1e-8 * expected.norm(),
+                "ω = {w}: {} vs {}",
+                command,
+                expected
+            );
         }
         // Each actuator's deficit is seen (the seat's through its reaction on the body).
-        assert!((0..5).all(|i| expected_dc.column(i).norm() > 0.1 * (1.0 - rho[i]) || rho[i] == 1.0));
+        assert!(
+            (0..5).all(|i| expected_dc.column(i).norm() > 0.1 * (1.0 - rho[i]) || rho[i] == 1.0)
+        );
     }
 
     /// The design certifies, and the same controller with a 1 % lower γ claimed does not.
@@ -400,16 +581,35 @@ mod tests {
         let d = Design::default();
         let g = GeneralizedPlant::new(&VehicleParams::default(), &d);
         let gn = g.with_sensor_noise(&d);
-        let faults = FaultBox { rho_min: d.fault_rho_min };
+        let faults = FaultBox {
+            rho_min: d.fault_rho_min,
+        };
         let (center, nb) = faults.norm_bounded(&g);
         let sf = hinf_sf_robust(&[&center], Some(&nb), d.lmi_margin, None).unwrap();
-        let ob = observer_for_faults(&gn, &faults, &(&sf.k / FORCE_UNIT), d.lmi_margin, d.fault_h2_weight).unwrap();
+        let ob = observer_for_faults(
+            &gn,
+            &faults,
+            &(&sf.k / FORCE_UNIT),
+            d.lmi_margin,
+            d.fault_h2_weight,
+        )
+        .unwrap();
         let det = DetectionResidual::new(&g, d.fault_time_constant);
         let (k, c_r, d_r) = with_detection(&ob.controller(&gn), &det);
         let cert = certify_faults("ft_of", &gn, &faults, &ob, &det, &k, &c_r, &d_r).unwrap();
         assert_eq!(cert.vertex_norms.len(), 32);
-        assert!(cert.worst_vertex_norm <= ob.gamma && cert.scaled_small_gain_norm < 1.0 && cert.road_to_residual < ROAD_DECOUPLING_TOLERANCE);
-        let overclaim = ObserverBased { gamma: cert.worst_vertex_norm * 0.99, ..ob };
-        assert!(matches!(certify_faults("ft_of", &gn, &faults, &overclaim, &det, &k, &c_r, &d_r), Err(CertificateError::Fault { .. })));
+        assert!(
+            cert.worst_vertex_norm <= ob.gamma
+                && cert.scaled_small_gain_norm < 1.0
+                && cert.road_to_residual < ROAD_DECOUPLING_TOLERANCE
+        );
+        let overclaim = ObserverBased {
+            gamma: cert.worst_vertex_norm * 0.99,
+            ..ob
+        };
+        assert!(matches!(
+            certify_faults("ft_of", &gn, &faults, &overclaim, &det, &k, &c_r, &d_r),
+            Err(CertificateError::Fault { .. })
+        ));
     }
 }

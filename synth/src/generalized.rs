@@ -17,14 +17,25 @@
 
 use crate::design::{Design, RoadModel};
 use nalgebra::DMatrix;
-use vehicle::model::{physical_outputs, OutputRow, StateSpace, N_ACTUATORS, N_ROAD, N_STATES, N_WHEELS};
+use vehicle::model::{
+    physical_outputs, OutputRow, StateSpace, N_ACTUATORS, N_ROAD, N_STATES, N_WHEELS,
+};
 use vehicle::VehicleParams;
 
 /// Newtons per unit of `ũ`.
 pub const FORCE_UNIT: f64 = 1000.0;
 
 /// Names of the plant outputs the output-feedback designs measure, in the order of `y`.
-pub const MEASUREMENTS: [&str; 8] = ["stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr", "stroke_seat", "v_body", "omega_roll", "omega_pitch"];
+pub const MEASUREMENTS: [&str; 8] = [
+    "stroke_fl",
+    "stroke_fr",
+    "stroke_rl",
+    "stroke_rr",
+    "stroke_seat",
+    "v_body",
+    "omega_roll",
+    "omega_pitch",
+];
 
 #[derive(Debug, Clone)]
 pub struct GeneralizedPlant {
@@ -61,9 +72,23 @@ impl RoadMap {
     fn new(d: &Design) -> Self {
         match d.road_model {
             RoadModel::Independent => {
-                let scale: Vec<f64> = (0..N_ROAD).map(|k| if k < N_WHEELS { d.road_height_scale } else { d.road_velocity_scale }).collect();
+                let scale: Vec<f64> = (0..N_ROAD)
+                    .map(|k| {
+                        if k < N_WHEELS {
+                            d.road_height_scale
+                        } else {
+                            d.road_velocity_scale
+                        }
+                    })
+                    .collect();
                 let r_w = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale.clone()));
-                RoadMap { r_x: DMatrix::zeros(N_ROAD, 0), r_w, a: DMatrix::zeros(0, 0), b: DMatrix::zeros(0, N_ROAD), scale }
+                RoadMap {
+                    r_x: DMatrix::zeros(N_ROAD, 0),
+                    r_w,
+                    a: DMatrix::zeros(0, 0),
+                    b: DMatrix::zeros(0, N_ROAD),
+                    scale,
+                }
             }
             RoadModel::Shaped { corner } => {
                 let s = d.road_velocity_scale;
@@ -71,10 +96,18 @@ impl RoadMap {
                 // z_r = x_r, ż_r = −a x_r + s w.
                 let mut r_x = DMatrix::zeros(N_ROAD, N_WHEELS);
                 r_x.view_mut((0, 0), (N_WHEELS, N_WHEELS)).copy_from(&eye);
-                r_x.view_mut((N_WHEELS, 0), (N_WHEELS, N_WHEELS)).copy_from(&(&eye * -corner));
+                r_x.view_mut((N_WHEELS, 0), (N_WHEELS, N_WHEELS))
+                    .copy_from(&(&eye * -corner));
                 let mut r_w = DMatrix::zeros(N_ROAD, N_WHEELS);
-                r_w.view_mut((N_WHEELS, 0), (N_WHEELS, N_WHEELS)).copy_from(&(&eye * s));
-                RoadMap { r_x, r_w, a: &eye * -corner, b: &eye * s, scale: vec![s; N_WHEELS] }
+                r_w.view_mut((N_WHEELS, 0), (N_WHEELS, N_WHEELS))
+                    .copy_from(&(&eye * s));
+                RoadMap {
+                    r_x,
+                    r_w,
+                    a: &eye * -corner,
+                    b: &eye * s,
+                    scale: vec![s; N_WHEELS],
+                }
             }
         }
     }
@@ -85,7 +118,9 @@ impl RoadMap {
 }
 
 fn row<'a>(rows: &'a [OutputRow], name: &str) -> &'a OutputRow {
-    rows.iter().find(|r| r.name == name).unwrap_or_else(|| panic!("vehicle has no output {name}"))
+    rows.iter()
+        .find(|r| r.name == name)
+        .unwrap_or_else(|| panic!("vehicle has no output {name}"))
 }
 
 impl GeneralizedPlant {
@@ -108,9 +143,15 @@ impl GeneralizedPlant {
         let output = |r: &OutputRow, weight: f64| {
             let d_r = DMatrix::from_row_slice(1, N_ROAD, &r.d_r) * weight;
             let mut c = DMatrix::zeros(1, n);
-            c.view_mut((0, 0), (1, N_STATES)).copy_from(&(DMatrix::from_row_slice(1, N_STATES, &r.c) * weight));
-            c.view_mut((0, N_STATES), (1, nr)).copy_from(&(&d_r * &road.r_x));
-            (c, &d_r * &road.r_w, DMatrix::from_row_slice(1, N_ACTUATORS, &r.d_u) * (weight * FORCE_UNIT))
+            c.view_mut((0, 0), (1, N_STATES))
+                .copy_from(&(DMatrix::from_row_slice(1, N_STATES, &r.c) * weight));
+            c.view_mut((0, N_STATES), (1, nr))
+                .copy_from(&(&d_r * &road.r_x));
+            (
+                c,
+                &d_r * &road.r_w,
+                DMatrix::from_row_slice(1, N_ACTUATORS, &r.d_u) * (weight * FORCE_UNIT),
+            )
         };
         let limits = [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat];
         let perf = [
@@ -141,9 +182,22 @@ impl GeneralizedPlant {
         for k in 0..N_ACTUATORS {
             d_zu[(perf.len() + k, k)] = d.control_penalty * FORCE_UNIT / limits[k];
         }
-        let measured: Vec<_> = MEASUREMENTS.iter().map(|name| output(row(&rows, name), 1.0)).collect();
-        let c_y = DMatrix::from_rows(&measured.iter().map(|m| m.0.row(0).into_owned()).collect::<Vec<_>>());
-        let d_yw = DMatrix::from_rows(&measured.iter().map(|m| m.1.row(0).into_owned()).collect::<Vec<_>>());
+        let measured: Vec<_> = MEASUREMENTS
+            .iter()
+            .map(|name| output(row(&rows, name), 1.0))
+            .collect();
+        let c_y = DMatrix::from_rows(
+            &measured
+                .iter()
+                .map(|m| m.0.row(0).into_owned())
+                .collect::<Vec<_>>(),
+        );
+        let d_yw = DMatrix::from_rows(
+            &measured
+                .iter()
+                .map(|m| m.1.row(0).into_owned())
+                .collect::<Vec<_>>(),
+        );
 
         let mut names = Vec::new();
         let mut c_c = DMatrix::zeros(0, n);
@@ -178,14 +232,32 @@ impl GeneralizedPlant {
         }
         let mut a = DMatrix::zeros(n, n);
         a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
-        a.view_mut((0, N_STATES), (N_STATES, nr)).copy_from(&(&ss.b_r * &road.r_x));
-        a.view_mut((N_STATES, N_STATES), (nr, nr)).copy_from(&road.a);
+        a.view_mut((0, N_STATES), (N_STATES, nr))
+            .copy_from(&(&ss.b_r * &road.r_x));
+        a.view_mut((N_STATES, N_STATES), (nr, nr))
+            .copy_from(&road.a);
         let mut b_w = DMatrix::zeros(n, nw);
-        b_w.view_mut((0, 0), (N_STATES, nw)).copy_from(&(&ss.b_r * &road.r_w));
+        b_w.view_mut((0, 0), (N_STATES, nw))
+            .copy_from(&(&ss.b_r * &road.r_w));
         b_w.view_mut((N_STATES, 0), (nr, nw)).copy_from(&road.b);
         let mut b_u = DMatrix::zeros(n, N_ACTUATORS);
-        b_u.view_mut((0, 0), (N_STATES, N_ACTUATORS)).copy_from(&(&ss.b_u * FORCE_UNIT));
-        GeneralizedPlant { a, b_w, b_u, c_z, d_zw, d_zu, c_y, d_yw, c_c, d_cu, constraint_names: names, road_scale: road.scale, road_model: d.road_model }
+        b_u.view_mut((0, 0), (N_STATES, N_ACTUATORS))
+            .copy_from(&(&ss.b_u * FORCE_UNIT));
+        GeneralizedPlant {
+            a,
+            b_w,
+            b_u,
+            c_z,
+            d_zw,
+            d_zu,
+            c_y,
+            d_yw,
+            c_c,
+            d_cu,
+            constraint_names: names,
+            road_scale: road.scale,
+            road_model: d.road_model,
+        }
     }
 
     /// What `w` is, for the certificate.
@@ -199,7 +271,12 @@ impl GeneralizedPlant {
     /// The closed loop's constraint outputs as a plant whose performance output they are
     /// (`C_z = C_c`, `D_zu = D_cu`, `D_zw = 0`), e.g. for [`crate::certificate::closed_loop`].
     pub fn constraint_plant(&self) -> GeneralizedPlant {
-        GeneralizedPlant { c_z: self.c_c.clone(), d_zu: self.d_cu.clone(), d_zw: DMatrix::zeros(self.c_c.nrows(), self.b_w.ncols()), ..self.clone() }
+        GeneralizedPlant {
+            c_z: self.c_c.clone(),
+            d_zu: self.d_cu.clone(),
+            d_zw: DMatrix::zeros(self.c_c.nrows(), self.b_w.ncols()),
+            ..self.clone()
+        }
     }
 
     /// Number of road states (4 with the shaped road, after the plant's 16; 0 otherwise).
@@ -226,7 +303,9 @@ impl GeneralizedPlant {
     /// matrix on [`Self::state_measurement`]'s inputs: `K C⁻¹`.
     pub fn gain_on_measurement(&self, k: &DMatrix<f64>) -> DMatrix<f64> {
         let (c, _, _) = self.state_measurement();
-        k * c.try_inverse().expect("the state measurement is invertible")
+        k * c
+            .try_inverse()
+            .expect("the state measurement is invertible")
     }
 
     pub fn n(&self) -> usize {
@@ -237,7 +316,9 @@ impl GeneralizedPlant {
     /// height straight through): the ones with an H2 norm for white `w` under a strictly proper
     /// (or state-feedback) controller, which the mixed H2/H∞ designs minimise.
     pub fn h2_rows(&self) -> Vec<usize> {
-        (0..self.c_z.nrows()).filter(|&i| self.d_zw.row(i).iter().all(|v| *v == 0.0)).collect()
+        (0..self.c_z.nrows())
+            .filter(|&i| self.d_zw.row(i).iter().all(|v| *v == 0.0))
+            .collect()
     }
 
     /// The matrices as the output-feedback LMI names them (`B₁ = B_w`, `C₁ = C_z`, …).
@@ -258,8 +339,20 @@ impl GeneralizedPlant {
     /// `g` with an uncertainty channel `p = Δ q` as extra inputs and outputs: `p` enters as
     /// `H_x p` in `ẋ` and `H_z p` in `z`, `q = E_x x + E_u u` is appended to `z`; nothing of it
     /// reaches `y` (the uncertainty acts on the plant, not on the sensors).
-    pub fn with_uncertainty_channel(&self, h_x: &DMatrix<f64>, h_z: &DMatrix<f64>, e_x: &DMatrix<f64>, e_u: &DMatrix<f64>) -> GeneralizedPlant {
-        let (n, nw, nz, nu, ny) = (self.n(), self.b_w.ncols(), self.c_z.nrows(), self.b_u.ncols(), self.c_y.nrows());
+    pub fn with_uncertainty_channel(
+        &self,
+        h_x: &DMatrix<f64>,
+        h_z: &DMatrix<f64>,
+        e_x: &DMatrix<f64>,
+        e_u: &DMatrix<f64>,
+    ) -> GeneralizedPlant {
+        let (n, nw, nz, nu, ny) = (
+            self.n(),
+            self.b_w.ncols(),
+            self.c_z.nrows(),
+            self.b_u.ncols(),
+            self.c_y.nrows(),
+        );
         let (np, nq) = (h_x.ncols(), e_x.nrows());
         let mut g = self.clone();
         g.b_w = DMatrix::zeros(n, nw + np);
@@ -283,7 +376,12 @@ impl GeneralizedPlant {
     /// measurement (`y += noise_k · w_noise,k`), which enters nothing else. This regularises the
     /// otherwise singular filtering problem (`D_yw` has full row rank).
     pub fn with_sensor_noise(&self, d: &Design) -> GeneralizedPlant {
-        let (n, nw, ny, nz) = (self.n(), self.b_w.ncols(), self.c_y.nrows(), self.c_z.nrows());
+        let (n, nw, ny, nz) = (
+            self.n(),
+            self.b_w.ncols(),
+            self.c_y.nrows(),
+            self.c_z.nrows(),
+        );
         let mut g = self.clone();
         g.b_w = DMatrix::zeros(n, nw + ny);
         g.b_w.view_mut((0, 0), (n, nw)).copy_from(&self.b_w);
@@ -292,7 +390,11 @@ impl GeneralizedPlant {
         g.d_yw = DMatrix::zeros(ny, nw + ny);
         g.d_yw.view_mut((0, 0), (ny, nw)).copy_from(&self.d_yw);
         for (k, name) in MEASUREMENTS.iter().enumerate() {
-            g.d_yw[(k, nw + k)] = if name.starts_with("stroke") { d.noise_stroke } else { d.noise_rate };
+            g.d_yw[(k, nw + k)] = if name.starts_with("stroke") {
+                d.noise_stroke
+            } else {
+                d.noise_rate
+            };
         }
         g
     }
@@ -301,7 +403,8 @@ impl GeneralizedPlant {
 fn stack(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
     let mut m = DMatrix::zeros(top.nrows() + bottom.nrows(), top.ncols());
     m.view_mut((0, 0), top.shape()).copy_from(top);
-    m.view_mut((top.nrows(), 0), bottom.shape()).copy_from(bottom);
+    m.view_mut((top.nrows(), 0), bottom.shape())
+        .copy_from(bottom);
     m
 }
 
@@ -318,27 +421,52 @@ mod tests {
     fn the_shaped_road_plant_is_the_plant_driven_by_a_filtered_road() {
         let corner = 1.3;
         let base = Design::default();
-        let shaped = Design { road_model: RoadModel::Shaped { corner }, constraints: true, ..base.clone() };
+        let shaped = Design {
+            road_model: RoadModel::Shaped { corner },
+            constraints: true,
+            ..base.clone()
+        };
         let p = VehicleParams::default();
-        let (gi, gs) = (GeneralizedPlant::new(&p, &base), GeneralizedPlant::new(&p, &shaped));
-        assert_eq!((gs.n(), gs.road_states(), gs.b_w.ncols(), gi.road_states()), (20, 4, 4, 0));
+        let (gi, gs) = (
+            GeneralizedPlant::new(&p, &base),
+            GeneralizedPlant::new(&p, &shaped),
+        );
+        assert_eq!(
+            (gs.n(), gs.road_states(), gs.b_w.ncols(), gi.road_states()),
+            (20, 4, 4, 0)
+        );
         let x = DMatrix::from_fn(N_STATES, 1, |i, _| (0.7 * i as f64).sin() * 0.01);
         let r = DMatrix::from_fn(4, 1, |i, _| 0.02 * (i as f64 - 1.5));
         let rdot = DMatrix::from_fn(4, 1, |i, _| 0.3 * (i as f64 + 0.5).cos());
         let u = DMatrix::from_fn(N_ACTUATORS, 1, |i, _| 0.4 - 0.1 * i as f64);
         let w_shaped = (&rdot + &r * corner) / shaped.road_velocity_scale;
         let mut w_ind = DMatrix::zeros(8, 1);
-        w_ind.view_mut((0, 0), (4, 1)).copy_from(&(&r / base.road_height_scale));
-        w_ind.view_mut((4, 0), (4, 1)).copy_from(&(&rdot / base.road_velocity_scale));
+        w_ind
+            .view_mut((0, 0), (4, 1))
+            .copy_from(&(&r / base.road_height_scale));
+        w_ind
+            .view_mut((4, 0), (4, 1))
+            .copy_from(&(&rdot / base.road_velocity_scale));
         let mut xs = DMatrix::zeros(20, 1);
         xs.view_mut((0, 0), (N_STATES, 1)).copy_from(&x);
         xs.view_mut((N_STATES, 0), (4, 1)).copy_from(&r);
-        let close = |a: DMatrix<f64>, b: DMatrix<f64>| assert!((&a - &b).amax() <= 1e-9 * b.amax().max(1.0), "{a} vs {b}");
+        let close = |a: DMatrix<f64>, b: DMatrix<f64>| {
+            assert!((&a - &b).amax() <= 1e-9 * b.amax().max(1.0), "{a} vs {b}")
+        };
         let xdot = &gs.a * &xs + &gs.b_w * &w_shaped + &gs.b_u * &u;
-        close(xdot.rows(0, N_STATES).into_owned(), &gi.a * &x + &gi.b_w * &w_ind + &gi.b_u * &u);
+        close(
+            xdot.rows(0, N_STATES).into_owned(),
+            &gi.a * &x + &gi.b_w * &w_ind + &gi.b_u * &u,
+        );
         close(xdot.rows(N_STATES, 4).into_owned(), rdot.clone());
-        close(&gs.c_z * &xs + &gs.d_zw * &w_shaped + &gs.d_zu * &u, &gi.c_z * &x + &gi.d_zw * &w_ind + &gi.d_zu * &u);
-        close(&gs.c_y * &xs + &gs.d_yw * &w_shaped, &gi.c_y * &x + &gi.d_yw * &w_ind);
+        close(
+            &gs.c_z * &xs + &gs.d_zw * &w_shaped + &gs.d_zu * &u,
+            &gi.c_z * &x + &gi.d_zw * &w_ind + &gi.d_zu * &u,
+        );
+        close(
+            &gs.c_y * &xs + &gs.d_yw * &w_shaped,
+            &gi.c_y * &x + &gi.d_yw * &w_ind,
+        );
         // Constraint rows: force, stroke, then the tyre load without its c_t·s_v·w part.
         let rows = physical_outputs(&p);
         let phys = |name: &str| {
@@ -346,7 +474,9 @@ mod tests {
             let mut road = DMatrix::zeros(8, 1);
             road.view_mut((0, 0), (4, 1)).copy_from(&r);
             road.view_mut((4, 0), (4, 1)).copy_from(&rdot);
-            (DMatrix::from_row_slice(1, N_STATES, &o.c) * &x + DMatrix::from_row_slice(1, 8, &o.d_r) * road + DMatrix::from_row_slice(1, 5, &o.d_u) * &u * FORCE_UNIT)[(0, 0)]
+            (DMatrix::from_row_slice(1, N_STATES, &o.c) * &x
+                + DMatrix::from_row_slice(1, 8, &o.d_r) * road
+                + DMatrix::from_row_slice(1, 5, &o.d_u) * &u * FORCE_UNIT)[(0, 0)]
         };
         let c = &gs.c_c * &xs + &gs.d_cu * &u;
         assert_eq!(gs.constraint_names.len(), 13);
@@ -356,11 +486,22 @@ mod tests {
         for i in 0..4 {
             let direct = p.c_t * w_shaped[(i, 0)] * shaped.road_velocity_scale;
             let limit = static_load[i] - p.c_t * shaped.design_bump_peak_velocity();
-            assert!((c[(9 + i, 0)] * limit - (phys(&gs.constraint_names[9 + i]) - direct)).abs() < 1e-9 * static_load[i]);
+            assert!(
+                (c[(9 + i, 0)] * limit - (phys(&gs.constraint_names[9 + i]) - direct)).abs()
+                    < 1e-9 * static_load[i]
+            );
         }
         // The controller's inputs give back the state.
         let (cm, dm, names) = gs.state_measurement();
-        assert_eq!(names[16..], ["tire_defl_fl", "tire_defl_fr", "tire_defl_rl", "tire_defl_rr"]);
+        assert_eq!(
+            names[16..],
+            [
+                "tire_defl_fl",
+                "tire_defl_fr",
+                "tire_defl_rl",
+                "tire_defl_rr"
+            ]
+        );
         assert_eq!(dm.amax(), 0.0);
         for i in 0..4 {
             assert!(((&cm * &xs)[(16 + i, 0)] - phys(&names[16 + i])).abs() < 1e-15);
@@ -381,13 +522,17 @@ mod tests {
         let e_x = DMatrix::from_fn(2, n, |i, j| ((i * j) as f64 * 0.1).sin());
         let e_u = DMatrix::from_fn(2, nu, |i, j| (i + j) as f64 * 0.01);
         let aug = g.with_uncertainty_channel(&h_x, &h_z, &e_x, &e_u);
-        assert_eq!((aug.b_w.ncols(), aug.c_z.nrows(), aug.d_yw.ncols()), (nw + 2, nz + 2, nw + 2));
+        assert_eq!(
+            (aug.b_w.ncols(), aug.c_z.nrows(), aug.d_yw.ncols()),
+            (nw + 2, nz + 2, nw + 2)
+        );
         // p = δ q with q = E_x x + E_u u + (no w feed-through), and no p → q feed-through.
         assert_eq!(aug.d_zw.view((nz, 0), (2, nw + 2)).norm(), 0.0);
         let delta = 0.3;
         let a_closed = &aug.a + aug.b_w.columns(nw, 2) * delta * aug.c_z.rows(nz, 2);
         let b_closed = &aug.b_u + aug.b_w.columns(nw, 2) * delta * aug.d_zu.rows(nz, 2);
-        let c_closed = aug.c_z.rows(0, nz) + aug.d_zw.view((0, nw), (nz, 2)) * delta * aug.c_z.rows(nz, 2);
+        let c_closed =
+            aug.c_z.rows(0, nz) + aug.d_zw.view((0, nw), (nz, 2)) * delta * aug.c_z.rows(nz, 2);
         assert!((a_closed - (&g.a + &h_x * delta * &e_x)).norm() < 1e-12);
         assert!((b_closed - (&g.b_u + &h_x * delta * &e_u)).norm() < 1e-12);
         assert!((c_closed - (&g.c_z + &h_z * delta * &e_x)).norm() < 1e-12);

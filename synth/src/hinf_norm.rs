@@ -41,14 +41,25 @@ pub enum NormError {
 impl Lti {
     pub fn new(a: DMatrix<f64>, b: DMatrix<f64>, c: DMatrix<f64>, d: DMatrix<f64>) -> Self {
         let n = a.nrows();
-        assert!(a.is_square() && b.nrows() == n && c.ncols() == n && d.shape() == (c.nrows(), b.ncols()), "inconsistent LTI dimensions");
+        assert!(
+            a.is_square()
+                && b.nrows() == n
+                && c.ncols() == n
+                && d.shape() == (c.nrows(), b.ncols()),
+            "inconsistent LTI dimensions"
+        );
         Lti { a, b, c, d }
     }
 
     /// `y = D u`: no states.
     pub fn static_gain(d: DMatrix<f64>) -> Self {
         let (m, p) = d.shape();
-        Lti { a: DMatrix::zeros(0, 0), b: DMatrix::zeros(0, p), c: DMatrix::zeros(m, 0), d }
+        Lti {
+            a: DMatrix::zeros(0, 0),
+            b: DMatrix::zeros(0, p),
+            c: DMatrix::zeros(m, 0),
+            d,
+        }
     }
 
     /// Number of states.
@@ -58,7 +69,11 @@ impl Lti {
 
     /// Largest real part of the eigenvalues of `A`.
     pub fn spectral_abscissa(&self) -> f64 {
-        self.a.complex_eigenvalues().iter().map(|l| l.re).fold(f64::NEG_INFINITY, f64::max)
+        self.a
+            .complex_eigenvalues()
+            .iter()
+            .map(|l| l.re)
+            .fold(f64::NEG_INFINITY, f64::max)
     }
 
     /// `σ_max(G(jω))`.
@@ -69,7 +84,10 @@ impl Lti {
             jw_a[(i, i)] += Complex::new(0.0, w);
         }
         let b = self.b.map(|v| Complex::new(v, 0.0));
-        let x = jw_a.lu().solve(&b).expect("jωI − A is invertible for a stable A");
+        let x = jw_a
+            .lu()
+            .solve(&b)
+            .expect("jωI − A is invertible for a stable A");
         let g = self.c.map(|v| Complex::new(v, 0.0)) * x + self.d.map(|v| Complex::new(v, 0.0));
         g.singular_values().max()
     }
@@ -77,7 +95,11 @@ impl Lti {
     /// `Ok` when asymptotically stable (a NaN abscissa is not).
     fn require_stable(&self) -> Result<(), NormError> {
         let abscissa = self.spectral_abscissa();
-        if abscissa < 0.0 { Ok(()) } else { Err(NormError::Unstable(abscissa)) }
+        if abscissa < 0.0 {
+            Ok(())
+        } else {
+            Err(NormError::Unstable(abscissa))
+        }
     }
 
     /// The H∞ norm to relative accuracy `tol` (bracket width `2·tol`).
@@ -89,10 +111,22 @@ impl Lti {
         let w_p = poles
             .iter()
             .max_by(|x, y| {
-                let f = |l: &Complex<f64>| if l.im == 0.0 { 0.0 } else { (l.im / l.re).abs() / l.norm() };
+                let f = |l: &Complex<f64>| {
+                    if l.im == 0.0 {
+                        0.0
+                    } else {
+                        (l.im / l.re).abs() / l.norm()
+                    }
+                };
                 f(x).total_cmp(&f(y))
             })
-            .map(|l| if l.im == 0.0 { poles.iter().map(|q| q.norm()).fold(f64::INFINITY, f64::min) } else { l.norm() })
+            .map(|l| {
+                if l.im == 0.0 {
+                    poles.iter().map(|q| q.norm()).fold(f64::INFINITY, f64::min)
+                } else {
+                    l.norm()
+                }
+            })
             .unwrap_or(0.0);
         let mut lower = self.d.singular_values().max();
         let mut peak = f64::INFINITY;
@@ -104,20 +138,33 @@ impl Lti {
             }
         }
         if lower == 0.0 {
-            return Ok(Norm { lower: 0.0, upper: 0.0, peak_frequency: 0.0 });
+            return Ok(Norm {
+                lower: 0.0,
+                upper: 0.0,
+                peak_frequency: 0.0,
+            });
         }
         for _ in 0..100 {
             let gamma = (1.0 + 2.0 * tol) * lower;
             let g2 = gamma * gamma;
             let r = self.d.transpose() * &self.d - DMatrix::identity(m, m) * g2;
             let s = &self.d * self.d.transpose() - DMatrix::identity(p, p) * g2;
-            let r_inv = r.try_inverse().expect("R = DᵀD − γ²I is definite for γ > σ(D)");
-            let s_inv = s.try_inverse().expect("S = DDᵀ − γ²I is definite for γ > σ(D)");
+            let r_inv = r
+                .try_inverse()
+                .expect("R = DᵀD − γ²I is definite for γ > σ(D)");
+            let s_inv = s
+                .try_inverse()
+                .expect("S = DDᵀ − γ²I is definite for γ > σ(D)");
             let mut h = DMatrix::zeros(2 * n, 2 * n);
-            h.view_mut((0, 0), (n, n)).copy_from(&(&self.a - &self.b * &r_inv * self.d.transpose() * &self.c));
-            h.view_mut((0, n), (n, n)).copy_from(&(&self.b * &r_inv * self.b.transpose() * (-gamma)));
-            h.view_mut((n, 0), (n, n)).copy_from(&(self.c.transpose() * &s_inv * &self.c * gamma));
-            h.view_mut((n, n), (n, n)).copy_from(&(-self.a.transpose() + self.c.transpose() * &self.d * &r_inv * self.b.transpose()));
+            h.view_mut((0, 0), (n, n))
+                .copy_from(&(&self.a - &self.b * &r_inv * self.d.transpose() * &self.c));
+            h.view_mut((0, n), (n, n))
+                .copy_from(&(&self.b * &r_inv * self.b.transpose() * (-gamma)));
+            h.view_mut((n, 0), (n, n))
+                .copy_from(&(self.c.transpose() * &s_inv * &self.c * gamma));
+            h.view_mut((n, n), (n, n)).copy_from(
+                &(-self.a.transpose() + self.c.transpose() * &self.d * &r_inv * self.b.transpose()),
+            );
             let scale = h.norm().max(1.0);
             let mut freqs: Vec<f64> = h
                 .complex_eigenvalues()
@@ -128,7 +175,11 @@ impl Lti {
             freqs.sort_by(f64::total_cmp);
             freqs.dedup_by(|a, b| (*a - *b).abs() <= 1e-10 * b.abs().max(1.0));
             if freqs.is_empty() {
-                return Ok(Norm { lower, upper: gamma, peak_frequency: peak });
+                return Ok(Norm {
+                    lower,
+                    upper: gamma,
+                    peak_frequency: peak,
+                });
             }
             let mut candidates = freqs.clone();
             candidates.extend(freqs.windows(2).map(|w| 0.5 * (w[0] + w[1])));
@@ -143,7 +194,11 @@ impl Lti {
             }
             if !improved {
                 // Imaginary eigenvalues without a larger singular value: rounding at the peak.
-                return Ok(Norm { lower, upper: gamma, peak_frequency: peak });
+                return Ok(Norm {
+                    lower,
+                    upper: gamma,
+                    peak_frequency: peak,
+                });
             }
         }
         Err(NormError::NoConvergence(100))
@@ -164,7 +219,10 @@ impl Lti {
         let eye = DMatrix::<f64>::identity(n, n);
         let op = eye.kronecker(&self.a) + self.a.kronecker(&eye);
         let rhs = -(&self.b * self.b.transpose());
-        let p = op.lu().solve(&DMatrix::from_column_slice(n * n, 1, rhs.as_slice())).expect("I ⊗ A + A ⊗ I is invertible for a stable A");
+        let p = op
+            .lu()
+            .solve(&DMatrix::from_column_slice(n * n, 1, rhs.as_slice()))
+            .expect("I ⊗ A + A ⊗ I is invertible for a stable A");
         Ok(DMatrix::from_column_slice(n, n, p.as_slice()))
     }
 
@@ -180,12 +238,19 @@ impl Lti {
     pub fn energy_to_peak(&self) -> Result<Vec<f64>, NormError> {
         let p = self.controllability_gramian()?;
         let cpc = &self.c * p * self.c.transpose();
-        Ok((0..self.c.nrows()).map(|i| cpc[(i, i)].max(0.0).sqrt()).collect())
+        Ok((0..self.c.nrows())
+            .map(|i| cpc[(i, i)].max(0.0).sqrt())
+            .collect())
     }
 
     /// The system from all inputs to the outputs `rows`.
     pub fn select_outputs(&self, rows: &[usize]) -> Lti {
-        Lti::new(self.a.clone(), self.b.clone(), self.c.select_rows(rows), self.d.select_rows(rows))
+        Lti::new(
+            self.a.clone(),
+            self.b.clone(),
+            self.c.select_rows(rows),
+            self.d.select_rows(rows),
+        )
     }
 }
 
@@ -201,9 +266,17 @@ mod tests {
     fn energy_to_peak_of_a_lag_matches_its_closed_form_and_an_attaining_input() {
         // 3/(s + 2): P = 1/4, gain 3/2; the input w(s) = e^{−2(t−s)} on [0, t] (normalised)
         // attains it as t → ∞ (here t = 20: e^{−80} away).
-        let g = Lti::new(m(1, 1, &[-2.0]), m(1, 1, &[1.0]), m(2, 1, &[3.0, -1.0]), m(2, 1, &[0.0, 0.0]));
+        let g = Lti::new(
+            m(1, 1, &[-2.0]),
+            m(1, 1, &[1.0]),
+            m(2, 1, &[3.0, -1.0]),
+            m(2, 1, &[0.0, 0.0]),
+        );
         let peak = g.energy_to_peak().unwrap();
-        assert!((peak[0] - 1.5).abs() < 1e-12 && (peak[1] - 0.5).abs() < 1e-12, "{peak:?}");
+        assert!(
+            (peak[0] - 1.5).abs() < 1e-12 && (peak[1] - 0.5).abs() < 1e-12,
+            "{peak:?}"
+        );
         let (t, steps) = (20.0, 200_000);
         let h = t / steps as f64;
         let (mut z, mut energy) = (0.0, 0.0);
@@ -213,14 +286,32 @@ mod tests {
             z += 3.0 * (-2.0 * (t - s)).exp() * w * h;
             energy += w * w * h;
         }
-        assert!((z / energy.sqrt() - 1.5).abs() < 1e-6, "{}", z / energy.sqrt());
-        assert!(matches!(Lti::new(m(1, 1, &[-2.0]), m(1, 1, &[1.0]), m(1, 1, &[1.0]), m(1, 1, &[0.1])).energy_to_peak(), Err(NormError::Feedthrough(_))));
+        assert!(
+            (z / energy.sqrt() - 1.5).abs() < 1e-6,
+            "{}",
+            z / energy.sqrt()
+        );
+        assert!(matches!(
+            Lti::new(
+                m(1, 1, &[-2.0]),
+                m(1, 1, &[1.0]),
+                m(1, 1, &[1.0]),
+                m(1, 1, &[0.1])
+            )
+            .energy_to_peak(),
+            Err(NormError::Feedthrough(_))
+        ));
     }
 
     #[test]
     fn first_order_lag_peaks_at_dc() {
         // 3/(s + 2): ‖G‖∞ = 1.5 at ω = 0.
-        let g = Lti::new(m(1, 1, &[-2.0]), m(1, 1, &[1.0]), m(1, 1, &[3.0]), m(1, 1, &[0.0]));
+        let g = Lti::new(
+            m(1, 1, &[-2.0]),
+            m(1, 1, &[1.0]),
+            m(1, 1, &[3.0]),
+            m(1, 1, &[0.0]),
+        );
         let n = g.hinf_norm(1e-10).unwrap();
         assert!((n.lower - 1.5).abs() < 1e-12 && n.upper >= 1.5 && n.upper < 1.5 * (1.0 + 3e-10));
         assert_eq!(n.peak_frequency, 0.0);
@@ -230,10 +321,20 @@ mod tests {
     fn lightly_damped_resonance_matches_the_closed_form() {
         // ωn²/(s² + 2ζωn s + ωn²): peak 1/(2ζ√(1−ζ²)) at ωn√(1−2ζ²).
         for (zeta, wn) in [(0.1, 3.0), (0.02, 50.0), (0.5, 1.0)] {
-            let g = Lti::new(m(2, 2, &[0.0, 1.0, -wn * wn, -2.0 * zeta * wn]), m(2, 1, &[0.0, wn * wn]), m(1, 2, &[1.0, 0.0]), m(1, 1, &[0.0]));
+            let g = Lti::new(
+                m(2, 2, &[0.0, 1.0, -wn * wn, -2.0 * zeta * wn]),
+                m(2, 1, &[0.0, wn * wn]),
+                m(1, 2, &[1.0, 0.0]),
+                m(1, 1, &[0.0]),
+            );
             let exact = 1.0 / (2.0 * zeta * (1.0 - zeta * zeta).sqrt());
             let n = g.hinf_norm(1e-9).unwrap();
-            assert!(n.lower <= exact * (1.0 + 1e-12) && n.upper >= exact * (1.0 - 1e-12), "ζ = {zeta}: [{}, {}] vs {exact}", n.lower, n.upper);
+            assert!(
+                n.lower <= exact * (1.0 + 1e-12) && n.upper >= exact * (1.0 - 1e-12),
+                "ζ = {zeta}: [{}, {}] vs {exact}",
+                n.lower,
+                n.upper
+            );
             assert!((n.lower - exact).abs() < 1e-8 * exact);
             assert!((n.peak_frequency - wn * (1.0 - 2.0 * zeta * zeta).sqrt()).abs() < 1e-3 * wn);
         }
@@ -241,20 +342,47 @@ mod tests {
 
     #[test]
     fn mimo_with_feedthrough_agrees_with_a_dense_frequency_sweep() {
-        let a = m(4, 4, &[-0.5, 4.0, 0.0, 0.3, -4.0, -0.5, 0.2, 0.0, 0.0, 0.0, -0.05, 9.0, 0.1, 0.0, -9.0, -0.05]);
+        let a = m(
+            4,
+            4,
+            &[
+                -0.5, 4.0, 0.0, 0.3, -4.0, -0.5, 0.2, 0.0, 0.0, 0.0, -0.05, 9.0, 0.1, 0.0, -9.0,
+                -0.05,
+            ],
+        );
         let b = m(4, 2, &[1.0, 0.0, 0.0, 1.0, 0.5, 0.2, 0.0, -1.0]);
-        let c = m(3, 4, &[1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.3, 0.0, 0.0, 1.0]);
+        let c = m(
+            3,
+            4,
+            &[1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.3, 0.0, 0.0, 1.0],
+        );
         let d = m(3, 2, &[0.2, 0.0, 0.0, 0.1, 0.0, 0.0]);
         let g = Lti::new(a, b, c, d);
         let n = g.hinf_norm(1e-10).unwrap();
-        let sweep = (0..200_000).map(|k| 10f64.powf(-2.0 + 4.0 * k as f64 / 200_000.0)).map(|w| g.sigma_max(w)).fold(0.0, f64::max);
-        assert!(sweep <= n.upper, "sweep {sweep} above the certified upper bound {}", n.upper);
-        assert!(sweep > n.lower * (1.0 - 1e-4), "sweep {sweep} far below {}", n.lower);
+        let sweep = (0..200_000)
+            .map(|k| 10f64.powf(-2.0 + 4.0 * k as f64 / 200_000.0))
+            .map(|w| g.sigma_max(w))
+            .fold(0.0, f64::max);
+        assert!(
+            sweep <= n.upper,
+            "sweep {sweep} above the certified upper bound {}",
+            n.upper
+        );
+        assert!(
+            sweep > n.lower * (1.0 - 1e-4),
+            "sweep {sweep} far below {}",
+            n.lower
+        );
     }
 
     #[test]
     fn unstable_systems_are_refused() {
-        let g = Lti::new(m(1, 1, &[0.1]), m(1, 1, &[1.0]), m(1, 1, &[1.0]), m(1, 1, &[0.0]));
+        let g = Lti::new(
+            m(1, 1, &[0.1]),
+            m(1, 1, &[1.0]),
+            m(1, 1, &[1.0]),
+            m(1, 1, &[0.0]),
+        );
         assert!(matches!(g.hinf_norm(1e-9), Err(NormError::Unstable(_))));
         assert!(matches!(g.h2_norm(), Err(NormError::Unstable(_))));
     }
@@ -262,19 +390,45 @@ mod tests {
     #[test]
     fn h2_norms_match_the_closed_forms() {
         // 3/(s + 2): ‖G‖₂² = 9/(2·2).
-        let lag = Lti::new(m(1, 1, &[-2.0]), m(1, 1, &[1.0]), m(1, 1, &[3.0]), m(1, 1, &[0.0]));
+        let lag = Lti::new(
+            m(1, 1, &[-2.0]),
+            m(1, 1, &[1.0]),
+            m(1, 1, &[3.0]),
+            m(1, 1, &[0.0]),
+        );
         assert!((lag.h2_norm().unwrap() - (9.0f64 / 4.0).sqrt()).abs() < 1e-12);
         // ωn²/(s² + 2ζωn s + ωn²): ‖G‖₂² = ωn/(4ζ).
         for (zeta, wn) in [(0.1, 3.0), (0.02, 50.0), (0.7, 1.0)] {
-            let g = Lti::new(m(2, 2, &[0.0, 1.0, -wn * wn, -2.0 * zeta * wn]), m(2, 1, &[0.0, wn * wn]), m(1, 2, &[1.0, 0.0]), m(1, 1, &[0.0]));
+            let g = Lti::new(
+                m(2, 2, &[0.0, 1.0, -wn * wn, -2.0 * zeta * wn]),
+                m(2, 1, &[0.0, wn * wn]),
+                m(1, 2, &[1.0, 0.0]),
+                m(1, 1, &[0.0]),
+            );
             let exact = (wn / (4.0 * zeta)).sqrt();
-            assert!((g.h2_norm().unwrap() - exact).abs() < 1e-9 * exact, "ζ = {zeta}");
+            assert!(
+                (g.h2_norm().unwrap() - exact).abs() < 1e-9 * exact,
+                "ζ = {zeta}"
+            );
             // Two outputs: the squares add.
-            let two = Lti::new(g.a.clone(), g.b.clone(), m(2, 2, &[1.0, 0.0, 2.0, 0.0]), m(2, 1, &[0.0, 0.0]));
+            let two = Lti::new(
+                g.a.clone(),
+                g.b.clone(),
+                m(2, 2, &[1.0, 0.0, 2.0, 0.0]),
+                m(2, 1, &[0.0, 0.0]),
+            );
             assert!((two.h2_norm().unwrap() - exact * 5f64.sqrt()).abs() < 1e-9 * exact);
-            assert_eq!(two.select_outputs(&[1]).h2_norm().unwrap(), g.h2_norm().unwrap() * 2.0);
+            assert_eq!(
+                two.select_outputs(&[1]).h2_norm().unwrap(),
+                g.h2_norm().unwrap() * 2.0
+            );
         }
-        let with_d = Lti::new(m(1, 1, &[-2.0]), m(1, 1, &[1.0]), m(1, 1, &[3.0]), m(1, 1, &[0.5]));
+        let with_d = Lti::new(
+            m(1, 1, &[-2.0]),
+            m(1, 1, &[1.0]),
+            m(1, 1, &[3.0]),
+            m(1, 1, &[0.5]),
+        );
         assert!(matches!(with_d.h2_norm(), Err(NormError::Feedthrough(_))));
     }
 }

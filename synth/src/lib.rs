@@ -33,7 +33,11 @@ pub enum SynthError {
     #[error(transparent)]
     Certificate(#[from] certificate::CertificateError),
     #[error("{variant}: the constraint LMIs cannot all hold for the design bump {bump:?}: the best common energy-to-peak bound any state feedback proves is {best:.4} of the limits (the bound grows with the bump height: feasible up to about {:.4} m at this bump's length and speed)", bump.height / best)]
-    ConstraintsInfeasible { variant: String, best: f64, bump: design::Bump },
+    ConstraintsInfeasible {
+        variant: String,
+        best: f64,
+        bump: design::Bump,
+    },
 }
 
 extern "C" {

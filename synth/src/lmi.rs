@@ -11,7 +11,9 @@
 //! every constraint is evaluated at the returned point and its eigenvalues checked here.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
 use nalgebra::{DMatrix, SymmetricEigen};
 use std::collections::BTreeMap;
 
@@ -41,7 +43,11 @@ impl Var {
         }
     }
     fn len(&self) -> usize {
-        if self.symmetric { self.rows * (self.rows + 1) / 2 } else { self.rows * self.cols }
+        if self.symmetric {
+            self.rows * (self.rows + 1) / 2
+        } else {
+            self.rows * self.cols
+        }
     }
     /// The variable's value in a solution vector.
     pub fn value(&self, x: &[f64]) -> DMatrix<f64> {
@@ -53,7 +59,9 @@ impl Var {
         for j in 0..self.cols {
             for i in 0..self.rows {
                 let k = self.index(i, j);
-                a.terms.entry(k).or_insert_with(|| DMatrix::zeros(self.rows, self.cols))[(i, j)] = 1.0;
+                a.terms
+                    .entry(k)
+                    .or_insert_with(|| DMatrix::zeros(self.rows, self.cols))[(i, j)] = 1.0;
             }
         }
         a
@@ -69,10 +77,16 @@ pub struct Affine {
 
 impl Affine {
     pub fn zeros(rows: usize, cols: usize) -> Self {
-        Affine { constant: DMatrix::zeros(rows, cols), terms: BTreeMap::new() }
+        Affine {
+            constant: DMatrix::zeros(rows, cols),
+            terms: BTreeMap::new(),
+        }
     }
     pub fn constant(m: DMatrix<f64>) -> Self {
-        Affine { constant: m, terms: BTreeMap::new() }
+        Affine {
+            constant: m,
+            terms: BTreeMap::new(),
+        }
     }
     pub fn identity(n: usize) -> Self {
         Self::constant(DMatrix::identity(n, n))
@@ -84,7 +98,10 @@ impl Affine {
         self.constant.ncols()
     }
     fn map(&self, f: impl Fn(&DMatrix<f64>) -> DMatrix<f64>) -> Affine {
-        Affine { constant: f(&self.constant), terms: self.terms.iter().map(|(k, m)| (*k, f(m))).collect() }
+        Affine {
+            constant: f(&self.constant),
+            terms: self.terms.iter().map(|(k, m)| (*k, f(m))).collect(),
+        }
     }
     /// `M F(x)`.
     pub fn left(&self, m: &DMatrix<f64>) -> Affine {
@@ -101,11 +118,17 @@ impl Affine {
         self.map(|f| f.transpose())
     }
     pub fn add(&self, other: &Affine) -> Affine {
-        assert_eq!(self.constant.shape(), other.constant.shape(), "affine sum of different shapes");
+        assert_eq!(
+            self.constant.shape(),
+            other.constant.shape(),
+            "affine sum of different shapes"
+        );
         let mut out = self.clone();
         out.constant += &other.constant;
         for (k, m) in &other.terms {
-            *out.terms.entry(*k).or_insert_with(|| DMatrix::zeros(m.nrows(), m.ncols())) += m;
+            *out.terms
+                .entry(*k)
+                .or_insert_with(|| DMatrix::zeros(m.nrows(), m.ncols())) += m;
         }
         out
     }
@@ -137,22 +160,42 @@ impl Affine {
     pub fn symmetric_blocks(upper: &[Vec<Option<Affine>>]) -> Affine {
         let n = upper.len();
         let size = |i: usize| {
-            upper[i][i].as_ref().map(|b| b.nrows()).unwrap_or_else(|| panic!("diagonal block {i} must be given"))
+            upper[i][i]
+                .as_ref()
+                .map(|b| b.nrows())
+                .unwrap_or_else(|| panic!("diagonal block {i} must be given"))
         };
         let sizes: Vec<usize> = (0..n).map(size).collect();
-        let offsets: Vec<usize> = sizes.iter().scan(0, |acc, s| { let o = *acc; *acc += s; Some(o) }).collect();
+        let offsets: Vec<usize> = sizes
+            .iter()
+            .scan(0, |acc, s| {
+                let o = *acc;
+                *acc += s;
+                Some(o)
+            })
+            .collect();
         let total: usize = sizes.iter().sum();
         let mut out = Affine::zeros(total, total);
         let mut place = |blk: &Affine, r: usize, c: usize| {
-            out.constant.view_mut((r, c), blk.constant.shape()).copy_from(&blk.constant);
+            out.constant
+                .view_mut((r, c), blk.constant.shape())
+                .copy_from(&blk.constant);
             for (k, m) in &blk.terms {
-                out.terms.entry(*k).or_insert_with(|| DMatrix::zeros(total, total)).view_mut((r, c), m.shape()).copy_from(m);
+                out.terms
+                    .entry(*k)
+                    .or_insert_with(|| DMatrix::zeros(total, total))
+                    .view_mut((r, c), m.shape())
+                    .copy_from(m);
             }
         };
         for i in 0..n {
             for j in i..n {
                 if let Some(b) = &upper[i][j] {
-                    assert_eq!(b.constant.shape(), (sizes[i], sizes[j]), "block ({i}, {j}) has the wrong shape");
+                    assert_eq!(
+                        b.constant.shape(),
+                        (sizes[i], sizes[j]),
+                        "block ({i}, {j}) has the wrong shape"
+                    );
                     place(b, offsets[i], offsets[j]);
                     if i != j {
                         place(&b.t(), offsets[j], offsets[i]);
@@ -180,7 +223,11 @@ pub enum LmiError {
     #[error("the solver returned {status:?} (cost {cost:e})")]
     NotSolved { status: String, cost: f64 },
     #[error("the solver returned {status} but LMI '{name}' is violated at its point: extreme eigenvalue {eigenvalue:e}")]
-    Violated { status: String, name: String, eigenvalue: f64 },
+    Violated {
+        status: String,
+        name: String,
+        eigenvalue: f64,
+    },
 }
 
 /// A solved problem: the decision vector, the objective, the worst constraint margin.
@@ -205,7 +252,12 @@ pub struct Problem {
 
 impl Default for Problem {
     fn default() -> Self {
-        Problem { n_vars: 0, constraints: Vec::new(), objective: BTreeMap::new(), iterative_refinement: true }
+        Problem {
+            n_vars: 0,
+            constraints: Vec::new(),
+            objective: BTreeMap::new(),
+            iterative_refinement: true,
+        }
     }
 }
 
@@ -215,7 +267,12 @@ impl Problem {
     }
 
     fn var(&mut self, rows: usize, cols: usize, symmetric: bool) -> Var {
-        let v = Var { offset: self.n_vars, rows, cols, symmetric };
+        let v = Var {
+            offset: self.n_vars,
+            rows,
+            cols,
+            symmetric,
+        };
         self.n_vars += v.len();
         v
     }
@@ -234,15 +291,27 @@ impl Problem {
 
     /// `F(x) ⪯ −ε I`.
     pub fn negative_definite(&mut self, name: &str, f: Affine, eps: f64) {
-        self.constraints.push(Constraint { name: name.into(), g: f.scale(-1.0), margin: eps });
+        self.constraints.push(Constraint {
+            name: name.into(),
+            g: f.scale(-1.0),
+            margin: eps,
+        });
     }
     /// `F(x) ⪰ ε I`.
     pub fn positive_definite(&mut self, name: &str, f: Affine, eps: f64) {
-        self.constraints.push(Constraint { name: name.into(), g: f, margin: eps });
+        self.constraints.push(Constraint {
+            name: name.into(),
+            g: f,
+            margin: eps,
+        });
     }
     /// Minimise `Σ weight · (scalar variable)`.
     pub fn minimise(&mut self, v: &Var, weight: f64) {
-        assert_eq!((v.rows, v.cols), (1, 1), "objective terms are scalar variables");
+        assert_eq!(
+            (v.rows, v.cols),
+            (1, 1),
+            "objective terms are scalar variables"
+        );
         *self.objective.entry(v.offset).or_insert(0.0) += weight;
     }
 
@@ -273,7 +342,8 @@ impl Problem {
                 for i in 0..=j {
                     let s = if i == j { 1.0 } else { sqrt2 };
                     // Symmetrise: the LMI means (G + Gᵀ)/2.
-                    let g0 = 0.5 * (c.g.constant[(i, j)] + c.g.constant[(j, i)]) - if i == j { c.margin } else { 0.0 };
+                    let g0 = 0.5 * (c.g.constant[(i, j)] + c.g.constant[(j, i)])
+                        - if i == j { c.margin } else { 0.0 };
                     b.push(s * g0);
                 }
             }
@@ -308,15 +378,27 @@ impl Problem {
             .iterative_refinement_enable(self.iterative_refinement)
             .build()
             .map_err(|e| LmiError::Setup(e.to_string()))?;
-        let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).map_err(|e| LmiError::Setup(format!("{e:?}")))?;
+        let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
+            .map_err(|e| LmiError::Setup(format!("{e:?}")))?;
         let t1 = std::time::Instant::now();
         solver.solve();
         if std::env::var_os("LMI_TIMING").is_some() {
-            eprintln!("lmi: {n} vars, {row0} cone rows: assembly {:?}, solve {:?} ({} iterations)", t1 - t0, t1.elapsed(), solver.info.iterations);
+            eprintln!(
+                "lmi: {n} vars, {row0} cone rows: assembly {:?}, solve {:?} ({} iterations)",
+                t1 - t0,
+                t1.elapsed(),
+                solver.info.iterations
+            );
         }
         let status = format!("{:?}", solver.solution.status);
-        if !matches!(solver.solution.status, SolverStatus::Solved | SolverStatus::AlmostSolved) {
-            return Err(LmiError::NotSolved { status, cost: solver.solution.obj_val });
+        if !matches!(
+            solver.solution.status,
+            SolverStatus::Solved | SolverStatus::AlmostSolved
+        ) {
+            return Err(LmiError::NotSolved {
+                status,
+                cost: solver.solution.obj_val,
+            });
         }
         let x = solver.solution.x.clone();
         let mut worst = f64::INFINITY;
@@ -327,12 +409,22 @@ impl Problem {
             // Strict feasibility of the original LMI (G ≻ 0) is what the theorems need; the
             // solver's margin is only a means to get there.
             if !(min_eig > 0.0) {
-                return Err(LmiError::Violated { status, name: c.name.clone(), eigenvalue: min_eig });
+                return Err(LmiError::Violated {
+                    status,
+                    name: c.name.clone(),
+                    eigenvalue: min_eig,
+                });
             }
             worst = worst.min(min_eig - c.margin);
         }
         let objective = self.objective.iter().map(|(k, w)| w * x[*k]).sum();
-        Ok(Solution { x, objective, status, worst_margin: worst, iterations: solver.info.iterations })
+        Ok(Solution {
+            x,
+            objective,
+            status,
+            worst_margin: worst,
+            iterations: solver.info.iterations,
+        })
     }
 }
 
@@ -346,7 +438,11 @@ mod tests {
         let mut p = Problem::new();
         let t = p.scalar();
         let off = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, 1.0, 0.0]);
-        let f = Affine::identity(2).add(&t.expr().left(&DMatrix::from_element(1, 1, 1.0)).map_scalar(&off));
+        let f = Affine::identity(2).add(
+            &t.expr()
+                .left(&DMatrix::from_element(1, 1, 1.0))
+                .map_scalar(&off),
+        );
         p.positive_definite("unit", f, 0.0);
         p.minimise(&t, -1.0);
         // The optimum sits on the boundary: the solver's point is (just) inside or outside.
@@ -374,7 +470,11 @@ mod tests {
         let mut p = Problem::new();
         let pv = p.symmetric(2);
         p.positive_definite("P ≻ I", pv.expr().sub(&Affine::identity(2)), 0.0);
-        p.negative_definite("AᵀP + PA ≺ 0", pv.expr().left(&a_bad.transpose()).he(), 1e-6);
+        p.negative_definite(
+            "AᵀP + PA ≺ 0",
+            pv.expr().left(&a_bad.transpose()).he(),
+            1e-6,
+        );
         assert!(p.solve().is_err());
     }
 
@@ -389,7 +489,10 @@ mod tests {
         assert_eq!(comb.eval(&x), expected);
         let sym = p.symmetric(3);
         let values: Vec<f64> = (0..p.n_vars()).map(|k| k as f64 + 1.0).collect();
-        assert_eq!(sym.expr().trace().eval(&values)[(0, 0)], sym.value(&values).trace());
+        assert_eq!(
+            sym.expr().trace().eval(&values)[(0, 0)],
+            sym.value(&values).trace()
+        );
     }
 }
 
@@ -399,7 +502,11 @@ impl Affine {
     pub fn combination(vars: &[Var], term: impl Fn(usize) -> DMatrix<f64>) -> Affine {
         let mats: Vec<DMatrix<f64>> = (0..vars.len()).map(term).collect();
         let (r, c) = mats.first().map_or((0, 0), |m| m.shape());
-        vars.iter().zip(&mats).fold(Affine::zeros(r, c), |acc, (v, m)| acc.add(&v.expr().map_scalar(m)))
+        vars.iter()
+            .zip(&mats)
+            .fold(Affine::zeros(r, c), |acc, (v, m)| {
+                acc.add(&v.expr().map_scalar(m))
+            })
     }
 
     /// The trace, a 1×1 expression.
@@ -409,10 +516,18 @@ impl Affine {
 
     /// For a 1×1 expression `s(x)`, the matrix expression `s(x)·M`.
     pub fn map_scalar(&self, m: &DMatrix<f64>) -> Affine {
-        assert_eq!(self.constant.shape(), (1, 1), "map_scalar needs a scalar expression");
+        assert_eq!(
+            self.constant.shape(),
+            (1, 1),
+            "map_scalar needs a scalar expression"
+        );
         Affine {
             constant: m * self.constant[(0, 0)],
-            terms: self.terms.iter().map(|(k, v)| (*k, m * v[(0, 0)])).collect(),
+            terms: self
+                .terms
+                .iter()
+                .map(|(k, v)| (*k, m * v[(0, 0)]))
+                .collect(),
         }
     }
 }

@@ -24,19 +24,30 @@ struct Cli {
 }
 
 fn run(cli: Cli) -> Result<(), SynthError> {
-    let Cli { design: design_path, out, variants: only } = cli;
-    let text = std::fs::read_to_string(&design_path).map_err(|e| SynthError::Io(format!("{}: {e}", design_path.display())))?;
+    let Cli {
+        design: design_path,
+        out,
+        variants: only,
+    } = cli;
+    let text = std::fs::read_to_string(&design_path)
+        .map_err(|e| SynthError::Io(format!("{}: {e}", design_path.display())))?;
     let design = Design::from_json(&text)?;
     let params = VehicleParams::default();
     let started = std::time::Instant::now();
-    let names: Vec<&str> = if only.is_empty() { variants::ALL.to_vec() } else { only.iter().map(|s| s.as_str()).collect() };
+    let names: Vec<&str> = if only.is_empty() {
+        variants::ALL.to_vec()
+    } else {
+        only.iter().map(|s| s.as_str()).collect()
+    };
     let results = variants::synthesise_all(&names, &params, &design)?;
     for (name, result) in &results {
         let elapsed = result.seconds;
         let dir = out.join(name);
-        std::fs::create_dir_all(&dir).map_err(|e| SynthError::Io(format!("{}: {e}", dir.display())))?;
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| SynthError::Io(format!("{}: {e}", dir.display())))?;
         let write = |path: PathBuf, value: &serde_json::Value| {
-            std::fs::write(&path, serde_json::to_string_pretty(value).unwrap()).map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))
+            std::fs::write(&path, serde_json::to_string_pretty(value).unwrap())
+                .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))
         };
         let mut cert = serde_json::to_value(&result.certificate).unwrap();
         cert["synthesis_seconds"] = serde_json::json!(elapsed);
@@ -51,10 +62,16 @@ fn run(cli: Cli) -> Result<(), SynthError> {
     let rows = variants::summary_rows(&results);
     let table = variants::summary_table(&rows, wall);
     let path = out.join("synthesis.md");
-    std::fs::write(&path, &table).map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+    std::fs::write(&path, &table)
+        .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
     // The same, for tools (the master's design table).
     let path = out.join("synthesis.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&serde_json::json!({"designs": rows, "wall_seconds": wall})).unwrap()).map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+    std::fs::write(
+        &path,
+        serde_json::to_string_pretty(&serde_json::json!({"designs": rows, "wall_seconds": wall}))
+            .unwrap(),
+    )
+    .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
     println!("\n{table}");
     Ok(())
 }

@@ -91,14 +91,34 @@ impl Balanced {
     /// `p` in the coordinates `x = D x̄` of a given `D` (e.g. another plant's balancing).
     fn with_scaling(p: &OfPlant, d: Vec<f64>) -> Self {
         let (dm, dinv) = (Self::diag(&d, 1.0), Self::diag(&d, -1.0));
-        Balanced { a: &dinv * p.a * &dm, b1: &dinv * p.b1, b2: &dinv * p.b2, c1: p.c1 * &dm, c2: p.c2 * &dm, d }
+        Balanced {
+            a: &dinv * p.a * &dm,
+            b1: &dinv * p.b1,
+            b2: &dinv * p.b2,
+            c1: p.c1 * &dm,
+            c2: p.c2 * &dm,
+            d,
+        }
     }
     /// `D^power`.
     fn diag(d: &[f64], power: f64) -> DMatrix<f64> {
-        DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(d.len(), d.iter().map(|v| v.powf(power))))
+        DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+            d.len(),
+            d.iter().map(|v| v.powf(power)),
+        ))
     }
     fn plant<'a>(&'a self, p: &'a OfPlant) -> OfPlant<'a> {
-        OfPlant { a: &self.a, b1: &self.b1, b2: &self.b2, c1: &self.c1, d11: p.d11, d12: p.d12, c2: &self.c2, d21: p.d21, unit_channels: p.unit_channels }
+        OfPlant {
+            a: &self.a,
+            b1: &self.b1,
+            b2: &self.b2,
+            c1: &self.c1,
+            d11: p.d11,
+            d12: p.d12,
+            c2: &self.c2,
+            d21: p.d21,
+            unit_channels: p.unit_channels,
+        }
     }
 }
 
@@ -133,7 +153,18 @@ struct Vars {
 }
 
 fn hinf_lmi(p: &OfPlant, v: &Vars, gamma: &Affine) -> Affine {
-    hinf_lmi_of(p, &VarExprs { x: v.x.expr(), y: v.y.expr(), ah: v.ah.expr(), bh: v.bh.expr(), ch: v.ch.expr(), dh: v.dh.expr() }, gamma)
+    hinf_lmi_of(
+        p,
+        &VarExprs {
+            x: v.x.expr(),
+            y: v.y.expr(),
+            ah: v.ah.expr(),
+            bh: v.bh.expr(),
+            ch: v.ch.expr(),
+            dh: v.dh.expr(),
+        },
+        gamma,
+    )
 }
 
 /// The linearising variables as affine expressions (some may be constants).
@@ -147,16 +178,34 @@ struct VarExprs {
 }
 
 fn hinf_lmi_of(p: &OfPlant, v: &VarExprs, gamma: &Affine) -> Affine {
-    let VarExprs { x, y, ah, bh, ch, dh } = v;
+    let VarExprs {
+        x,
+        y,
+        ah,
+        bh,
+        ch,
+        dh,
+    } = v;
     let b2_dh = dh.left(p.b2); // B₂D̂ (n × ny)
     let m11 = x.left(p.a).add(&ch.left(p.b2)).he();
-    let m12 = ah.t().add(&b2_dh.right(p.c2)).add(&Affine::constant(p.a.clone()));
+    let m12 = ah
+        .t()
+        .add(&b2_dh.right(p.c2))
+        .add(&Affine::constant(p.a.clone()));
     let m13 = b2_dh.right(p.d21).add(&Affine::constant(p.b1.clone()));
     let m14 = x.left(p.c1).add(&ch.left(p.d12)).t();
     let m22 = y.right(p.a).add(&bh.right(p.c2)).he();
     let m23 = y.right(p.b1).add(&bh.right(p.d21));
-    let m24 = dh.left(p.d12).right(p.c2).add(&Affine::constant(p.c1.clone())).t();
-    let m34 = dh.left(p.d12).right(p.d21).add(&Affine::constant(p.d11.clone())).t();
+    let m24 = dh
+        .left(p.d12)
+        .right(p.c2)
+        .add(&Affine::constant(p.c1.clone()))
+        .t();
+    let m34 = dh
+        .left(p.d12)
+        .right(p.d21)
+        .add(&Affine::constant(p.d11.clone()))
+        .t();
     let minus = |k: usize| gamma_block(gamma, k, p.unit_channels);
     Affine::symmetric_blocks(&[
         vec![Some(m11), Some(m12), Some(m13), Some(m14)],
@@ -172,16 +221,37 @@ fn psi(p: &OfPlant, x: &Affine, y: &Affine, gamma: &Affine) -> Affine {
     let (nw, nz) = (p.b1.ncols(), p.c1.nrows());
     let minus = |k: usize| gamma_block(gamma, k, p.unit_channels);
     Affine::symmetric_blocks(&[
-        vec![Some(x.left(p.a).he()), Some(Affine::constant(p.a.clone())), Some(Affine::constant(p.b1.clone())), Some(x.left(p.c1).t())],
-        vec![None, Some(y.right(p.a).he()), Some(y.right(p.b1)), Some(Affine::constant(p.c1.transpose()))],
-        vec![None, None, Some(minus(nw)), Some(Affine::constant(p.d11.transpose()))],
+        vec![
+            Some(x.left(p.a).he()),
+            Some(Affine::constant(p.a.clone())),
+            Some(Affine::constant(p.b1.clone())),
+            Some(x.left(p.c1).t()),
+        ],
+        vec![
+            None,
+            Some(y.right(p.a).he()),
+            Some(y.right(p.b1)),
+            Some(Affine::constant(p.c1.transpose())),
+        ],
+        vec![
+            None,
+            None,
+            Some(minus(nw)),
+            Some(Affine::constant(p.d11.transpose())),
+        ],
         vec![None, None, None, Some(minus(nz))],
     ])
 }
 
 /// `(Pᵀ, Q)` of the basic LMI `Ψ + Pᵀ Ω Q + Qᵀ Ωᵀ P ≺ 0`.
 fn basic_lmi_factors(p: &OfPlant) -> (DMatrix<f64>, DMatrix<f64>) {
-    let (n, nw, nz, nu, ny) = (p.a.nrows(), p.b1.ncols(), p.c1.nrows(), p.b2.ncols(), p.c2.nrows());
+    let (n, nw, nz, nu, ny) = (
+        p.a.nrows(),
+        p.b1.ncols(),
+        p.c1.nrows(),
+        p.b2.ncols(),
+        p.c2.nrows(),
+    );
     let size = 2 * n + nw + nz;
     let mut pt = DMatrix::zeros(size, n + nu);
     pt.view_mut((0, n), (n, nu)).copy_from(p.b2);
@@ -203,13 +273,19 @@ fn null_space(m: &DMatrix<f64>) -> DMatrix<f64> {
     let svd = sq.svd(false, true);
     let vt = svd.v_t.expect("requested");
     let tol = 1e-10 * svd.singular_values.max().max(1.0);
-    let basis: Vec<_> = (0..cols).filter(|&i| svd.singular_values[i] <= tol).map(|i| vt.row(i).transpose()).collect();
+    let basis: Vec<_> = (0..cols)
+        .filter(|&i| svd.singular_values[i] <= tol)
+        .map(|i| vt.row(i).transpose())
+        .collect();
     DMatrix::from_columns(&basis)
 }
 
 /// `[X I; I Y]`.
 fn coupling(x: &Affine, y: &Affine) -> Affine {
-    Affine::symmetric_blocks(&[vec![Some(x.clone()), Some(Affine::identity(x.nrows()))], vec![None, Some(y.clone())]])
+    Affine::symmetric_blocks(&[
+        vec![Some(x.clone()), Some(Affine::identity(x.nrows()))],
+        vec![None, Some(y.clone())],
+    ])
 }
 
 /// Strictness of `[X I; I Y] ⪰ tI` while `t` is maximised (so that the solver's point passes
@@ -218,10 +294,20 @@ const COUPLING_STRICTNESS: f64 = 1e-7;
 
 /// Stage 2's conditioning (SPEC §5): `[X I; I Y] ⪰ tI`, `t ≥ 0`, each of `bounded` `⪯ βI`, and
 /// `t` maximised. Returns `t`.
-fn maximise_coupling_margin(prob: &mut Problem, x: &Affine, y: &Affine, bounded: &[(&str, &Affine)], beta: f64) -> Var {
+fn maximise_coupling_margin(
+    prob: &mut Problem,
+    x: &Affine,
+    y: &Affine,
+    bounded: &[(&str, &Affine)],
+    beta: f64,
+) -> Var {
     let n = x.nrows();
     let t = prob.scalar();
-    prob.positive_definite("[X I; I Y] ⪰ tI", coupling(x, y).sub(&t.expr().map_scalar(&DMatrix::identity(2 * n, 2 * n))), COUPLING_STRICTNESS);
+    prob.positive_definite(
+        "[X I; I Y] ⪰ tI",
+        coupling(x, y).sub(&t.expr().map_scalar(&DMatrix::identity(2 * n, 2 * n))),
+        COUPLING_STRICTNESS,
+    );
     prob.positive_definite("t ≥ 0", t.expr(), 0.0);
     for (name, v) in bounded {
         prob.positive_definite(name, Affine::identity(n).scale(beta).sub(v), 0.0);
@@ -231,13 +317,23 @@ fn maximise_coupling_margin(prob: &mut Problem, x: &Affine, y: &Affine, bounded:
 }
 
 fn new_vars(p: &mut Problem, n: usize, ny: usize, nu: usize) -> Vars {
-    Vars { x: p.symmetric(n), y: p.symmetric(n), ah: p.full(n, n), bh: p.full(n, ny), ch: p.full(nu, n), dh: p.full(nu, ny) }
+    Vars {
+        x: p.symmetric(n),
+        y: p.symmetric(n),
+        ah: p.full(n, n),
+        bh: p.full(n, ny),
+        ch: p.full(nu, n),
+        dh: p.full(nu, ny),
+    }
 }
 
 /// Bases of the null spaces of `[B₂ᵀ D₁₂ᵀ]` (`(n + n_z) × ·`, the `x` and `z` parts of the
 /// null space of `P`) and of `[C₂ D₂₁]` (`(n + n_w) × ·`, the `x` and `w` parts of that of `Q`).
 fn null_bases(p: &OfPlant) -> (DMatrix<f64>, DMatrix<f64>) {
-    (null_space(&concat_cols(&p.b2.transpose(), &p.d12.transpose())), null_space(&concat_cols(p.c2, p.d21)))
+    (
+        null_space(&concat_cols(&p.b2.transpose(), &p.d12.transpose())),
+        null_space(&concat_cols(p.c2, p.d21)),
+    )
 }
 
 fn concat_cols(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
@@ -265,12 +361,22 @@ impl GammaTerms {
     /// γ fixed: `Γ = diag(γ I, I)`, `Γ⁻¹ = diag(I/γ, I)`.
     fn fixed(gamma: f64) -> Self {
         let c = |v: f64| Affine::constant(DMatrix::from_element(1, 1, v));
-        GammaTerms { a_p: c(gamma), a_u: c(1.0), s_p: c(1.0 / gamma), s_u: c(1.0) }
+        GammaTerms {
+            a_p: c(gamma),
+            a_u: c(1.0),
+            s_p: c(1.0 / gamma),
+            s_u: c(1.0),
+        }
     }
     /// Stage 1, in the scaled variables `X̃ = X/γ`, `Ỹ = Y/γ`, `η = 1/γ`, `ζ ≥ η²` (each LMI
     /// multiplied by `η`): `a = (1, η)`, `s = (ζ, η)`.
     fn scaled(eta: &Var, zeta: &Var) -> Self {
-        GammaTerms { a_p: Affine::identity(1), a_u: eta.expr(), s_p: zeta.expr(), s_u: eta.expr() }
+        GammaTerms {
+            a_p: Affine::identity(1),
+            a_u: eta.expr(),
+            s_p: zeta.expr(),
+            s_u: eta.expr(),
+        }
     }
 }
 
@@ -288,8 +394,18 @@ fn reduced_projected(p: &OfPlant, x: &Affine, y: &Affine, g: &GammaTerms) -> (Af
     let (nw, nz, r) = (p.b1.ncols(), p.c1.nrows(), p.unit_channels);
     let (w, v) = null_bases(p);
     let diag = |k: usize| {
-        let sel = |unit: bool| DMatrix::from_fn(k, k, |i, j| if i == j && (i >= k - r) == unit { -1.0 } else { 0.0 });
-        g.a_p.map_scalar(&sel(false)).add(&g.a_u.map_scalar(&sel(true)))
+        let sel = |unit: bool| {
+            DMatrix::from_fn(k, k, |i, j| {
+                if i == j && (i >= k - r) == unit {
+                    -1.0
+                } else {
+                    0.0
+                }
+            })
+        };
+        g.a_p
+            .map_scalar(&sel(false))
+            .add(&g.a_u.map_scalar(&sel(true)))
     };
     // Σ s b bᵀ over the performance and the uncertainty columns of `b`, projected on `basis`.
     let schur = |b: &DMatrix<f64>, basis: &DMatrix<f64>| {
@@ -299,12 +415,26 @@ fn reduced_projected(p: &OfPlant, x: &Affine, y: &Affine, g: &GammaTerms) -> (Af
             let part = wb.columns(cols.start, cols.len());
             &part * part.transpose()
         };
-        g.s_p.map_scalar(&gram(0..k - r)).add(&g.s_u.map_scalar(&gram(k - r..k)))
+        g.s_p
+            .map_scalar(&gram(0..k - r))
+            .add(&g.s_u.map_scalar(&gram(k - r..k)))
     };
-    let in_x = Affine::symmetric_blocks(&[vec![Some(x.left(p.a).he()), Some(x.left(p.c1).t())], vec![None, Some(diag(nz))]]);
-    let lmi_x = in_x.left(&w.transpose()).right(&w).add(&schur(&concat_rows(p.b1, p.d11), &w));
-    let in_y = Affine::symmetric_blocks(&[vec![Some(y.right(p.a).he()), Some(y.right(p.b1))], vec![None, Some(diag(nw))]]);
-    let lmi_y = in_y.left(&v.transpose()).right(&v).add(&schur(&concat_rows(&p.c1.transpose(), &p.d11.transpose()), &v));
+    let in_x = Affine::symmetric_blocks(&[
+        vec![Some(x.left(p.a).he()), Some(x.left(p.c1).t())],
+        vec![None, Some(diag(nz))],
+    ]);
+    let lmi_x = in_x
+        .left(&w.transpose())
+        .right(&w)
+        .add(&schur(&concat_rows(p.b1, p.d11), &w));
+    let in_y = Affine::symmetric_blocks(&[
+        vec![Some(y.right(p.a).he()), Some(y.right(p.b1))],
+        vec![None, Some(diag(nw))],
+    ]);
+    let lmi_y = in_y.left(&v.transpose()).right(&v).add(&schur(
+        &concat_rows(&p.c1.transpose(), &p.d11.transpose()),
+        &v,
+    ));
     (lmi_x, lmi_y)
 }
 
@@ -321,7 +451,12 @@ fn reduced_projected(p: &OfPlant, x: &Affine, y: &Affine, g: &GammaTerms) -> (Af
 /// closed-form Hessian, `∂²/∂Ω_ij ∂Ω_kl = 2 (M₁_ik M₂_jl + M₃_il M₃_kj)` with `S = (−L)⁻¹`,
 /// `M₁ = PSPᵀ`, `M₂ = QSQᵀ`, `M₃ = PSQᵀ` (gradient `2M₃`): about 10 ms against several seconds
 /// for the same point from Clarabel with `Ω`'s 500 variables in a 65-row cone.
-fn analytic_centre(psi: &DMatrix<f64>, pt: &DMatrix<f64>, q: &DMatrix<f64>, omega0: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+fn analytic_centre(
+    psi: &DMatrix<f64>,
+    pt: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    omega0: &DMatrix<f64>,
+) -> Option<DMatrix<f64>> {
     let (nr, nc) = (pt.ncols(), q.nrows());
     let len = nr * nc;
     let lmi = |om: &DMatrix<f64>| {
@@ -342,7 +477,11 @@ fn analytic_centre(psi: &DMatrix<f64>, pt: &DMatrix<f64>, q: &DMatrix<f64>, omeg
         });
         let step = -hess.cholesky()?.solve(&grad);
         let decrement = (-(grad.transpose() * &step)[(0, 0)]).max(0.0).sqrt();
-        let damping = if decrement > 0.25 { 1.0 / (1.0 + decrement) } else { 1.0 };
+        let damping = if decrement > 0.25 {
+            1.0 / (1.0 + decrement)
+        } else {
+            1.0
+        };
         omega += DMatrix::from_column_slice(nr, nc, step.as_slice()) * damping;
         // Converged: at 1e-9, or where rounding stops the decrease below 1e-6 (the log-det
         // is then within λ²/2 < 1e-12 of its maximum; the road-state plant stalls at 4e-9).
@@ -358,16 +497,24 @@ fn analytic_centre(psi: &DMatrix<f64>, pt: &DMatrix<f64>, q: &DMatrix<f64>, omeg
 /// 30(8), 1994): `Ω = −μ P Φ Qᵀ (Q Φ Qᵀ)⁻¹`, `Φ = (μ Pᵀ P − Ψ)⁻¹ ≻ 0`, with `μ` increased until
 /// `Φ ≻ 0` and the LMI holds (it exists because the projected LMIs hold). The starting point of
 /// [`analytic_centre`].
-fn solve_basic_lmi(psi: &DMatrix<f64>, pt: &DMatrix<f64>, q: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+fn solve_basic_lmi(
+    psi: &DMatrix<f64>,
+    pt: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+) -> Option<DMatrix<f64>> {
     let ptp = pt * pt.transpose();
     let scale = psi.amax().max(1.0) / ptp.amax().max(1e-300);
     for k in 0..60 {
         let mu = scale * 2f64.powi(k - 10);
         let phi_inv = &ptp * mu - psi;
-        let Some(chol) = phi_inv.clone().cholesky() else { continue };
+        let Some(chol) = phi_inv.clone().cholesky() else {
+            continue;
+        };
         let phi = chol.inverse();
         let qpq = q * &phi * q.transpose();
-        let Some(qpq_inv) = qpq.try_inverse() else { continue };
+        let Some(qpq_inv) = qpq.try_inverse() else {
+            continue;
+        };
         let omega = -(pt.transpose() * &phi * q.transpose() * qpq_inv) * mu;
         let full = psi + pt * &omega * q + q.transpose() * omega.transpose() * pt.transpose();
         let sym = (&full + full.transpose()) * 0.5;
@@ -395,14 +542,28 @@ fn optimal_gamma_balanced(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
     let n = p.a.nrows();
     let mut s1 = Problem::new();
     let (x, y, eta, zeta) = (s1.symmetric(n), s1.symmetric(n), s1.scalar(), s1.scalar());
-    let (lmi_x, lmi_y) = reduced_projected(p, &x.expr(), &y.expr(), &GammaTerms::scaled(&eta, &zeta));
+    let (lmi_x, lmi_y) =
+        reduced_projected(p, &x.expr(), &y.expr(), &GammaTerms::scaled(&eta, &zeta));
     s1.negative_definite("reduced projected LMI in X", lmi_x, eps);
     s1.negative_definite("reduced projected LMI in Y", lmi_y, eps);
-    let scaled_coupling = Affine::symmetric_blocks(&[vec![Some(x.expr()), Some(eta.expr().map_scalar(&DMatrix::identity(n, n)))], vec![None, Some(y.expr())]]);
+    let scaled_coupling = Affine::symmetric_blocks(&[
+        vec![
+            Some(x.expr()),
+            Some(eta.expr().map_scalar(&DMatrix::identity(n, n))),
+        ],
+        vec![None, Some(y.expr())],
+    ]);
     s1.positive_definite("[X̃ ηI; ηI Ỹ] ≻ 0", scaled_coupling, eps);
     let one = Affine::identity(1);
     // Its entries are O(η²) ≈ 1e-2…1e-3: a margin of ε would bias γ* by ~ε/(2η²) relative.
-    s1.positive_definite("ζ ≥ η²", Affine::symmetric_blocks(&[vec![Some(zeta.expr()), Some(eta.expr())], vec![None, Some(one)]]), eps * 1e-4);
+    s1.positive_definite(
+        "ζ ≥ η²",
+        Affine::symmetric_blocks(&[
+            vec![Some(zeta.expr()), Some(eta.expr())],
+            vec![None, Some(one)],
+        ]),
+        eps * 1e-4,
+    );
     s1.minimise(&eta, -1.0);
     s1.without_iterative_refinement();
     Ok(1.0 / eta.value(&s1.solve()?.x)[(0, 0)])
@@ -438,15 +599,36 @@ pub fn hinf_of(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result<OutputFee
     let (x, y) = (xv.value(&sol.x), yv.value(&sol.x));
 
     let gconst = Affine::constant(DMatrix::from_element(1, 1, gamma));
-    let psi_val = psi(p, &Affine::constant(x.clone()), &Affine::constant(y.clone()), &gconst).constant;
+    let psi_val = psi(
+        p,
+        &Affine::constant(x.clone()),
+        &Affine::constant(y.clone()),
+        &gconst,
+    )
+    .constant;
     let (pt, q) = basic_lmi_factors(p);
-    let start = solve_basic_lmi(&psi_val, &pt, &q).ok_or(LmiError::Setup("no explicit solution of the basic LMI was found".into()))?;
-    let omega = analytic_centre(&psi_val, &pt, &q, &start).ok_or(LmiError::Setup("the analytic centre of the controller LMI was not found".into()))?;
+    let start = solve_basic_lmi(&psi_val, &pt, &q).ok_or(LmiError::Setup(
+        "no explicit solution of the basic LMI was found".into(),
+    ))?;
+    let omega = analytic_centre(&psi_val, &pt, &q, &start).ok_or(LmiError::Setup(
+        "the analytic centre of the controller LMI was not found".into(),
+    ))?;
     let ah = omega.view((0, 0), (n, n)).into_owned();
     let bh = omega.view((0, n), (n, ny)).into_owned();
     let ch = omega.view((n, 0), (nu, n)).into_owned();
     let dh = omega.view((n, n), (nu, ny)).into_owned();
-    reconstruct(p, &x, &y, &ah, &bh, &ch, &dh, gamma, gamma_opt, t.value(&sol.x)[(0, 0)])
+    reconstruct(
+        p,
+        &x,
+        &y,
+        &ah,
+        &bh,
+        &ch,
+        &dh,
+        gamma,
+        gamma_opt,
+        t.value(&sol.x)[(0, 0)],
+    )
 }
 
 /// [`hinf_of`] with the constraint LMIs (force, stroke, tyre load; see
@@ -470,7 +652,15 @@ pub fn hinf_of(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result<OutputFee
 /// rebuilt from stage 2's variables. Returns the controller and each constraint's peak bound.
 /// Slow: on the car with the shaped road (n = 20, 13 constraints) about 4 minutes.
 #[allow(clippy::too_many_arguments)]
-pub fn hinf_of_constrained(p: &OfPlant, c_c: &DMatrix<f64>, d_cu: &DMatrix<f64>, energy: f64, eps: f64, delta: f64, beta: f64) -> Result<(OutputFeedback, Vec<f64>), LmiError> {
+pub fn hinf_of_constrained(
+    p: &OfPlant,
+    c_c: &DMatrix<f64>,
+    d_cu: &DMatrix<f64>,
+    energy: f64,
+    eps: f64,
+    delta: f64,
+    beta: f64,
+) -> Result<(OutputFeedback, Vec<f64>), LmiError> {
     let balanced = Balanced::new(p);
     let c_c = c_c * Balanced::diag(&balanced.d, 1.0);
     let p = &balanced.plant(p);
@@ -485,21 +675,58 @@ pub fn hinf_of_constrained(p: &OfPlant, c_c: &DMatrix<f64>, d_cu: &DMatrix<f64>,
         ch: Var,
     }
     let build = |prob: &mut Problem, gamma: &Affine, strict: f64| -> StrictlyProper {
-        let v = StrictlyProper { x: prob.symmetric(n), y: prob.symmetric(n), ah: prob.full(n, n), bh: prob.full(n, ny), ch: prob.full(nu, n) };
-        let e = VarExprs { x: v.x.expr(), y: v.y.expr(), ah: v.ah.expr(), bh: v.bh.expr(), ch: v.ch.expr(), dh: Affine::zeros(nu, ny) };
-        prob.negative_definite("H∞ output-feedback LMI (D̂ = 0)", hinf_lmi_of(p, &e, gamma), strict);
+        let v = StrictlyProper {
+            x: prob.symmetric(n),
+            y: prob.symmetric(n),
+            ah: prob.full(n, n),
+            bh: prob.full(n, ny),
+            ch: prob.full(nu, n),
+        };
+        let e = VarExprs {
+            x: v.x.expr(),
+            y: v.y.expr(),
+            ah: v.ah.expr(),
+            bh: v.bh.expr(),
+            ch: v.ch.expr(),
+            dh: Affine::zeros(nu, ny),
+        };
+        prob.negative_definite(
+            "H∞ output-feedback LMI (D̂ = 0)",
+            hinf_lmi_of(p, &e, gamma),
+            strict,
+        );
         let energy_lmi = Affine::symmetric_blocks(&[
-            vec![Some(e.x.left(p.a).add(&e.ch.left(p.b2)).he()), Some(e.ah.t().add(&Affine::constant(p.a.clone()))), Some(Affine::constant(p.b1.clone()))],
-            vec![None, Some(e.y.right(p.a).add(&e.bh.right(p.c2)).he()), Some(e.y.right(p.b1).add(&e.bh.right(p.d21)))],
+            vec![
+                Some(e.x.left(p.a).add(&e.ch.left(p.b2)).he()),
+                Some(e.ah.t().add(&Affine::constant(p.a.clone()))),
+                Some(Affine::constant(p.b1.clone())),
+            ],
+            vec![
+                None,
+                Some(e.y.right(p.a).add(&e.bh.right(p.c2)).he()),
+                Some(e.y.right(p.b1).add(&e.bh.right(p.d21))),
+            ],
             vec![None, None, Some(Affine::identity(nw).scale(-1.0))],
         ]);
         prob.negative_definite("energy LMI (V ≤ ‖w‖²)", energy_lmi, eps);
         for i in 0..c_c.nrows() {
             let (ci, di) = (c_c.rows(i, 1).into_owned(), d_cu.rows(i, 1).into_owned());
             let peak = Affine::symmetric_blocks(&[
-                vec![Some(e.x.clone()), Some(Affine::identity(n)), Some(e.x.left(&ci).add(&e.ch.left(&di)).t())],
-                vec![None, Some(e.y.clone()), Some(Affine::constant(ci.transpose()))],
-                vec![None, None, Some(Affine::constant(DMatrix::from_element(1, 1, 1.0 / energy)))],
+                vec![
+                    Some(e.x.clone()),
+                    Some(Affine::identity(n)),
+                    Some(e.x.left(&ci).add(&e.ch.left(&di)).t()),
+                ],
+                vec![
+                    None,
+                    Some(e.y.clone()),
+                    Some(Affine::constant(ci.transpose())),
+                ],
+                vec![
+                    None,
+                    None,
+                    Some(Affine::constant(DMatrix::from_element(1, 1, 1.0 / energy))),
+                ],
             ]);
             prob.positive_definite(&format!("peak bound on constraint {i}"), peak, eps);
         }
@@ -514,38 +741,75 @@ pub fn hinf_of_constrained(p: &OfPlant, c_c: &DMatrix<f64>, d_cu: &DMatrix<f64>,
 
     let gamma = (1.0 + delta) * gamma_opt;
     let mut s2 = Problem::new();
-    let v = build(&mut s2, &Affine::constant(DMatrix::from_element(1, 1, gamma)), (RECONSTRUCTION_MARGIN * gamma).max(eps));
+    let v = build(
+        &mut s2,
+        &Affine::constant(DMatrix::from_element(1, 1, gamma)),
+        (RECONSTRUCTION_MARGIN * gamma).max(eps),
+    );
     let (xe, ye) = (v.x.expr(), v.y.expr());
     let t = maximise_coupling_margin(&mut s2, &xe, &ye, &[("X ⪯ βI", &xe), ("Y ⪯ βI", &ye)], beta);
     let sol = s2.solve()?;
     let (x, y, ch) = (v.x.value(&sol.x), v.y.value(&sol.x), v.ch.value(&sol.x));
     // The bound each peak LMI proves: E · [cX + dĈ, c] [X I; I Y]⁻¹ [cX + dĈ, c]ᵀ.
     let pi = coupling(&Affine::constant(x.clone()), &Affine::constant(y.clone())).constant;
-    let pi_inv = pi.cholesky().ok_or(LmiError::Setup("[X I; I Y] is not positive definite".into()))?.inverse();
+    let pi_inv = pi
+        .cholesky()
+        .ok_or(LmiError::Setup(
+            "[X I; I Y] is not positive definite".into(),
+        ))?
+        .inverse();
     let bounds = (0..c_c.nrows())
         .map(|i| {
             let mut row = DMatrix::zeros(1, 2 * n);
-            row.view_mut((0, 0), (1, n)).copy_from(&(c_c.rows(i, 1) * &x + d_cu.rows(i, 1) * &ch));
+            row.view_mut((0, 0), (1, n))
+                .copy_from(&(c_c.rows(i, 1) * &x + d_cu.rows(i, 1) * &ch));
             row.view_mut((0, n), (1, n)).copy_from(&c_c.rows(i, 1));
             (energy * (&row * &pi_inv * row.transpose())[(0, 0)]).sqrt()
         })
         .collect();
-    let of = reconstruct(p, &x, &y, &v.ah.value(&sol.x), &v.bh.value(&sol.x), &ch, &DMatrix::zeros(nu, ny), gamma, gamma_opt, t.value(&sol.x)[(0, 0)])?;
+    let of = reconstruct(
+        p,
+        &x,
+        &y,
+        &v.ah.value(&sol.x),
+        &v.bh.value(&sol.x),
+        &ch,
+        &DMatrix::zeros(nu, ny),
+        gamma,
+        gamma_opt,
+        t.value(&sol.x)[(0, 0)],
+    )?;
     Ok((of, bounds))
 }
 
 /// Remark 5.1: controller from `X, Y` and the linearising variables, `N = I`, `M = I − XY`.
 #[allow(clippy::too_many_arguments)]
-fn reconstruct(p: &OfPlant, x: &DMatrix<f64>, y: &DMatrix<f64>, ah: &DMatrix<f64>, bh: &DMatrix<f64>, ch: &DMatrix<f64>, dh: &DMatrix<f64>, gamma: f64, gamma_opt: f64, margin: f64) -> Result<OutputFeedback, LmiError> {
+fn reconstruct(
+    p: &OfPlant,
+    x: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    ah: &DMatrix<f64>,
+    bh: &DMatrix<f64>,
+    ch: &DMatrix<f64>,
+    dh: &DMatrix<f64>,
+    gamma: f64,
+    gamma_opt: f64,
+    margin: f64,
+) -> Result<OutputFeedback, LmiError> {
     let n = p.a.nrows();
     let ident = DMatrix::<f64>::identity(n, n);
     let m = &ident - x * y;
-    let mt_inv = m.transpose().try_inverse().ok_or(LmiError::Setup("I − XY is singular".into()))?;
+    let mt_inv = m
+        .transpose()
+        .try_inverse()
+        .ok_or(LmiError::Setup("I − XY is singular".into()))?;
     let sv = m.singular_values();
     let dk = dh.clone();
     let ck = (ch - &dk * p.c2 * x) * &mt_inv;
     let bk = bh - y * p.b2 * &dk;
-    let ak = (ah - &bk * p.c2 * x - y * p.b2 * &ck * m.transpose() - y * (p.a + p.b2 * &dk * p.c2) * x) * &mt_inv;
+    let ak =
+        (ah - &bk * p.c2 * x - y * p.b2 * &ck * m.transpose() - y * (p.a + p.b2 * &dk * p.c2) * x)
+            * &mt_inv;
     Ok(OutputFeedback {
         controller: Controller::new(ak, bk, ck * FORCE_UNIT, dk * FORCE_UNIT),
         gamma,
@@ -586,11 +850,26 @@ pub fn optimal_gamma_one_shot(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
 /// `Ĉ̄ = ĈD⁻¹` (so `ĀX̄ + B̄₂Ĉ̄ = D⁻¹(AX + B₂Ĉ)D⁻¹`). Unbalanced, Clarabel stopped with
 /// NumericalError on stage 2 for some weights (roll weight 0.8).
 #[allow(clippy::too_many_arguments)]
-pub fn hinf_of_common_x(vertices: &[OfPlant], center: &OfPlant, x: &DMatrix<f64>, ch: &DMatrix<f64>, eps: f64, delta: f64, beta: f64) -> Result<OutputFeedback, LmiError> {
+pub fn hinf_of_common_x(
+    vertices: &[OfPlant],
+    center: &OfPlant,
+    x: &DMatrix<f64>,
+    ch: &DMatrix<f64>,
+    eps: f64,
+    delta: f64,
+    beta: f64,
+) -> Result<OutputFeedback, LmiError> {
     let balanced_center = Balanced::new(center);
     let scaling = balanced_center.d.clone();
-    let balanced: Vec<Balanced> = vertices.iter().map(|v| Balanced::with_scaling(v, scaling.clone())).collect();
-    let vertices: Vec<OfPlant> = balanced.iter().zip(vertices).map(|(b, v)| b.plant(v)).collect();
+    let balanced: Vec<Balanced> = vertices
+        .iter()
+        .map(|v| Balanced::with_scaling(v, scaling.clone()))
+        .collect();
+    let vertices: Vec<OfPlant> = balanced
+        .iter()
+        .zip(vertices)
+        .map(|(b, v)| b.plant(v))
+        .collect();
     let vertices = &vertices[..];
     let center = &balanced_center.plant(center);
     let dinv = Balanced::diag(&scaling, -1.0);
@@ -602,8 +881,19 @@ pub fn hinf_of_common_x(vertices: &[OfPlant], center: &OfPlant, x: &DMatrix<f64>
         for (i, v) in vertices.iter().enumerate() {
             let y = yv.expr();
             let shift = y.right(&((v.a - center.a) * x + (v.b2 - center.b2) * ch));
-            let e = VarExprs { x: Affine::constant(x.clone()), y, ah: ahv.expr().add(&shift), bh: bhv.expr(), ch: Affine::constant(ch.clone()), dh: Affine::zeros(nu, ny) };
-            prob.negative_definite(&format!("H∞ output-feedback LMI at vertex {i}"), hinf_lmi_of(v, &e, gamma), strict);
+            let e = VarExprs {
+                x: Affine::constant(x.clone()),
+                y,
+                ah: ahv.expr().add(&shift),
+                bh: bhv.expr(),
+                ch: Affine::constant(ch.clone()),
+                dh: Affine::zeros(nu, ny),
+            };
+            prob.negative_definite(
+                &format!("H∞ output-feedback LMI at vertex {i}"),
+                hinf_lmi_of(v, &e, gamma),
+                strict,
+            );
         }
         (yv, ahv, bhv)
     };
@@ -618,12 +908,27 @@ pub fn hinf_of_common_x(vertices: &[OfPlant], center: &OfPlant, x: &DMatrix<f64>
     // Stage 2: γ fixed above γ*, Y bounded, coupling margin maximised.
     let gamma = (1.0 + delta) * gamma_opt;
     let mut s2 = Problem::new();
-    let (yv, ahv, bhv) = build(&mut s2, &Affine::constant(DMatrix::from_element(1, 1, gamma)), eps);
+    let (yv, ahv, bhv) = build(
+        &mut s2,
+        &Affine::constant(DMatrix::from_element(1, 1, gamma)),
+        eps,
+    );
     let ye = yv.expr();
     let t = maximise_coupling_margin(&mut s2, &xc, &ye, &[("Y ⪯ βI", &ye)], beta);
     let sol = s2.solve()?;
     let (y, ah, bh) = (yv.value(&sol.x), ahv.value(&sol.x), bhv.value(&sol.x));
-    reconstruct(center, x, &y, &ah, &bh, ch, &DMatrix::zeros(nu, ny), gamma, gamma_opt, t.value(&sol.x)[(0, 0)])
+    reconstruct(
+        center,
+        x,
+        &y,
+        &ah,
+        &bh,
+        ch,
+        &DMatrix::zeros(nu, ny),
+        gamma,
+        gamma_opt,
+        t.value(&sol.x)[(0, 0)],
+    )
 }
 
 #[cfg(test)]
@@ -648,10 +953,31 @@ mod tests {
             ks / mu, -(ks + kt) / mu, cs / mu, -cs / mu,
         ]);
         // w: a force on the wheel (kN), then noise on the two measurements.
-        let b1 = DMatrix::from_row_slice(4, 3, &[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e3 / mu, 0.0, 0.0]);
+        let b1 = DMatrix::from_row_slice(
+            4,
+            3,
+            &[
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                1e3 / mu,
+                0.0,
+                0.0,
+            ],
+        );
         let b2 = DMatrix::from_row_slice(4, 1, &[0.0, 0.0, 1e3 / ms, -1e3 / mu]);
         // z: body acceleration, then the control penalty.
-        let c1 = DMatrix::from_row_slice(2, 4, &[-ks / ms, ks / ms, -cs / ms, cs / ms, 0.0, 0.0, 0.0, 0.0]);
+        let c1 = DMatrix::from_row_slice(
+            2,
+            4,
+            &[-ks / ms, ks / ms, -cs / ms, cs / ms, 0.0, 0.0, 0.0, 0.0],
+        );
         let d12 = DMatrix::from_row_slice(2, 1, &[1e3 / ms, 1.0]);
         let d11 = DMatrix::zeros(2, 3);
         // y: stroke and body velocity, with noise.
@@ -662,21 +988,53 @@ mod tests {
         let c_c = DMatrix::from_row_slice(2, 4, &[20.0, -20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
         let d_cu = DMatrix::from_row_slice(2, 1, &[0.0, 0.2]);
         let g = GeneralizedPlant {
-            a, b_w: b1, b_u: b2, c_z: c1, d_zw: d11, d_zu: d12, c_y: c2, d_yw: d21, c_c, d_cu,
-            constraint_names: vec!["stroke".into(), "force".into()], road_scale: Vec::new(), road_model: crate::design::RoadModel::Independent,
+            a,
+            b_w: b1,
+            b_u: b2,
+            c_z: c1,
+            d_zw: d11,
+            d_zu: d12,
+            c_y: c2,
+            d_yw: d21,
+            c_c,
+            d_cu,
+            constraint_names: vec!["stroke".into(), "force".into()],
+            road_scale: Vec::new(),
+            road_model: crate::design::RoadModel::Independent,
         };
         let p = g.of_plant();
         // The energy at which the unconstrained design's stroke peaks at 1.5 of its limit (its
         // force, with D_K ≠ 0, has no finite peak at all).
         let free = hinf_of(&p, 1e-7, 0.02, 1e3).unwrap();
-        let free_stroke = closed_loop(&g.constraint_plant(), &g.c_y, &g.d_yw, &free.controller).select_outputs(&[0]).energy_to_peak().unwrap()[0];
+        let free_stroke = closed_loop(&g.constraint_plant(), &g.c_y, &g.d_yw, &free.controller)
+            .select_outputs(&[0])
+            .energy_to_peak()
+            .unwrap()[0];
         let energy = (1.5 / free_stroke).powi(2);
-        let (of, bounds) = hinf_of_constrained(&p, &g.c_c, &g.d_cu, energy, 1e-7, 0.02, 1e3).unwrap();
-        let norm = closed_loop(&g, &g.c_y, &g.d_yw, &of.controller).hinf_norm(1e-9).unwrap();
-        assert!(norm.upper <= of.gamma * (1.0 + 1e-6) && of.gamma >= free.gamma_opt * (1.0 - 1e-6), "{} vs γ {} (free γ* {})", norm.upper, of.gamma, free.gamma_opt);
+        let (of, bounds) =
+            hinf_of_constrained(&p, &g.c_c, &g.d_cu, energy, 1e-7, 0.02, 1e3).unwrap();
+        let norm = closed_loop(&g, &g.c_y, &g.d_yw, &of.controller)
+            .hinf_norm(1e-9)
+            .unwrap();
+        assert!(
+            norm.upper <= of.gamma * (1.0 + 1e-6) && of.gamma >= free.gamma_opt * (1.0 - 1e-6),
+            "{} vs γ {} (free γ* {})",
+            norm.upper,
+            of.gamma,
+            free.gamma_opt
+        );
         // Each Gramian peak within the LMI's bound and within 1 (the certificate's check).
         let claimed: Vec<(String, f64)> = g.constraint_names.iter().cloned().zip(bounds).collect();
-        crate::certificate::certify_peaks("test", &g, &g.c_y, &g.d_yw, &of.controller, energy, &claimed).unwrap();
+        crate::certificate::certify_peaks(
+            "test",
+            &g,
+            &g.c_y,
+            &g.d_yw,
+            &of.controller,
+            energy,
+            &claimed,
+        )
+        .unwrap();
     }
 
     #[test]
@@ -689,11 +1047,21 @@ mod tests {
         let reduced = optimal_gamma(&p, d.lmi_margin).unwrap();
         let one_shot = optimal_gamma_one_shot(&p, d.lmi_margin).unwrap();
         let rel = (reduced - one_shot).abs() / one_shot;
-        assert!(rel < 1e-6, "γ*: reduced {reduced} vs one-shot {one_shot} ({rel:e})");
+        assert!(
+            rel < 1e-6,
+            "γ*: reduced {reduced} vs one-shot {one_shot} ({rel:e})"
+        );
         let of = hinf_of(&p, d.lmi_margin, 0.02, 1e3).unwrap();
         assert_eq!(of.gamma_opt, reduced);
-        let norm = closed_loop(&g, &g.c_y, &g.d_yw, &of.controller).hinf_norm(1e-9).unwrap();
-        assert!(norm.upper <= of.gamma * (1.0 + 1e-6), "{} > {}", norm.upper, of.gamma);
+        let norm = closed_loop(&g, &g.c_y, &g.d_yw, &of.controller)
+            .hinf_norm(1e-9)
+            .unwrap();
+        assert!(
+            norm.upper <= of.gamma * (1.0 + 1e-6),
+            "{} > {}",
+            norm.upper,
+            of.gamma
+        );
     }
 
     #[test]
@@ -703,14 +1071,25 @@ mod tests {
         let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d).with_sensor_noise(&d);
         let p = g.of_plant();
         let n = p.a.nrows();
-        let x = DMatrix::from_fn(n, n, |i, j| 1.0 / (1.0 + i as f64 + j as f64)) + DMatrix::identity(n, n);
+        let x = DMatrix::from_fn(n, n, |i, j| 1.0 / (1.0 + i as f64 + j as f64))
+            + DMatrix::identity(n, n);
         let y = DMatrix::from_fn(n, n, |i, j| ((i * j) % 5) as f64 - 2.0);
         let y = &y + y.transpose();
         let gamma = 13.0;
-        let (fx, fy) = reduced_projected(&p, &Affine::constant(x.clone()), &Affine::constant(y.clone()), &GammaTerms::fixed(gamma));
+        let (fx, fy) = reduced_projected(
+            &p,
+            &Affine::constant(x.clone()),
+            &Affine::constant(y.clone()),
+            &GammaTerms::fixed(gamma),
+        );
         let mut pr = Problem::new();
         let (eta, zeta) = (pr.scalar(), pr.scalar());
-        let (sx, sy) = reduced_projected(&p, &Affine::constant(&x / gamma), &Affine::constant(&y / gamma), &GammaTerms::scaled(&eta, &zeta));
+        let (sx, sy) = reduced_projected(
+            &p,
+            &Affine::constant(&x / gamma),
+            &Affine::constant(&y / gamma),
+            &GammaTerms::scaled(&eta, &zeta),
+        );
         let vals = [1.0 / gamma, 1.0 / gamma / gamma];
         assert!((sx.eval(&vals) - &fx.constant / gamma).amax() < 1e-12 * fx.constant.amax());
         assert!((sy.eval(&vals) - &fy.constant / gamma).amax() < 1e-12 * fy.constant.amax());
@@ -730,12 +1109,19 @@ mod tests {
         let size = 2 * n + nw + nz;
         let mut np = DMatrix::zeros(size, w.ncols() + nw);
         np.view_mut((0, 0), (n, w.ncols())).copy_from(&w.rows(0, n));
-        np.view_mut((2 * n + nw, 0), (nz, w.ncols())).copy_from(&w.rows(n, nz));
-        np.view_mut((2 * n, w.ncols()), (nw, nw)).fill_with_identity();
+        np.view_mut((2 * n + nw, 0), (nz, w.ncols()))
+            .copy_from(&w.rows(n, nz));
+        np.view_mut((2 * n, w.ncols()), (nw, nw))
+            .fill_with_identity();
         let mut nq = DMatrix::zeros(size, v.ncols() + nz);
         nq.view_mut((n, 0), (n + nw, v.ncols())).copy_from(&v);
-        nq.view_mut((2 * n + nw, v.ncols()), (nz, nz)).fill_with_identity();
-        let max_eig = |m: &DMatrix<f64>| nalgebra::SymmetricEigen::new((m + m.transpose()) * 0.5).eigenvalues.max();
+        nq.view_mut((2 * n + nw, v.ncols()), (nz, nz))
+            .fill_with_identity();
+        let max_eig = |m: &DMatrix<f64>| {
+            nalgebra::SymmetricEigen::new((m + m.transpose()) * 0.5)
+                .eigenvalues
+                .max()
+        };
         // A point where the reduced LMIs hold at γ = 14 (γ* ≈ 13.1), then γ on both sides.
         let mut prob = Problem::new();
         let (xv, yv) = (prob.symmetric(n), prob.symmetric(n));
@@ -749,16 +1135,43 @@ mod tests {
         for gamma in [1e3, 14.0, 13.0, 12.0, 5.0] {
             for (xs, ys) in [(x.clone(), y.clone()), (&x * 0.5, &y * 2.0)] {
                 let gc = Affine::constant(DMatrix::from_element(1, 1, gamma));
-                let full = psi(p, &Affine::constant(xs.clone()), &Affine::constant(ys.clone()), &gc).constant;
-                let (rx, ry) = reduced_projected(p, &Affine::constant(xs.clone()), &Affine::constant(ys.clone()), &GammaTerms::fixed(gamma));
-                let pairs = [(max_eig(&(np.transpose() * &full * &np)), max_eig(&rx.constant)), (max_eig(&(nq.transpose() * &full * &nq)), max_eig(&ry.constant))];
+                let full = psi(
+                    p,
+                    &Affine::constant(xs.clone()),
+                    &Affine::constant(ys.clone()),
+                    &gc,
+                )
+                .constant;
+                let (rx, ry) = reduced_projected(
+                    p,
+                    &Affine::constant(xs.clone()),
+                    &Affine::constant(ys.clone()),
+                    &GammaTerms::fixed(gamma),
+                );
+                let pairs = [
+                    (
+                        max_eig(&(np.transpose() * &full * &np)),
+                        max_eig(&rx.constant),
+                    ),
+                    (
+                        max_eig(&(nq.transpose() * &full * &nq)),
+                        max_eig(&ry.constant),
+                    ),
+                ];
                 for (unreduced, reduced) in pairs {
-                    assert_eq!(unreduced < 0.0, reduced < 0.0, "γ {gamma}: {unreduced} vs {reduced}");
+                    assert_eq!(
+                        unreduced < 0.0,
+                        reduced < 0.0,
+                        "γ {gamma}: {unreduced} vs {reduced}"
+                    );
                     outcomes.push(reduced < 0.0);
                 }
             }
         }
-        assert!(outcomes.iter().any(|o| *o) && outcomes.iter().any(|o| !*o), "both sides of feasibility were tried");
+        assert!(
+            outcomes.iter().any(|o| *o) && outcomes.iter().any(|o| !*o),
+            "both sides of feasibility were tried"
+        );
     }
 
     #[test]
@@ -766,10 +1179,13 @@ mod tests {
         let pt = DMatrix::from_fn(6, 2, |i, j| ((i * 3 + j * 5) % 7) as f64 - 3.0);
         let q = DMatrix::from_fn(3, 6, |i, j| ((i * 2 + j * 3) % 5) as f64 - 2.0);
         let omega0 = DMatrix::from_fn(2, 3, |i, j| (i as f64 - j as f64) * 0.3);
-        let psi = DMatrix::<f64>::identity(6, 6) * -1.0 - (&pt * &omega0 * &q + q.transpose() * omega0.transpose() * pt.transpose());
+        let psi = DMatrix::<f64>::identity(6, 6) * -1.0
+            - (&pt * &omega0 * &q + q.transpose() * omega0.transpose() * pt.transpose());
         let logdet = |om: &DMatrix<f64>| {
             let l = &psi + &pt * om * &q + q.transpose() * om.transpose() * pt.transpose();
-            (-l).cholesky().map(|c| 2.0 * c.l().diagonal().map(f64::ln).sum()).unwrap_or(f64::NEG_INFINITY)
+            (-l).cholesky()
+                .map(|c| 2.0 * c.l().diagonal().map(f64::ln).sum())
+                .unwrap_or(f64::NEG_INFINITY)
         };
         let start = solve_basic_lmi(&psi, &pt, &q).unwrap();
         let centre = analytic_centre(&psi, &pt, &q, &start).unwrap();
@@ -779,7 +1195,10 @@ mod tests {
             for h in [1e-3, -1e-3, 1e-1] {
                 let mut e = DMatrix::zeros(2, 3);
                 e[(k % 2, k / 2)] = h;
-                assert!(logdet(&(&centre + &e)) <= best + 1e-12, "direction {k}, step {h}");
+                assert!(
+                    logdet(&(&centre + &e)) <= best + 1e-12,
+                    "direction {k}, step {h}"
+                );
                 // Central differences: the gradient vanishes at the centre.
                 if h == 1e-3 {
                     let slope = (logdet(&(&centre + &e)) - logdet(&(&centre - &e))) / (2.0 * h);
@@ -797,9 +1216,15 @@ mod tests {
         let omega0 = DMatrix::from_fn(2, 3, |i, j| (i as f64 - j as f64) * 0.3);
         let base = DMatrix::<f64>::identity(6, 6) * -1.0;
         // Ψ such that Ω₀ solves it: Ψ = −I − (PᵀΩ₀Q + QᵀΩ₀ᵀP).
-        let psi = &base - (&pt * &omega0 * &q + q.transpose() * omega0.transpose() * pt.transpose());
+        let psi =
+            &base - (&pt * &omega0 * &q + q.transpose() * omega0.transpose() * pt.transpose());
         let omega = solve_basic_lmi(&psi, &pt, &q).expect("solvable");
         let full = &psi + &pt * &omega * &q + q.transpose() * omega.transpose() * pt.transpose();
-        assert!(nalgebra::SymmetricEigen::new((&full + full.transpose()) * 0.5).eigenvalues.max() < 0.0);
+        assert!(
+            nalgebra::SymmetricEigen::new((&full + full.transpose()) * 0.5)
+                .eigenvalues
+                .max()
+                < 0.0
+        );
     }
 }

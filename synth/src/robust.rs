@@ -49,7 +49,11 @@ fn system_matrix(g: &GeneralizedPlant) -> DMatrix<f64> {
 
 fn plant_at(p: &VehicleParams, d: &Design, sensor_noise: bool, m: f64) -> GeneralizedPlant {
     let g = GeneralizedPlant::at_mass(p, d, m);
-    if sensor_noise { g.with_sensor_noise(d) } else { g }
+    if sensor_noise {
+        g.with_sensor_noise(d)
+    } else {
+        g
+    }
 }
 
 impl MassUncertainty {
@@ -73,10 +77,35 @@ impl MassUncertainty {
         let svd = delta.clone().svd(true, true);
         let (u, vt) = (svd.u.expect("requested"), svd.v_t.expect("requested"));
         let tol = 1e-12 * svd.singular_values.max();
-        let keep: Vec<usize> = (0..svd.singular_values.len()).filter(|&i| svd.singular_values[i] > tol).collect();
-        let h = DMatrix::from_columns(&keep.iter().map(|&i| u.column(i) * svd.singular_values[i].sqrt()).collect::<Vec<_>>());
-        let e = DMatrix::from_rows(&keep.iter().map(|&i| vt.row(i) * svd.singular_values[i].sqrt()).collect::<Vec<_>>());
-        MassUncertainty { m_min, m_max, vertices, center, norm_bounded: NormBounded { h, e, diagonal: false }, params: *p, design: d.clone(), sensor_noise }
+        let keep: Vec<usize> = (0..svd.singular_values.len())
+            .filter(|&i| svd.singular_values[i] > tol)
+            .collect();
+        let h = DMatrix::from_columns(
+            &keep
+                .iter()
+                .map(|&i| u.column(i) * svd.singular_values[i].sqrt())
+                .collect::<Vec<_>>(),
+        );
+        let e = DMatrix::from_rows(
+            &keep
+                .iter()
+                .map(|&i| vt.row(i) * svd.singular_values[i].sqrt())
+                .collect::<Vec<_>>(),
+        );
+        MassUncertainty {
+            m_min,
+            m_max,
+            vertices,
+            center,
+            norm_bounded: NormBounded {
+                h,
+                e,
+                diagonal: false,
+            },
+            params: *p,
+            design: d.clone(),
+            sensor_noise,
+        }
     }
 
     /// The plant at mass `m` (exact, not interpolated).
@@ -87,7 +116,9 @@ impl MassUncertainty {
     /// The uniform check grid of the design file, endpoints included.
     pub fn grid(&self) -> Vec<f64> {
         let k = self.design.mass_grid_points;
-        (0..k).map(|i| self.m_min + (self.m_max - self.m_min) * i as f64 / (k - 1) as f64).collect()
+        (0..k)
+            .map(|i| self.m_min + (self.m_max - self.m_min) * i as f64 / (k - 1) as f64)
+            .collect()
     }
 }
 
@@ -104,7 +135,12 @@ pub struct MassGrid {
 }
 
 impl MassGrid {
-    pub fn evaluate(unc: &MassUncertainty, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, k: &Controller) -> Self {
+    pub fn evaluate(
+        unc: &MassUncertainty,
+        c_meas: &DMatrix<f64>,
+        d_meas: &DMatrix<f64>,
+        k: &Controller,
+    ) -> Self {
         let masses = unc.grid();
         let mut norms = Vec::new();
         let mut abscissas = Vec::new();
@@ -114,23 +150,46 @@ impl MassGrid {
             norms.push(cl.hinf_norm(1e-9).ok().map(|n| n.upper));
         }
         let stable = norms.iter().all(|n| n.is_some());
-        let (worst_i, worst) = norms.iter().enumerate().map(|(i, n)| (i, n.unwrap_or(f64::INFINITY))).fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
-        MassGrid { worst_mass: masses[worst_i], masses, norms, spectral_abscissas: abscissas, worst_norm: stable.then_some(worst) }
+        let (worst_i, worst) = norms
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (i, n.unwrap_or(f64::INFINITY)))
+            .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+        MassGrid {
+            worst_mass: masses[worst_i],
+            masses,
+            norms,
+            spectral_abscissas: abscissas,
+            worst_norm: stable.then_some(worst),
+        }
     }
 
     /// Whether every mass of the grid is stable with a norm within the claimed γ.
     pub fn holds(&self, gamma: f64) -> bool {
-        self.worst_norm.is_some_and(|w| w <= gamma * (1.0 + NORM_TOLERANCE))
+        self.worst_norm
+            .is_some_and(|w| w <= gamma * (1.0 + NORM_TOLERANCE))
     }
 }
 
 /// The robust certificate: stable with `‖T_zw‖∞ ≤ γ` at every mass of the grid, else an error.
-pub fn mass_grid_certificate(variant: &str, unc: &MassUncertainty, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, k: &Controller, gamma: f64) -> Result<MassGrid, crate::certificate::CertificateError> {
+pub fn mass_grid_certificate(
+    variant: &str,
+    unc: &MassUncertainty,
+    c_meas: &DMatrix<f64>,
+    d_meas: &DMatrix<f64>,
+    k: &Controller,
+    gamma: f64,
+) -> Result<MassGrid, crate::certificate::CertificateError> {
     let grid = MassGrid::evaluate(unc, c_meas, d_meas, k);
     if grid.holds(gamma) {
         Ok(grid)
     } else {
-        Err(crate::certificate::CertificateError::NotRobust { variant: variant.into(), mass: grid.worst_mass, norm: grid.worst_norm.unwrap_or(f64::INFINITY), gamma })
+        Err(crate::certificate::CertificateError::NotRobust {
+            variant: variant.into(),
+            mass: grid.worst_mass,
+            norm: grid.worst_norm.unwrap_or(f64::INFINITY),
+            gamma,
+        })
     }
 }
 
@@ -146,16 +205,45 @@ mod tests {
         let unc = MassUncertainty::new(&p, &d);
         let (c, dm) = (DMatrix::identity(16, 16), DMatrix::zeros(16, 8));
         let nominal = hinf_sf(&GeneralizedPlant::new(&p, &d), d.lmi_margin, None).unwrap();
-        match mass_grid_certificate("nominal", &unc, &c, &dm, &Controller::static_gain(nominal.k), nominal.gamma) {
-            Err(CertificateError::NotRobust { mass, norm, gamma, .. }) => assert!(mass == d.mass_min && norm > gamma, "{mass} {norm} {gamma}"),
+        match mass_grid_certificate(
+            "nominal",
+            &unc,
+            &c,
+            &dm,
+            &Controller::static_gain(nominal.k),
+            nominal.gamma,
+        ) {
+            Err(CertificateError::NotRobust {
+                mass, norm, gamma, ..
+            }) => assert!(mass == d.mass_min && norm > gamma, "{mass} {norm} {gamma}"),
             other => panic!("the nominal design's γ must not hold over the range: {other:?}"),
         }
-        let vertex = hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, d.lmi_margin, None).unwrap();
-        let nb = hinf_sf_robust(&[&unc.center], Some(&unc.norm_bounded), d.lmi_margin, None).unwrap();
+        let vertex = hinf_sf_robust(
+            &[&unc.vertices[0], &unc.vertices[1]],
+            None,
+            d.lmi_margin,
+            None,
+        )
+        .unwrap();
+        let nb =
+            hinf_sf_robust(&[&unc.center], Some(&unc.norm_bounded), d.lmi_margin, None).unwrap();
         for sf in [&vertex, &nb] {
-            let grid = mass_grid_certificate("robust", &unc, &c, &dm, &Controller::static_gain(sf.k.clone()), sf.gamma).unwrap();
+            let grid = mass_grid_certificate(
+                "robust",
+                &unc,
+                &c,
+                &dm,
+                &Controller::static_gain(sf.k.clone()),
+                sf.gamma,
+            )
+            .unwrap();
             // Sound (checked above) and, with a rank-one uncertainty, not conservative.
-            assert!(grid.worst_norm.unwrap() > 0.999 * sf.gamma, "worst {:?} vs γ {}", grid.worst_norm, sf.gamma);
+            assert!(
+                grid.worst_norm.unwrap() > 0.999 * sf.gamma,
+                "worst {:?} vs γ {}",
+                grid.worst_norm,
+                sf.gamma
+            );
         }
     }
 
@@ -163,17 +251,28 @@ mod tests {
     fn vertex_combination_and_norm_bounded_form_reproduce_the_plant_at_every_mass() {
         let d = Design::default();
         let unc = MassUncertainty::new(&VehicleParams::default(), &d);
-        assert_eq!(unc.norm_bounded.h.ncols(), 1, "the mass enters through one row of M⁻¹");
+        assert_eq!(
+            unc.norm_bounded.h.ncols(),
+            1,
+            "the mass enters through one row of M⁻¹"
+        );
         let he = &unc.norm_bounded.h * &unc.norm_bounded.e;
         for m in [1200.0, 1333.0, 1500.0, 1777.0, 1800.0] {
             let exact = system_matrix(&unc.at(m));
             // 1/m = α/m_min + (1 − α)/m_max, δ = 2α − 1.
             let alpha = (1.0 / m - 1.0 / unc.m_max) / (1.0 / unc.m_min - 1.0 / unc.m_max);
-            let vertex = system_matrix(&unc.vertices[0]) * alpha + system_matrix(&unc.vertices[1]) * (1.0 - alpha);
+            let vertex = system_matrix(&unc.vertices[0]) * alpha
+                + system_matrix(&unc.vertices[1]) * (1.0 - alpha);
             let nb = system_matrix(&unc.center) + &he * (2.0 * alpha - 1.0);
             let scale = exact.amax();
-            assert!((&vertex - &exact).amax() < 1e-12 * scale, "vertex form at {m}");
-            assert!((&nb - &exact).amax() < 1e-12 * scale, "norm-bounded form at {m}");
+            assert!(
+                (&vertex - &exact).amax() < 1e-12 * scale,
+                "vertex form at {m}"
+            );
+            assert!(
+                (&nb - &exact).amax() < 1e-12 * scale,
+                "norm-bounded form at {m}"
+            );
             assert_eq!(unc.at(m).b_w, unc.center.b_w);
         }
     }

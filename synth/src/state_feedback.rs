@@ -45,11 +45,20 @@ pub struct StateFeedback {
 }
 
 /// The terms shared by all state-feedback designs: `He(AQ + B_uY)`.
-pub(crate) fn lyapunov_term(a: &DMatrix<f64>, b_u: &DMatrix<f64>, q: &Affine, y: &Affine) -> Affine {
+pub(crate) fn lyapunov_term(
+    a: &DMatrix<f64>,
+    b_u: &DMatrix<f64>,
+    q: &Affine,
+    y: &Affine,
+) -> Affine {
     q.left(a).add(&y.left(b_u)).he()
 }
 
-pub fn hinf_sf(g: &GeneralizedPlant, eps: f64, design_energy: Option<f64>) -> Result<StateFeedback, LmiError> {
+pub fn hinf_sf(
+    g: &GeneralizedPlant,
+    eps: f64,
+    design_energy: Option<f64>,
+) -> Result<StateFeedback, LmiError> {
     hinf_sf_robust(&[g], None, eps, design_energy)
 }
 
@@ -61,7 +70,12 @@ pub fn hinf_sf(g: &GeneralizedPlant, eps: f64, design_energy: Option<f64>) -> Re
 /// inequality, hence `He(A_cl Q̃) + B_w B_wᵀ ≺ 0` for `Q̃ = γQ`: `Q̃` bounds the controllability
 /// Gramian, and `‖T_{z₂w}‖₂² ≤ tr W` for any `W ⪰ γ (C₂Q + D₂Y) Q⁻¹ (C₂Q + D₂Y)ᵀ`, i.e.
 /// `[[W, C₂Q + D₂Y], [·, Q/γ]] ⪰ 0`. No extra Lyapunov LMI is needed: the H∞ one implies it.
-pub fn hinf_sf_mixed(g: &GeneralizedPlant, eps: f64, design_energy: Option<f64>, backoff: f64) -> Result<MixedStateFeedback, LmiError> {
+pub fn hinf_sf_mixed(
+    g: &GeneralizedPlant,
+    eps: f64,
+    design_energy: Option<f64>,
+    backoff: f64,
+) -> Result<MixedStateFeedback, LmiError> {
     let optimal = hinf_sf(g, eps, design_energy)?;
     let gamma = (1.0 + backoff) * optimal.gamma;
     let (c2, d2) = h2_rows(g);
@@ -72,7 +86,11 @@ pub fn hinf_sf_mixed(g: &GeneralizedPlant, eps: f64, design_energy: Option<f64>,
     let wv = p.symmetric(c2.nrows());
     let t = p.scalar();
     let (q, y) = (qv.expr(), yv.expr());
-    p.negative_definite("H∞ bounded-real LMI at the fixed γ", bounded_real_at(g, &q, &y, gamma), eps);
+    p.negative_definite(
+        "H∞ bounded-real LMI at the fixed γ",
+        bounded_real_at(g, &q, &y, gamma),
+        eps,
+    );
     p.positive_definite("Q ≻ 0", q.clone(), eps);
     let c2q = q.left(&c2).add(&y.left(&d2));
     // This block is singular at the optimum by construction (W is the Schur complement), so the
@@ -81,7 +99,14 @@ pub fn hinf_sf_mixed(g: &GeneralizedPlant, eps: f64, design_energy: Option<f64>,
     // to 28 % for an H2 bound 0.02 % higher (the objective is flat in those directions). With the
     // peak LMIs the boundary point failed the check by −3e-10; there the margin is ε.
     let h2_margin = if design_energy.is_some() { eps } else { 0.0 };
-    p.positive_definite("H2 bound W ⪰ γ (C₂Q + D₂Y) Q⁻¹ (C₂Q + D₂Y)ᵀ", Affine::symmetric_blocks(&[vec![Some(wv.expr()), Some(c2q)], vec![None, Some(q.scale(1.0 / gamma))]]), h2_margin);
+    p.positive_definite(
+        "H2 bound W ⪰ γ (C₂Q + D₂Y) Q⁻¹ (C₂Q + D₂Y)ᵀ",
+        Affine::symmetric_blocks(&[
+            vec![Some(wv.expr()), Some(c2q)],
+            vec![None, Some(q.scale(1.0 / gamma))],
+        ]),
+        h2_margin,
+    );
     p.positive_definite("t ≥ tr W", t.expr().sub(&wv.expr().trace()), 0.0);
     add_peak_constraints(&mut p, &[g], &q, &y, design_energy, eps);
     // The bound at the γ-optimal point sets the objective's scale (Clarabel stopped short of
@@ -89,8 +114,22 @@ pub fn hinf_sf_mixed(g: &GeneralizedPlant, eps: f64, design_energy: Option<f64>,
     let reference = h2_bound(&c2, &d2, &optimal.q, &optimal.y, gamma);
     p.minimise(&t, 1.0 / reference);
     let s = p.solve()?;
-    let sf = state_feedback(g, qv.value(&s.x), yv.value(&s.x), gamma, design_energy, s.status, s.iterations, None);
-    Ok(MixedStateFeedback { h2_bound: t.value(&s.x)[(0, 0)].sqrt(), gamma_opt: optimal.gamma, h2_bound_at_optimum: reference.sqrt(), sf })
+    let sf = state_feedback(
+        g,
+        qv.value(&s.x),
+        yv.value(&s.x),
+        gamma,
+        design_energy,
+        s.status,
+        s.iterations,
+        None,
+    );
+    Ok(MixedStateFeedback {
+        h2_bound: t.value(&s.x)[(0, 0)].sqrt(),
+        gamma_opt: optimal.gamma,
+        h2_bound_at_optimum: reference.sqrt(),
+        sf,
+    })
 }
 
 /// [`hinf_sf_mixed`]'s result: the controller, and the H2 bounds (of the `z` rows named by
@@ -110,7 +149,13 @@ pub fn h2_rows(g: &GeneralizedPlant) -> (DMatrix<f64>, DMatrix<f64>) {
 }
 
 /// `γ tr((C₂Q + D₂Y) Q⁻¹ (C₂Q + D₂Y)ᵀ)`: the squared H2 bound that `(Q, Y)` proves at `γ`.
-fn h2_bound(c2: &DMatrix<f64>, d2: &DMatrix<f64>, q: &DMatrix<f64>, y: &DMatrix<f64>, gamma: f64) -> f64 {
+fn h2_bound(
+    c2: &DMatrix<f64>,
+    d2: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    gamma: f64,
+) -> f64 {
     let m = c2 * q + d2 * y;
     let q_inv = q.clone().cholesky().expect("Q ≻ 0 was checked").inverse();
     gamma * (&m * q_inv * m.transpose()).trace()
@@ -126,8 +171,22 @@ fn bounded_real_at(g: &GeneralizedPlant, q: &Affine, y: &Affine, gamma: f64) -> 
     let nz = g.c_z.nrows();
     let czq = q.left(&g.c_z).add(&y.left(&g.d_zu));
     Affine::symmetric_blocks(&[
-        vec![Some(lyapunov_term(&g.a, &g.b_u, q, y).add(&Affine::constant(&g.b_w * g.b_w.transpose() / gamma))), Some(czq.t().add(&Affine::constant(&g.b_w * g.d_zw.transpose() / gamma)))],
-        vec![None, Some(Affine::constant(&g.d_zw * g.d_zw.transpose() / gamma - DMatrix::identity(nz, nz) * gamma))],
+        vec![
+            Some(
+                lyapunov_term(&g.a, &g.b_u, q, y)
+                    .add(&Affine::constant(&g.b_w * g.b_w.transpose() / gamma)),
+            ),
+            Some(
+                czq.t()
+                    .add(&Affine::constant(&g.b_w * g.d_zw.transpose() / gamma)),
+            ),
+        ],
+        vec![
+            None,
+            Some(Affine::constant(
+                &g.d_zw * g.d_zw.transpose() / gamma - DMatrix::identity(nz, nz) * gamma,
+            )),
+        ],
     ])
 }
 
@@ -137,8 +196,16 @@ fn bounded_real(g: &GeneralizedPlant, q: &Affine, y: &Affine, gamma: &Affine) ->
     let czq = q.left(&g.c_z).add(&y.left(&g.d_zu));
     let minus_gamma = |k: usize| gamma.map_scalar(&(-DMatrix::identity(k, k)));
     Affine::symmetric_blocks(&[
-        vec![Some(lyapunov_term(&g.a, &g.b_u, q, y)), Some(Affine::constant(g.b_w.clone())), Some(czq.t())],
-        vec![None, Some(minus_gamma(nw)), Some(Affine::constant(g.d_zw.transpose()))],
+        vec![
+            Some(lyapunov_term(&g.a, &g.b_u, q, y)),
+            Some(Affine::constant(g.b_w.clone())),
+            Some(czq.t()),
+        ],
+        vec![
+            None,
+            Some(minus_gamma(nw)),
+            Some(Affine::constant(g.d_zw.transpose())),
+        ],
         vec![None, None, Some(minus_gamma(nz))],
     ])
 }
@@ -161,7 +228,12 @@ pub struct NormBounded {
 /// `N = [E_x Q + E_u Y, 0, 0]`. By a Schur complement this is
 /// `[Ψ + ε M Mᵀ, Nᵀ; N, −ε I] ≺ 0`, jointly linear in `(Q, Y, γ, ε)`: ε is optimised with the
 /// rest instead of being fixed as in the thesis.
-pub fn hinf_sf_robust(plants: &[&GeneralizedPlant], norm_bounded: Option<&NormBounded>, eps: f64, design_energy: Option<f64>) -> Result<StateFeedback, LmiError> {
+pub fn hinf_sf_robust(
+    plants: &[&GeneralizedPlant],
+    norm_bounded: Option<&NormBounded>,
+    eps: f64,
+    design_energy: Option<f64>,
+) -> Result<StateFeedback, LmiError> {
     let g = plants[0];
     let n = g.n();
     let (nw, nu) = (g.b_w.ncols(), g.b_u.ncols());
@@ -172,7 +244,10 @@ pub fn hinf_sf_robust(plants: &[&GeneralizedPlant], norm_bounded: Option<&NormBo
     let (q, y) = (qv.expr(), yv.expr());
     let mut multipliers = Vec::new();
     for (i, gi) in plants.iter().enumerate() {
-        assert!(gi.b_w == g.b_w && gi.d_zw == g.d_zw, "the plants may differ only in A, B_u, C_z, D_zu");
+        assert!(
+            gi.b_w == g.b_w && gi.d_zw == g.d_zw,
+            "the plants may differ only in A, B_u, C_z, D_zu"
+        );
         let brl = bounded_real(gi, &q, &y, &gamma.expr());
         match norm_bounded {
             None => p.negative_definite(&format!("H∞ bounded-real LMI, plant {i}"), brl, eps),
@@ -180,19 +255,37 @@ pub fn hinf_sf_robust(plants: &[&GeneralizedPlant], norm_bounded: Option<&NormBo
                 let (r, nz) = (nb.h.ncols(), g.c_z.nrows());
                 let mut m = DMatrix::zeros(n + nw + nz, r);
                 m.view_mut((0, 0), (n, r)).copy_from(&nb.h.rows(0, n));
-                m.view_mut((n + nw, 0), (nz, r)).copy_from(&nb.h.rows(n, nz));
+                m.view_mut((n + nw, 0), (nz, r))
+                    .copy_from(&nb.h.rows(n, nz));
                 // The multiplier S = εI, or diag(εᵢ) for a diagonal Δ: Ψ + M S Mᵀ + Nᵀ S⁻¹ N ≺ 0.
-                let eps_vars: Vec<_> = (0..if nb.diagonal { r } else { 1 }).map(|_| p.scalar()).collect();
+                let eps_vars: Vec<_> = (0..if nb.diagonal { r } else { 1 })
+                    .map(|_| p.scalar())
+                    .collect();
                 multipliers.extend(eps_vars.iter().copied());
-                let unit = |i: usize| DMatrix::from_fn(r, r, |a, b| if a == b && (!nb.diagonal || a == i) { 1.0 } else { 0.0 });
+                let unit = |i: usize| {
+                    DMatrix::from_fn(r, r, |a, b| {
+                        if a == b && (!nb.diagonal || a == i) {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    })
+                };
                 let s_m = Affine::combination(&eps_vars, unit);
                 let m_s_mt = Affine::combination(&eps_vars, |i| &m * unit(i) * m.transpose());
                 let e_x = nb.e.columns(0, n).into_owned();
                 let e_u = nb.e.columns(n, nu).into_owned();
                 let nq = q.left(&e_x).add(&y.left(&e_u));
                 let n_full = nq.embed(r, n + nw + nz, 0, 0);
-                let lmi = Affine::symmetric_blocks(&[vec![Some(brl.add(&m_s_mt)), Some(n_full.t())], vec![None, Some(s_m.scale(-1.0))]]);
-                p.negative_definite(&format!("norm-bounded robust H∞ LMI (Lemma 1), plant {i}"), lmi, eps);
+                let lmi = Affine::symmetric_blocks(&[
+                    vec![Some(brl.add(&m_s_mt)), Some(n_full.t())],
+                    vec![None, Some(s_m.scale(-1.0))],
+                ]);
+                p.negative_definite(
+                    &format!("norm-bounded robust H∞ LMI (Lemma 1), plant {i}"),
+                    lmi,
+                    eps,
+                );
                 for v in &eps_vars {
                     p.positive_definite("ε > 0", v.expr(), eps);
                 }
@@ -204,11 +297,27 @@ pub fn hinf_sf_robust(plants: &[&GeneralizedPlant], norm_bounded: Option<&NormBo
     p.minimise(&gamma, 1.0);
     let s = p.solve()?;
     let multiplier = multipliers.first().map(|v| v.value(&s.x)[(0, 0)]);
-    Ok(state_feedback(g, qv.value(&s.x), yv.value(&s.x), gamma.value(&s.x)[(0, 0)], design_energy, s.status, s.iterations, multiplier))
+    Ok(state_feedback(
+        g,
+        qv.value(&s.x),
+        yv.value(&s.x),
+        gamma.value(&s.x)[(0, 0)],
+        design_energy,
+        s.status,
+        s.iterations,
+        multiplier,
+    ))
 }
 
 /// The energy-to-peak constraints (module doc) for every plant of `plants`, if `design_energy`.
-fn add_peak_constraints(p: &mut Problem, plants: &[&GeneralizedPlant], q: &Affine, y: &Affine, design_energy: Option<f64>, eps: f64) {
+fn add_peak_constraints(
+    p: &mut Problem,
+    plants: &[&GeneralizedPlant],
+    q: &Affine,
+    y: &Affine,
+    design_energy: Option<f64>,
+    eps: f64,
+) {
     let Some(energy) = design_energy else { return };
     let g = plants[0];
     for gi in plants {
@@ -216,21 +325,34 @@ fn add_peak_constraints(p: &mut Problem, plants: &[&GeneralizedPlant], q: &Affin
     }
     let bound = Affine::constant(DMatrix::from_element(1, 1, 1.0 / energy));
     for i in 0..g.c_c.nrows() {
-        p.positive_definite(&format!("peak bound on {}", g.constraint_names[i]), peak_lmi(g, i, q, y, &bound), eps);
+        p.positive_definite(
+            &format!("peak bound on {}", g.constraint_names[i]),
+            peak_lmi(g, i, q, y, &bound),
+            eps,
+        );
     }
 }
 
 /// `[[Q, (cᵢQ + dᵢY)ᵀ], [cᵢQ + dᵢY, β]] ⪰ 0`: with `V = xᵀQ⁻¹x ≤ ‖w‖²`, `|cᵢ(t)|² ≤ β⁻¹‖w‖²`.
 fn peak_lmi(g: &GeneralizedPlant, i: usize, q: &Affine, y: &Affine, beta: &Affine) -> Affine {
-    let ci = q.left(&g.c_c.rows(i, 1).into_owned()).add(&y.left(&g.d_cu.rows(i, 1).into_owned()));
-    Affine::symmetric_blocks(&[vec![Some(q.clone()), Some(ci.t())], vec![None, Some(beta.clone())]])
+    let ci = q
+        .left(&g.c_c.rows(i, 1).into_owned())
+        .add(&y.left(&g.d_cu.rows(i, 1).into_owned()));
+    Affine::symmetric_blocks(&[
+        vec![Some(q.clone()), Some(ci.t())],
+        vec![None, Some(beta.clone())],
+    ])
 }
 
 /// The smallest common energy-to-peak bound `max_i max_t |cᵢ(t)|` over the constraint outputs
 /// that any state feedback can prove with these LMIs for disturbances of energy `energy`
 /// (the energy and peak LMIs of [`add_peak_constraints`] at every plant, no H∞ part): above 1,
 /// the constraints cannot all be imposed, whatever γ. The diagnosis of an infeasible design.
-pub fn best_constraint_peak(plants: &[&GeneralizedPlant], energy: f64, eps: f64) -> Result<f64, LmiError> {
+pub fn best_constraint_peak(
+    plants: &[&GeneralizedPlant],
+    energy: f64,
+    eps: f64,
+) -> Result<f64, LmiError> {
     let g = plants[0];
     let mut p = Problem::new();
     let qv = p.symmetric(g.n());
@@ -252,23 +374,50 @@ pub fn best_constraint_peak(plants: &[&GeneralizedPlant], energy: f64, eps: f64)
 /// `He(AQ + B_uY) + B_w B_wᵀ ≺ 0` as one block LMI: `xᵀQ⁻¹x ≤ ‖w‖₂²` along every trajectory.
 fn energy_lmi(g: &GeneralizedPlant, q: &Affine, y: &Affine) -> Affine {
     let nw = g.b_w.ncols();
-    Affine::symmetric_blocks(&[vec![Some(lyapunov_term(&g.a, &g.b_u, q, y)), Some(Affine::constant(g.b_w.clone()))], vec![None, Some(Affine::identity(nw).scale(-1.0))]])
+    Affine::symmetric_blocks(&[
+        vec![
+            Some(lyapunov_term(&g.a, &g.b_u, q, y)),
+            Some(Affine::constant(g.b_w.clone())),
+        ],
+        vec![None, Some(Affine::identity(nw).scale(-1.0))],
+    ])
 }
 
 /// `K = Y Q⁻¹` (in N) and the peak bounds `(Q, Y)` proves.
 #[allow(clippy::too_many_arguments)]
-fn state_feedback(g: &GeneralizedPlant, q: DMatrix<f64>, y: DMatrix<f64>, gamma: f64, design_energy: Option<f64>, solver_status: String, iterations: u32, multiplier: Option<f64>) -> StateFeedback {
+fn state_feedback(
+    g: &GeneralizedPlant,
+    q: DMatrix<f64>,
+    y: DMatrix<f64>,
+    gamma: f64,
+    design_energy: Option<f64>,
+    solver_status: String,
+    iterations: u32,
+    multiplier: Option<f64>,
+) -> StateFeedback {
     let q_inv = q.clone().cholesky().expect("Q ≻ 0 was checked").inverse();
     let peak_bounds = match design_energy {
         Some(e) => (0..g.c_c.nrows())
             .map(|i| {
                 let ci = g.c_c.rows(i, 1) * &q + g.d_cu.rows(i, 1) * &y;
-                (g.constraint_names[i].clone(), (e * (&ci * &q_inv * ci.transpose())[(0, 0)]).sqrt())
+                (
+                    g.constraint_names[i].clone(),
+                    (e * (&ci * &q_inv * ci.transpose())[(0, 0)]).sqrt(),
+                )
             })
             .collect(),
         None => Vec::new(),
     };
-    StateFeedback { k: &y * &q_inv * FORCE_UNIT, gamma, peak_bounds, solver_status, iterations, q, y, multiplier }
+    StateFeedback {
+        k: &y * &q_inv * FORCE_UNIT,
+        gamma,
+        peak_bounds,
+        solver_status,
+        iterations,
+        q,
+        y,
+        multiplier,
+    }
 }
 
 #[cfg(test)]
@@ -286,8 +435,19 @@ mod tests {
         assert!((mixed.gamma_opt - optimal.gamma).abs() <= 1e-9 * optimal.gamma);
         assert!((mixed.sf.gamma - 1.02 * optimal.gamma).abs() <= 1e-12 * optimal.gamma);
         let (c2, d2) = h2_rows(&g);
-        assert_eq!(c2.nrows(), g.c_z.nrows() - 4, "all rows but the four tyre loads");
-        let closed = |k: &DMatrix<f64>| closed_loop(&g, &DMatrix::identity(g.n(), g.n()), &DMatrix::zeros(g.n(), g.b_w.ncols()), &Controller::static_gain(k.clone()));
+        assert_eq!(
+            c2.nrows(),
+            g.c_z.nrows() - 4,
+            "all rows but the four tyre loads"
+        );
+        let closed = |k: &DMatrix<f64>| {
+            closed_loop(
+                &g,
+                &DMatrix::identity(g.n(), g.n()),
+                &DMatrix::zeros(g.n(), g.b_w.ncols()),
+                &Controller::static_gain(k.clone()),
+            )
+        };
         // u = K x: the rows are C₂ + D₂ K (K in kN inside the generalised plant).
         let h2 = |k: &DMatrix<f64>| {
             let cl = closed(k);
@@ -296,13 +456,20 @@ mod tests {
             cl.select_outputs(&g.h2_rows()).h2_norm().unwrap()
         };
         let (h2_mixed, h2_optimal) = (h2(&mixed.sf.k), h2(&optimal.k));
-        eprintln!("H2: mixed {h2_mixed} (bound {}), gamma-optimal {h2_optimal} (bound {})", mixed.h2_bound, mixed.h2_bound_at_optimum);
+        eprintln!(
+            "H2: mixed {h2_mixed} (bound {}), gamma-optimal {h2_optimal} (bound {})",
+            mixed.h2_bound, mixed.h2_bound_at_optimum
+        );
         // The bounds hold, and the chosen point is truly better, not just its bound.
         assert!(h2_mixed <= mixed.h2_bound * (1.0 + 1e-6));
         assert!(h2_optimal <= mixed.h2_bound_at_optimum * (1.0 + 1e-6));
         assert!(h2_mixed < 0.8 * h2_optimal);
         // Its H∞ norm (Hamiltonian bisection) lies between the optimum and the γ it claims.
         let norm = closed(&mixed.sf.k).hinf_norm(1e-8).unwrap();
-        assert!(norm.upper <= mixed.sf.gamma * (1.0 + 1e-6) && norm.lower >= optimal.gamma * (1.0 - 1e-6), "{norm:?}");
+        assert!(
+            norm.upper <= mixed.sf.gamma * (1.0 + 1e-6)
+                && norm.lower >= optimal.gamma * (1.0 - 1e-6),
+            "{norm:?}"
+        );
     }
 }

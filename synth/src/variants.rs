@@ -4,14 +4,21 @@
 //! its nominal counterpart without synthesising it twice.
 
 use crate::anti_windup::{circle_check, mraw};
-use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
-use crate::certificate::{certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate, Controller};
-use crate::fault::{certify_faults, observer_for_faults, with_detection, with_effectiveness, DetectionResidual, FaultBox};
-use crate::generalized::FORCE_UNIT;
+use crate::certificate::{
+    certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate, Controller,
+};
 use crate::controller_file::controller_json;
+use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
 use crate::design::{Design, RoadModel};
+use crate::fault::{
+    certify_faults, observer_for_faults, with_detection, with_effectiveness, DetectionResidual,
+    FaultBox,
+};
+use crate::generalized::FORCE_UNIT;
 use crate::generalized::{GeneralizedPlant, MEASUREMENTS};
-use crate::output_feedback::{hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OutputFeedback};
+use crate::output_feedback::{
+    hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OutputFeedback,
+};
 use crate::robust::{mass_grid_certificate, MassGrid, MassUncertainty};
 use crate::state_feedback::{best_constraint_peak, hinf_sf_mixed, hinf_sf_robust, StateFeedback};
 use crate::SynthError;
@@ -20,7 +27,15 @@ use std::collections::BTreeMap;
 use vehicle::model::STATES;
 use vehicle::VehicleParams;
 
-pub const ALL: [&str; 7] = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_sf", "robust_of", "delay_sf", "ft_of"];
+pub const ALL: [&str; 7] = [
+    "hinf_sf",
+    "hinf_of",
+    "hinf_of_aw",
+    "robust_sf",
+    "robust_of",
+    "delay_sf",
+    "ft_of",
+];
 
 /// Relative γ back-off before choosing the controller (output feedback, SPEC §5: before
 /// reconstructing; `hinf_sf`: before minimising the H2 bound), and the bound on `X, Y`.
@@ -58,7 +73,10 @@ fn of_inputs() -> Vec<String> {
 }
 
 fn state_order_note() -> String {
-    format!("State order: {}", STATES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))
+    format!(
+        "State order: {}",
+        STATES.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
+    )
 }
 
 /// The nominal design a robust variant is compared with.
@@ -75,29 +93,55 @@ pub fn nominal_of(variant: &str) -> Option<&'static str> {
 /// Synthesise and certify each of `variants`, in parallel (longest first), then record in each
 /// robust design's certificate how its nominal counterpart, when also synthesised, fares against
 /// the same uncertainty ([`nominal_comparison`]).
-pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design) -> Result<Vec<(String, Synthesised)>, SynthError> {
+pub fn synthesise_all(
+    variants: &[&str],
+    params: &VehicleParams,
+    design: &Design,
+) -> Result<Vec<(String, Synthesised)>, SynthError> {
     use rayon::prelude::*;
     for name in design.overrides.keys() {
         if name == "hinf_of_aw" {
             return Err(SynthError::Usage("the design overrides 'hinf_of_aw', which is hinf_of's controller plus a compensator: override 'hinf_of'".into()));
         }
         if !ALL.contains(&name.as_str()) {
-            return Err(SynthError::Usage(format!("the design overrides unknown variant '{name}', expected one of {ALL:?}")));
+            return Err(SynthError::Usage(format!(
+                "the design overrides unknown variant '{name}', expected one of {ALL:?}"
+            )));
         }
     }
     // Independent designs first, in parallel; then those built on another.
-    let mut order: Vec<&str> = variants.iter().copied().filter(|v| *v != "hinf_of_aw").collect();
+    let mut order: Vec<&str> = variants
+        .iter()
+        .copied()
+        .filter(|v| *v != "hinf_of_aw")
+        .collect();
     if variants.contains(&"hinf_of_aw") && !order.contains(&"hinf_of") {
         order.push("hinf_of");
     }
     // Longest first (measured), one design per task so an idle thread takes the next one.
-    const BY_COST: [&str; 7] = ["robust_of", "ft_of", "hinf_of", "delay_sf", "robust_sf", "hinf_of_aw", "hinf_sf"];
+    const BY_COST: [&str; 7] = [
+        "robust_of",
+        "ft_of",
+        "hinf_of",
+        "delay_sf",
+        "robust_sf",
+        "hinf_of_aw",
+        "hinf_sf",
+    ];
     order.sort_by_key(|v| BY_COST.iter().position(|a| a == v));
-    let done: Vec<(String, Synthesised)> = order.par_iter().with_max_len(1).map(|v| synthesise(v, params, design).map(|s| (v.to_string(), s))).collect::<Result<_, _>>()?;
+    let done: Vec<(String, Synthesised)> = order
+        .par_iter()
+        .with_max_len(1)
+        .map(|v| synthesise(v, params, design).map(|s| (v.to_string(), s)))
+        .collect::<Result<_, _>>()?;
     let mut by_name: BTreeMap<String, Synthesised> = done.into_iter().collect();
     if variants.contains(&"hinf_of_aw") {
         let t = std::time::Instant::now();
-        let mut aw = hinf_of_aw(&by_name["hinf_of"], params, &design_for("hinf_of_aw", design)?)?;
+        let mut aw = hinf_of_aw(
+            &by_name["hinf_of"],
+            params,
+            &design_for("hinf_of_aw", design)?,
+        )?;
         aw.seconds = t.elapsed().as_secs_f64();
         by_name.insert("hinf_of_aw".into(), aw);
     }
@@ -105,13 +149,25 @@ pub fn synthesise_all(variants: &[&str], params: &VehicleParams, design: &Design
         if let Some(n) = nominal_of(v) {
             if let Some(nominal) = by_name.get(n).map(|s| s.controller.clone()) {
                 let (key, value) = nominal_comparison(v, &nominal, params, &design_for(v, design)?);
-                let details = &mut by_name.get_mut(*v).expect("synthesised above").certificate.details;
+                let details = &mut by_name
+                    .get_mut(*v)
+                    .expect("synthesised above")
+                    .certificate
+                    .details;
                 details["nominal_design"] = serde_json::json!(n);
                 details[key] = value;
             }
         }
     }
-    Ok(variants.iter().map(|v| (v.to_string(), by_name.remove(*v).expect("synthesised above"))).collect())
+    Ok(variants
+        .iter()
+        .map(|v| {
+            (
+                v.to_string(),
+                by_name.remove(*v).expect("synthesised above"),
+            )
+        })
+        .collect())
 }
 
 /// One design in the summary of a run (`dist/synthesis.json`, and the rows of
@@ -135,33 +191,70 @@ pub fn summary_rows(results: &[(String, Synthesised)]) -> Vec<SummaryRow> {
         .iter()
         .map(|(name, s)| {
             let c = &s.certificate;
-            let worst = c.details.get("worst_norm_over_masses").and_then(|v| v.as_f64());
-            let nominal = ["nominal_design_over_masses", "nominal_design_over_faults"].iter().find_map(|k| c.details.get(*k)).map(|g| match g.get("worst_norm").and_then(|v| v.as_f64()) {
-                Some(x) => format!("{x:.6}"),
-                None => "unstable".into(),
-            });
+            let worst = c
+                .details
+                .get("worst_norm_over_masses")
+                .and_then(|v| v.as_f64());
+            let nominal = ["nominal_design_over_masses", "nominal_design_over_faults"]
+                .iter()
+                .find_map(|k| c.details.get(*k))
+                .map(|g| match g.get("worst_norm").and_then(|v| v.as_f64()) {
+                    Some(x) => format!("{x:.6}"),
+                    None => "unstable".into(),
+                });
             let delay = c.details.get("delay_margin_s").and_then(|v| v.as_f64());
-            let nominal = match c.details.get("nominal_delay_margin_s").and_then(|v| v.as_f64()) {
+            let nominal = match c
+                .details
+                .get("nominal_delay_margin_s")
+                .and_then(|v| v.as_f64())
+            {
                 Some(m) => Some(format!("delay margin {:.1} ms", 1e3 * m)),
                 None => nominal,
             };
-            let faults = c.details.get("worst_norm_over_faults").and_then(|v| v.as_f64());
+            let faults = c
+                .details
+                .get("worst_norm_over_faults")
+                .and_then(|v| v.as_f64());
             let certified = match (worst, delay, faults) {
                 (_, Some(margin), _) => format!(
                     "{:.6} with τ = {:.0} ms (sweep); delay margin {:.1} ms",
-                    c.details["delayed_hinf_norm_sweep"].as_f64().unwrap_or(f64::NAN),
+                    c.details["delayed_hinf_norm_sweep"]
+                        .as_f64()
+                        .unwrap_or(f64::NAN),
                     1e3 * c.details["design_delay_s"].as_f64().unwrap_or(f64::NAN),
                     1e3 * margin
                 ),
-                (_, _, Some(w)) => format!("{w:.6} (32 effectiveness vertices; small-gain {:.4} < 1 on the box)", c.details["fault_box"]["scaled_small_gain_norm"].as_f64().unwrap_or(f64::NAN)),
+                (_, _, Some(w)) => format!(
+                    "{w:.6} (32 effectiveness vertices; small-gain {:.4} < 1 on the box)",
+                    c.details["fault_box"]["scaled_small_gain_norm"]
+                        .as_f64()
+                        .unwrap_or(f64::NAN)
+                ),
                 (Some(w), None, None) => {
-                    let points = c.details["mass_grid"]["masses"].as_array().map_or(0, |m| m.len());
-                    format!("{w:.6} ({points}-mass grid; {:.6} at the nominal car)", c.norm_upper)
+                    let points = c.details["mass_grid"]["masses"]
+                        .as_array()
+                        .map_or(0, |m| m.len());
+                    format!(
+                        "{w:.6} ({points}-mass grid; {:.6} at the nominal car)",
+                        c.norm_upper
+                    )
                 }
                 (None, None, None) => format!("{:.6}", c.norm_upper),
             };
-            let nominal_design = if name == "hinf_of_aw" { Some("hinf_of") } else { nominal_of(name) };
-            SummaryRow { variant: name.clone(), robust_to: s.robust_to.into(), gamma: c.gamma, certified, nominal_design: nominal_design.map(String::from), nominal_figure: nominal, seconds: s.seconds }
+            let nominal_design = if name == "hinf_of_aw" {
+                Some("hinf_of")
+            } else {
+                nominal_of(name)
+            };
+            SummaryRow {
+                variant: name.clone(),
+                robust_to: s.robust_to.into(),
+                gamma: c.gamma,
+                certified,
+                nominal_design: nominal_design.map(String::from),
+                nominal_figure: nominal,
+                seconds: s.seconds,
+            }
         })
         .collect()
 }
@@ -172,7 +265,15 @@ pub fn summary_rows(results: &[(String, Synthesised)]) -> Vec<SummaryRow> {
 pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
     let mut t = String::from("| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | nominal design, worst over the same | synthesis |\n|---|---|---|---|---|---|\n");
     for r in rows {
-        t += &format!("| `{}` | {} | {:.6} | {} | {} | {:.2} s |\n", r.variant, r.robust_to, r.gamma, r.certified, r.nominal_figure.as_deref().unwrap_or("-"), r.seconds);
+        t += &format!(
+            "| `{}` | {} | {:.6} | {} | {} | {:.2} s |\n",
+            r.variant,
+            r.robust_to,
+            r.gamma,
+            r.certified,
+            r.nominal_figure.as_deref().unwrap_or("-"),
+            r.seconds
+        );
     }
     t += &format!("\nAll {} designs in {wall_seconds:.2} s wall time (designs in parallel, one BLAS thread each).\n", rows.len());
     t
@@ -180,26 +281,64 @@ pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
 
 /// How the nominal design fares against the uncertainty `variant` is certified for: its delay
 /// margin, or its norm over the mass grid (full state or the output-feedback measurements).
-fn nominal_comparison(variant: &str, nominal: &Controller, params: &VehicleParams, design: &Design) -> (&'static str, serde_json::Value) {
+fn nominal_comparison(
+    variant: &str,
+    nominal: &Controller,
+    params: &VehicleParams,
+    design: &Design,
+) -> (&'static str, serde_json::Value) {
     match variant {
         "delay_sf" => {
             let g = GeneralizedPlant::new(params, design);
-            ("nominal_delay_margin_s", serde_json::json!(delay_margin(&g.a, &(&g.b_u / FORCE_UNIT), &nominal.d).ok()))
+            (
+                "nominal_delay_margin_s",
+                serde_json::json!(delay_margin(&g.a, &(&g.b_u / FORCE_UNIT), &nominal.d).ok()),
+            )
         }
         "ft_of" => {
             let g = GeneralizedPlant::new(params, design).with_sensor_noise(design);
-            let norms: Vec<Option<f64>> = FaultBox { rho_min: design.fault_rho_min }.vertices().iter().map(|rho| closed_loop(&with_effectiveness(&g, rho), &g.c_y, &g.d_yw, nominal).hinf_norm(1e-8).ok().map(|n| n.upper)).collect();
-            let worst = norms.iter().map(|n| n.unwrap_or(f64::INFINITY)).fold(0.0, f64::max);
-            ("nominal_design_over_faults", serde_json::json!({"vertex_norms": norms, "worst_norm": if worst.is_finite() { Some(worst) } else { None }}))
+            let norms: Vec<Option<f64>> = FaultBox {
+                rho_min: design.fault_rho_min,
+            }
+            .vertices()
+            .iter()
+            .map(|rho| {
+                closed_loop(&with_effectiveness(&g, rho), &g.c_y, &g.d_yw, nominal)
+                    .hinf_norm(1e-8)
+                    .ok()
+                    .map(|n| n.upper)
+            })
+            .collect();
+            let worst = norms
+                .iter()
+                .map(|n| n.unwrap_or(f64::INFINITY))
+                .fold(0.0, f64::max);
+            (
+                "nominal_design_over_faults",
+                serde_json::json!({"vertex_norms": norms, "worst_norm": if worst.is_finite() { Some(worst) } else { None }}),
+            )
         }
         "robust_of" => {
             let unc = MassUncertainty::new(params, design).with_sensor_noise();
-            ("nominal_design_over_masses", serde_json::to_value(MassGrid::evaluate(&unc, &unc.center.c_y, &unc.center.d_yw, nominal)).expect("serialisable"))
+            (
+                "nominal_design_over_masses",
+                serde_json::to_value(MassGrid::evaluate(
+                    &unc,
+                    &unc.center.c_y,
+                    &unc.center.d_yw,
+                    nominal,
+                ))
+                .expect("serialisable"),
+            )
         }
         _ => {
             let unc = MassUncertainty::new(params, design);
             let (c_meas, d_meas, _) = unc.center.state_measurement();
-            ("nominal_design_over_masses", serde_json::to_value(MassGrid::evaluate(&unc, &c_meas, &d_meas, nominal)).expect("serialisable"))
+            (
+                "nominal_design_over_masses",
+                serde_json::to_value(MassGrid::evaluate(&unc, &c_meas, &d_meas, nominal))
+                    .expect("serialisable"),
+            )
         }
     }
 }
@@ -213,22 +352,38 @@ pub fn design_for(variant: &str, design: &Design) -> Result<Design, SynthError> 
 
 /// The key of `variant`'s overrides in the design file.
 fn overridden_as(variant: &str) -> &str {
-    if variant == "hinf_of_aw" { "hinf_of" } else { variant }
+    if variant == "hinf_of_aw" {
+        "hinf_of"
+    } else {
+        variant
+    }
 }
 
 /// Synthesise and certify one design (with its overrides, [`design_for`], which its certificate
 /// notes).
-pub fn synthesise(variant: &str, params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
+pub fn synthesise(
+    variant: &str,
+    params: &VehicleParams,
+    design: &Design,
+) -> Result<Synthesised, SynthError> {
     let t = std::time::Instant::now();
     let mut s = synthesise_untimed(variant, params, &design_for(variant, design)?)?;
     if let Some(changes) = design.overrides.get(overridden_as(variant)) {
-        s.certificate.notes.push(format!("Design values overridden for {}: {}", overridden_as(variant), serde_json::Value::Object(changes.clone())));
+        s.certificate.notes.push(format!(
+            "Design values overridden for {}: {}",
+            overridden_as(variant),
+            serde_json::Value::Object(changes.clone())
+        ));
     }
     s.seconds = t.elapsed().as_secs_f64();
     Ok(s)
 }
 
-fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
+fn synthesise_untimed(
+    variant: &str,
+    params: &VehicleParams,
+    design: &Design,
+) -> Result<Synthesised, SynthError> {
     let lmi = |e| SynthError::Lmi(variant.into(), e);
     if design.road_model != RoadModel::Independent && !ROAD_STATES.contains(&variant) {
         return Err(SynthError::Usage(format!("{variant} is synthesised on the independent road model only (only {ROAD_STATES:?} take the shaped road's states): set \"road_model\" per variant with overrides")));
@@ -240,7 +395,8 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
         "hinf_sf" => {
             let g = GeneralizedPlant::new(params, design);
             let energy = design.constraints.then(|| design.design_energy());
-            let mixed = hinf_sf_mixed(&g, design.lmi_margin, energy, GAMMA_BACKOFF).map_err(|e| constraint_diagnosis(variant, &[&g], design, lmi(e)))?;
+            let mixed = hinf_sf_mixed(&g, design.lmi_margin, energy, GAMMA_BACKOFF)
+                .map_err(|e| constraint_diagnosis(variant, &[&g], design, lmi(e)))?;
             let sf = &mixed.sf;
             let notes = vec![
                 "Thesis Th. 5.1 (eq. 5.4) corrected: the D_zu Y term (accelerations respond directly to the actuator forces) is included.".to_string(),
@@ -250,9 +406,26 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
             ];
             let controller = sf_controller(&g, &sf.k);
             let (c_meas, d_meas, inputs) = g.state_measurement();
-            let mut certificate = certify(variant, &g, &c_meas, &d_meas, inputs.clone(), &controller, sf.gamma, notes)?;
+            let mut certificate = certify(
+                variant,
+                &g,
+                &c_meas,
+                &d_meas,
+                inputs.clone(),
+                &controller,
+                sf.gamma,
+                notes,
+            )?;
             let h2_rows = g.h2_rows();
-            let h2_norm = certify_h2(variant, &g, &c_meas, &d_meas, &controller, &h2_rows, mixed.h2_bound)?;
+            let h2_norm = certify_h2(
+                variant,
+                &g,
+                &c_meas,
+                &d_meas,
+                &controller,
+                &h2_rows,
+                mixed.h2_bound,
+            )?;
             certificate.details = serde_json::json!({
                 "gamma_opt": mixed.gamma_opt,
                 "gamma_backoff": GAMMA_BACKOFF,
@@ -261,18 +434,47 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
                 "h2_norm": h2_norm,
                 "h2_bound_at_gamma_opt": mixed.h2_bound_at_optimum,
             });
-            certify_constraints(&mut certificate, variant, &g, params.m_s, &c_meas, &d_meas, &controller, design, &sf.peak_bounds)?;
+            certify_constraints(
+                &mut certificate,
+                variant,
+                &g,
+                params.m_s,
+                &c_meas,
+                &d_meas,
+                &controller,
+                design,
+                &sf.peak_bounds,
+            )?;
             let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", sf.gamma, &inputs, &controller);
-            Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
+            Ok(Synthesised {
+                controller,
+                certificate,
+                controller_json: json,
+                robust_to: "-",
+                seconds: 0.0,
+            })
         }
         "hinf_of" => {
             let g = GeneralizedPlant::new(params, design).with_sensor_noise(design);
             let (of, peak_bounds) = if design.constraints {
                 let energy = design.design_energy();
-                let (of, bounds) = hinf_of_constrained(&g.of_plant(), &g.c_c, &g.d_cu, energy, design.lmi_margin, GAMMA_BACKOFF, OF_XY_BOUND).map_err(|e| constraint_diagnosis(variant, &[&g], design, lmi(e)))?;
+                let (of, bounds) = hinf_of_constrained(
+                    &g.of_plant(),
+                    &g.c_c,
+                    &g.d_cu,
+                    energy,
+                    design.lmi_margin,
+                    GAMMA_BACKOFF,
+                    OF_XY_BOUND,
+                )
+                .map_err(|e| constraint_diagnosis(variant, &[&g], design, lmi(e)))?;
                 (of, g.constraint_names.iter().cloned().zip(bounds).collect())
             } else {
-                (hinf_of(&g.of_plant(), design.lmi_margin, GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?, Vec::new())
+                (
+                    hinf_of(&g.of_plant(), design.lmi_margin, GAMMA_BACKOFF, OF_XY_BOUND)
+                        .map_err(lmi)?,
+                    Vec::new(),
+                )
             };
             let mut notes = vec![
                 "Thesis Th. 5.2 (eq. 5.9, which lacks blocks) replaced by the Scherer-Gahinet-Chilali / Gahinet-Apkarian LMI; controller rebuilt as in Remark 5.1 with M = I - XY, N = I.".to_string(),
@@ -283,11 +485,42 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
             if design.constraints {
                 notes.push("With the constraint LMIs: a strictly proper controller (D_K = 0, else the sensor noise would reach the forces directly), all controller variables in the SDP (they cannot be eliminated), stage 2's variables rebuilt directly.".into());
             }
-            let mut certificate = certify(variant, &g, &g.c_y, &g.d_yw, of_inputs(), &of.controller, of.gamma, notes)?;
+            let mut certificate = certify(
+                variant,
+                &g,
+                &g.c_y,
+                &g.d_yw,
+                of_inputs(),
+                &of.controller,
+                of.gamma,
+                notes,
+            )?;
             certificate.details = of_details(&of);
-            certify_constraints(&mut certificate, variant, &g, params.m_s, &g.c_y, &g.d_yw, &of.controller, design, &peak_bounds)?;
-            let json = controller_json(variant, "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)", of.gamma, &of_inputs(), &of.controller);
-            Ok(Synthesised { controller: of.controller, certificate, controller_json: json, robust_to: "-", seconds: 0.0 })
+            certify_constraints(
+                &mut certificate,
+                variant,
+                &g,
+                params.m_s,
+                &g.c_y,
+                &g.d_yw,
+                &of.controller,
+                design,
+                &peak_bounds,
+            )?;
+            let json = controller_json(
+                variant,
+                "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)",
+                of.gamma,
+                &of_inputs(),
+                &of.controller,
+            );
+            Ok(Synthesised {
+                controller: of.controller,
+                certificate,
+                controller_json: json,
+                robust_to: "-",
+                seconds: 0.0,
+            })
         }
         "hinf_of_aw" => {
             let of = synthesise("hinf_of", params, design)?;
@@ -297,7 +530,9 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
         "delay_sf" => delay_sf_variant(params, design),
         "robust_of" => robust_of(params, design),
         "ft_of" => ft_of(params, design),
-        other => Err(SynthError::Usage(format!("unknown variant '{other}', expected one of {ALL:?}"))),
+        other => Err(SynthError::Usage(format!(
+            "unknown variant '{other}', expected one of {ALL:?}"
+        ))),
     }
 }
 
@@ -305,12 +540,21 @@ fn synthesise_untimed(variant: &str, params: &VehicleParams, design: &Design) ->
 /// design bump ([`best_constraint_peak`] > 1), say so — no output feedback can then either (its
 /// energy and peak LMIs contain the state-feedback ones with `Q = X`, `Y = Ĉ` as principal
 /// blocks); otherwise `error`.
-fn constraint_diagnosis(variant: &str, plants: &[&GeneralizedPlant], design: &Design, error: SynthError) -> SynthError {
+fn constraint_diagnosis(
+    variant: &str,
+    plants: &[&GeneralizedPlant],
+    design: &Design,
+    error: SynthError,
+) -> SynthError {
     if !design.constraints {
         return error;
     }
     match best_constraint_peak(plants, design.design_energy(), design.lmi_margin) {
-        Ok(best) if best > 1.0 => SynthError::ConstraintsInfeasible { variant: variant.into(), best, bump: design.design_bump },
+        Ok(best) if best > 1.0 => SynthError::ConstraintsInfeasible {
+            variant: variant.into(),
+            best,
+            bump: design.design_bump,
+        },
         _ => error,
     }
 }
@@ -319,7 +563,17 @@ fn constraint_diagnosis(variant: &str, plants: &[&GeneralizedPlant], design: &De
 /// Gramian ([`certify_peaks`]) and record both in the certificate (appended per call: the robust
 /// design checks each vertex).
 #[allow(clippy::too_many_arguments)]
-fn certify_constraints(certificate: &mut Certificate, variant: &str, g: &GeneralizedPlant, mass: f64, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, controller: &Controller, design: &Design, claimed: &[(String, f64)]) -> Result<(), SynthError> {
+fn certify_constraints(
+    certificate: &mut Certificate,
+    variant: &str,
+    g: &GeneralizedPlant,
+    mass: f64,
+    c_meas: &DMatrix<f64>,
+    d_meas: &DMatrix<f64>,
+    controller: &Controller,
+    design: &Design,
+    claimed: &[(String, f64)],
+) -> Result<(), SynthError> {
     if !design.constraints {
         return Ok(());
     }
@@ -333,20 +587,33 @@ fn certify_constraints(certificate: &mut Certificate, variant: &str, g: &General
         certificate.details["constraints"] = serde_json::json!({"design_energy": energy, "design_bump": design.design_bump, "road_model": design.road_model, "checks": []});
     }
     let entry = serde_json::json!({"sprung_mass": mass, "peaks": checks});
-    certificate.details["constraints"]["checks"].as_array_mut().expect("an array").push(entry);
+    certificate.details["constraints"]["checks"]
+        .as_array_mut()
+        .expect("an array")
+        .push(entry);
     Ok(())
 }
 
 /// Thesis §5.1.4, Th. 5.3 (corrected): `hinf_of` plus a decoupled anti-windup compensator whose
 /// `F` comes from the sector LMI of [`crate::anti_windup`]; the linear behaviour (and so γ) is
 /// `hinf_of`'s whenever nothing saturates.
-fn hinf_of_aw(of: &Synthesised, params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
+fn hinf_of_aw(
+    of: &Synthesised,
+    params: &VehicleParams,
+    design: &Design,
+) -> Result<Synthesised, SynthError> {
     let variant = "hinf_of_aw";
     let g = GeneralizedPlant::new(params, design);
     let aw = mraw(&g, design.lmi_margin).map_err(|e| SynthError::Lmi(variant.into(), e))?;
     let check = circle_check(&g.a, &g.b_u, &aw.f, &aw.w);
     if !check.holds() {
-        return Err(SynthError::Certificate(crate::certificate::CertificateError::AntiWindup { variant: variant.into(), abscissa: check.spectral_abscissa, margin: check.min_margin }));
+        return Err(SynthError::Certificate(
+            crate::certificate::CertificateError::AntiWindup {
+                variant: variant.into(),
+                abscissa: check.spectral_abscissa,
+                margin: check.min_margin,
+            },
+        ));
     }
     let mut certificate = of.certificate.clone();
     certificate.variant = variant.into();
@@ -364,7 +631,9 @@ fn hinf_of_aw(of: &Synthesised, params: &VehicleParams, design: &Design) -> Resu
     });
     let mut json = of.controller_json.clone();
     json["variant"] = serde_json::json!(variant);
-    json["description"] = serde_json::json!("H-infinity output feedback with decoupled anti-windup (thesis Th. 5.3, corrected)");
+    json["description"] = serde_json::json!(
+        "H-infinity output feedback with decoupled anti-windup (thesis Th. 5.3, corrected)"
+    );
     json["anti_windup"] = serde_json::json!({
         "A": matrix_json(&g.a),
         "B": matrix_json(&(&g.b_u / FORCE_UNIT)),
@@ -372,7 +641,13 @@ fn hinf_of_aw(of: &Synthesised, params: &VehicleParams, design: &Design) -> Resu
         "F": matrix_json(&(&aw.f * FORCE_UNIT)),
         "u_max": [design.u_max, design.u_max, design.u_max, design.u_max, design.u_max_seat],
     });
-    Ok(Synthesised { controller: of.controller.clone(), certificate, controller_json: json, robust_to: "actuator saturation", seconds: 0.0 })
+    Ok(Synthesised {
+        controller: of.controller.clone(),
+        certificate,
+        controller_json: json,
+        robust_to: "actuator saturation",
+        seconds: 0.0,
+    })
 }
 
 /// Thesis Prop. 7.1 (its proof is unfinished; its 50 µs is trivially small): delay-dependent
@@ -381,15 +656,26 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
     let variant = "delay_sf";
     let g = GeneralizedPlant::new(params, design);
     let (tau, epsilon) = (design.delay_tau, design.delay_epsilon);
-    let sf = delay_sf(&g, tau, epsilon, design.lmi_margin).map_err(|e| SynthError::Lmi(variant.into(), e))?;
-    let fail = |reason: String| SynthError::Certificate(crate::certificate::CertificateError::Delay { variant: variant.into(), reason });
+    let sf = delay_sf(&g, tau, epsilon, design.lmi_margin)
+        .map_err(|e| SynthError::Lmi(variant.into(), e))?;
+    let fail = |reason: String| {
+        SynthError::Certificate(crate::certificate::CertificateError::Delay {
+            variant: variant.into(),
+            reason,
+        })
+    };
     let margin = delay_margin(&g.a, &(&g.b_u / FORCE_UNIT), &sf.k).map_err(fail)?;
     if margin < tau {
-        return Err(fail(format!("delay margin {margin} s is below the design delay {tau} s")));
+        return Err(fail(format!(
+            "delay margin {margin} s is below the design delay {tau} s"
+        )));
     }
     let delayed_norm = delayed_hinf_sweep(&g, &sf.k, tau);
     if delayed_norm > sf.gamma * (1.0 + crate::certificate::NORM_TOLERANCE) {
-        return Err(fail(format!("H-infinity norm {delayed_norm} with the delay exceeds gamma {}", sf.gamma)));
+        return Err(fail(format!(
+            "H-infinity norm {delayed_norm} with the delay exceeds gamma {}",
+            sf.gamma
+        )));
     }
     let controller = sf_controller(&g, &sf.k);
     let notes = vec![
@@ -398,7 +684,16 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
         state_order_note(),
     ];
     let (c_meas, d_meas, inputs) = g.state_measurement();
-    let mut certificate = certify(variant, &g, &c_meas, &d_meas, inputs.clone(), &controller, sf.gamma, notes)?;
+    let mut certificate = certify(
+        variant,
+        &g,
+        &c_meas,
+        &d_meas,
+        inputs.clone(),
+        &controller,
+        sf.gamma,
+        notes,
+    )?;
     certificate.details = serde_json::json!({
         "design_delay_s": tau,
         "descriptor_epsilon": epsilon,
@@ -406,7 +701,13 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
         "delayed_hinf_norm_sweep": delayed_norm,
     });
     let json = controller_json(variant, "Delay-dependent H-infinity state feedback (thesis Prop. 7.1, Lyapunov-Krasovskii with Jensen)", sf.gamma, &inputs, &controller);
-    Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "input delay", seconds: 0.0 })
+    Ok(Synthesised {
+        controller,
+        certificate,
+        controller_json: json,
+        robust_to: "input delay",
+        seconds: 0.0,
+    })
 }
 
 /// Thesis Th. 8.1, corrected (see [`crate::fault`]): observer-based output feedback robust to
@@ -416,10 +717,19 @@ fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthEr
     let lmi = |e| SynthError::Lmi(variant.into(), e);
     let g = GeneralizedPlant::new(params, design);
     let gn = g.with_sensor_noise(design);
-    let faults = FaultBox { rho_min: design.fault_rho_min };
+    let faults = FaultBox {
+        rho_min: design.fault_rho_min,
+    };
     let (center, nb) = faults.norm_bounded(&g);
     let sf = hinf_sf_robust(&[&center], Some(&nb), design.lmi_margin, None).map_err(lmi)?;
-    let ob = observer_for_faults(&gn, &faults, &(&sf.k / FORCE_UNIT), design.lmi_margin, design.fault_h2_weight).map_err(lmi)?;
+    let ob = observer_for_faults(
+        &gn,
+        &faults,
+        &(&sf.k / FORCE_UNIT),
+        design.lmi_margin,
+        design.fault_h2_weight,
+    )
+    .map_err(lmi)?;
     let det = DetectionResidual::new(&g, design.fault_time_constant);
     let control = ob.controller(&gn);
     let (k, c_r, d_r) = with_detection(&control, &det);
@@ -431,7 +741,16 @@ fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthEr
         format!("Detection: {} parity relations of the measurements that the road cannot excite (the body's momentum balance), filtered with T = {} s and reported as the smallest actuator force deficit consistent with them (N); road-to-residual gain {:.2e} N per unit road over {} frequencies; DC gain per unit deficit {:?}. fault_detected latches when the residual norm exceeds fault_threshold (default {} N).", det.order(), design.fault_time_constant, fc.road_to_residual, fc.frequencies, fc.residual_dc_per_actuator.iter().map(|v| (v * 1000.0).round() / 1000.0).collect::<Vec<_>>(), design.fault_threshold),
         format!("Measurements: {}.", MEASUREMENTS.join(", ")),
     ];
-    let mut certificate = certify(variant, &gn, &gn.c_y, &gn.d_yw, of_inputs(), &control, ob.gamma, notes)?;
+    let mut certificate = certify(
+        variant,
+        &gn,
+        &gn.c_y,
+        &gn.d_yw,
+        of_inputs(),
+        &control,
+        ob.gamma,
+        notes,
+    )?;
     certificate.details = serde_json::json!({
         "fault_rho_min": design.fault_rho_min,
         "state_feedback_gamma": sf.gamma,
@@ -447,7 +766,13 @@ fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthEr
     let mut json = controller_json(variant, "Fault-tolerant H-infinity output feedback with observer and residual (thesis Th. 8.1, corrected)", ob.gamma, &of_inputs(), &control);
     let d = det.detector();
     json["fault_detection"] = serde_json::json!({"A": matrix_json(&d.a), "B": matrix_json(&d.b), "B_u": matrix_json(&d.b_u), "C": matrix_json(&d.c), "D": matrix_json(&d.d), "threshold": design.fault_threshold});
-    Ok(Synthesised { controller: k, certificate, controller_json: json, robust_to: "actuator faults", seconds: 0.0 })
+    Ok(Synthesised {
+        controller: k,
+        certificate,
+        controller_json: json,
+        robust_to: "actuator faults",
+        seconds: 0.0,
+    })
 }
 
 fn mass_range(design: &Design) -> String {
@@ -461,10 +786,22 @@ fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     let unc = MassUncertainty::new(params, design);
     let energy = design.constraints.then(|| design.design_energy());
     let vertices = [&unc.vertices[0], &unc.vertices[1]];
-    let vertex = hinf_sf_robust(&vertices, None, design.lmi_margin, energy).map_err(|e| constraint_diagnosis(variant, &vertices, design, lmi(e)))?;
-    let nb = hinf_sf_robust(&[&unc.center], Some(&unc.norm_bounded), design.lmi_margin, None).map_err(lmi)?;
+    let vertex = hinf_sf_robust(&vertices, None, design.lmi_margin, energy)
+        .map_err(|e| constraint_diagnosis(variant, &vertices, design, lmi(e)))?;
+    let nb = hinf_sf_robust(
+        &[&unc.center],
+        Some(&unc.norm_bounded),
+        design.lmi_margin,
+        None,
+    )
+    .map_err(lmi)?;
     // The constraint LMIs are imposed in the vertex form only: with them, it is the one shipped.
-    let (shipped, name): (&StateFeedback, &str) = if vertex.gamma <= nb.gamma || design.constraints { (&vertex, "vertex") } else { (&nb, "norm-bounded") };
+    let (shipped, name): (&StateFeedback, &str) = if vertex.gamma <= nb.gamma || design.constraints
+    {
+        (&vertex, "vertex")
+    } else {
+        (&nb, "norm-bounded")
+    };
     let controller = sf_controller(&unc.center, &shipped.k);
     let (c_meas, d_meas, inputs) = unc.center.state_measurement();
     let grid = mass_grid_certificate(variant, &unc, &c_meas, &d_meas, &controller, shipped.gamma)?;
@@ -473,16 +810,50 @@ fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
         "Not a BMI: for state feedback B_u(m) Y is affine in 1/m for the common Y = K Q, so each vertex LMI is linear and, affine in the plant data, holds between the vertices.".to_string(),
         state_order_note(),
     ];
-    let mut certificate = robust_certificate(variant, params, &unc, &c_meas, &d_meas, inputs.clone(), &controller, shipped.gamma, notes, &grid, serde_json::json!({"vertex_gamma": vertex.gamma, "norm_bounded_gamma": nb.gamma, "shipped": name}))?;
+    let mut certificate = robust_certificate(
+        variant,
+        params,
+        &unc,
+        &c_meas,
+        &d_meas,
+        inputs.clone(),
+        &controller,
+        shipped.gamma,
+        notes,
+        &grid,
+        serde_json::json!({"vertex_gamma": vertex.gamma, "norm_bounded_gamma": nb.gamma, "shipped": name}),
+    )?;
     // The constraints' claim is checked at both vertices (the LMI's bounds hold with one Lyapunov
     // matrix for the whole range; the Gramian check is per plant).
     if design.constraints {
         for (v, mass) in unc.vertices.iter().zip([unc.m_min, unc.m_max]) {
-            certify_constraints(&mut certificate, variant, v, mass, &c_meas, &d_meas, &controller, design, &shipped.peak_bounds)?;
+            certify_constraints(
+                &mut certificate,
+                variant,
+                v,
+                mass,
+                &c_meas,
+                &d_meas,
+                &controller,
+                design,
+                &shipped.peak_bounds,
+            )?;
         }
     }
-    let json = controller_json(variant, "H-infinity state feedback robust to the sprung mass (thesis Th. 6.1)", shipped.gamma, &inputs, &controller);
-    Ok(Synthesised { controller, certificate, controller_json: json, robust_to: "sprung mass", seconds: 0.0 })
+    let json = controller_json(
+        variant,
+        "H-infinity state feedback robust to the sprung mass (thesis Th. 6.1)",
+        shipped.gamma,
+        &inputs,
+        &controller,
+    );
+    Ok(Synthesised {
+        controller,
+        certificate,
+        controller_json: json,
+        robust_to: "sprung mass",
+        seconds: 0.0,
+    })
 }
 
 /// Thesis Th. 6.2: norm-bounded with the multiplier searched; the vertex form by a fixed
@@ -504,18 +875,44 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     let (log_lambda, nb_gamma_opt, evaluations) = golden_section(gamma_at, lo, hi, 0.3);
     let lambda = 10f64.powf(log_lambda);
     // Vertex form with X, Ĉ of the robust (vertex) state feedback.
-    let sf_v = hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, eps, None).map_err(lmi)?;
-    let vertex = hinf_of_common_x(&[unc.vertices[0].of_plant(), unc.vertices[1].of_plant()], &unc.center.of_plant(), &sf_v.q, &sf_v.y, eps, GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?;
+    let sf_v =
+        hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, eps, None).map_err(lmi)?;
+    let vertex = hinf_of_common_x(
+        &[unc.vertices[0].of_plant(), unc.vertices[1].of_plant()],
+        &unc.center.of_plant(),
+        &sf_v.q,
+        &sf_v.y,
+        eps,
+        GAMMA_BACKOFF,
+        OF_XY_BOUND,
+    )
+    .map_err(lmi)?;
     // The norm-bounded controller is reconstructed only if it is the one shipped.
     let (shipped, name) = if vertex.gamma_opt <= nb_gamma_opt {
         (vertex.clone(), "vertex")
     } else {
         let g = norm_bounded_plant(&unc, lambda);
-        (hinf_of(&norm_bounded_of_plant(&g, &unc), eps, GAMMA_BACKOFF, OF_XY_BOUND).map_err(lmi)?, "norm-bounded")
+        (
+            hinf_of(
+                &norm_bounded_of_plant(&g, &unc),
+                eps,
+                GAMMA_BACKOFF,
+                OF_XY_BOUND,
+            )
+            .map_err(lmi)?,
+            "norm-bounded",
+        )
     };
     let shipped = &shipped;
     let c = &unc.center;
-    let grid = mass_grid_certificate(variant, &unc, &c.c_y, &c.d_yw, &shipped.controller, shipped.gamma)?;
+    let grid = mass_grid_certificate(
+        variant,
+        &unc,
+        &c.c_y,
+        &c.d_yw,
+        &shipped.controller,
+        shipped.gamma,
+    )?;
     let notes = vec![
         format!("Thesis Th. 6.2, robust to {}. Norm-bounded (COG) form: the uncertainty channel p = delta q, |delta| <= 1, as an extra normalised input/output of the Gahinet-Apkarian LMI (S-procedure multiplier lambda searched by golden section over log10 lambda in [{lo:.2}, {hi:.2}], {evaluations} evaluations): lambda = {lambda:.4e}, gamma* = {nb_gamma_opt:.6}. Vertex form (common X fixed to the robust state-feedback Q, see hinf_of_common_x): gamma* = {:.6}. Shipped: {name}, reconstructed at gamma = (1 + {GAMMA_BACKOFF}) gamma*.", mass_range(design), vertex.gamma_opt),
         "The vertex form is a BMI (A_hat contains Y A(m) X and Y B_u(m) C_K); fixing X and C_hat to a robust state-feedback solution makes it linear, and each vertex LMI is still an exact congruence of the closed-loop bounded-real LMI with one Lyapunov matrix, so the guarantee holds on the whole mass range.".to_string(),
@@ -527,15 +924,60 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     details["norm_bounded_lambda"] = serde_json::json!(lambda);
     details["vertex_gamma_opt"] = serde_json::json!(vertex.gamma_opt);
     details["shipped"] = serde_json::json!(name);
-    let certificate = robust_certificate(variant, params, &unc, &c.c_y, &c.d_yw, of_inputs(), &shipped.controller, shipped.gamma, notes, &grid, details)?;
-    let json = controller_json(variant, "H-infinity output feedback robust to the sprung mass (thesis Th. 6.2)", shipped.gamma, &of_inputs(), &shipped.controller);
-    Ok(Synthesised { controller: shipped.controller.clone(), certificate, controller_json: json, robust_to: "sprung mass", seconds: 0.0 })
+    let certificate = robust_certificate(
+        variant,
+        params,
+        &unc,
+        &c.c_y,
+        &c.d_yw,
+        of_inputs(),
+        &shipped.controller,
+        shipped.gamma,
+        notes,
+        &grid,
+        details,
+    )?;
+    let json = controller_json(
+        variant,
+        "H-infinity output feedback robust to the sprung mass (thesis Th. 6.2)",
+        shipped.gamma,
+        &of_inputs(),
+        &shipped.controller,
+    );
+    Ok(Synthesised {
+        controller: shipped.controller.clone(),
+        certificate,
+        controller_json: json,
+        robust_to: "sprung mass",
+        seconds: 0.0,
+    })
 }
 
 /// The nominal certificate (at the design's own car) plus the mass grid.
 #[allow(clippy::too_many_arguments)]
-fn robust_certificate(variant: &str, params: &VehicleParams, unc: &MassUncertainty, c_meas: &DMatrix<f64>, d_meas: &DMatrix<f64>, measurements: Vec<String>, k: &Controller, gamma: f64, notes: Vec<String>, grid: &MassGrid, mut details: serde_json::Value) -> Result<Certificate, SynthError> {
-    let mut certificate = certify(variant, &unc.at(params.m_s), c_meas, d_meas, measurements, k, gamma, notes)?;
+fn robust_certificate(
+    variant: &str,
+    params: &VehicleParams,
+    unc: &MassUncertainty,
+    c_meas: &DMatrix<f64>,
+    d_meas: &DMatrix<f64>,
+    measurements: Vec<String>,
+    k: &Controller,
+    gamma: f64,
+    notes: Vec<String>,
+    grid: &MassGrid,
+    mut details: serde_json::Value,
+) -> Result<Certificate, SynthError> {
+    let mut certificate = certify(
+        variant,
+        &unc.at(params.m_s),
+        c_meas,
+        d_meas,
+        measurements,
+        k,
+        gamma,
+        notes,
+    )?;
     details["mass_grid"] = serde_json::to_value(grid).expect("serialisable");
     // The mass-dependent matrices at both vertices: every mass of the range is their
     // combination affine in 1/m_s, so another tool can re-check the grid.
@@ -554,12 +996,20 @@ fn norm_bounded_plant(unc: &MassUncertainty, lambda: f64) -> GeneralizedPlant {
     let c = &unc.center;
     let (h, e, n) = (&unc.norm_bounded.h, &unc.norm_bounded.e, c.n());
     let s = lambda.sqrt();
-    c.with_uncertainty_channel(&(h.rows(0, n) / s), &(h.rows(n, c.c_z.nrows()) / s), &(e.columns(0, n) * s), &(e.columns(n, c.b_u.ncols()) * s))
+    c.with_uncertainty_channel(
+        &(h.rows(0, n) / s),
+        &(h.rows(n, c.c_z.nrows()) / s),
+        &(e.columns(0, n) * s),
+        &(e.columns(n, c.b_u.ncols()) * s),
+    )
 }
 
 /// The output-feedback view of [`norm_bounded_plant`].
 fn norm_bounded_of_plant<'a>(g: &'a GeneralizedPlant, unc: &MassUncertainty) -> OfPlant<'a> {
-    OfPlant { unit_channels: unc.norm_bounded.h.ncols(), ..g.of_plant() }
+    OfPlant {
+        unit_channels: unc.norm_bounded.h.ncols(),
+        ..g.of_plant()
+    }
 }
 
 /// Minimise a unimodal `f` on `[a, b]` to width `tol`: `(argmin, min, evaluations)`.
@@ -582,7 +1032,11 @@ fn golden_section(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64, tol: f64) -> (
         }
         evaluations += 1;
     }
-    if fc <= fd { (c, fc, evaluations) } else { (d, fd, evaluations) }
+    if fc <= fd {
+        (c, fc, evaluations)
+    } else {
+        (d, fd, evaluations)
+    }
 }
 
 fn reconstruction_note(of: &OutputFeedback) -> String {
@@ -609,9 +1063,18 @@ mod tests {
 
     #[test]
     fn overrides_of_unknown_or_derived_variants_are_refused_before_any_synthesis() {
-        for (name, expected) in [("hinf_off", "unknown variant 'hinf_off'"), ("hinf_of_aw", "override 'hinf_of'")] {
+        for (name, expected) in [
+            ("hinf_off", "unknown variant 'hinf_off'"),
+            ("hinf_of_aw", "override 'hinf_of'"),
+        ] {
             let mut design = Design::default();
-            design.overrides.insert(name.into(), serde_json::Map::from_iter([("weight_alpha_roll".to_string(), serde_json::json!(0.9))]));
+            design.overrides.insert(
+                name.into(),
+                serde_json::Map::from_iter([(
+                    "weight_alpha_roll".to_string(),
+                    serde_json::json!(0.9),
+                )]),
+            );
             match synthesise_all(&ALL, &VehicleParams::default(), &design) {
                 Err(SynthError::Usage(m)) => assert!(m.contains(expected), "{m}"),
                 other => panic!("expected a usage error, got {:?}", other.map(|_| ())),

@@ -10,12 +10,18 @@ use std::path::PathBuf;
 /// `dist/<name>.fmu`, or a panic that says how to build it.
 pub fn dist_fmu(name: &str) -> PathBuf {
     let path = dist().join(format!("{name}.fmu"));
-    assert!(path.exists(), "{} not found: run `make` (or `make test`, which builds it first)", path.display());
+    assert!(
+        path.exists(),
+        "{} not found: run `make` (or `make test`, which builds it first)",
+        path.display()
+    );
     path
 }
 
 pub fn dist() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..").join("dist")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("dist")
 }
 
 pub fn load(name: &str) -> Fmi2Import {
@@ -23,7 +29,13 @@ pub fn load(name: &str) -> Fmi2Import {
 }
 
 pub fn vr(import: &Fmi2Import, name: &str) -> Option<u32> {
-    import.model_description().model_variables.variables.iter().find(|v| v.name == name).map(|v| v.value_reference)
+    import
+        .model_description()
+        .model_variables
+        .variables
+        .iter()
+        .find(|v| v.name == name)
+        .map(|v| v.value_reference)
 }
 
 pub fn names_with_causality(import: &Fmi2Import, causality: &str) -> Vec<String> {
@@ -52,13 +64,34 @@ impl Road for vehicle::road::Road {
 /// A `height` m, 5 m long 1 − cos bump at 15 m/s on the left wheels, reached at t = 0.1 s (the
 /// road FMU's bump profile).
 pub fn bump(height: f64) -> vehicle::road::Road {
-    vehicle::road::Road::new(vehicle::road::Profile::Bump { height, length: 5.0, side: vehicle::road::Side::Left }, 15.0, 2.4, 1.5).expect("valid bump")
+    vehicle::road::Road::new(
+        vehicle::road::Profile::Bump {
+            height,
+            length: 5.0,
+            side: vehicle::road::Side::Left,
+        },
+        15.0,
+        2.4,
+        1.5,
+    )
+    .expect("valid bump")
 }
 
 /// An ISO 8608 road of class 1 (A) … 8 (H) (the road FMU's profile), tracks independent,
 /// faded in over 1 s, the front wheels one wheelbase into the profile at t = 0.
 pub fn iso_road(class: u8, speed: f64, seed: u64) -> vehicle::road::Road {
-    vehicle::road::Road::new(vehicle::road::Profile::Iso { class, seed, identical_tracks: false, fade_in: 1.0 }, speed, 2.4, -2.4).expect("valid ISO road")
+    vehicle::road::Road::new(
+        vehicle::road::Profile::Iso {
+            class,
+            seed,
+            identical_tracks: false,
+            fade_in: 1.0,
+        },
+        speed,
+        2.4,
+        -2.4,
+    )
+    .expect("valid ISO road")
 }
 
 /// `dist/road.fmu` as a [`Road`], through the `fmi` crate: stepped forward to each time asked
@@ -74,18 +107,35 @@ impl RoadFmu {
     /// instance, and a test process loads it once) with Integer and Real parameters.
     pub fn new(integers: &[(&str, i32)], reals: &[(&str, f64)]) -> RoadFmu {
         let import: &'static Fmi2Import = Box::leak(Box::new(load("road")));
-        let mut i: Instance<CS> = import.instantiate_cs("road", false, false).expect("instantiate road");
+        let mut i: Instance<CS> = import
+            .instantiate_cs("road", false, false)
+            .expect("instantiate road");
         for (n, v) in integers {
-            i.set_integer(&[vr(import, n).unwrap_or_else(|| panic!("road has no {n}"))], &[*v]).unwrap();
+            i.set_integer(
+                &[vr(import, n).unwrap_or_else(|| panic!("road has no {n}"))],
+                &[*v],
+            )
+            .unwrap();
         }
         for (n, v) in reals {
-            i.set_real(&[vr(import, n).unwrap_or_else(|| panic!("road has no {n}"))], &[*v]).unwrap();
+            i.set_real(
+                &[vr(import, n).unwrap_or_else(|| panic!("road has no {n}"))],
+                &[*v],
+            )
+            .unwrap();
         }
         i.setup_experiment(None, 0.0, None).unwrap();
         Common::enter_initialization_mode(&mut i).unwrap();
         Common::exit_initialization_mode(&mut i).unwrap();
-        let outputs = ROAD_INPUTS.iter().map(|n| vr(import, n).expect("road output")).collect();
-        RoadFmu { instance: std::cell::RefCell::new(i), time: std::cell::Cell::new(0.0), outputs }
+        let outputs = ROAD_INPUTS
+            .iter()
+            .map(|n| vr(import, n).expect("road output"))
+            .collect();
+        RoadFmu {
+            instance: std::cell::RefCell::new(i),
+            time: std::cell::Cell::new(0.0),
+            outputs,
+        }
     }
 }
 
@@ -94,7 +144,10 @@ impl Road for RoadFmu {
         let mut i = self.instance.borrow_mut();
         let now = self.time.get();
         // k h + h and (k + 1) h differ in the last bits: that is the same communication point.
-        assert!(t >= now - 1e-9, "the road FMU cannot go back from {now} to {t}");
+        assert!(
+            t >= now - 1e-9,
+            "the road FMU cannot go back from {now} to {t}"
+        );
         if t > now + 1e-9 {
             i.do_step(now, t - now, true).unwrap();
             self.time.set(t);
@@ -105,26 +158,57 @@ impl Road for RoadFmu {
     }
 }
 
-pub const ROAD_INPUTS: [&str; 8] = ["road_z_fl", "road_z_fr", "road_z_rl", "road_z_rr", "road_v_fl", "road_v_fr", "road_v_rl", "road_v_rr"];
+pub const ROAD_INPUTS: [&str; 8] = [
+    "road_z_fl",
+    "road_z_fr",
+    "road_z_rl",
+    "road_z_rr",
+    "road_v_fl",
+    "road_v_fr",
+    "road_v_rl",
+    "road_v_rr",
+];
 pub const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
 
 /// Whether `name` is a Boolean variable of `import`.
 pub fn is_boolean(import: &Fmi2Import, name: &str) -> bool {
-    import.model_description().model_variables.variables.iter().any(|v| v.name == name && matches!(v.elem, fmi::fmi2::schema::ScalarVariableElement::Boolean(_)))
+    import
+        .model_description()
+        .model_variables
+        .variables
+        .iter()
+        .any(|v| {
+            v.name == name && matches!(v.elem, fmi::fmi2::schema::ScalarVariableElement::Boolean(_))
+        })
 }
 
 /// Run road → plant → controller (Gauss–Seidel: the controller reads the plant's outputs at
 /// `t_k` and its command is applied over `[t_k, t_k+1)`), recording `record` after each step:
 /// plant outputs, or, for a name the plant lacks, the controller's variable (a Boolean as 0/1,
 /// read when the controller has its inputs of `t_k+1`). `controller = None` is the passive car.
-pub fn run_loop(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: &dyn Road, h: f64, steps: usize, record: &[&str]) -> Vec<Vec<f64>> {
+pub fn run_loop(
+    plant: &Fmi2Import,
+    controller: Option<&Fmi2Import>,
+    road: &dyn Road,
+    h: f64,
+    steps: usize,
+    record: &[&str],
+) -> Vec<Vec<f64>> {
     run_loop_with(plant, controller, road, h, steps, record, &[])
 }
 
 /// [`run_loop`] with parameters set before initialisation (e.g. `("m_s", 1800.0)`): on the plant,
 /// which must have each, and on the controller where it has one of the same name (the force
 /// limits `u_max`, `u_max_seat` of an anti-windup controller).
-pub fn run_loop_with(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: &dyn Road, h: f64, steps: usize, record: &[&str], plant_params: &[(&str, f64)]) -> Vec<Vec<f64>> {
+pub fn run_loop_with(
+    plant: &Fmi2Import,
+    controller: Option<&Fmi2Import>,
+    road: &dyn Road,
+    h: f64,
+    steps: usize,
+    record: &[&str],
+    plant_params: &[(&str, f64)],
+) -> Vec<Vec<f64>> {
     let start = |imp: &Fmi2Import, name: &str| {
         let mut i: Instance<CS> = imp.instantiate_cs(name, false, false).expect("instantiate");
         for (param, value) in plant_params {
@@ -141,22 +225,40 @@ pub fn run_loop_with(plant: &Fmi2Import, controller: Option<&Fmi2Import>, road: 
         i
     };
     let mut p = start(plant, "plant");
-    let road_vr: Vec<u32> = ROAD_INPUTS.iter().map(|n| vr(plant, n).expect("plant road input")).collect();
-    let force_vr: Vec<u32> = FORCES.iter().map(|n| vr(plant, n).expect("plant force input")).collect();
+    let road_vr: Vec<u32> = ROAD_INPUTS
+        .iter()
+        .map(|n| vr(plant, n).expect("plant road input"))
+        .collect();
+    let force_vr: Vec<u32> = FORCES
+        .iter()
+        .map(|n| vr(plant, n).expect("plant force input"))
+        .collect();
     // (on the controller?, Boolean?, value reference)
     let rec: Vec<(bool, bool, u32)> = record
         .iter()
         .map(|n| match (vr(plant, n), controller) {
             (Some(r), _) => (false, false, r),
-            (None, Some(c)) => (true, is_boolean(c, n), vr(c, n).unwrap_or_else(|| panic!("neither plant nor controller has {n}"))),
+            (None, Some(c)) => (
+                true,
+                is_boolean(c, n),
+                vr(c, n).unwrap_or_else(|| panic!("neither plant nor controller has {n}")),
+            ),
             (None, None) => panic!("plant has no output {n}"),
         })
         .collect();
     let mut ctrl = controller.map(|c| {
         let inputs = names_with_causality(c, "input");
-        let from: Vec<u32> = inputs.iter().map(|n| vr(plant, n).unwrap_or_else(|| panic!("controller input {n} is not a plant output"))).collect();
+        let from: Vec<u32> = inputs
+            .iter()
+            .map(|n| {
+                vr(plant, n).unwrap_or_else(|| panic!("controller input {n} is not a plant output"))
+            })
+            .collect();
         let to: Vec<u32> = inputs.iter().map(|n| vr(c, n).unwrap()).collect();
-        let out: Vec<u32> = FORCES.iter().map(|n| vr(c, n).expect("controller output")).collect();
+        let out: Vec<u32> = FORCES
+            .iter()
+            .map(|n| vr(c, n).expect("controller output"))
+            .collect();
         (start(c, "controller"), from, to, out)
     });
     let mut log = Vec::with_capacity(steps);

@@ -6,8 +6,23 @@ use integration_tests::*;
 use nalgebra::{DMatrix, DVector};
 
 const RECORD: [&str; 17] = [
-    "a_seat", "alpha_roll", "alpha_pitch", "a_body", "stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr", "f_fl", "f_fr", "f_rl", "f_rr", "f_seat",
-    "tire_load_fl", "tire_load_fr", "tire_load_rl", "tire_load_rr",
+    "a_seat",
+    "alpha_roll",
+    "alpha_pitch",
+    "a_body",
+    "stroke_fl",
+    "stroke_fr",
+    "stroke_rl",
+    "stroke_rr",
+    "f_fl",
+    "f_fr",
+    "f_rl",
+    "f_rr",
+    "f_seat",
+    "tire_load_fl",
+    "tire_load_fr",
+    "tire_load_rl",
+    "tire_load_rr",
 ];
 
 struct Figures {
@@ -33,7 +48,9 @@ fn figures(log: &[Vec<f64>]) -> Figures {
         seat_force: peak(log, 12),
         tyre_load_ratio: {
             let st = vehicle::model::StaticEquilibrium::new(&vehicle::VehicleParams::default());
-            (0..4).map(|i| peak(log, 13 + i) / st.tire_load[i]).fold(0.0, f64::max)
+            (0..4)
+                .map(|i| peak(log, 13 + i) / st.tire_load[i])
+                .fold(0.0, f64::max)
         },
     }
 }
@@ -42,13 +59,35 @@ fn compare(label: &str, variant: &str, road: &dyn Road, seconds: f64) -> (Figure
     compare_with(label, variant, road, seconds, &[])
 }
 
-fn compare_with(label: &str, variant: &str, road: &dyn Road, seconds: f64, plant_params: &[(&str, f64)]) -> (Figures, Figures) {
+fn compare_with(
+    label: &str,
+    variant: &str,
+    road: &dyn Road,
+    seconds: f64,
+    plant_params: &[(&str, f64)],
+) -> (Figures, Figures) {
     let plant = load("plant");
     let ctrl = load(variant);
     let h = 1e-3;
     let steps = (seconds / h) as usize;
-    let passive = figures(&run_loop_with(&plant, None, road, h, steps, &RECORD, plant_params));
-    let active = figures(&run_loop_with(&plant, Some(&ctrl), road, h, steps, &RECORD, plant_params));
+    let passive = figures(&run_loop_with(
+        &plant,
+        None,
+        road,
+        h,
+        steps,
+        &RECORD,
+        plant_params,
+    ));
+    let active = figures(&run_loop_with(
+        &plant,
+        Some(&ctrl),
+        road,
+        h,
+        steps,
+        &RECORD,
+        plant_params,
+    ));
     let pct = |a: f64, p: f64| 100.0 * (1.0 - a / p);
     eprintln!(
         "{label} {variant}: RMS seat {:.4} vs {:.4} m/s² ({:.1} % lower), roll {:.4} vs {:.4} rad/s² ({:.1} %), pitch {:.4} vs {:.4} ({:.1} %), body {:.4} vs {:.4} m/s² ({:.1} %); max stroke {:.4} m (passive {:.4}); peak force corners {:.0} N, seat {:.0} N; max dynamic/static tyre load {:.2} (passive {:.2})",
@@ -62,13 +101,43 @@ fn compare_with(label: &str, variant: &str, road: &dyn Road, seconds: f64, plant
 /// Issue 3's targets: seat RMS ≥ 90 % lower, roll RMS at least `roll_reduction` lower (target
 /// 0.5), pitch and body heave no worse than passive, within the stroke and force limits.
 fn assert_comfort_targets(passive: &Figures, active: &Figures, roll_reduction: f64) {
-    assert!(active.seat <= 0.1 * passive.seat, "seat RMS {} not 90 % below passive {}", active.seat, passive.seat);
-    assert!(active.roll <= (1.0 - roll_reduction) * passive.roll, "roll RMS {} not {} % below passive {}", active.roll, 100.0 * roll_reduction, passive.roll);
-    assert!(active.pitch <= passive.pitch, "pitch RMS {} worse than passive {}", active.pitch, passive.pitch);
-    assert!(active.body <= passive.body, "body RMS {} worse than passive {}", active.body, passive.body);
+    assert!(
+        active.seat <= 0.1 * passive.seat,
+        "seat RMS {} not 90 % below passive {}",
+        active.seat,
+        passive.seat
+    );
+    assert!(
+        active.roll <= (1.0 - roll_reduction) * passive.roll,
+        "roll RMS {} not {} % below passive {}",
+        active.roll,
+        100.0 * roll_reduction,
+        passive.roll
+    );
+    assert!(
+        active.pitch <= passive.pitch,
+        "pitch RMS {} worse than passive {}",
+        active.pitch,
+        passive.pitch
+    );
+    assert!(
+        active.body <= passive.body,
+        "body RMS {} worse than passive {}",
+        active.body,
+        passive.body
+    );
     assert!(active.stroke < 0.08, "stroke {} beyond 8 cm", active.stroke);
-    assert!(active.corner_force < 2500.0 && active.seat_force < 1000.0, "forces saturate: {} / {}", active.corner_force, active.seat_force);
-    assert!(active.tyre_load_ratio < 1.0, "dynamic tyre load reaches {} of the static load: the wheel lifts", active.tyre_load_ratio);
+    assert!(
+        active.corner_force < 2500.0 && active.seat_force < 1000.0,
+        "forces saturate: {} / {}",
+        active.corner_force,
+        active.seat_force
+    );
+    assert!(
+        active.tyre_load_ratio < 1.0,
+        "dynamic tyre load reaches {} of the static load: the wheel lifts",
+        active.tyre_load_ratio
+    );
 }
 
 #[test]
@@ -86,7 +155,10 @@ fn hinf_sf_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
 
 /// `dist/<variant>.certificate.json`.
 fn certificate(variant: &str) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dist().join(format!("{variant}.certificate.json"))).unwrap()).unwrap()
+    serde_json::from_str(
+        &std::fs::read_to_string(dist().join(format!("{variant}.certificate.json"))).unwrap(),
+    )
+    .unwrap()
 }
 
 /// The continuous closed loop of the certificate's generalised plant and controller, in the
@@ -106,10 +178,16 @@ fn certified_closed_loop(variant: &str) -> (DMatrix<f64>, DMatrix<f64>, Vec<f64>
     let k = &cert["controller"];
     let nc = k["A"].as_array().unwrap().len();
     let ny = c_y.nrows();
-    let (ak, bk, ck, dk) = (m(&k["A"], nc), m(&k["B"], ny), m(&k["C"], nc) / 1000.0, m(&k["D"], ny) / 1000.0); // N → kN
+    let (ak, bk, ck, dk) = (
+        m(&k["A"], nc),
+        m(&k["B"], ny),
+        m(&k["C"], nc) / 1000.0,
+        m(&k["D"], ny) / 1000.0,
+    ); // N → kN
     let n = 16 + nc;
     let mut acl = DMatrix::zeros(n, n);
-    acl.view_mut((0, 0), (16, 16)).copy_from(&(&a + &b_u * &dk * &c_y));
+    acl.view_mut((0, 0), (16, 16))
+        .copy_from(&(&a + &b_u * &dk * &c_y));
     acl.view_mut((0, 16), (16, nc)).copy_from(&(&b_u * &ck));
     acl.view_mut((16, 0), (nc, 16)).copy_from(&(&bk * &c_y));
     acl.view_mut((16, 16), (nc, nc)).copy_from(&ak);
@@ -127,7 +205,8 @@ fn cosimulation_matches_certificate(variant: &str) {
     let road = bump(0.05);
     let exact = |h: f64, steps: usize| {
         let d = vehicle::exact::discretize(&a_cl, &b_cl, h);
-        let w = |t: f64| DVector::from_iterator(8, road.at(t).iter().zip(&scale).map(|(r, s)| r / s));
+        let w =
+            |t: f64| DVector::from_iterator(8, road.at(t).iter().zip(&scale).map(|(r, s)| r / s));
         let mut x = DVector::zeros(a_cl.nrows());
         let mut out = Vec::new();
         for i in 0..steps {
@@ -147,13 +226,30 @@ fn cosimulation_matches_certificate(variant: &str) {
         let cosim = run_loop(&plant, Some(&ctrl), &road, h, steps, &names);
         let reference = exact(h, steps);
         let scale: f64 = reference.iter().map(|x| x.amax()).fold(0.0, f64::max);
-        let err = cosim.iter().zip(&reference).map(|(c, r)| c.iter().zip(r.iter()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)).fold(0.0, f64::max) / scale;
+        let err = cosim
+            .iter()
+            .zip(&reference)
+            .map(|(c, r)| {
+                c.iter()
+                    .zip(r.iter())
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max)
+            / scale;
         eprintln!("{variant}, h = {h}: max relative deviation from the certified continuous closed loop {err:.3e}");
         errors.push(err);
     }
-    assert!(errors[0] < 0.05, "co-simulation too far from the certified closed loop: {}", errors[0]);
+    assert!(
+        errors[0] < 0.05,
+        "co-simulation too far from the certified closed loop: {}",
+        errors[0]
+    );
     let ratio = errors[1] / errors[0];
-    assert!((0.35..0.65).contains(&ratio), "error should halve with the step (first order in h), ratio {ratio}");
+    assert!(
+        (0.35..0.65).contains(&ratio),
+        "error should halve with the step (first order in h), ratio {ratio}"
+    );
 }
 
 #[test]
@@ -199,11 +295,31 @@ fn robust_design_holds_over_the_mass_range(robust: &str, nominal: &str) {
         let label = format!("ISO C 20 m/s, m_s = {m} kg");
         let (passive, active) = compare_with(&label, robust, &road, 10.0, &[("m_s", m)]);
         let (_, nominal_figures) = compare_with(&label, nominal, &road, 10.0, &[("m_s", m)]);
-        eprintln!("{label}: seat RMS {robust} {:.4} vs {nominal} {:.4} m/s² ({:+.1} %)", active.seat, nominal_figures.seat, 100.0 * (active.seat / nominal_figures.seat - 1.0));
-        assert!(active.seat <= 0.1 * passive.seat, "{robust} at {m} kg: seat RMS {} not 90 % below passive {}", active.seat, passive.seat);
-        assert!(active.body <= passive.body && active.pitch <= passive.pitch, "{robust} at {m} kg: body or pitch worse than passive");
-        assert!(active.stroke < 0.08, "{robust} at {m} kg: stroke {}", active.stroke);
-        assert!(active.corner_force < 2500.0 && active.seat_force < 1000.0, "{robust} at {m} kg: forces saturate");
+        eprintln!(
+            "{label}: seat RMS {robust} {:.4} vs {nominal} {:.4} m/s² ({:+.1} %)",
+            active.seat,
+            nominal_figures.seat,
+            100.0 * (active.seat / nominal_figures.seat - 1.0)
+        );
+        assert!(
+            active.seat <= 0.1 * passive.seat,
+            "{robust} at {m} kg: seat RMS {} not 90 % below passive {}",
+            active.seat,
+            passive.seat
+        );
+        assert!(
+            active.body <= passive.body && active.pitch <= passive.pitch,
+            "{robust} at {m} kg: body or pitch worse than passive"
+        );
+        assert!(
+            active.stroke < 0.08,
+            "{robust} at {m} kg: stroke {}",
+            active.stroke
+        );
+        assert!(
+            active.corner_force < 2500.0 && active.seat_force < 1000.0,
+            "{robust} at {m} kg: forces saturate"
+        );
     }
 }
 
@@ -220,17 +336,33 @@ fn robust_of_keeps_comfort_and_limits_from_1200_to_1800_kg() {
 /// Thesis §5.1.4 / Th. 5.3, with the plant's and the controller's force limits lowered to 300 N
 /// (corners) and 100 N (seat): `hinf_of` against `hinf_of_aw`.
 #[test]
-fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedback_in_saturation() {
+fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedback_in_saturation()
+{
     let plant = load("plant");
     let params = [("u_max", 300.0), ("u_max_seat", 100.0)];
     let commands = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
     let record: Vec<&str> = RECORD.iter().chain(&commands).copied().collect();
     let run = |variant: Option<&str>, road: &dyn Road, seconds: f64| {
         let c = variant.map(load);
-        let log = run_loop_with(&plant, c.as_ref(), road, 1e-3, (seconds / 1e-3) as usize, &record, &params);
+        let log = run_loop_with(
+            &plant,
+            c.as_ref(),
+            road,
+            1e-3,
+            (seconds / 1e-3) as usize,
+            &record,
+            &params,
+        );
         let command = (17..22).map(|k| peak(&log, k)).fold(0.0, f64::max);
-        let saturated = log.iter().filter(|r| (r[8].abs() - 300.0).abs() < 1e-9).count() as f64 / log.len() as f64;
-        let settled = log[log.len() - 1000..].iter().map(|r| r[0].abs()).fold(0.0, f64::max);
+        let saturated = log
+            .iter()
+            .filter(|r| (r[8].abs() - 300.0).abs() < 1e-9)
+            .count() as f64
+            / log.len() as f64;
+        let settled = log[log.len() - 1000..]
+            .iter()
+            .map(|r| r[0].abs())
+            .fold(0.0, f64::max);
         (figures(&log), command, saturated, settled)
     };
     // A 10 cm bump saturates both briefly; both recover (the passive car is stable).
@@ -239,7 +371,10 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedb
     for v in ["hinf_of", "hinf_of_aw"] {
         let (f, command, saturated, settled) = run(Some(v), &bump, 6.0);
         eprintln!("10 cm bump, 300/100 N: {v}: seat RMS {:.4} (passive {:.4}) m/s², max stroke {:.4} m, peak command {command:.0} N, FL saturated {:.1} % of the time, |a_seat| over the last second {settled:.1e}", f.seat, passive.seat, f.stroke, 100.0 * saturated);
-        assert!(f.seat < passive.seat && settled < 1e-2, "{v} does not recover from the bump");
+        assert!(
+            f.seat < passive.seat && settled < 1e-2,
+            "{v} does not recover from the bump"
+        );
     }
     // A rough road (ISO class D, 20 m/s) keeps the actuators saturated.
     let road = iso_road(4, 20.0, 7);
@@ -254,9 +389,18 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedb
     // limits (measured 4.2 kN; the earlier, more unstable design diverged to 7e12 N); the
     // anti-windup loop commands within them, saturates less and is more comfortable (measured
     // 0.804 against 0.837 and passive 1.312 m/s²).
-    assert!(plain_command > 1000.0, "hinf_of's command {plain_command} N should exceed the 300 N limit well");
-    assert!(aw_command <= 300.0 + 1e-9, "the anti-windup controller commands within its limits");
-    assert!(aw.seat < plain.seat && aw.seat < 0.7 * passive.seat, "anti-windup should not lose comfort");
+    assert!(
+        plain_command > 1000.0,
+        "hinf_of's command {plain_command} N should exceed the 300 N limit well"
+    );
+    assert!(
+        aw_command <= 300.0 + 1e-9,
+        "the anti-windup controller commands within its limits"
+    );
+    assert!(
+        aw.seat < plain.seat && aw.seat < 0.7 * passive.seat,
+        "anti-windup should not lose comfort"
+    );
     assert!(aw_saturated < plain_saturated);
 }
 
@@ -274,20 +418,40 @@ fn the_certified_delay_margins_hold_in_cosimulation() {
     // of the oscillation from 10–12 s to 13–15 s (≥ 1: no decay).
     let settle = |variant: &str, tau: f64| {
         let c = load(variant);
-        let log = run_loop_with(&plant, Some(&c), &bump(0.05), 1e-3, 15000, &RECORD, &[("tau", tau)]);
+        let log = run_loop_with(
+            &plant,
+            Some(&c),
+            &bump(0.05),
+            1e-3,
+            15000,
+            &RECORD,
+            &[("tau", tau)],
+        );
         let window = |a: usize, b: usize| log[a..b].iter().map(|r| r[0].abs()).fold(0.0, f64::max);
         let (early, late) = (window(10000, 12000), window(13000, 15000));
         let force = (8..12).map(|k| peak(&log[13000..], k)).fold(0.0, f64::max);
         eprintln!("{variant}, tau = {:.1} ms: seat RMS {:.4} m/s² (first 4 s {:.4}), |a_seat| 10–12 s {early:.2e}, 13–15 s {late:.2e}, corner force 13–15 s {force:.0} N", tau * 1e3, rms(&log, 0), rms(&log[..4000], 0));
         (late / peak(&log, 0), late / early)
     };
-    assert!(settle("delay_sf", 0.02).0 < 1e-4, "delay_sf settles at its design delay");
-    for (variant, key) in [("delay_sf", "delay_margin_s"), ("hinf_sf", "nominal_delay_margin_s")] {
+    assert!(
+        settle("delay_sf", 0.02).0 < 1e-4,
+        "delay_sf settles at its design delay"
+    );
+    for (variant, key) in [
+        ("delay_sf", "delay_margin_s"),
+        ("hinf_sf", "nominal_delay_margin_s"),
+    ] {
         let m = margin(key);
         let (tail, growth) = settle(variant, 0.9 * m);
-        assert!(tail < 1e-2 && growth < 1.0, "{variant} must be stable at 90 % of its margin {m} s (tail {tail}, growth {growth})");
+        assert!(
+            tail < 1e-2 && growth < 1.0,
+            "{variant} must be stable at 90 % of its margin {m} s (tail {tail}, growth {growth})"
+        );
         let (_, growth) = settle(variant, 1.1 * m);
-        assert!(growth > 0.99, "{variant} must have lost stability at 110 % of its margin {m} s (growth {growth})");
+        assert!(
+            growth > 0.99,
+            "{variant} must have lost stability at 110 % of its margin {m} s (growth {growth})"
+        );
     }
 }
 
@@ -302,11 +466,25 @@ fn ft_of_detects_a_half_lost_actuator_and_keeps_the_seat_quiet() {
     let (h, steps, fault_at) = (1e-3, 6000, 2000);
     let fault = [("fault_time", 2.0), ("fault_loss_fl", 0.5)];
     let ft = load("ft_of");
-    let log = run_loop_with(&plant, Some(&ft), &road, h, steps, &["a_seat", "residual_norm", "fault_detected", "f_fl"], &fault);
+    let log = run_loop_with(
+        &plant,
+        Some(&ft),
+        &road,
+        h,
+        steps,
+        &["a_seat", "residual_norm", "fault_detected", "f_fl"],
+        &fault,
+    );
     let threshold = 50.0;
     let healthy_peak = log[..fault_at - 1].iter().map(|r| r[1]).fold(0.0, f64::max);
-    let detected = log.iter().position(|r| r[2] == 1.0).expect("the fault must be detected");
-    let first_over = log.iter().position(|r| r[1] > threshold).expect("the residual must cross the threshold");
+    let detected = log
+        .iter()
+        .position(|r| r[2] == 1.0)
+        .expect("the fault must be detected");
+    let first_over = log
+        .iter()
+        .position(|r| r[1] > threshold)
+        .expect("the residual must cross the threshold");
     let of = load("hinf_of");
     let seat_of = run_loop_with(&plant, Some(&of), &road, h, steps, &["a_seat"], &fault);
     let passive = run_loop_with(&plant, None, &road, h, steps, &["a_seat"], &fault);
@@ -320,16 +498,38 @@ fn ft_of_detects_a_half_lost_actuator_and_keeps_the_seat_quiet() {
         before(&log), after(&log), before(&seat_of), after(&seat_of), before(&passive), after(&passive)
     );
     // Healthy, the residual is the sampled-data error alone (measurements held over 1 ms).
-    assert!(healthy_peak < 0.2 * threshold, "healthy residual {healthy_peak} N is not near zero");
+    assert!(
+        healthy_peak < 0.2 * threshold,
+        "healthy residual {healthy_peak} N is not near zero"
+    );
     assert!(detected >= fault_at, "false alarm at step {detected}");
-    assert!(detected < fault_at + 300, "detected {} ms after the fault", detected - fault_at);
-    assert_eq!(detected, first_over, "the flag rises with the first residual above the threshold");
-    assert!(log[detected..].iter().all(|r| r[2] == 1.0), "the flag must stay latched");
-    assert!(after(&log) <= 0.1 * after(&passive), "ft_of under the fault is not 90 % below passive");
+    assert!(
+        detected < fault_at + 300,
+        "detected {} ms after the fault",
+        detected - fault_at
+    );
+    assert_eq!(
+        detected, first_over,
+        "the flag rises with the first residual above the threshold"
+    );
+    assert!(
+        log[detected..].iter().all(|r| r[2] == 1.0),
+        "the flag must stay latched"
+    );
+    assert!(
+        after(&log) <= 0.1 * after(&passive),
+        "ft_of under the fault is not 90 % below passive"
+    );
     // Healthy, hinf_of is quieter (measured 0.0223 against ft_of's 0.0327 m/s²); under the fault
     // hinf_of is not fault tolerant (0.1143 against 0.0423): ft_of must do better there.
-    assert!(before(&log) <= 0.1 * before(&passive), "healthy ft_of is not 90 % below passive");
-    assert!(after(&log) < after(&seat_of), "ft_of is not quieter than hinf_of under the fault");
+    assert!(
+        before(&log) <= 0.1 * before(&passive),
+        "healthy ft_of is not 90 % below passive"
+    );
+    assert!(
+        after(&log) < after(&seat_of),
+        "ft_of is not quieter than hinf_of under the fault"
+    );
 }
 
 /// The road FMU in the loop (road → plant → controller, all three FMUs through the `fmi`
@@ -338,11 +538,27 @@ fn ft_of_detects_a_half_lost_actuator_and_keeps_the_seat_quiet() {
 fn road_fmu_drives_the_loop_like_the_in_process_road() {
     let plant = load("plant");
     let ctrl = load("hinf_of");
-    let fmu_road = RoadFmu::new(&[("profile", 2), ("iso_class", 3), ("seed", 7)], &[("speed", 20.0), ("start_distance", -2.4)]);
+    let fmu_road = RoadFmu::new(
+        &[("profile", 2), ("iso_class", 3), ("seed", 7)],
+        &[("speed", 20.0), ("start_distance", -2.4)],
+    );
     let with_fmu = run_loop(&plant, Some(&ctrl), &fmu_road, 1e-3, 3000, &RECORD);
-    let in_process = run_loop(&plant, Some(&ctrl), &iso_road(3, 20.0, 7), 1e-3, 3000, &RECORD);
+    let in_process = run_loop(
+        &plant,
+        Some(&ctrl),
+        &iso_road(3, 20.0, 7),
+        1e-3,
+        3000,
+        &RECORD,
+    );
     let scale = rms(&in_process, 0);
-    let worst = with_fmu.iter().zip(&in_process).map(|(a, b)| (a[0] - b[0]).abs()).fold(0.0, f64::max);
-    eprintln!("road FMU against the in-process road: max |Δ a_seat| = {worst:e} m/s² (RMS {scale:.4})");
+    let worst = with_fmu
+        .iter()
+        .zip(&in_process)
+        .map(|(a, b)| (a[0] - b[0]).abs())
+        .fold(0.0, f64::max);
+    eprintln!(
+        "road FMU against the in-process road: max |Δ a_seat| = {worst:e} m/s² (RMS {scale:.4})"
+    );
     assert!(worst <= 1e-9 * scale, "{worst}");
 }

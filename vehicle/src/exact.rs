@@ -47,7 +47,14 @@ pub fn discretize(a: &DMatrix<f64>, b: &DMatrix<f64>, h: f64) -> Discretization 
 pub fn mat_vec_sum(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
     let n = y.len();
     for (a, x) in terms {
-        assert!(a.nrows() == n && a.ncols() == x.len(), "mat_vec_sum: {}×{} matrix, {} rows and {} values", a.nrows(), a.ncols(), n, x.len());
+        assert!(
+            a.nrows() == n && a.ncols() == x.len(),
+            "mat_vec_sum: {}×{} matrix, {} rows and {} values",
+            a.nrows(),
+            a.ncols(),
+            n,
+            x.len()
+        );
     }
     let mut r0 = 0;
     while r0 + 16 <= n {
@@ -96,10 +103,26 @@ mod tests {
         // Sizes with and without a partial block; a small LCG for reproducible values.
         let mut seed = 12345u64;
         let mut rand = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
-        for (n, m1, m2) in [(16, 16, 13), (21, 21, 13), (29, 29, 13), (5, 16, 8), (1, 3, 0), (8, 0, 4), (32, 7, 2), (2, 4, 4), (3, 1, 1), (4, 2, 2), (6, 3, 3), (7, 5, 0), (0, 3, 2)] {
+        for (n, m1, m2) in [
+            (16, 16, 13),
+            (21, 21, 13),
+            (29, 29, 13),
+            (5, 16, 8),
+            (1, 3, 0),
+            (8, 0, 4),
+            (32, 7, 2),
+            (2, 4, 4),
+            (3, 1, 1),
+            (4, 2, 2),
+            (6, 3, 3),
+            (7, 5, 0),
+            (0, 3, 2),
+        ] {
             let a1 = DMatrix::from_fn(n, m1, |_, _| rand());
             let a2 = DMatrix::from_fn(n, m2, |_, _| rand());
             let x1: Vec<f64> = (0..m1).map(|_| rand()).collect();
@@ -119,7 +142,11 @@ mod tests {
     fn scalar_system_matches_closed_form() {
         // ẋ = −2x + 3v, v(s) = v0 + (v1 − v0) s/h: closed form by hand.
         let (a, b, h) = (-2.0f64, 3.0, 0.37);
-        let d = discretize(&DMatrix::from_element(1, 1, a), &DMatrix::from_element(1, 1, b), h);
+        let d = discretize(
+            &DMatrix::from_element(1, 1, a),
+            &DMatrix::from_element(1, 1, b),
+            h,
+        );
         let phi = (a * h).exp();
         let g0 = b * (phi - 1.0) / a;
         // ∫₀ʰ e^{a(h−s)} b s/h ds = b/(a² h) (e^{ah} − 1 − a h)

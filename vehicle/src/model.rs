@@ -117,12 +117,24 @@ pub fn elements(p: &VehicleParams) -> Vec<Element> {
         jacobian[coord::WHEEL[i]] = 1.0;
         let mut road = [0.0; 4];
         road[i] = 1.0;
-        elements.push(Element { kind: ElementKind::Tyre(i), stiffness: p.k_t, damping: p.c_t, jacobian, road });
+        elements.push(Element {
+            kind: ElementKind::Tyre(i),
+            stiffness: p.k_t,
+            damping: p.c_t,
+            jacobian,
+            road,
+        });
     }
     // Seat attachment at roll lever −s1, pitch lever +s2: z9 = z_seat − z − s2·θ + s1·φ.
     let mut jacobian = body_point(p.s2, -p.s1).map(|v| -v);
     jacobian[coord::SEAT] = 1.0;
-    elements.push(Element { kind: ElementKind::Seat, stiffness: p.k_seat, damping: p.c_seat, jacobian, road: [0.0; 4] });
+    elements.push(Element {
+        kind: ElementKind::Seat,
+        stiffness: p.k_seat,
+        damping: p.c_seat,
+        jacobian,
+        road: [0.0; 4],
+    });
     elements
 }
 
@@ -149,16 +161,33 @@ impl MechanicalModel {
         let n_el = elements.len();
         let jac = DMatrix::from_fn(n_el, N_DOF, |e, j| elements[e].jacobian[j]);
         let road = DMatrix::from_fn(n_el, N_WHEELS, |e, j| elements[e].road[j]);
-        let k = DMatrix::from_diagonal(&DVector::from_iterator(n_el, elements.iter().map(|e| e.stiffness)));
-        let c = DMatrix::from_diagonal(&DVector::from_iterator(n_el, elements.iter().map(|e| e.damping)));
+        let k = DMatrix::from_diagonal(&DVector::from_iterator(
+            n_el,
+            elements.iter().map(|e| e.stiffness),
+        ));
+        let c = DMatrix::from_diagonal(&DVector::from_iterator(
+            n_el,
+            elements.iter().map(|e| e.damping),
+        ));
         let jt = jac.transpose();
 
         // Actuators act along the suspension elements (corners) and the seat element.
         let actuated: Vec<usize> = (0..N_WHEELS)
-            .map(|i| elements.iter().position(|e| e.kind == ElementKind::Suspension(i)).unwrap())
-            .chain(std::iter::once(elements.iter().position(|e| e.kind == ElementKind::Seat).unwrap()))
+            .map(|i| {
+                elements
+                    .iter()
+                    .position(|e| e.kind == ElementKind::Suspension(i))
+                    .unwrap()
+            })
+            .chain(std::iter::once(
+                elements
+                    .iter()
+                    .position(|e| e.kind == ElementKind::Seat)
+                    .unwrap(),
+            ))
             .collect();
-        let actuation = DMatrix::from_fn(N_DOF, N_ACTUATORS, |j, a| elements[actuated[a]].jacobian[j]);
+        let actuation =
+            DMatrix::from_fn(N_DOF, N_ACTUATORS, |j, a| elements[actuated[a]].jacobian[j]);
 
         let masses = [p.m_s, p.i_x, p.i_y, p.m_seat, p.m_u, p.m_u, p.m_u, p.m_u];
         let translational = [1.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0];
@@ -183,7 +212,10 @@ impl MechanicalModel {
             .cholesky()
             .expect("K is positive definite for admissible parameters")
             .solve(&self.gravity);
-        self.elements.iter().map(|e| e.jacobian.iter().zip(q0.iter()).map(|(a, b)| a * b).sum()).collect()
+        self.elements
+            .iter()
+            .map(|e| e.jacobian.iter().zip(q0.iter()).map(|(a, b)| a * b).sum())
+            .collect()
     }
 
     /// Undamped natural frequencies [Hz], each with the coordinate that carries most of the
@@ -196,8 +228,13 @@ impl MechanicalModel {
             .map(|k| {
                 // Mass-normalised eigenvector: its squared entries are kinetic-energy shares.
                 let v = eig.eigenvectors.column(k);
-                let dominant = (0..N_DOF).max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs())).unwrap();
-                (eig.eigenvalues[k].sqrt() / (2.0 * std::f64::consts::PI), dominant)
+                let dominant = (0..N_DOF)
+                    .max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()))
+                    .unwrap();
+                (
+                    eig.eigenvalues[k].sqrt() / (2.0 * std::f64::consts::PI),
+                    dominant,
+                )
             })
             .collect();
         modes.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -225,13 +262,18 @@ impl StateSpace {
         let m_inv = DMatrix::from_diagonal(&m.mass.diagonal().map(|v| 1.0 / v));
         let mut a = DMatrix::zeros(N_STATES, N_STATES);
         a.view_mut((0, N_DOF), (N_DOF, N_DOF)).fill_with_identity();
-        a.view_mut((N_DOF, 0), (N_DOF, N_DOF)).copy_from(&(-&m_inv * &m.stiffness));
-        a.view_mut((N_DOF, N_DOF), (N_DOF, N_DOF)).copy_from(&(-&m_inv * &m.damping));
+        a.view_mut((N_DOF, 0), (N_DOF, N_DOF))
+            .copy_from(&(-&m_inv * &m.stiffness));
+        a.view_mut((N_DOF, N_DOF), (N_DOF, N_DOF))
+            .copy_from(&(-&m_inv * &m.damping));
         let mut b_u = DMatrix::zeros(N_STATES, N_ACTUATORS);
-        b_u.view_mut((N_DOF, 0), (N_DOF, N_ACTUATORS)).copy_from(&(&m_inv * &m.actuation));
+        b_u.view_mut((N_DOF, 0), (N_DOF, N_ACTUATORS))
+            .copy_from(&(&m_inv * &m.actuation));
         let mut b_r = DMatrix::zeros(N_STATES, N_ROAD);
-        b_r.view_mut((N_DOF, 0), (N_DOF, N_WHEELS)).copy_from(&(&m_inv * &m.road_stiffness));
-        b_r.view_mut((N_DOF, N_WHEELS), (N_DOF, N_WHEELS)).copy_from(&(&m_inv * &m.road_damping));
+        b_r.view_mut((N_DOF, 0), (N_DOF, N_WHEELS))
+            .copy_from(&(&m_inv * &m.road_stiffness));
+        b_r.view_mut((N_DOF, N_WHEELS), (N_DOF, N_WHEELS))
+            .copy_from(&(&m_inv * &m.road_damping));
         StateSpace { a, b_u, b_r }
     }
 
@@ -252,10 +294,14 @@ impl StateSpace {
 
     /// Largest absolute entry-wise difference of all three matrices.
     pub fn max_abs_difference(&self, other: &StateSpace) -> f64 {
-        [(&self.a, &other.a), (&self.b_u, &other.b_u), (&self.b_r, &other.b_r)]
-            .iter()
-            .map(|(x, y)| (*x - *y).amax())
-            .fold(0.0, f64::max)
+        [
+            (&self.a, &other.a),
+            (&self.b_u, &other.b_u),
+            (&self.b_r, &other.b_r),
+        ]
+        .iter()
+        .map(|(x, y)| (*x - *y).amax())
+        .fold(0.0, f64::max)
     }
 }
 
@@ -288,18 +334,60 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
             d_u: std::array::from_fn(|k| ss.b_u[(r, k)]),
         });
     };
-    acceleration("a_seat", "m/s2", "Seat (driver) heave acceleration", coord::SEAT);
-    acceleration("a_body", "m/s2", "Body heave acceleration at the COG", coord::HEAVE);
-    acceleration("alpha_roll", "rad/s2", "Body roll acceleration (left side up)", coord::ROLL);
-    acceleration("alpha_pitch", "rad/s2", "Body pitch acceleration (nose up)", coord::PITCH);
+    acceleration(
+        "a_seat",
+        "m/s2",
+        "Seat (driver) heave acceleration",
+        coord::SEAT,
+    );
+    acceleration(
+        "a_body",
+        "m/s2",
+        "Body heave acceleration at the COG",
+        coord::HEAVE,
+    );
+    acceleration(
+        "alpha_roll",
+        "rad/s2",
+        "Body roll acceleration (left side up)",
+        coord::ROLL,
+    );
+    acceleration(
+        "alpha_pitch",
+        "rad/s2",
+        "Body pitch acceleration (nose up)",
+        coord::PITCH,
+    );
     let state = |name: &str, unit, description: &str, k: usize| {
         let mut c = [0.0; N_STATES];
         c[k] = 1.0;
-        OutputRow { name: name.into(), unit, description: description.into(), c, d_r: [0.0; 8], d_u: [0.0; 5] }
+        OutputRow {
+            name: name.into(),
+            unit,
+            description: description.into(),
+            c,
+            d_r: [0.0; 8],
+            d_u: [0.0; 5],
+        }
     };
-    rows.push(state("v_body", "m/s", "Body heave velocity at the COG (measured)", N_DOF + coord::HEAVE));
-    rows.push(state("omega_roll", "rad/s", "Body roll rate (measured)", N_DOF + coord::ROLL));
-    rows.push(state("omega_pitch", "rad/s", "Body pitch rate (measured)", N_DOF + coord::PITCH));
+    rows.push(state(
+        "v_body",
+        "m/s",
+        "Body heave velocity at the COG (measured)",
+        N_DOF + coord::HEAVE,
+    ));
+    rows.push(state(
+        "omega_roll",
+        "rad/s",
+        "Body roll rate (measured)",
+        N_DOF + coord::ROLL,
+    ));
+    rows.push(state(
+        "omega_pitch",
+        "rad/s",
+        "Body pitch rate (measured)",
+        N_DOF + coord::PITCH,
+    ));
     let deflection = |e: &Element| {
         let mut c = [0.0; N_STATES];
         c[..N_DOF].copy_from_slice(&e.jacobian);
@@ -315,18 +403,31 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
             rows.push(OutputRow {
                 name: format!("stroke_{}", CORNERS[i]),
                 unit: "m",
-                description: format!("Suspension stroke {}, body minus wheel, dynamic part (positive = extension)", CORNERS[i].to_uppercase()),
-                c, d_r, d_u: [0.0; 5],
+                description: format!(
+                    "Suspension stroke {}, body minus wheel, dynamic part (positive = extension)",
+                    CORNERS[i].to_uppercase()
+                ),
+                c,
+                d_r,
+                d_u: [0.0; 5],
             });
         }
     }
-    let seat = mech.elements.iter().find(|e| e.kind == ElementKind::Seat).unwrap();
+    let seat = mech
+        .elements
+        .iter()
+        .find(|e| e.kind == ElementKind::Seat)
+        .unwrap();
     let (c, d_r) = deflection(seat);
     rows.push(OutputRow {
         name: "stroke_seat".into(),
         unit: "m",
-        description: "Seat stroke, seat minus its body attachment point, dynamic part (positive = extension)".into(),
-        c, d_r, d_u: [0.0; 5],
+        description:
+            "Seat stroke, seat minus its body attachment point, dynamic part (positive = extension)"
+                .into(),
+        c,
+        d_r,
+        d_u: [0.0; 5],
     });
     for e in &mech.elements {
         if let ElementKind::Tyre(i) = e.kind {
@@ -352,8 +453,13 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
             rows.push(OutputRow {
                 name: format!("tire_load_{}", CORNERS[i]),
                 unit: "N",
-                description: format!("Dynamic tyre load {} (positive = more load than static)", CORNERS[i].to_uppercase()),
-                c, d_r, d_u: [0.0; 5],
+                description: format!(
+                    "Dynamic tyre load {} (positive = more load than static)",
+                    CORNERS[i].to_uppercase()
+                ),
+                c,
+                d_r,
+                d_u: [0.0; 5],
             });
         }
     }
@@ -378,7 +484,12 @@ impl StaticEquilibrium {
     pub fn new(p: &VehicleParams) -> Self {
         let mech = MechanicalModel::new(p);
         let d = mech.static_deflections();
-        let mut s = StaticEquilibrium { stroke: [0.0; 4], stroke_seat: 0.0, tire_defl: [0.0; 4], tire_load: [0.0; 4] };
+        let mut s = StaticEquilibrium {
+            stroke: [0.0; 4],
+            stroke_seat: 0.0,
+            tire_defl: [0.0; 4],
+            tire_load: [0.0; 4],
+        };
         for (e, d) in mech.elements.iter().zip(d) {
             match e.kind {
                 ElementKind::Suspension(i) => s.stroke[i] = d,

@@ -112,24 +112,96 @@ macro_rules! param {
 pub const PARAMETERS: &[ParamSpec] = &[
     param!("m_s", m_s, "kg", Positive, "Sprung (body) mass"),
     param!("m_u", m_u, "kg", Positive, "Unsprung mass of each wheel"),
-    param!("I_x", i_x, "kg.m2", Positive, "Roll moment of inertia of the body"),
-    param!("I_y", i_y, "kg.m2", Positive, "Pitch moment of inertia of the body"),
-    param!("k_s_f", k_s_f, "N/m", Positive, "Front suspension stiffness"),
+    param!(
+        "I_x",
+        i_x,
+        "kg.m2",
+        Positive,
+        "Roll moment of inertia of the body"
+    ),
+    param!(
+        "I_y",
+        i_y,
+        "kg.m2",
+        Positive,
+        "Pitch moment of inertia of the body"
+    ),
+    param!(
+        "k_s_f",
+        k_s_f,
+        "N/m",
+        Positive,
+        "Front suspension stiffness"
+    ),
     param!("k_s_r", k_s_r, "N/m", Positive, "Rear suspension stiffness"),
-    param!("c_s_f", c_s_f, "N.s/m", NonNegative, "Front suspension damping"),
-    param!("c_s_r", c_s_r, "N.s/m", NonNegative, "Rear suspension damping"),
+    param!(
+        "c_s_f",
+        c_s_f,
+        "N.s/m",
+        NonNegative,
+        "Front suspension damping"
+    ),
+    param!(
+        "c_s_r",
+        c_s_r,
+        "N.s/m",
+        NonNegative,
+        "Rear suspension damping"
+    ),
     param!("k_t", k_t, "N/m", Positive, "Tyre stiffness"),
     param!("c_t", c_t, "N.s/m", NonNegative, "Tyre damping"),
-    param!("L1", l1, "m", Positive, "Distance from the body COG to the rear axle"),
-    param!("L2", l2, "m", Positive, "Distance from the body COG to the front axle"),
-    param!("w1", w1, "m", Positive, "Distance from the body COG to the left wheels"),
-    param!("w2", w2, "m", Positive, "Distance from the body COG to the right wheels"),
-    param!("s1", s1, "m", Finite, "Lateral seat offset to the right of the COG"),
-    param!("s2", s2, "m", Finite, "Longitudinal seat offset ahead of the COG"),
+    param!(
+        "L1",
+        l1,
+        "m",
+        Positive,
+        "Distance from the body COG to the rear axle"
+    ),
+    param!(
+        "L2",
+        l2,
+        "m",
+        Positive,
+        "Distance from the body COG to the front axle"
+    ),
+    param!(
+        "w1",
+        w1,
+        "m",
+        Positive,
+        "Distance from the body COG to the left wheels"
+    ),
+    param!(
+        "w2",
+        w2,
+        "m",
+        Positive,
+        "Distance from the body COG to the right wheels"
+    ),
+    param!(
+        "s1",
+        s1,
+        "m",
+        Finite,
+        "Lateral seat offset to the right of the COG"
+    ),
+    param!(
+        "s2",
+        s2,
+        "m",
+        Finite,
+        "Longitudinal seat offset ahead of the COG"
+    ),
     param!("m_seat", m_seat, "kg", Positive, "Seat plus driver mass"),
     param!("k_seat", k_seat, "N/m", Positive, "Seat stiffness"),
     param!("c_seat", c_seat, "N.s/m", NonNegative, "Seat damping"),
-    param!("g", g, "m/s2", NonNegative, "Gravitational acceleration (static equilibrium)"),
+    param!(
+        "g",
+        g,
+        "m/s2",
+        NonNegative,
+        "Gravitational acceleration (static equilibrium)"
+    ),
 ];
 
 /// Why a parameter set or parameter file was rejected.
@@ -142,9 +214,17 @@ pub enum ParamError {
     #[error("parameter '{0}' is missing")]
     Missing(&'static str),
     #[error("parameter '{name}' has unit '{found}', expected '{expected}'")]
-    Unit { name: String, expected: &'static str, found: String },
+    Unit {
+        name: String,
+        expected: &'static str,
+        found: String,
+    },
     #[error("parameter '{name}' must be {expected}, got {value}")]
-    Value { name: &'static str, expected: &'static str, value: f64 },
+    Value {
+        name: &'static str,
+        expected: &'static str,
+        value: f64,
+    },
 }
 
 #[derive(Deserialize)]
@@ -183,7 +263,10 @@ impl VehicleParams {
         }
         let mut params = Self::zeroed();
         for spec in PARAMETERS {
-            let entry = file.parameters.get(spec.name).ok_or(ParamError::Missing(spec.name))?;
+            let entry = file
+                .parameters
+                .get(spec.name)
+                .ok_or(ParamError::Missing(spec.name))?;
             if entry.unit != spec.unit {
                 return Err(ParamError::Unit {
                     name: spec.name.to_string(),
@@ -225,7 +308,9 @@ impl VehicleParams {
 
     /// Check every parameter against its admissible range.
     pub fn validate(&self) -> Result<(), ParamError> {
-        PARAMETERS.iter().try_for_each(|spec| check(spec, (spec.get)(self)))
+        PARAMETERS
+            .iter()
+            .try_for_each(|spec| check(spec, (spec.get)(self)))
     }
 
     /// Wheelbase `L1 + L2` [m].
@@ -235,9 +320,26 @@ impl VehicleParams {
 
     fn zeroed() -> Self {
         VehicleParams {
-            m_s: 0.0, m_u: 0.0, i_x: 0.0, i_y: 0.0, k_s_f: 0.0, k_s_r: 0.0, c_s_f: 0.0,
-            c_s_r: 0.0, k_t: 0.0, c_t: 0.0, l1: 0.0, l2: 0.0, w1: 0.0, w2: 0.0, s1: 0.0,
-            s2: 0.0, m_seat: 0.0, k_seat: 0.0, c_seat: 0.0, g: 0.0,
+            m_s: 0.0,
+            m_u: 0.0,
+            i_x: 0.0,
+            i_y: 0.0,
+            k_s_f: 0.0,
+            k_s_r: 0.0,
+            c_s_f: 0.0,
+            c_s_r: 0.0,
+            k_t: 0.0,
+            c_t: 0.0,
+            l1: 0.0,
+            l2: 0.0,
+            w1: 0.0,
+            w2: 0.0,
+            s1: 0.0,
+            s2: 0.0,
+            m_seat: 0.0,
+            k_seat: 0.0,
+            c_seat: 0.0,
+            g: 0.0,
         }
     }
 }
@@ -249,7 +351,11 @@ fn spec(name: &str) -> Option<&'static ParamSpec> {
 fn check(spec: &ParamSpec, value: f64) -> Result<(), ParamError> {
     spec.admissible
         .check(value)
-        .map_err(|expected| ParamError::Value { name: spec.name, expected, value })
+        .map_err(|expected| ParamError::Value {
+            name: spec.name,
+            expected,
+            value,
+        })
 }
 
 #[cfg(test)]
@@ -271,7 +377,9 @@ mod tests {
     fn every_parameter_has_a_documented_source_in_the_default_file() {
         let raw: serde_json::Value = serde_json::from_str(DEFAULT_PARAMETER_FILE).unwrap();
         for spec in PARAMETERS {
-            let source = raw["parameters"][spec.name]["source"].as_str().unwrap_or("");
+            let source = raw["parameters"][spec.name]["source"]
+                .as_str()
+                .unwrap_or("");
             assert!(!source.is_empty(), "{} has no source", spec.name);
         }
     }
@@ -280,7 +388,14 @@ mod tests {
     fn negative_mass_and_zero_stiffness_are_rejected_with_their_name() {
         let bad = DEFAULT_PARAMETER_FILE.replace("\"value\": 1500.0", "\"value\": -1500.0");
         let err = VehicleParams::from_parameter_file(&bad).unwrap_err();
-        assert_eq!(err, ParamError::Value { name: "m_s", expected: "a number > 0", value: -1500.0 });
+        assert_eq!(
+            err,
+            ParamError::Value {
+                name: "m_s",
+                expected: "a number > 0",
+                value: -1500.0
+            }
+        );
         let bad = DEFAULT_PARAMETER_FILE.replace("\"value\": 190000.0", "\"value\": 0.0");
         assert!(matches!(
             VehicleParams::from_parameter_file(&bad),
@@ -290,7 +405,10 @@ mod tests {
 
     #[test]
     fn malformed_unknown_missing_and_wrong_unit_files_are_rejected() {
-        assert!(matches!(VehicleParams::from_parameter_file("{"), Err(ParamError::Syntax(_))));
+        assert!(matches!(
+            VehicleParams::from_parameter_file("{"),
+            Err(ParamError::Syntax(_))
+        ));
         let unknown = DEFAULT_PARAMETER_FILE.replace("\"m_u\":", "\"m_wheel\":");
         assert_eq!(
             VehicleParams::from_parameter_file(&unknown),
@@ -302,7 +420,10 @@ mod tests {
             Err(ParamError::Unit { .. })
         ));
         let missing = r#"{"parameters": {"m_s": {"value": 1500.0, "unit": "kg"}}}"#;
-        assert_eq!(VehicleParams::from_parameter_file(missing), Err(ParamError::Missing("m_u")));
+        assert_eq!(
+            VehicleParams::from_parameter_file(missing),
+            Err(ParamError::Missing("m_u"))
+        );
     }
 
     #[test]
@@ -314,7 +435,11 @@ mod tests {
         assert!(p.with_overrides(r#"{"k_s_f": NaN}"#).is_err());
         assert_eq!(
             p.with_overrides(r#"{"c_seat": -1}"#),
-            Err(ParamError::Value { name: "c_seat", expected: "a number >= 0", value: -1.0 })
+            Err(ParamError::Value {
+                name: "c_seat",
+                expected: "a number >= 0",
+                value: -1.0
+            })
         );
         let mut q = p;
         assert!(q.set("k_s_r", f64::INFINITY).is_err());

@@ -26,9 +26,16 @@ impl MassPolytope {
     pub const DEFAULT_RANGE: (f64, f64) = (1200.0, 1800.0);
 
     pub fn new(p: &VehicleParams, m_min: f64, m_max: f64) -> Self {
-        assert!(0.0 < m_min && m_min < m_max, "mass range must satisfy 0 < m_min < m_max");
+        assert!(
+            0.0 < m_min && m_min < m_max,
+            "mass range must satisfy 0 < m_min < m_max"
+        );
         let at = |m| StateSpace::new(&VehicleParams { m_s: m, ..*p });
-        MassPolytope { m_min, m_max, vertices: [at(m_min), at(m_max)] }
+        MassPolytope {
+            m_min,
+            m_max,
+            vertices: [at(m_min), at(m_max)],
+        }
     }
 
     /// Barycentric coordinates `(α₁, α₂)` of mass `m` (thesis eq. 4.9–4.10 at any `m`).

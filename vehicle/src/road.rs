@@ -18,28 +18,51 @@ pub enum Side {
 
 impl Side {
     fn has(self, track: usize) -> bool {
-        matches!((self, track), (Side::Both, _) | (Side::Left, 0) | (Side::Right, 1))
+        matches!(
+            (self, track),
+            (Side::Both, _) | (Side::Left, 0) | (Side::Right, 1)
+        )
     }
 }
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum Profile {
     /// `½ h (1 − cos(2π s / L))` for `0 ≤ s ≤ L`.
-    Bump { height: f64, length: f64, side: Side },
+    Bump {
+        height: f64,
+        length: f64,
+        side: Side,
+    },
     /// ISO 8608 random road of class 1 (A) … 8 (H): `G_d(n) = G_d(n₀)(n/n₀)⁻²`, `n₀ = 0.1`
     /// cycles/m, `G_d(n₀) = 16·4^(class−1)·10⁻⁶ m³`, as a sum of cosines over 0.011–2.83
     /// cycles/m with seeded phases; the tracks independent or identical. Faded in over `fade_in`
     /// seconds (`½(1 − cos)` window) so that the car, at rest on a flat road at t = 0, is not hit
     /// by a step.
-    Iso { class: u8, seed: u64, identical_tracks: bool, fade_in: f64 },
+    Iso {
+        class: u8,
+        seed: u64,
+        identical_tracks: bool,
+        fade_in: f64,
+    },
     /// `A w(τ) sin φ(τ)`, `τ = s / V ∈ [0, T]`: a linear sweep in time from `f_start` to `f_end` Hz
     /// over `duration` T seconds at the front wheels (the rear wheels see it `wheelbase / V`
     /// later), `w` a half-cosine taper over the first and last `min(0.5 s, T/4)` so that the
     /// road stays continuous and differentiable where the sweep starts and ends.
-    SineSweep { amplitude: f64, f_start: f64, f_end: f64, duration: f64, side: Side },
+    SineSweep {
+        amplitude: f64,
+        f_start: f64,
+        f_end: f64,
+        duration: f64,
+        side: Side,
+    },
     /// A step of `depth` (negative: down) with half-cosine ramps of length `ramp`, and back after
     /// `length` (a pothole); `length = ∞` is a permanent step.
-    Pothole { depth: f64, length: f64, ramp: f64, side: Side },
+    Pothole {
+        depth: f64,
+        length: f64,
+        ramp: f64,
+        side: Side,
+    },
 }
 
 /// ISO 8608 `G_d(n₀)` [m³] of class 1 (A) … 8 (H): the geometric means of the class bounds.
@@ -66,12 +89,25 @@ pub struct Road {
 
 impl Road {
     /// Check the parameters and build the road (the ISO road's cosines are drawn here).
-    pub fn new(profile: Profile, speed: f64, wheelbase: f64, start_distance: f64) -> Result<Road, String> {
-        let positive = |name: &str, v: f64| if v > 0.0 && v.is_finite() { Ok(()) } else { Err(format!("{name} must be finite and > 0, got {v}")) };
+    pub fn new(
+        profile: Profile,
+        speed: f64,
+        wheelbase: f64,
+        start_distance: f64,
+    ) -> Result<Road, String> {
+        let positive = |name: &str, v: f64| {
+            if v > 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{name} must be finite and > 0, got {v}"))
+            }
+        };
         positive("speed", speed)?;
         positive("wheelbase", wheelbase)?;
         if !start_distance.is_finite() {
-            return Err(format!("start_distance must be finite, got {start_distance}"));
+            return Err(format!(
+                "start_distance must be finite, got {start_distance}"
+            ));
         }
         let mut tracks = [Vec::new(), Vec::new()];
         match &profile {
@@ -81,7 +117,12 @@ impl Road {
                     return Err(format!("bump_height must be finite, got {height}"));
                 }
             }
-            Profile::Iso { class, seed, identical_tracks, fade_in } => {
+            Profile::Iso {
+                class,
+                seed,
+                identical_tracks,
+                fade_in,
+            } => {
                 if !(1..=8).contains(class) {
                     return Err(format!("iso_class must be 1 (A) … 8 (H), got {class}"));
                 }
@@ -92,10 +133,20 @@ impl Road {
                 let g_d_n0 = iso_g_d_n0(*class);
                 let mut track = || iso_track(g_d_n0, &mut rand);
                 let left = track();
-                let right = if *identical_tracks { left.clone() } else { track() };
+                let right = if *identical_tracks {
+                    left.clone()
+                } else {
+                    track()
+                };
                 tracks = [left, right];
             }
-            Profile::SineSweep { amplitude, f_start, f_end, duration, .. } => {
+            Profile::SineSweep {
+                amplitude,
+                f_start,
+                f_end,
+                duration,
+                ..
+            } => {
                 positive("sweep_f_start", *f_start)?;
                 positive("sweep_f_end", *f_end)?;
                 positive("sweep_duration", *duration)?;
@@ -103,21 +154,40 @@ impl Road {
                     return Err(format!("sweep_amplitude must be finite, got {amplitude}"));
                 }
             }
-            Profile::Pothole { depth, length, ramp, .. } => {
+            Profile::Pothole {
+                depth,
+                length,
+                ramp,
+                ..
+            } => {
                 positive("pothole_ramp", *ramp)?;
                 if !(depth.is_finite() && *length >= 2.0 * ramp) {
                     return Err(format!("pothole: depth must be finite and length >= 2 ramp (got depth {depth}, length {length}, ramp {ramp})"));
                 }
             }
         }
-        Ok(Road { profile, speed, wheelbase, start_distance, tracks })
+        Ok(Road {
+            profile,
+            speed,
+            wheelbase,
+            start_distance,
+            tracks,
+        })
     }
 
     /// `[z_fl, z_fr, z_rl, z_rr, v_fl, v_fr, v_rl, v_rr]` at time `t` [m, m/s].
     pub fn at(&self, t: f64) -> [f64; 8] {
         let s_front = self.speed * t - self.start_distance;
         let mut r = [0.0; 8];
-        for (wheel, (track, s)) in [(0, s_front), (1, s_front), (0, s_front - self.wheelbase), (1, s_front - self.wheelbase)].into_iter().enumerate() {
+        for (wheel, (track, s)) in [
+            (0, s_front),
+            (1, s_front),
+            (0, s_front - self.wheelbase),
+            (1, s_front - self.wheelbase),
+        ]
+        .into_iter()
+        .enumerate()
+        {
             let (z, dz_ds) = self.track(track, s);
             r[wheel] = z;
             r[4 + wheel] = self.speed * dz_ds;
@@ -138,41 +208,78 @@ impl Road {
     /// `(z, dz/ds)` of track 0 (left) or 1 (right) at distance `s`.
     pub fn track(&self, track: usize, s: f64) -> (f64, f64) {
         match self.profile {
-            Profile::Bump { height, length, side } if side.has(track) && (0.0..=length).contains(&s) => {
+            Profile::Bump {
+                height,
+                length,
+                side,
+            } if side.has(track) && (0.0..=length).contains(&s) => {
                 let k = 2.0 * PI / length;
-                (0.5 * height * (1.0 - (k * s).cos()), 0.5 * height * k * (k * s).sin())
+                (
+                    0.5 * height * (1.0 - (k * s).cos()),
+                    0.5 * height * k * (k * s).sin(),
+                )
             }
-            Profile::Iso { .. } => self.tracks[track].iter().fold((0.0, 0.0), |(z, dz), (a, n, p)| {
-                let arg = 2.0 * PI * n * s + p;
-                (z + a * arg.cos(), dz - a * 2.0 * PI * n * arg.sin())
-            }),
-            Profile::SineSweep { amplitude, f_start, f_end, duration, side } if side.has(track) && (0.0..=self.speed * duration).contains(&s) => {
+            Profile::Iso { .. } => {
+                self.tracks[track]
+                    .iter()
+                    .fold((0.0, 0.0), |(z, dz), (a, n, p)| {
+                        let arg = 2.0 * PI * n * s + p;
+                        (z + a * arg.cos(), dz - a * 2.0 * PI * n * arg.sin())
+                    })
+            }
+            Profile::SineSweep {
+                amplitude,
+                f_start,
+                f_end,
+                duration,
+                side,
+            } if side.has(track) && (0.0..=self.speed * duration).contains(&s) => {
                 // φ(s) = 2π (f₀ τ + (f₁ − f₀) τ² / (2T)), τ = s / V.
                 let tau = s / self.speed;
-                let phase = 2.0 * PI * (f_start * tau + (f_end - f_start) * tau * tau / (2.0 * duration));
+                let phase =
+                    2.0 * PI * (f_start * tau + (f_end - f_start) * tau * tau / (2.0 * duration));
                 let dphase_dtau = 2.0 * PI * (f_start + (f_end - f_start) * tau / duration);
                 let taper = (0.5f64).min(duration / 4.0);
                 let edge = tau.min(duration - tau);
                 let (w, dw_dtau) = if edge < taper {
                     let sign = if tau < duration - tau { 1.0 } else { -1.0 };
-                    (0.5 * (1.0 - (PI * edge / taper).cos()), sign * 0.5 * PI / taper * (PI * edge / taper).sin())
+                    (
+                        0.5 * (1.0 - (PI * edge / taper).cos()),
+                        sign * 0.5 * PI / taper * (PI * edge / taper).sin(),
+                    )
                 } else {
                     (1.0, 0.0)
                 };
-                (amplitude * w * phase.sin(), amplitude * (dw_dtau * phase.sin() + w * phase.cos() * dphase_dtau) / self.speed)
+                (
+                    amplitude * w * phase.sin(),
+                    amplitude * (dw_dtau * phase.sin() + w * phase.cos() * dphase_dtau)
+                        / self.speed,
+                )
             }
-            Profile::Pothole { depth, length, ramp, side } if side.has(track) && s >= 0.0 => {
+            Profile::Pothole {
+                depth,
+                length,
+                ramp,
+                side,
+            } if side.has(track) && s >= 0.0 => {
                 let edge = |x: f64| -> (f64, f64) {
                     if x <= 0.0 {
                         (0.0, 0.0)
                     } else if x >= ramp {
                         (1.0, 0.0)
                     } else {
-                        (0.5 * (1.0 - (PI * x / ramp).cos()), 0.5 * PI / ramp * (PI * x / ramp).sin())
+                        (
+                            0.5 * (1.0 - (PI * x / ramp).cos()),
+                            0.5 * PI / ramp * (PI * x / ramp).sin(),
+                        )
                     }
                 };
                 let (up, dup) = edge(s);
-                let (down, ddown) = if length.is_finite() { edge(s - length + ramp) } else { (0.0, 0.0) };
+                let (down, ddown) = if length.is_finite() {
+                    edge(s - length + ramp)
+                } else {
+                    (0.0, 0.0)
+                };
                 (depth * (up - down), depth * (dup - ddown))
             }
             _ => (0.0, 0.0),
@@ -184,9 +291,13 @@ impl Road {
 /// road, deterministic for a seed on every platform (a PRNG crate's stream may change between
 /// versions; this one cannot).
 fn lcg(seed: u64) -> impl FnMut() -> f64 {
-    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     }
 }
@@ -213,13 +324,41 @@ mod tests {
 
     fn roads() -> Vec<Road> {
         let profiles = [
-            Profile::Bump { height: 0.05, length: 5.0, side: Side::Left },
-            Profile::Iso { class: 3, seed: 7, identical_tracks: false, fade_in: 1.0 },
-            Profile::SineSweep { amplitude: 0.01, f_start: 0.5, f_end: 20.0, duration: 10.0, side: Side::Both },
-            Profile::Pothole { depth: -0.04, length: 0.8, ramp: 0.1, side: Side::Right },
-            Profile::Pothole { depth: 0.03, length: f64::INFINITY, ramp: 0.2, side: Side::Both },
+            Profile::Bump {
+                height: 0.05,
+                length: 5.0,
+                side: Side::Left,
+            },
+            Profile::Iso {
+                class: 3,
+                seed: 7,
+                identical_tracks: false,
+                fade_in: 1.0,
+            },
+            Profile::SineSweep {
+                amplitude: 0.01,
+                f_start: 0.5,
+                f_end: 20.0,
+                duration: 10.0,
+                side: Side::Both,
+            },
+            Profile::Pothole {
+                depth: -0.04,
+                length: 0.8,
+                ramp: 0.1,
+                side: Side::Right,
+            },
+            Profile::Pothole {
+                depth: 0.03,
+                length: f64::INFINITY,
+                ramp: 0.2,
+                side: Side::Both,
+            },
         ];
-        profiles.into_iter().map(|p| Road::new(p, 15.0, 2.4, 1.5).unwrap()).collect()
+        profiles
+            .into_iter()
+            .map(|p| Road::new(p, 15.0, 2.4, 1.5).unwrap())
+            .collect()
     }
 
     #[test]
@@ -231,7 +370,12 @@ mod tests {
                 let (zp, zm, v) = (road.at(t + h), road.at(t - h), road.at(t));
                 for w in 0..4 {
                     let fd = (zp[w] - zm[w]) / (2.0 * h);
-                    assert!((fd - v[4 + w]).abs() < 1e-5 * (1.0 + v[4 + w].abs()), "{:?} t = {t} wheel {w}: {fd} vs {}", road.profile, v[4 + w]);
+                    assert!(
+                        (fd - v[4 + w]).abs() < 1e-5 * (1.0 + v[4 + w].abs()),
+                        "{:?} t = {t} wheel {w}: {fd} vs {}",
+                        road.profile,
+                        v[4 + w]
+                    );
                 }
             }
         }
@@ -245,7 +389,11 @@ mod tests {
                 let t = 1.2 + k as f64 * 0.003; // after the ISO fade-in
                 let (now, before) = (road.at(t), road.at(t - delay));
                 for (rear, front) in [(2, 0), (3, 1), (6, 4), (7, 5)] {
-                    assert!((now[rear] - before[front]).abs() <= 1e-12 * (1.0 + before[front].abs()), "{:?} at {t}", road.profile);
+                    assert!(
+                        (now[rear] - before[front]).abs() <= 1e-12 * (1.0 + before[front].abs()),
+                        "{:?} at {t}",
+                        road.profile
+                    );
                 }
             }
         }
@@ -265,7 +413,18 @@ mod tests {
         let step = &r[4];
         assert!((step.at(100.0)[2] - 0.03).abs() < 1e-12);
         // Identical tracks: left = right; independent: not.
-        let same = Road::new(Profile::Iso { class: 3, seed: 1, identical_tracks: true, fade_in: 0.0 }, 20.0, 2.4, 0.0).unwrap();
+        let same = Road::new(
+            Profile::Iso {
+                class: 3,
+                seed: 1,
+                identical_tracks: true,
+                fade_in: 0.0,
+            },
+            20.0,
+            2.4,
+            0.0,
+        )
+        .unwrap();
         assert_eq!(same.at(3.0)[0], same.at(3.0)[1]);
         assert_ne!(r[1].at(3.0)[0], r[1].at(3.0)[1]);
     }
@@ -275,7 +434,18 @@ mod tests {
     #[test]
     fn iso_road_psd_matches_its_class() {
         for class in [1u8, 3, 6] {
-            let road = Road::new(Profile::Iso { class, seed: 11 + class as u64, identical_tracks: false, fade_in: 0.0 }, 20.0, 2.4, 0.0).unwrap();
+            let road = Road::new(
+                Profile::Iso {
+                    class,
+                    seed: 11 + class as u64,
+                    identical_tracks: false,
+                    fade_in: 0.0,
+                },
+                20.0,
+                2.4,
+                0.0,
+            )
+            .unwrap();
             let (length, ds) = (2000.0, 0.2);
             let n = (length / ds) as usize;
             for track in 0..2 {
@@ -283,7 +453,10 @@ mod tests {
                 let mut band_lo = 0.02;
                 while band_lo < 1.0 {
                     let band_hi = band_lo * 2.0;
-                    let bins: Vec<f64> = ((band_lo * length).ceil() as usize..(band_hi * length) as usize).map(|j| j as f64 / length).collect();
+                    let bins: Vec<f64> = ((band_lo * length).ceil() as usize
+                        ..(band_hi * length) as usize)
+                        .map(|j| j as f64 / length)
+                        .collect();
                     let mean_psd = bins
                         .iter()
                         .map(|f| {
@@ -298,9 +471,13 @@ mod tests {
                         .sum::<f64>()
                         / bins.len() as f64;
                     // ∫ G_d over the band / its width.
-                    let expected = iso_g_d_n0(class) * 0.01 * (1.0 / band_lo - 1.0 / band_hi) / (band_hi - band_lo);
+                    let expected = iso_g_d_n0(class) * 0.01 * (1.0 / band_lo - 1.0 / band_hi)
+                        / (band_hi - band_lo);
                     let ratio = mean_psd / expected;
-                    assert!((0.8..1.25).contains(&ratio), "class {class} track {track} band {band_lo}-{band_hi}: PSD ratio {ratio}");
+                    assert!(
+                        (0.8..1.25).contains(&ratio),
+                        "class {class} track {track} band {band_lo}-{band_hi}: PSD ratio {ratio}"
+                    );
                     band_lo = band_hi;
                 }
             }

@@ -10,36 +10,62 @@ use vehicle::polytope::MassPolytope;
 use vehicle::{MechanicalModel, StateSpace, VehicleParams};
 
 fn eigenvalues(m: &DMatrix<f64>) -> Vec<f64> {
-    SymmetricEigen::new(m.clone()).eigenvalues.iter().copied().collect()
+    SymmetricEigen::new(m.clone())
+        .eigenvalues
+        .iter()
+        .copied()
+        .collect()
 }
 
 #[test]
 fn mass_damping_stiffness_are_symmetric_and_definite() {
     let mech = MechanicalModel::new(&VehicleParams::default());
-    for (name, m) in [("M", &mech.mass), ("C", &mech.damping), ("K", &mech.stiffness)] {
-        assert!((m - m.transpose()).amax() <= 1e-14 * m.amax(), "{name} is not symmetric");
+    for (name, m) in [
+        ("M", &mech.mass),
+        ("C", &mech.damping),
+        ("K", &mech.stiffness),
+    ] {
+        assert!(
+            (m - m.transpose()).amax() <= 1e-14 * m.amax(),
+            "{name} is not symmetric"
+        );
         let min = eigenvalues(m).into_iter().fold(f64::INFINITY, f64::min);
         // The tyres anchor every coordinate, so even C (c_t > 0) is positive definite.
         assert!(min > 0.0, "{name} has eigenvalue {min}");
     }
     // Without tyre damping C is only semidefinite: the rigid motion of the whole car is undamped.
-    let p = VehicleParams { c_t: 0.0, ..VehicleParams::default() };
+    let p = VehicleParams {
+        c_t: 0.0,
+        ..VehicleParams::default()
+    };
     let c = MechanicalModel::new(&p).damping;
     let eig = eigenvalues(&c);
-    let (min, max) = eig.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-    assert!(min.abs() < 1e-9 * max, "C without tyre damping should be singular, min eigenvalue {min}");
+    let (min, max) = eig.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &v| {
+        (lo.min(v), hi.max(v))
+    });
+    assert!(
+        min.abs() < 1e-9 * max,
+        "C without tyre damping should be singular, min eigenvalue {min}"
+    );
 }
 
 #[test]
 fn energy_is_conserved_without_dampers() {
-    let p = VehicleParams { c_s_f: 0.0, c_s_r: 0.0, c_t: 0.0, c_seat: 0.0, ..VehicleParams::default() };
+    let p = VehicleParams {
+        c_s_f: 0.0,
+        c_s_r: 0.0,
+        c_t: 0.0,
+        c_seat: 0.0,
+        ..VehicleParams::default()
+    };
     let mech = MechanicalModel::new(&p);
     let ss = StateSpace::from_mechanical(&mech);
     let d = discretize(&ss.a, &ss.b_u, 0.01);
     let energy = |x: &DVector<f64>| {
         let q = x.rows(0, N_DOF);
         let v = x.rows(N_DOF, N_DOF);
-        0.5 * (v.transpose() * &mech.mass * v)[(0, 0)] + 0.5 * (q.transpose() * &mech.stiffness * q)[(0, 0)]
+        0.5 * (v.transpose() * &mech.mass * v)[(0, 0)]
+            + 0.5 * (q.transpose() * &mech.stiffness * q)[(0, 0)]
     };
     // Every coordinate displaced and moving.
     let mut x = DVector::from_fn(16, |i, _| 0.01 * ((i as f64) * 0.7).sin());
@@ -69,7 +95,13 @@ fn energy_is_conserved_without_dampers() {
 fn static_deflection_matches_hand_computed_load_share() {
     for p in [
         VehicleParams::default(),
-        VehicleParams { m_s: 1800.0, s1: 0.4, s2: -0.3, w1: 0.75, ..VehicleParams::default() },
+        VehicleParams {
+            m_s: 1800.0,
+            s1: 0.4,
+            s2: -0.3,
+            w1: 0.75,
+            ..VehicleParams::default()
+        },
     ] {
         let g = p.g;
         let seat_w = p.m_seat * g;
@@ -79,12 +111,14 @@ fn static_deflection_matches_hand_computed_load_share() {
         let ks = [p.k_s_f, p.k_s_f, p.k_s_r, p.k_s_r];
         // Corner sinkage per newton of corner force: suspension and tyre in series.
         let flex: Vec<f64> = ks.iter().map(|k| 1.0 / k + 1.0 / p.k_t).collect();
-        let a = DMatrix::from_row_slice(4, 4, &[
-            1.0, 1.0, 1.0, 1.0,
-            x[0], x[1], x[2], x[3],
-            y[0], y[1], y[2], y[3],
-            flex[0], -flex[1], -flex[2], flex[3],
-        ]);
+        let a = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                1.0, 1.0, 1.0, 1.0, x[0], x[1], x[2], x[3], y[0], y[1], y[2], y[3], flex[0],
+                -flex[1], -flex[2], flex[3],
+            ],
+        );
         // Seat weight acts at the seat attachment (x = s2, y = −s1); the wheel weight only
         // adds a constant tyre compression, which cancels in the planarity condition.
         let b = DVector::from_row_slice(&[total, seat_w * p.s2, -seat_w * p.s1, 0.0]);
@@ -93,8 +127,16 @@ fn static_deflection_matches_hand_computed_load_share() {
         for i in 0..4 {
             let stroke = -force[i] / ks[i];
             let tyre_load = force[i] + p.m_u * g;
-            assert!((st.stroke[i] - stroke).abs() < 1e-12 * stroke.abs().max(1e-3), "corner {i}: {} vs {stroke}", st.stroke[i]);
-            assert!((st.tire_load[i] - tyre_load).abs() < 1e-9 * tyre_load, "corner {i}: {} vs {tyre_load}", st.tire_load[i]);
+            assert!(
+                (st.stroke[i] - stroke).abs() < 1e-12 * stroke.abs().max(1e-3),
+                "corner {i}: {} vs {stroke}",
+                st.stroke[i]
+            );
+            assert!(
+                (st.tire_load[i] - tyre_load).abs() < 1e-9 * tyre_load,
+                "corner {i}: {} vs {tyre_load}",
+                st.tire_load[i]
+            );
             assert!((st.tire_defl[i] + tyre_load / p.k_t).abs() < 1e-12);
         }
         assert!((st.stroke_seat + seat_w / p.k_seat).abs() < 1e-12);
@@ -103,11 +145,17 @@ fn static_deflection_matches_hand_computed_load_share() {
     }
     // For the symmetric default car the body's own share is the lever rule: front corners carry
     // m_s g L1 / (2 (L1 + L2)) when the seat is weightless.
-    let p = VehicleParams { m_seat: 1e-9, ..VehicleParams::default() };
+    let p = VehicleParams {
+        m_seat: 1e-9,
+        ..VehicleParams::default()
+    };
     let st = StaticEquilibrium::new(&p);
     let front = p.m_s * p.g * p.l1 / (2.0 * p.wheelbase());
     assert!((st.stroke[0] + front / p.k_s_f).abs() < 1e-9);
-    assert!((st.stroke[1] - st.stroke[0]).abs() < 1e-12, "left/right symmetric");
+    assert!(
+        (st.stroke[1] - st.stroke[0]).abs() < 1e-12,
+        "left/right symmetric"
+    );
 }
 
 #[test]
@@ -119,9 +167,17 @@ fn corner_actuators_in_roll_give_roll_and_no_heave_or_pitch() {
     let u = DVector::from_row_slice(&[f, -f, f, -f, 0.0]);
     let gen = &mech.actuation * &u;
     assert_eq!(gen[coord::HEAVE], 0.0);
-    assert!(gen[coord::PITCH].abs() < 1e-12, "pitch moment {}", gen[coord::PITCH]);
+    assert!(
+        gen[coord::PITCH].abs() < 1e-12,
+        "pitch moment {}",
+        gen[coord::PITCH]
+    );
     let roll = 2.0 * f * (p.w1 + p.w2);
-    assert!((gen[coord::ROLL] - roll).abs() < 1e-9, "roll moment {} vs {roll}", gen[coord::ROLL]);
+    assert!(
+        (gen[coord::ROLL] - roll).abs() < 1e-9,
+        "roll moment {} vs {roll}",
+        gen[coord::ROLL]
+    );
     // The reaction pushes each wheel the other way.
     for (i, w) in coord::WHEEL.iter().enumerate() {
         assert_eq!(gen[*w], -u[i]);
@@ -154,15 +210,24 @@ fn nominal_vertex_and_cog_forms_agree_at_every_mass() {
     for m in [1200.0, 1500.0, 1650.0, 1700.0, 1800.0] {
         let nominal = StateSpace::new(&VehicleParams { m_s: m, ..p });
         let scale = nominal.a.amax();
-        assert!(poly.vertex_form(m).max_abs_difference(&nominal) < 1e-12 * scale, "vertex form at {m} kg");
-        assert!(cog.at(m).max_abs_difference(&nominal) < 1e-12 * scale, "COG form at {m} kg");
+        assert!(
+            poly.vertex_form(m).max_abs_difference(&nominal) < 1e-12 * scale,
+            "vertex form at {m} kg"
+        );
+        assert!(
+            cog.at(m).max_abs_difference(&nominal) < 1e-12 * scale,
+            "COG form at {m} kg"
+        );
         let [t1, t2] = cog.theta(m);
         assert!(t1.abs() <= 0.5 + 1e-15 && (t1 + t2).abs() < 1e-15);
     }
     // Mass enters only through 1/m_s: linear interpolation in m itself would be wrong.
     let m = 1500.0;
     let wrong_alpha = (hi - m) / (hi - lo);
-    let wrong = StateSpace::combination(&[(wrong_alpha, &poly.vertices[0]), (1.0 - wrong_alpha, &poly.vertices[1])]);
+    let wrong = StateSpace::combination(&[
+        (wrong_alpha, &poly.vertices[0]),
+        (1.0 - wrong_alpha, &poly.vertices[1]),
+    ]);
     let nominal = StateSpace::new(&VehicleParams { m_s: m, ..p });
     assert!(wrong.max_abs_difference(&nominal) > 1e-3);
 }
@@ -170,14 +235,34 @@ fn nominal_vertex_and_cog_forms_agree_at_every_mass() {
 #[test]
 fn modal_frequencies_are_in_the_ranges_spec_gives() {
     let modes = MechanicalModel::new(&VehicleParams::default()).modes();
-    let of = |c: usize| modes.iter().filter(|m| m.1 == c).map(|m| m.0).collect::<Vec<_>>();
+    let of = |c: usize| {
+        modes
+            .iter()
+            .filter(|m| m.1 == c)
+            .map(|m| m.0)
+            .collect::<Vec<_>>()
+    };
     let heave = of(coord::HEAVE);
     let roll = of(coord::ROLL);
     let pitch = of(coord::PITCH);
     let seat = of(coord::SEAT);
     let wheels: Vec<f64> = coord::WHEEL.iter().flat_map(|&w| of(w)).collect();
-    assert_eq!((heave.len(), roll.len(), pitch.len(), seat.len(), wheels.len()), (1, 1, 1, 1, 4), "{modes:?}");
-    assert!((0.95..1.15).contains(&heave[0]), "body heave {} Hz", heave[0]);
+    assert_eq!(
+        (
+            heave.len(),
+            roll.len(),
+            pitch.len(),
+            seat.len(),
+            wheels.len()
+        ),
+        (1, 1, 1, 1, 4),
+        "{modes:?}"
+    );
+    assert!(
+        (0.95..1.15).contains(&heave[0]),
+        "body heave {} Hz",
+        heave[0]
+    );
     assert!((1.3..1.45).contains(&roll[0]), "roll {} Hz", roll[0]);
     assert!((1.3..1.45).contains(&pitch[0]), "pitch {} Hz", pitch[0]);
     assert!((2.0..2.2).contains(&seat[0]), "seat {} Hz", seat[0]);
