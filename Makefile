@@ -1,6 +1,7 @@
 # `make`       synthesise and certify every controller, build every FMU into dist/, validate
 #              them, run the closed-loop comparison (results/report.md) and print its summary
-# `make test`  every test: Rust (unit + integration, incl. the fmi crate loading dist/) and pytest
+# `make test`  every test: rustfmt and clippy, Rust (unit + integration, incl. the fmi crate loading
+#              dist/) and pytest
 # `make bench` benchmarks (criterion)
 # `make constrained` (opt-in) the designs with the thesis's limits imposed as LMIs
 # Everything the commands need is installed here: Debian packages and a .venv with FMPy.
@@ -25,7 +26,7 @@ FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
 RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
-.PHONY: all setup fmus validate compare constrained test test-rust test-python bench descriptions readme clean
+.PHONY: all setup fmus validate compare constrained test lint test-rust test-python bench descriptions readme clean
 
 all: fmus validate compare
 	@echo
@@ -110,7 +111,12 @@ descriptions: $(STAMP)/release
 
 readme: descriptions
 
-test: test-rust test-python
+test: lint test-rust test-python
+
+# The tree stays rustfmt-formatted and clippy-clean: a warning fails the tests.
+lint: | $(STAMP)/apt
+	$(CARGO) fmt --all -- --check
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
 
 test-rust: $(FMU_FILES) | $(STAMP)/apt
 	$(CARGO) test --workspace

@@ -2,6 +2,12 @@
 //! state machine, calls the safe [`Instance`] method, turns an `Err` into `fmi2Error` plus a
 //! log line naming the function and the cause, and never lets a panic cross `extern "C"`.
 //! [`crate::export_fmi2!`] instantiates all 34 of them for one model type.
+//!
+//! # Safety
+//! Every `unsafe fn` here relies on the importer keeping the FMI 2.0 calling contract: the
+//! component `c` is NULL or a pointer that this model's `fmi2Instantiate` returned and that is
+//! not yet freed, and every pointer argument is NULL or valid for the elements the call announces
+//! (`nvr` value references and values, one output slot). NULL is answered with `fmi2Error`.
 
 use crate::instance::{FmuStateBox, Instance, INSTANCE_MAGIC};
 use crate::logger::Logger;
@@ -110,6 +116,10 @@ pub fn version() -> *const c_char {
     c"2.0".as_ptr()
 }
 
+/// `fmi2Instantiate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn instantiate<M: Model>(
     instance_name: Fmi2String,
     fmu_type: Fmi2Type,
@@ -159,6 +169,10 @@ pub unsafe fn instantiate<M: Model>(
     result.ok().flatten().unwrap_or(std::ptr::null_mut())
 }
 
+/// `fmi2FreeInstance`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
         let Some(inst) = instance::<M>(c) else { return };
@@ -177,6 +191,10 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
     }));
 }
 
+/// `fmi2SetDebugLogging`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_debug_logging<M: Model>(
     c: Fmi2Component,
     logging_on: Fmi2Boolean,
@@ -193,6 +211,10 @@ pub unsafe fn set_debug_logging<M: Model>(
     })
 }
 
+/// `fmi2SetupExperiment`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn setup_experiment<M: Model>(
     c: Fmi2Component,
     tol_defined: Fmi2Boolean,
@@ -210,6 +232,10 @@ pub unsafe fn setup_experiment<M: Model>(
     })
 }
 
+/// `fmi2EnterInitializationMode`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn enter_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(
         c,
@@ -219,6 +245,10 @@ pub unsafe fn enter_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Statu
     )
 }
 
+/// `fmi2ExitInitializationMode`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn exit_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(
         c,
@@ -228,14 +258,26 @@ pub unsafe fn exit_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status
     )
 }
 
+/// `fmi2Terminate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn terminate<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(c, "fmi2Terminate", sm::TERMINATE, |inst| inst.terminate())
 }
 
+/// `fmi2Reset`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn reset<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(c, "fmi2Reset", sm::RESET, |inst| inst.reset())
 }
 
+/// `fmi2GetReal`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_real<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -247,6 +289,10 @@ pub unsafe fn get_real<M: Model>(
     })
 }
 
+/// `fmi2SetReal`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_real<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -258,6 +304,10 @@ pub unsafe fn set_real<M: Model>(
     })
 }
 
+/// `fmi2GetInteger`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_integer<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -269,6 +319,10 @@ pub unsafe fn get_integer<M: Model>(
     })
 }
 
+/// `fmi2SetInteger`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_integer<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -280,6 +334,10 @@ pub unsafe fn set_integer<M: Model>(
     })
 }
 
+/// `fmi2GetBoolean`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_boolean<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -298,6 +356,10 @@ pub unsafe fn get_boolean<M: Model>(
     })
 }
 
+/// `fmi2SetBoolean`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_boolean<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -313,6 +375,10 @@ pub unsafe fn set_boolean<M: Model>(
     })
 }
 
+/// `fmi2GetString`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_string<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -325,6 +391,10 @@ pub unsafe fn get_string<M: Model>(
     })
 }
 
+/// `fmi2SetString`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_string<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -358,6 +428,10 @@ fn new_state<M: Model>(inst: &mut Instance<M>, bytes: Vec<u8>) -> Fmi2FmuState {
     ptr
 }
 
+/// `fmi2GetFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
     call::<M>(c, "fmi2GetFMUstate", sm::FMU_STATE, |inst| {
         let out = out_ptr(state, "FMUstate")?;
@@ -372,6 +446,10 @@ pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState
     })
 }
 
+/// `fmi2SetFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
     call::<M>(c, "fmi2SetFMUstate", sm::FMU_STATE, |inst| {
         let bytes = owned_state(inst, state)?.bytes.clone();
@@ -379,6 +457,10 @@ pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> 
     })
 }
 
+/// `fmi2FreeFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
     call::<M>(c, "fmi2FreeFMUstate", sm::FMU_STATE, |inst| {
         let slot = out_ptr(state, "FMUstate")?;
@@ -393,6 +475,10 @@ pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuStat
     })
 }
 
+/// `fmi2SerializedFMUstateSize`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn serialized_fmu_state_size<M: Model>(
     c: Fmi2Component,
     state: Fmi2FmuState,
@@ -404,6 +490,10 @@ pub unsafe fn serialized_fmu_state_size<M: Model>(
     })
 }
 
+/// `fmi2SerializeFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn serialize_fmu_state<M: Model>(
     c: Fmi2Component,
     state: Fmi2FmuState,
@@ -424,6 +514,10 @@ pub unsafe fn serialize_fmu_state<M: Model>(
     })
 }
 
+/// `fmi2DeSerializeFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn deserialize_fmu_state<M: Model>(
     c: Fmi2Component,
     bytes: *const Fmi2Byte,
@@ -443,6 +537,10 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
     })
 }
 
+/// `fmi2GetDirectionalDerivative`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_directional_derivative<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(
         c,
@@ -452,6 +550,10 @@ pub unsafe fn get_directional_derivative<M: Model>(c: Fmi2Component) -> Fmi2Stat
     )
 }
 
+/// `fmi2SetRealInputDerivatives`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_real_input_derivatives<M: Model>(
     c: Fmi2Component,
     vr: *const Fmi2ValueReference,
@@ -473,6 +575,10 @@ pub unsafe fn set_real_input_derivatives<M: Model>(
     )
 }
 
+/// `fmi2GetRealOutputDerivatives`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_real_output_derivatives<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(
         c,
@@ -482,6 +588,10 @@ pub unsafe fn get_real_output_derivatives<M: Model>(c: Fmi2Component) -> Fmi2Sta
     )
 }
 
+/// `fmi2DoStep`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn do_step<M: Model>(
     c: Fmi2Component,
     current: f64,
@@ -493,10 +603,18 @@ pub unsafe fn do_step<M: Model>(
     })
 }
 
+/// `fmi2CancelStep`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn cancel_step<M: Model>(c: Fmi2Component) -> Fmi2Status {
     call::<M>(c, "fmi2CancelStep", sm::CANCEL_STEP, |_| Ok(Status::Ok))
 }
 
+/// `fmi2GetStatus`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_status<M: Model>(
     c: Fmi2Component,
     kind: Fmi2StatusKind,
@@ -510,6 +628,10 @@ pub unsafe fn get_status<M: Model>(
     })
 }
 
+/// `fmi2GetRealStatus`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_real_status<M: Model>(
     c: Fmi2Component,
     kind: Fmi2StatusKind,
@@ -523,6 +645,10 @@ pub unsafe fn get_real_status<M: Model>(
     })
 }
 
+/// `fmi2GetIntegerStatus`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_integer_status<M: Model>(
     c: Fmi2Component,
     kind: Fmi2StatusKind,
@@ -534,6 +660,10 @@ pub unsafe fn get_integer_status<M: Model>(
     })
 }
 
+/// `fmi2GetBooleanStatus`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_boolean_status<M: Model>(
     c: Fmi2Component,
     kind: Fmi2StatusKind,
@@ -547,6 +677,10 @@ pub unsafe fn get_boolean_status<M: Model>(
     })
 }
 
+/// `fmi2GetStringStatus`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_string_status<M: Model>(
     c: Fmi2Component,
     kind: Fmi2StatusKind,
@@ -563,6 +697,9 @@ pub unsafe fn get_string_status<M: Model>(
 /// `modelDescription.xml`, 1 the Markdown variable table. The packager loads the built library
 /// and calls this, so the XML in an FMU always comes from the binary beside it. The string is
 /// freed with [`free_string`]; NULL on error (message on stderr: this is a build-time tool call).
+///
+/// # Safety
+/// `resources` is NULL or a NUL-terminated string.
 pub unsafe fn description_document<M: Model>(
     resources: *const c_char,
     format: std::os::raw::c_int,
@@ -591,6 +728,10 @@ pub unsafe fn description_document<M: Model>(
     }
 }
 
+/// Free a string [`description_document`] returned.
+///
+/// # Safety
+/// `s` is NULL or a string [`description_document`] returned and not yet freed.
 pub unsafe fn free_string(s: *mut c_char) {
     if !s.is_null() {
         drop(std::ffi::CString::from_raw(s));

@@ -160,7 +160,7 @@ impl<M: Model> Instance<M> {
             return Err(format!("startTime must be finite, got {start_time}"));
         }
         if let Some(stop) = stop_time {
-            if !(stop >= start_time) {
+            if stop.is_nan() || stop < start_time {
                 return Err(format!("stopTime {stop} is before startTime {start_time}"));
             }
         }
@@ -388,7 +388,7 @@ impl<M: Model> Instance<M> {
     }
 
     pub fn do_step(&mut self, current: f64, step: f64) -> Result<Status, String> {
-        if !(step > 0.0) || !step.is_finite() {
+        if !(step.is_finite() && step > 0.0) {
             return Err(format!(
                 "communicationStepSize must be a finite number > 0, got {step}"
             ));

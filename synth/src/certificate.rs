@@ -3,7 +3,7 @@
 //! ([`crate::hinf_norm`]), which must not exceed the claimed γ by more than 1e-6 relative.
 //! The JSON written beside the FMU holds everything needed to re-check the claim elsewhere.
 
-use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
+use crate::generalized::{GeneralizedPlant, Measurement, FORCE_UNIT};
 use crate::hinf_norm::{Lti, NormError};
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -15,14 +15,10 @@ pub const NORM_TOLERANCE: f64 = 1e-6;
 /// system like any other ([`Lti::static_gain`] for one without states).
 pub type Controller = Lti;
 
-/// The closed loop of the generalised plant with `controller` on the measurement `C_meas x +
-/// D_meas w` (the full state for state feedback), in the scaled `w → z` channels.
-pub fn closed_loop(
-    g: &GeneralizedPlant,
-    c_meas: &DMatrix<f64>,
-    d_meas: &DMatrix<f64>,
-    k: &Controller,
-) -> Lti {
+/// The closed loop of the generalised plant with `controller` on the measurement `y = C x + D w`
+/// (the full state for state feedback), in the scaled `w → z` channels.
+pub fn closed_loop(g: &GeneralizedPlant, meas: &Measurement, k: &Controller) -> Lti {
+    let (c_meas, d_meas) = (&meas.c, &meas.d);
     let (n, nc) = (g.n(), k.order());
     // In ũ (kN) units.
     let cc = &k.c / FORCE_UNIT;
@@ -123,8 +119,7 @@ pub fn matrix_json(m: &DMatrix<f64>) -> serde_json::Value {
 pub fn certify_h2(
     variant: &str,
     g: &GeneralizedPlant,
-    c_meas: &DMatrix<f64>,
-    d_meas: &DMatrix<f64>,
+    meas: &Measurement,
     k: &Controller,
     rows: &[usize],
     bound: f64,
@@ -135,7 +130,7 @@ pub fn certify_h2(
         bound,
         reason,
     };
-    let norm = closed_loop(g, c_meas, d_meas, k)
+    let norm = closed_loop(g, meas, k)
         .select_outputs(rows)
         .h2_norm()
         .map_err(|e| fail(f64::INFINITY, e.to_string()))?;
@@ -164,13 +159,12 @@ pub struct PeakCheck {
 pub fn certify_peaks(
     variant: &str,
     g: &GeneralizedPlant,
-    c_meas: &DMatrix<f64>,
-    d_meas: &DMatrix<f64>,
+    meas: &Measurement,
     k: &Controller,
     energy: f64,
     claimed: &[(String, f64)],
 ) -> Result<Vec<PeakCheck>, CertificateError> {
-    let cl = closed_loop(&g.constraint_plant(), c_meas, d_meas, k);
+    let cl = closed_loop(&g.constraint_plant(), meas, k);
     let gains = cl.energy_to_peak();
     let mut checks = Vec::new();
     for (i, (name, bound)) in claimed.iter().enumerate() {
@@ -201,14 +195,12 @@ pub fn certify_peaks(
 pub fn certify(
     variant: &str,
     g: &GeneralizedPlant,
-    c_meas: &DMatrix<f64>,
-    d_meas: &DMatrix<f64>,
-    measurements: Vec<String>,
+    meas: &Measurement,
     k: &Controller,
     gamma: f64,
     notes: Vec<String>,
 ) -> Result<Certificate, CertificateError> {
-    let cl = closed_loop(g, c_meas, d_meas, k);
+    let cl = closed_loop(g, meas, k);
     let norm = cl
         .hinf_norm(1e-9)
         .map_err(|source| CertificateError::Unstable {
@@ -242,12 +234,12 @@ pub fn certify(
         generalized_plant: serde_json::json!({
             "A": matrix_json(&g.a), "B_w": matrix_json(&g.b_w), "B_u": matrix_json(&g.b_u),
             "C_z": matrix_json(&g.c_z), "D_zw": matrix_json(&g.d_zw), "D_zu": matrix_json(&g.d_zu),
-            "C_y": matrix_json(c_meas), "D_yw": matrix_json(d_meas),
+            "C_y": matrix_json(&meas.c), "D_yw": matrix_json(&meas.d),
         }),
         controller: serde_json::json!({
             "A": matrix_json(&k.a), "B": matrix_json(&k.b), "C": matrix_json(&k.c), "D": matrix_json(&k.d),
         }),
-        measurements,
+        measurements: meas.names.clone(),
         notes,
         details: serde_json::Value::Null,
     })
@@ -272,16 +264,7 @@ mod tests {
         k: &Controller,
         gamma: f64,
     ) -> Result<Certificate, CertificateError> {
-        certify(
-            "test",
-            g,
-            &DMatrix::identity(16, 16),
-            &DMatrix::zeros(16, 8),
-            vec![],
-            k,
-            gamma,
-            vec![],
-        )
+        certify("test", g, &g.state_measurement(), k, gamma, vec![])
     }
 
     #[test]
@@ -301,18 +284,18 @@ mod tests {
     #[test]
     fn an_h2_claim_is_checked_against_the_gramian() {
         let (g, k, _) = sf();
-        let (eye, zero) = (DMatrix::identity(16, 16), DMatrix::zeros(16, 8));
+        let meas = g.state_measurement();
         let rows = g.h2_rows();
-        let norm = certify_h2("test", &g, &eye, &zero, &k, &rows, 1e6).unwrap();
+        let norm = certify_h2("test", &g, &meas, &k, &rows, 1e6).unwrap();
         assert!(norm > 0.0);
         assert!(matches!(
-            certify_h2("test", &g, &eye, &zero, &k, &rows, norm * 0.99),
+            certify_h2("test", &g, &meas, &k, &rows, norm * 0.99),
             Err(CertificateError::H2AboveBound { .. })
         ));
         // A tyre-load row feeds the road height through: no finite H2 norm, refused.
         let with_tyre: Vec<usize> = (0..g.c_z.nrows()).collect();
         assert!(matches!(
-            certify_h2("test", &g, &eye, &zero, &k, &with_tyre, 1e6),
+            certify_h2("test", &g, &meas, &k, &with_tyre, 1e6),
             Err(CertificateError::H2AboveBound { .. })
         ));
     }
@@ -325,7 +308,7 @@ mod tests {
             ..Design::default()
         };
         let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d);
-        let (cm, dm, _) = g.state_measurement();
+        let meas = g.state_measurement();
         // Passive: the forces are 0, the strokes and tyre loads reach ~1.5–2 limits for the
         // 5 cm bump's energy; at 1 % of that energy they are within the limits.
         let passive = Controller::static_gain(DMatrix::zeros(5, g.n()));
@@ -335,7 +318,7 @@ mod tests {
             .iter()
             .map(|n| (n.clone(), 1.0))
             .collect();
-        let checks = certify_peaks("test", &g, &cm, &dm, &passive, energy, &generous).unwrap();
+        let checks = certify_peaks("test", &g, &meas, &passive, energy, &generous).unwrap();
         assert!(
             checks[..5].iter().all(|c| c.gramian == 0.0)
                 && checks[5..]
@@ -347,11 +330,11 @@ mod tests {
         let mut under = generous.clone();
         under[5].1 = checks[5].gramian * 0.99;
         assert!(matches!(
-            certify_peaks("test", &g, &cm, &dm, &passive, energy, &under),
+            certify_peaks("test", &g, &meas, &passive, energy, &under),
             Err(CertificateError::PeakAboveBound { .. })
         ));
         assert!(matches!(
-            certify_peaks("test", &g, &cm, &dm, &passive, d.design_energy(), &generous),
+            certify_peaks("test", &g, &meas, &passive, d.design_energy(), &generous),
             Err(CertificateError::PeakAboveBound { .. })
         ));
     }

@@ -408,9 +408,13 @@ pub fn certify_faults(
     let control = ob.controller(g);
     let mut vertex_norms = Vec::new();
     for rho in faults.vertices() {
-        let norm = closed_loop(&with_effectiveness(g, &rho), &g.c_y, &g.d_yw, &control)
-            .hinf_norm(1e-8)
-            .map_err(|e| fail(format!("at effectiveness {rho:?}: {e}")))?;
+        let norm = closed_loop(
+            &with_effectiveness(g, &rho),
+            &g.output_measurement(),
+            &control,
+        )
+        .hinf_norm(1e-8)
+        .map_err(|e| fail(format!("at effectiveness {rho:?}: {e}")))?;
         if norm.upper > ob.gamma * (1.0 + NORM_TOLERANCE) {
             return Err(fail(format!(
                 "at effectiveness {rho:?} the closed-loop norm {} exceeds gamma {}",
@@ -429,7 +433,7 @@ pub fn certify_faults(
         &DMatrix::zeros(nu, n),
         &DMatrix::identity(nu, nu),
     );
-    let mut m = closed_loop(&aug, &g.c_y, &aug.d_yw, &control);
+    let mut m = closed_loop(&aug, &aug.output_measurement(), &control);
     let in_scale: Vec<f64> = (0..nw)
         .map(|_| ob.gamma.powf(-0.5))
         .chain(ob.multiplier.iter().map(|s| s.powf(-0.5)))
@@ -455,7 +459,7 @@ pub fn certify_faults(
     }
     // The residual: from the road (healthy) it must vanish; from each actuator's deficit it is
     // the min-norm deficit estimate, DC gain ‖G⁺ G eᵢ‖.
-    let healthy = closed_loop(g, &g.c_y, &g.d_yw, k);
+    let healthy = closed_loop(g, &g.output_measurement(), k);
     let nk = k.order();
     let mut c_res = DMatrix::zeros(c_r.nrows(), n + nk);
     c_res

@@ -37,6 +37,14 @@ pub const MEASUREMENTS: [&str; 8] = [
     "omega_pitch",
 ];
 
+/// What a controller reads from the generalised plant: `y = C x + D w`, one name per row.
+#[derive(Debug, Clone)]
+pub struct Measurement {
+    pub c: DMatrix<f64>,
+    pub d: DMatrix<f64>,
+    pub names: Vec<String>,
+}
+
 #[derive(Debug, Clone)]
 pub struct GeneralizedPlant {
     pub a: DMatrix<f64>,
@@ -287,7 +295,7 @@ impl GeneralizedPlant {
     /// What a state-feedback controller reads: the plant's states `x[1]…x[16]`, and with road
     /// states the tyre deflections `tire_defl_*` (`= z_u − z_r`, which give the road heights),
     /// as `y = C x̄` (no feed-through) with `C` square and invertible.
-    pub fn state_measurement(&self) -> (DMatrix<f64>, DMatrix<f64>, Vec<String>) {
+    pub fn state_measurement(&self) -> Measurement {
         let (n, nr) = (self.n(), self.road_states());
         let mut names: Vec<String> = (1..=N_STATES).map(|k| format!("x[{k}]")).collect();
         let mut c = DMatrix::identity(n, n);
@@ -296,14 +304,28 @@ impl GeneralizedPlant {
             c[(N_STATES + i, vehicle::model::coord::WHEEL[i])] = 1.0;
             c[(N_STATES + i, N_STATES + i)] = -1.0;
         }
-        (c, DMatrix::zeros(n, self.b_w.ncols()), names)
+        Measurement {
+            c,
+            d: DMatrix::zeros(n, self.b_w.ncols()),
+            names,
+        }
+    }
+
+    /// What the output-feedback designs read: [`MEASUREMENTS`], `y = C_y x + D_yw w`.
+    pub fn output_measurement(&self) -> Measurement {
+        Measurement {
+            c: self.c_y.clone(),
+            d: self.d_yw.clone(),
+            names: MEASUREMENTS.iter().map(|s| s.to_string()).collect(),
+        }
     }
 
     /// A state-feedback gain `u = K x̄` on the generalised plant's state as the controller
     /// matrix on [`Self::state_measurement`]'s inputs: `K C⁻¹`.
     pub fn gain_on_measurement(&self, k: &DMatrix<f64>) -> DMatrix<f64> {
-        let (c, _, _) = self.state_measurement();
-        k * c
+        k * self
+            .state_measurement()
+            .c
             .try_inverse()
             .expect("the state measurement is invertible")
     }
@@ -492,7 +514,11 @@ mod tests {
             );
         }
         // The controller's inputs give back the state.
-        let (cm, dm, names) = gs.state_measurement();
+        let Measurement {
+            c: cm,
+            d: dm,
+            names,
+        } = gs.state_measurement();
         assert_eq!(
             names[16..],
             [

@@ -408,7 +408,7 @@ impl Problem {
             let min_eig = SymmetricEigen::new(sym).eigenvalues.min();
             // Strict feasibility of the original LMI (G ≻ 0) is what the theorems need; the
             // solver's margin is only a means to get there.
-            if !(min_eig > 0.0) {
+            if min_eig.is_nan() || min_eig <= 0.0 {
                 return Err(LmiError::Violated {
                     status,
                     name: c.name.clone(),
@@ -425,6 +425,42 @@ impl Problem {
             worst_margin: worst,
             iterations: solver.info.iterations,
         })
+    }
+}
+
+impl Affine {
+    /// `Σᵢ vᵢ Mᵢ` for scalar variables `vᵢ` (e.g. a diagonal multiplier `diag(vᵢ)`, or
+    /// `Σ vᵢ mᵢmᵢᵀ`), all `Mᵢ = term(i)` of one shape.
+    pub fn combination(vars: &[Var], term: impl Fn(usize) -> DMatrix<f64>) -> Affine {
+        let mats: Vec<DMatrix<f64>> = (0..vars.len()).map(term).collect();
+        let (r, c) = mats.first().map_or((0, 0), |m| m.shape());
+        vars.iter()
+            .zip(&mats)
+            .fold(Affine::zeros(r, c), |acc, (v, m)| {
+                acc.add(&v.expr().map_scalar(m))
+            })
+    }
+
+    /// The trace, a 1×1 expression.
+    pub fn trace(&self) -> Affine {
+        self.map(|f| DMatrix::from_element(1, 1, f.trace()))
+    }
+
+    /// For a 1×1 expression `s(x)`, the matrix expression `s(x)·M`.
+    pub fn map_scalar(&self, m: &DMatrix<f64>) -> Affine {
+        assert_eq!(
+            self.constant.shape(),
+            (1, 1),
+            "map_scalar needs a scalar expression"
+        );
+        Affine {
+            constant: m * self.constant[(0, 0)],
+            terms: self
+                .terms
+                .iter()
+                .map(|(k, v)| (*k, m * v[(0, 0)]))
+                .collect(),
+        }
     }
 }
 
@@ -493,41 +529,5 @@ mod tests {
             sym.expr().trace().eval(&values)[(0, 0)],
             sym.value(&values).trace()
         );
-    }
-}
-
-impl Affine {
-    /// `Σᵢ vᵢ Mᵢ` for scalar variables `vᵢ` (e.g. a diagonal multiplier `diag(vᵢ)`, or
-    /// `Σ vᵢ mᵢmᵢᵀ`), all `Mᵢ = term(i)` of one shape.
-    pub fn combination(vars: &[Var], term: impl Fn(usize) -> DMatrix<f64>) -> Affine {
-        let mats: Vec<DMatrix<f64>> = (0..vars.len()).map(term).collect();
-        let (r, c) = mats.first().map_or((0, 0), |m| m.shape());
-        vars.iter()
-            .zip(&mats)
-            .fold(Affine::zeros(r, c), |acc, (v, m)| {
-                acc.add(&v.expr().map_scalar(m))
-            })
-    }
-
-    /// The trace, a 1×1 expression.
-    pub fn trace(&self) -> Affine {
-        self.map(|f| DMatrix::from_element(1, 1, f.trace()))
-    }
-
-    /// For a 1×1 expression `s(x)`, the matrix expression `s(x)·M`.
-    pub fn map_scalar(&self, m: &DMatrix<f64>) -> Affine {
-        assert_eq!(
-            self.constant.shape(),
-            (1, 1),
-            "map_scalar needs a scalar expression"
-        );
-        Affine {
-            constant: m * self.constant[(0, 0)],
-            terms: self
-                .terms
-                .iter()
-                .map(|(k, v)| (*k, m * v[(0, 0)]))
-                .collect(),
-        }
     }
 }

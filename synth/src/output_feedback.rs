@@ -413,7 +413,7 @@ fn reduced_projected(p: &OfPlant, x: &Affine, y: &Affine, g: &GammaTerms) -> (Af
         let wb = basis.transpose() * b;
         let gram = |cols: std::ops::Range<usize>| {
             let part = wb.columns(cols.start, cols.len());
-            &part * part.transpose()
+            part * part.transpose()
         };
         g.s_p
             .map_scalar(&gram(0..k - r))
@@ -1006,14 +1006,18 @@ mod tests {
         // The energy at which the unconstrained design's stroke peaks at 1.5 of its limit (its
         // force, with D_K ≠ 0, has no finite peak at all).
         let free = hinf_of(&p, 1e-7, 0.02, 1e3).unwrap();
-        let free_stroke = closed_loop(&g.constraint_plant(), &g.c_y, &g.d_yw, &free.controller)
-            .select_outputs(&[0])
-            .energy_to_peak()
-            .unwrap()[0];
+        let free_stroke = closed_loop(
+            &g.constraint_plant(),
+            &g.output_measurement(),
+            &free.controller,
+        )
+        .select_outputs(&[0])
+        .energy_to_peak()
+        .unwrap()[0];
         let energy = (1.5 / free_stroke).powi(2);
         let (of, bounds) =
             hinf_of_constrained(&p, &g.c_c, &g.d_cu, energy, 1e-7, 0.02, 1e3).unwrap();
-        let norm = closed_loop(&g, &g.c_y, &g.d_yw, &of.controller)
+        let norm = closed_loop(&g, &g.output_measurement(), &of.controller)
             .hinf_norm(1e-9)
             .unwrap();
         assert!(
@@ -1028,8 +1032,7 @@ mod tests {
         crate::certificate::certify_peaks(
             "test",
             &g,
-            &g.c_y,
-            &g.d_yw,
+            &g.output_measurement(),
             &of.controller,
             energy,
             &claimed,
@@ -1053,7 +1056,7 @@ mod tests {
         );
         let of = hinf_of(&p, d.lmi_margin, 0.02, 1e3).unwrap();
         assert_eq!(of.gamma_opt, reduced);
-        let norm = closed_loop(&g, &g.c_y, &g.d_yw, &of.controller)
+        let norm = closed_loop(&g, &g.output_measurement(), &of.controller)
             .hinf_norm(1e-9)
             .unwrap();
         assert!(

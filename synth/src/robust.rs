@@ -14,7 +14,7 @@
 
 use crate::certificate::{closed_loop, Controller, NORM_TOLERANCE};
 use crate::design::Design;
-use crate::generalized::GeneralizedPlant;
+use crate::generalized::{GeneralizedPlant, Measurement};
 use crate::state_feedback::NormBounded;
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -135,17 +135,12 @@ pub struct MassGrid {
 }
 
 impl MassGrid {
-    pub fn evaluate(
-        unc: &MassUncertainty,
-        c_meas: &DMatrix<f64>,
-        d_meas: &DMatrix<f64>,
-        k: &Controller,
-    ) -> Self {
+    pub fn evaluate(unc: &MassUncertainty, meas: &Measurement, k: &Controller) -> Self {
         let masses = unc.grid();
         let mut norms = Vec::new();
         let mut abscissas = Vec::new();
         for &m in &masses {
-            let cl = closed_loop(&unc.at(m), c_meas, d_meas, k);
+            let cl = closed_loop(&unc.at(m), meas, k);
             abscissas.push(cl.spectral_abscissa());
             norms.push(cl.hinf_norm(1e-9).ok().map(|n| n.upper));
         }
@@ -175,12 +170,11 @@ impl MassGrid {
 pub fn mass_grid_certificate(
     variant: &str,
     unc: &MassUncertainty,
-    c_meas: &DMatrix<f64>,
-    d_meas: &DMatrix<f64>,
+    meas: &Measurement,
     k: &Controller,
     gamma: f64,
 ) -> Result<MassGrid, crate::certificate::CertificateError> {
-    let grid = MassGrid::evaluate(unc, c_meas, d_meas, k);
+    let grid = MassGrid::evaluate(unc, meas, k);
     if grid.holds(gamma) {
         Ok(grid)
     } else {
@@ -203,13 +197,12 @@ mod tests {
     fn both_robust_formulations_hold_over_the_grid_and_the_nominal_design_does_not() {
         let (p, d) = (VehicleParams::default(), Design::default());
         let unc = MassUncertainty::new(&p, &d);
-        let (c, dm) = (DMatrix::identity(16, 16), DMatrix::zeros(16, 8));
+        let meas = unc.center.state_measurement();
         let nominal = hinf_sf(&GeneralizedPlant::new(&p, &d), d.lmi_margin, None).unwrap();
         match mass_grid_certificate(
             "nominal",
             &unc,
-            &c,
-            &dm,
+            &meas,
             &Controller::static_gain(nominal.k),
             nominal.gamma,
         ) {
@@ -231,8 +224,7 @@ mod tests {
             let grid = mass_grid_certificate(
                 "robust",
                 &unc,
-                &c,
-                &dm,
+                &meas,
                 &Controller::static_gain(sf.k.clone()),
                 sf.gamma,
             )

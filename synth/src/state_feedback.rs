@@ -443,8 +443,7 @@ mod tests {
         let closed = |k: &DMatrix<f64>| {
             closed_loop(
                 &g,
-                &DMatrix::identity(g.n(), g.n()),
-                &DMatrix::zeros(g.n(), g.b_w.ncols()),
+                &g.state_measurement(),
                 &Controller::static_gain(k.clone()),
             )
         };

@@ -15,7 +15,7 @@ use crate::fault::{
     FaultBox,
 };
 use crate::generalized::FORCE_UNIT;
-use crate::generalized::{GeneralizedPlant, MEASUREMENTS};
+use crate::generalized::{GeneralizedPlant, Measurement, MEASUREMENTS};
 use crate::output_feedback::{
     hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OutputFeedback,
 };
@@ -303,10 +303,14 @@ fn nominal_comparison(
             .vertices()
             .iter()
             .map(|rho| {
-                closed_loop(&with_effectiveness(&g, rho), &g.c_y, &g.d_yw, nominal)
-                    .hinf_norm(1e-8)
-                    .ok()
-                    .map(|n| n.upper)
+                closed_loop(
+                    &with_effectiveness(&g, rho),
+                    &g.output_measurement(),
+                    nominal,
+                )
+                .hinf_norm(1e-8)
+                .ok()
+                .map(|n| n.upper)
             })
             .collect();
             let worst = norms
@@ -324,8 +328,7 @@ fn nominal_comparison(
                 "nominal_design_over_masses",
                 serde_json::to_value(MassGrid::evaluate(
                     &unc,
-                    &unc.center.c_y,
-                    &unc.center.d_yw,
+                    &unc.center.output_measurement(),
                     nominal,
                 ))
                 .expect("serialisable"),
@@ -333,11 +336,14 @@ fn nominal_comparison(
         }
         _ => {
             let unc = MassUncertainty::new(params, design);
-            let (c_meas, d_meas, _) = unc.center.state_measurement();
             (
                 "nominal_design_over_masses",
-                serde_json::to_value(MassGrid::evaluate(&unc, &c_meas, &d_meas, nominal))
-                    .expect("serialisable"),
+                serde_json::to_value(MassGrid::evaluate(
+                    &unc,
+                    &unc.center.state_measurement(),
+                    nominal,
+                ))
+                .expect("serialisable"),
             )
         }
     }
@@ -405,27 +411,10 @@ fn synthesise_untimed(
                 format!("LMI solver status {} after {} iterations", sf.solver_status, sf.iterations),
             ];
             let controller = sf_controller(&g, &sf.k);
-            let (c_meas, d_meas, inputs) = g.state_measurement();
-            let mut certificate = certify(
-                variant,
-                &g,
-                &c_meas,
-                &d_meas,
-                inputs.clone(),
-                &controller,
-                sf.gamma,
-                notes,
-            )?;
+            let meas = g.state_measurement();
+            let mut certificate = certify(variant, &g, &meas, &controller, sf.gamma, notes)?;
             let h2_rows = g.h2_rows();
-            let h2_norm = certify_h2(
-                variant,
-                &g,
-                &c_meas,
-                &d_meas,
-                &controller,
-                &h2_rows,
-                mixed.h2_bound,
-            )?;
+            let h2_norm = certify_h2(variant, &g, &meas, &controller, &h2_rows, mixed.h2_bound)?;
             certificate.details = serde_json::json!({
                 "gamma_opt": mixed.gamma_opt,
                 "gamma_backoff": GAMMA_BACKOFF,
@@ -439,13 +428,12 @@ fn synthesise_untimed(
                 variant,
                 &g,
                 params.m_s,
-                &c_meas,
-                &d_meas,
+                &meas,
                 &controller,
                 design,
                 &sf.peak_bounds,
             )?;
-            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", sf.gamma, &inputs, &controller);
+            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", sf.gamma, &meas.names, &controller);
             Ok(Synthesised {
                 controller,
                 certificate,
@@ -488,9 +476,7 @@ fn synthesise_untimed(
             let mut certificate = certify(
                 variant,
                 &g,
-                &g.c_y,
-                &g.d_yw,
-                of_inputs(),
+                &g.output_measurement(),
                 &of.controller,
                 of.gamma,
                 notes,
@@ -501,8 +487,7 @@ fn synthesise_untimed(
                 variant,
                 &g,
                 params.m_s,
-                &g.c_y,
-                &g.d_yw,
+                &g.output_measurement(),
                 &of.controller,
                 design,
                 &peak_bounds,
@@ -568,8 +553,7 @@ fn certify_constraints(
     variant: &str,
     g: &GeneralizedPlant,
     mass: f64,
-    c_meas: &DMatrix<f64>,
-    d_meas: &DMatrix<f64>,
+    meas: &Measurement,
     controller: &Controller,
     design: &Design,
     claimed: &[(String, f64)],
@@ -578,7 +562,7 @@ fn certify_constraints(
         return Ok(());
     }
     let energy = design.design_energy();
-    let checks = certify_peaks(variant, g, c_meas, d_meas, controller, energy, claimed)?;
+    let checks = certify_peaks(variant, g, meas, controller, energy, claimed)?;
     if certificate.details["constraints"].is_null() {
         certificate.notes.push(format!(
             "Constraint LMIs (energy-to-peak, common Lyapunov matrix): for every road input of energy <= {energy:.4} (the design bump's: {} m high, {} m long, at {} m/s, left wheels), each actuator force stays below its limit, each stroke below {} m and each dynamic tyre load below the static load (the limit of its part without road feed-through is the static load less the tyre-damper force c_t * {:.3} m/s the bump can feed straight through). Each bound re-checked with the closed loop's controllability Gramian.",
@@ -683,24 +667,15 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
         format!("Certified with the delay e^(-s tau): delay margin {margin:.6} s >= {tau} s (unit-modulus eigenvalues of K (jwI - A)^-1 B_u); H-infinity norm of the delayed loop by frequency sweep {delayed_norm:.6} <= gamma. The norm fields below are those of the loop without delay."),
         state_order_note(),
     ];
-    let (c_meas, d_meas, inputs) = g.state_measurement();
-    let mut certificate = certify(
-        variant,
-        &g,
-        &c_meas,
-        &d_meas,
-        inputs.clone(),
-        &controller,
-        sf.gamma,
-        notes,
-    )?;
+    let meas = g.state_measurement();
+    let mut certificate = certify(variant, &g, &meas, &controller, sf.gamma, notes)?;
     certificate.details = serde_json::json!({
         "design_delay_s": tau,
         "descriptor_epsilon": epsilon,
         "delay_margin_s": margin,
         "delayed_hinf_norm_sweep": delayed_norm,
     });
-    let json = controller_json(variant, "Delay-dependent H-infinity state feedback (thesis Prop. 7.1, Lyapunov-Krasovskii with Jensen)", sf.gamma, &inputs, &controller);
+    let json = controller_json(variant, "Delay-dependent H-infinity state feedback (thesis Prop. 7.1, Lyapunov-Krasovskii with Jensen)", sf.gamma, &meas.names, &controller);
     Ok(Synthesised {
         controller,
         certificate,
@@ -744,9 +719,7 @@ fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthEr
     let mut certificate = certify(
         variant,
         &gn,
-        &gn.c_y,
-        &gn.d_yw,
-        of_inputs(),
+        &gn.output_measurement(),
         &control,
         ob.gamma,
         notes,
@@ -803,8 +776,8 @@ fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
         (&nb, "norm-bounded")
     };
     let controller = sf_controller(&unc.center, &shipped.k);
-    let (c_meas, d_meas, inputs) = unc.center.state_measurement();
-    let grid = mass_grid_certificate(variant, &unc, &c_meas, &d_meas, &controller, shipped.gamma)?;
+    let meas = unc.center.state_measurement();
+    let grid = mass_grid_certificate(variant, &unc, &meas, &controller, shipped.gamma)?;
     let notes = vec![
         format!("Thesis Th. 6.1, robust to {}. Vertex form: the corrected Th. 5.1 LMI at both vertices with one (Q, Y): gamma = {:.6}. Norm-bounded (COG) form, thesis Lemma 1 with epsilon a decision variable (the thesis fixes it): gamma = {:.6}. Shipped: {name}.", mass_range(design), vertex.gamma, nb.gamma),
         "Not a BMI: for state feedback B_u(m) Y is affine in 1/m for the common Y = K Q, so each vertex LMI is linear and, affine in the plant data, holds between the vertices.".to_string(),
@@ -814,9 +787,7 @@ fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
         variant,
         params,
         &unc,
-        &c_meas,
-        &d_meas,
-        inputs.clone(),
+        &meas,
         &controller,
         shipped.gamma,
         notes,
@@ -832,8 +803,7 @@ fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
                 variant,
                 v,
                 mass,
-                &c_meas,
-                &d_meas,
+                &meas,
                 &controller,
                 design,
                 &shipped.peak_bounds,
@@ -844,7 +814,7 @@ fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
         variant,
         "H-infinity state feedback robust to the sprung mass (thesis Th. 6.1)",
         shipped.gamma,
-        &inputs,
+        &meas.names,
         &controller,
     );
     Ok(Synthesised {
@@ -908,8 +878,7 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     let grid = mass_grid_certificate(
         variant,
         &unc,
-        &c.c_y,
-        &c.d_yw,
+        &c.output_measurement(),
         &shipped.controller,
         shipped.gamma,
     )?;
@@ -928,9 +897,7 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
         variant,
         params,
         &unc,
-        &c.c_y,
-        &c.d_yw,
-        of_inputs(),
+        &c.output_measurement(),
         &shipped.controller,
         shipped.gamma,
         notes,
@@ -959,25 +926,14 @@ fn robust_certificate(
     variant: &str,
     params: &VehicleParams,
     unc: &MassUncertainty,
-    c_meas: &DMatrix<f64>,
-    d_meas: &DMatrix<f64>,
-    measurements: Vec<String>,
+    meas: &Measurement,
     k: &Controller,
     gamma: f64,
     notes: Vec<String>,
     grid: &MassGrid,
     mut details: serde_json::Value,
 ) -> Result<Certificate, SynthError> {
-    let mut certificate = certify(
-        variant,
-        &unc.at(params.m_s),
-        c_meas,
-        d_meas,
-        measurements,
-        k,
-        gamma,
-        notes,
-    )?;
+    let mut certificate = certify(variant, &unc.at(params.m_s), meas, k, gamma, notes)?;
     details["mass_grid"] = serde_json::to_value(grid).expect("serialisable");
     // The mass-dependent matrices at both vertices: every mass of the range is their
     // combination affine in 1/m_s, so another tool can re-check the grid.
