@@ -1,62 +1,20 @@
-//! Ride-comfort metrics: the ISO 2631-1 frequency weighting `W_k` (vertical, seated), its RMS and
-//! vibration dose value, and the figures of a run against the passive car.
+//! Ride-comfort metrics: a signal weighted by an ISO 2631-1 frequency weighting
+//! ([`vehicle::iso2631`]), its RMS and vibration dose value, and the figures of a run against the
+//! passive car.
 //!
-//! `W_k = H_h H_l H_t H_s` (ISO 2631-1:1997, Annex A): band limiting by a second-order
-//! Butterworth high-pass at 0.4 Hz and low-pass at 100 Hz, the acceleration–velocity transition
-//! `(1 + s/ω₃)/(1 + s/(Q₄ω₄) + s²/ω₄²)` (f₃ = f₄ = 12.5 Hz, Q₄ = 0.63) and the upward step
-//! `(s² + ω₅s/Q₅ + ω₅²)/(s² + ω₆s/Q₆ + ω₆²)` (f₅ = 2.37 Hz, f₆ = 3.35 Hz, Q₅ = Q₆ = 0.91).
-//! The filter runs on the sampled signal as a cascade of state-space sections discretised
-//! exactly for the sample step with the signal linear between samples (first-order hold).
+//! The weighting runs on the sampled signal as its cascade of second-order sections, each
+//! discretised exactly for the sample step with the signal linear between samples (first-order
+//! hold).
 
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;
+use vehicle::iso2631::Weighting;
 
-/// `(b₂ s² + b₁ s + b₀) / (s² + a₁ s + a₀)`.
-#[derive(Debug, Clone, Copy)]
-struct Section {
-    b: [f64; 3],
-    a: [f64; 2],
-}
-
-fn wk_sections() -> [Section; 4] {
-    let w = |f: f64| 2.0 * PI * f;
-    let (w1, w2, w3, w4, w5, w6) = (w(0.4), w(100.0), w(12.5), w(12.5), w(2.37), w(3.35));
-    let (q1, q4, q5, q6) = (std::f64::consts::FRAC_1_SQRT_2, 0.63, 0.91, 0.91);
-    [
-        Section {
-            b: [0.0, 0.0, 1.0],
-            a: [w1 * w1, w1 / q1],
-        },
-        Section {
-            b: [w2 * w2, 0.0, 0.0],
-            a: [w2 * w2, w2 / q1],
-        },
-        Section {
-            b: [w4 * w4, w4 * w4 / w3, 0.0],
-            a: [w4 * w4, w4 / q4],
-        },
-        Section {
-            b: [w5 * w5, w5 / q5, 1.0],
-            a: [w6 * w6, w6 / q6],
-        },
-    ]
-}
-
-/// `|W_k(j 2π f)|`.
-pub fn wk_gain(f: f64) -> f64 {
-    let s = Complex64::new(0.0, 2.0 * PI * f);
-    wk_sections()
-        .iter()
-        .map(|x| (x.b[2] * s * s + x.b[1] * s + x.b[0]) / (s * s + x.a[1] * s + x.a[0]))
-        .product::<Complex64>()
-        .norm()
-}
-
-/// `signal` sampled every `h` seconds, filtered by `W_k`, starting at rest.
-pub fn wk_filter(signal: &[f64], h: f64) -> Vec<f64> {
+/// `signal` sampled every `h` seconds, filtered by `weighting`, starting at rest.
+pub fn weighted(signal: &[f64], h: f64, weighting: &Weighting) -> Vec<f64> {
     let mut out = signal.to_vec();
-    for sec in wk_sections() {
+    for sec in &weighting.sections {
         // Controllable canonical form: x' = [[0, 1], [−a₀, −a₁]] x + [0; 1] u,
         // y = [b₀ − b₂a₀, b₁ − b₂a₁] x + b₂ u.
         let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -sec.a[0], -sec.a[1]]);
@@ -75,6 +33,11 @@ pub fn wk_filter(signal: &[f64], h: f64) -> Vec<f64> {
         }
     }
     out
+}
+
+/// `signal` weighted by `W_k` (seat, vertical).
+pub fn wk_filter(signal: &[f64], h: f64) -> Vec<f64> {
+    weighted(signal, h, &Weighting::wk())
 }
 
 pub fn rms(x: &[f64]) -> f64 {
@@ -126,25 +89,11 @@ pub fn welch_psd(x: &[f64], h: f64, segment: usize) -> (Vec<f64>, Vec<f64>) {
 mod tests {
     use super::*;
 
-    /// ISO 2631-1 Table values of `W_k`.
-    #[test]
-    fn wk_gain_matches_the_standard_table() {
-        for (f, expected) in [
-            (1.0, 0.482),
-            (4.0, 0.967),
-            (6.3, 1.054),
-            (12.5, 0.902),
-            (16.0, 0.769),
-        ] {
-            let g = wk_gain(f);
-            assert!((g - expected).abs() < 0.0015, "{f} Hz: {g} vs {expected}");
-        }
-    }
-
     /// A sine through the discrete filter comes out with the analogue gain (steady state).
     #[test]
     fn discrete_filter_has_the_analogue_gain() {
         let h = 1e-3;
+        let wk_gain = |f: f64| Weighting::wk().gain(f);
         for f in [1.0, 4.0, 12.5] {
             let x: Vec<f64> = (0..20000)
                 .map(|k| (2.0 * PI * f * k as f64 * h).sin())

@@ -70,6 +70,16 @@ pub fn iso_g_d_n0(class: u8) -> f64 {
     16e-6 * 4f64.powi(class as i32 - 1)
 }
 
+/// ISO 8608's reference spatial frequency `n₀` [cycles/m].
+pub const ISO_N0: f64 = 0.1;
+
+/// One-sided PSD [m²/s² per Hz] of the road's vertical velocity under a wheel of a vehicle at
+/// `speed` [m/s] on an ISO 8608 road of class 1 (A) … 8 (H) with waviness 2: white, since the
+/// height's temporal PSD `G_d(n₀) n₀² V / f²` times `(2π f)²` is `4π² n₀² G_d(n₀) V`.
+pub fn iso_velocity_psd(class: u8, speed: f64) -> f64 {
+    4.0 * PI * PI * ISO_N0 * ISO_N0 * iso_g_d_n0(class) * speed
+}
+
 /// Spatial band of the ISO road [cycles/m] and its number of cosines per track.
 pub const ISO_BAND: (f64, f64) = (0.011, 2.83);
 const ISO_COMPONENTS: usize = 400;
@@ -312,7 +322,7 @@ fn iso_track(g_d_n0: f64, rand: &mut impl FnMut() -> f64) -> Vec<(f64, f64, f64)
             let a = (n_lo.ln() + (n_hi / n_lo).ln() * i as f64 / k as f64).exp();
             let b = (n_lo.ln() + (n_hi / n_lo).ln() * (i + 1) as f64 / k as f64).exp();
             let n = (a * b).sqrt();
-            let g = g_d_n0 * (n / 0.1f64).powi(-2);
+            let g = g_d_n0 * (n / ISO_N0).powi(-2);
             ((2.0 * g * (b - a)).sqrt(), n, 2.0 * PI * rand())
         })
         .collect()
@@ -427,6 +437,38 @@ mod tests {
         .unwrap();
         assert_eq!(same.at(3.0)[0], same.at(3.0)[1]);
         assert_ne!(r[1].at(3.0)[0], r[1].at(3.0)[1]);
+    }
+
+    /// The cosines of an ISO track carry, in road velocity at speed `V`, exactly the white PSD of
+    /// [`iso_velocity_psd`] over the temporal band `V [n_lo, n_hi]`: `(2π n V)² G_d(n) Δn` is
+    /// `4π² n₀² G_d(n₀) V² Δn` for every band, whatever its centre.
+    #[test]
+    fn road_velocity_has_the_white_psd_of_the_class_over_the_band() {
+        for (class, speed) in [(1u8, 10.0), (3, 20.0), (5, 33.0)] {
+            let road = Road::new(
+                Profile::Iso {
+                    class,
+                    seed: 3,
+                    identical_tracks: false,
+                    fade_in: 0.0,
+                },
+                speed,
+                2.4,
+                0.0,
+            )
+            .unwrap();
+            let expected = iso_velocity_psd(class, speed) * speed * (ISO_BAND.1 - ISO_BAND.0);
+            for track in &road.tracks {
+                let variance: f64 = track
+                    .iter()
+                    .map(|(a, n, _)| 0.5 * (a * 2.0 * PI * n * speed).powi(2))
+                    .sum();
+                assert!(
+                    (variance - expected).abs() <= 1e-9 * expected,
+                    "class {class}: {variance} vs {expected}"
+                );
+            }
+        }
     }
 
     /// The periodogram of a 2 km sample of each track (0.2 m spacing), averaged over the octave
