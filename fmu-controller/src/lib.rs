@@ -19,12 +19,12 @@ use spec::Spec;
 use std::path::Path;
 use vehicle::exact::{discretize, mat_vec_sum, Discretization};
 
-/// Value references: inputs from 0, outputs from 1000, `gamma` at 2000, force limits of an
+/// Value references: inputs from 0, outputs from 1000, the guarantee at 2000, force limits of an
 /// anti-windup controller from 3000, a fault detector's variables from 4000.
 pub mod vr {
     pub const INPUT: u32 = 0;
     pub const OUTPUT: u32 = 1000;
-    pub const GAMMA: u32 = 2000;
+    pub const GUARANTEE: u32 = 2000;
     pub const LIMIT: u32 = 3000;
     pub const RESIDUAL_NORM: u32 = 4000;
     pub const FAULT_DETECTED: u32 = 4001;
@@ -91,12 +91,13 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .depending_on(deps),
         );
     }
+    let g = &spec.guarantee;
     vars.push(Variable::real(
-        "gamma",
-        vr::GAMMA,
+        g.name.clone(),
+        vr::GUARANTEE,
         Causality::CalculatedParameter,
-        "1",
-        "H-infinity level the synthesis guarantees (scaled w to z, see the certificate)",
+        unit(&g.unit),
+        g.description.clone(),
     ));
     if let Some(aw) = &spec.anti_windup {
         for (k, (name, outputs)) in limit_groups(spec).into_iter().enumerate() {
@@ -154,6 +155,7 @@ fn unit(u: &str) -> &'static str {
         "rad/s" => "rad/s",
         "rad/s2" => "rad/s2",
         "N" => "N",
+        "1" => "1",
         _ => "",
     }
 }
@@ -352,7 +354,7 @@ impl Model for Controller {
                 .limit_groups
                 .get((v - vr::LIMIT) as usize)
                 .map_or(f64::NAN, |(_, o)| self.limits[o[0]]),
-            vr::GAMMA => self.spec.gamma,
+            vr::GUARANTEE => self.spec.guarantee.value,
             v if v >= vr::OUTPUT => self.output((v - vr::OUTPUT) as usize),
             v => self.y[(v - vr::INPUT) as usize],
         }

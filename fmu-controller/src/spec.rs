@@ -5,7 +5,7 @@
 use nalgebra::DMatrix;
 use serde::Deserialize;
 
-pub const FORMAT: &str = "suspension-controller/1";
+pub const FORMAT: &str = "suspension-controller/2";
 
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -20,7 +20,7 @@ struct Raw {
     format: String,
     variant: String,
     description: String,
-    gamma: f64,
+    guarantee: Guarantee,
     inputs: Vec<Signal>,
     outputs: Vec<Signal>,
     #[serde(rename = "A")]
@@ -35,6 +35,16 @@ struct Raw {
     anti_windup: Option<RawAntiWindup>,
     #[serde(default)]
     fault_detection: Option<RawFaultDetection>,
+}
+
+/// What the synthesis guarantees, reported by the FMU as a calculated parameter of this name.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Guarantee {
+    pub name: String,
+    pub value: f64,
+    pub unit: String,
+    pub description: String,
 }
 
 #[derive(Debug, Deserialize)]
@@ -98,7 +108,7 @@ pub struct AntiWindup {
 pub struct Spec {
     pub variant: String,
     pub description: String,
-    pub gamma: f64,
+    pub guarantee: Guarantee,
     pub inputs: Vec<Signal>,
     pub outputs: Vec<Signal>,
     pub a: DMatrix<f64>,
@@ -176,6 +186,20 @@ impl Spec {
                 raw.variant
             )));
         }
+        let g = &raw.guarantee;
+        if g.name.is_empty()
+            || !g
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_')
+            || !g.value.is_finite()
+        {
+            return Err(SpecError::Invalid(format!(
+                "guarantee must have a variable name of letters, digits and _ and a finite value, \
+                 got '{}' = {}",
+                g.name, g.value
+            )));
+        }
         if raw.inputs.is_empty() || raw.outputs.is_empty() {
             return Err(SpecError::Invalid(
                 "a controller needs inputs and outputs".into(),
@@ -240,7 +264,7 @@ impl Spec {
             d: matrix("D", &raw.d, nu, ny)?,
             variant: raw.variant,
             description: raw.description,
-            gamma: raw.gamma,
+            guarantee: raw.guarantee,
             inputs: raw.inputs,
             outputs: raw.outputs,
             content_hash: text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {

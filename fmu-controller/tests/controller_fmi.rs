@@ -12,7 +12,7 @@ use std::ptr::null;
 
 /// A first-order controller: ẋc = −2 xc + y1, u_a = 3 xc + 0.5 y2, u_b = −y1.
 const SPEC: &str = r#"{
-  "format": "suspension-controller/1", "variant": "test_ctrl", "description": "test", "gamma": 1.5,
+  "format": "suspension-controller/2", "variant": "test_ctrl", "description": "test", "guarantee": {"name": "gamma", "value": 1.5, "unit": "1", "description": "test"},
   "inputs": [{"name": "stroke_fl", "unit": "m"}, {"name": "v_body", "unit": "m/s"}],
   "outputs": [{"name": "u_fl", "unit": "N"}, {"name": "u_fr", "unit": "N"}],
   "A": [[-2.0]], "B": [[1.0, 0.0]], "C": [[3.0], [0.0]], "D": [[0.0, 0.5], [-1.0, 0.0]]
@@ -82,7 +82,7 @@ fn dynamic_controller_is_stepped_exactly_with_feedthrough() {
         let xc = 0.1 * (1.0 - (-2.0f64).exp());
         assert!((u[0] - (3.0 * xc + 2.0)).abs() < 1e-14, "{u:?}");
         let mut gamma = 0.0;
-        fmi2GetReal(c, &vr::GAMMA, 1, &mut gamma);
+        fmi2GetReal(c, &vr::GUARANTEE, 1, &mut gamma);
         assert_eq!(gamma, 1.5);
         fmi2FreeInstance(c);
     }
@@ -151,7 +151,7 @@ fn spec_rejects_non_finite_numbers_duplicates_and_bad_identifiers() {
         Err(spec::SpecError::Invalid(_))
     ));
     assert!(matches!(
-        Spec::from_json(&SPEC.replace("suspension-controller/1", "other/2")),
+        Spec::from_json(&SPEC.replace("suspension-controller/2", "other/2")),
         Err(spec::SpecError::Format(_))
     ));
 }
@@ -159,7 +159,7 @@ fn spec_rejects_non_finite_numbers_duplicates_and_bad_identifiers() {
 /// Static controller `y_c = [10 y; 0]` with a scalar anti-windup state: `η̇ = −η + (u_fl − y_c,fl)`,
 /// the controller reads `y − 0.5 η`, `u = sat(y_c + [0; 1] η)`.
 const AW_SPEC: &str = r#"{
-  "format": "suspension-controller/1", "variant": "test_aw", "description": "test", "gamma": 1.0,
+  "format": "suspension-controller/2", "variant": "test_aw", "description": "test", "guarantee": {"name": "gamma", "value": 1.0, "unit": "1", "description": "test"},
   "inputs": [{"name": "stroke_fl", "unit": "m"}],
   "outputs": [{"name": "u_fl", "unit": "N"}, {"name": "u_seat", "unit": "N"}],
   "A": [], "B": [], "C": [[], []], "D": [[10.0], [0.0]],
@@ -214,7 +214,7 @@ fn anti_windup_saturates_and_integrates_the_excess_exactly() {
 /// held, `u = 2`, so `ξ̇ = −ξ` and `ξ(0) = 0` stays 0 (no fault signature); with `ξ(0) = 0` and
 /// an input the command does not cancel, `ξ(t) = c (1 − e^{−t})`.
 const FD_SPEC: &str = r#"{
-  "format": "suspension-controller/1", "variant": "test_fd", "description": "test", "gamma": 1.0,
+  "format": "suspension-controller/2", "variant": "test_fd", "description": "test", "guarantee": {"name": "gamma", "value": 1.0, "unit": "1", "description": "test"},
   "inputs": [{"name": "stroke_fl", "unit": "m"}],
   "outputs": [{"name": "u_fl", "unit": "N"}],
   "A": [], "B": [], "C": [[]], "D": [[2.0]],

@@ -42,7 +42,19 @@ pub struct AntiWindup {
 }
 
 pub fn mraw(g: &GeneralizedPlant, eps: f64) -> Result<AntiWindup, LmiError> {
-    let (n, nu, nz) = (g.n(), g.b_u.ncols(), g.c_z.nrows());
+    mraw_for(&g.a, &g.b_u, &g.c_z, &g.d_zu, eps)
+}
+
+/// [`mraw`] for a plant `ẋ = A x + B_u u`, performance `z = C_z x + D_zu u` (`u` in the unit
+/// of `B_u`'s columns).
+pub fn mraw_for(
+    a: &DMatrix<f64>,
+    b_u: &DMatrix<f64>,
+    c_z: &DMatrix<f64>,
+    d_zu: &DMatrix<f64>,
+    eps: f64,
+) -> Result<AntiWindup, LmiError> {
+    let (n, nu, nz) = (a.nrows(), b_u.ncols(), c_z.nrows());
     let mut p = Problem::new();
     let qv = p.symmetric(n);
     let xv = p.full(nu, n);
@@ -58,16 +70,16 @@ pub fn mraw(g: &GeneralizedPlant, eps: f64) -> Result<AntiWindup, LmiError> {
     let minus_gamma = |k: usize| gamma.expr().map_scalar(&(-DMatrix::identity(k, k)));
     let lmi = Affine::symmetric_blocks(&[
         vec![
-            Some(q.left(&g.a).add(&x.left(&g.b_u)).he()),
-            Some(x.t().sub(&u.left(&g.b_u))),
+            Some(q.left(a).add(&x.left(b_u)).he()),
+            Some(x.t().sub(&u.left(b_u))),
             Some(Affine::zeros(n, nu)),
-            Some(q.left(&g.c_z).add(&x.left(&g.d_zu)).t()),
+            Some(q.left(c_z).add(&x.left(d_zu)).t()),
         ],
         vec![
             None,
             Some(u.scale(-2.0)),
             Some(Affine::identity(nu)),
-            Some(u.right(&g.d_zu.transpose()).scale(-1.0)),
+            Some(u.right(&d_zu.transpose()).scale(-1.0)),
         ],
         vec![
             None,

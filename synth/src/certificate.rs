@@ -214,7 +214,7 @@ pub fn certify(
             gamma,
         });
     }
-    let poles = cl.a.complex_eigenvalues();
+    let poles = crate::eig::eigenvalues(&cl.a);
     let mut poles: Vec<[f64; 2]> = poles.iter().map(|l| [l.re, l.im]).collect();
     poles.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     Ok(Certificate {

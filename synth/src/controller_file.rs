@@ -2,7 +2,19 @@
 //! units, and the plant outputs it reads (its inputs) by name, with units.
 
 use crate::certificate::{matrix_json, Controller};
+use serde::Serialize;
 use serde_json::json;
+
+/// What a controller's synthesis guarantees; its FMU reports it as a calculated parameter of
+/// this name (`gamma` for the thesis's H∞ designs, `guaranteed_wk_rms_seat` for the comfort
+/// designs).
+#[derive(Debug, Clone, Serialize)]
+pub struct Guarantee {
+    pub name: &'static str,
+    pub value: f64,
+    pub unit: &'static str,
+    pub description: String,
+}
 
 /// Unit of a plant output by name (states `x[k]`, physical outputs).
 pub fn plant_output_unit(name: &str) -> &'static str {
@@ -23,15 +35,15 @@ pub fn plant_output_unit(name: &str) -> &'static str {
 pub fn controller_json(
     variant: &str,
     description: &str,
-    gamma: f64,
+    guarantee: &Guarantee,
     inputs: &[String],
     k: &Controller,
 ) -> serde_json::Value {
     json!({
-        "format": "suspension-controller/1",
+        "format": "suspension-controller/2",
         "variant": variant,
         "description": description,
-        "gamma": gamma,
+        "guarantee": guarantee,
         "inputs": inputs.iter().map(|n| json!({"name": n, "unit": plant_output_unit(n)})).collect::<Vec<_>>(),
         "outputs": vehicle::model::ACTUATORS.iter().map(|a| json!({"name": format!("u_{a}"), "unit": "N"})).collect::<Vec<_>>(),
         "A": matrix_json(&k.a),

@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use vehicle::VehicleParams;
 
 pub const DEFAULT_DESIGN_FILE: &str = include_str!("../designs/default.json");
 pub const CONSTRAINED_DESIGN_FILE: &str = include_str!("../designs/constrained.json");
@@ -110,6 +111,192 @@ pub struct Design {
     /// each design has its own weights where one set does not suit all ([`Design::with_overrides`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub overrides: BTreeMap<String, serde_json::Map<String, serde_json::Value>>,
+}
+
+/// How the comfort designs model the rear wheels' road.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum RearWheels {
+    /// Four independent tracks: the design ignores that the rear wheels follow the front ones.
+    Independent,
+    /// The front track delayed by the wheelbase over the speed, as a `[p/p]` Padé approximant.
+    Pade {
+        /// `p` ≥ 1.
+        order: usize,
+    },
+}
+
+/// The ISO 8608 road the comfort designs are optimised for.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComfortRoad {
+    /// ISO 8608 class, `"A"` … `"H"`.
+    pub iso_class: IsoClass,
+    /// Vehicle speed [m/s].
+    pub speed: f64,
+    pub rear_wheels: RearWheels,
+}
+
+/// An ISO 8608 road class, written as its letter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct IsoClass(pub u8);
+
+impl TryFrom<String> for IsoClass {
+    type Error = String;
+    fn try_from(s: String) -> Result<Self, String> {
+        match s.as_bytes() {
+            [c @ b'A'..=b'H'] => Ok(IsoClass(c - b'A' + 1)),
+            _ => Err(format!(
+                "ISO 8608 class must be one of \"A\" … \"H\", got {s:?}"
+            )),
+        }
+    }
+}
+
+impl From<IsoClass> for String {
+    fn from(c: IsoClass) -> String {
+        ((b'A' + c.0 - 1) as char).to_string()
+    }
+}
+
+impl ComfortRoad {
+    /// The road model of the design plant for the car `p` ([`crate::comfort_plant`]).
+    pub fn model(&self, p: &VehicleParams) -> crate::comfort_plant::RoadModel {
+        crate::comfort_plant::RoadModel {
+            sigma: (0.5 * vehicle::road::iso_velocity_psd(self.iso_class.0, self.speed)).sqrt(),
+            corner: 2.0 * std::f64::consts::PI * vehicle::road::ISO_BAND.0 * self.speed,
+            delay: (p.l1 + p.l2) / self.speed,
+            rear: self.rear_wheels,
+        }
+    }
+
+    /// The temporal band [Hz] the road FMU's ISO profile covers at this speed, over which the
+    /// certificates predict the comfort figures.
+    pub fn band_hz(&self) -> (f64, f64) {
+        let (lo, hi) = vehicle::road::ISO_BAND;
+        (lo * self.speed, hi * self.speed)
+    }
+}
+
+/// One-sided noise density of the output-feedback designs' sensors (per √Hz).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorNoise {
+    /// Suspension and seat stroke sensors [m/√Hz].
+    pub stroke: f64,
+    /// Body heave velocity, roll and pitch rate [(m/s or rad/s)/√Hz].
+    pub rate: f64,
+}
+
+/// The comfort designs (`synth/designs/default.json`): every variant minimises the ISO 2631-1
+/// comfort norm on one ISO 8608 road, subject to its own guarantee
+/// ([`crate::comfort_designs`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComfortDesign {
+    /// `"comfort"` (what tells the file from a thesis design file; optional here).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objective: Option<String>,
+    #[serde(default)]
+    pub description: String,
+    pub road: ComfortRoad,
+    /// Corner actuator force limit [N].
+    pub u_max: f64,
+    /// Seat actuator force limit [N].
+    pub u_max_seat: f64,
+    /// Suspension stroke limit [m].
+    pub stroke_max: f64,
+    /// The limits are met as `limit_sigmas` standard deviations on the design road.
+    pub limit_sigmas: f64,
+    /// Actuator delay every design tolerates without being told [s]: the lag of the actuators
+    /// and of the co-simulation's hold, as an input-multiplicative uncertainty.
+    pub unmodelled_delay: f64,
+    pub sensor_noise: SensorNoise,
+    /// Robust designs: the sprung-mass range [kg].
+    pub mass_min: f64,
+    pub mass_max: f64,
+    /// Robust certificates: number of masses of the uniform check grid (≥ 2).
+    pub mass_grid_points: usize,
+    /// `delay_sf`: the largest actuator delay its predictor is certified for [s].
+    pub delay_max: f64,
+    /// `ft_of`: lowest actuator effectiveness the design must tolerate.
+    pub fault_rho_min: f64,
+    /// `ft_of`: time constant of the detection residual's filter [s].
+    pub fault_time_constant: f64,
+    /// `ft_of`: force deficit above which `fault_detected` is raised [N].
+    pub fault_threshold: f64,
+}
+
+impl ComfortDesign {
+    pub fn from_json(json: &str) -> Result<Self, DesignError> {
+        let d: ComfortDesign =
+            serde_json::from_str(json).map_err(|e| DesignError::Syntax(e.to_string()))?;
+        d.validate()?;
+        Ok(d)
+    }
+
+    pub fn validate(&self) -> Result<(), DesignError> {
+        if self.objective.as_deref().is_some_and(|o| o != "comfort") {
+            return Err(DesignError::Syntax(format!(
+                "objective '{}' in a comfort design file: expected \"comfort\"",
+                self.objective.as_deref().unwrap_or_default()
+            )));
+        }
+        let positive = [
+            ("road.speed", self.road.speed),
+            ("u_max", self.u_max),
+            ("u_max_seat", self.u_max_seat),
+            ("stroke_max", self.stroke_max),
+            ("limit_sigmas", self.limit_sigmas),
+            ("unmodelled_delay", self.unmodelled_delay),
+            ("sensor_noise.stroke", self.sensor_noise.stroke),
+            ("sensor_noise.rate", self.sensor_noise.rate),
+            ("delay_max", self.delay_max),
+            ("fault_time_constant", self.fault_time_constant),
+            ("fault_threshold", self.fault_threshold),
+        ];
+        for (name, value) in positive {
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(DesignError::Value {
+                    name,
+                    expected: "a finite number > 0",
+                    value,
+                });
+            }
+        }
+        if let RearWheels::Pade { order } = self.road.rear_wheels {
+            if !(1..=8).contains(&order) {
+                return Err(DesignError::Value {
+                    name: "road.rear_wheels.pade.order",
+                    expected: "1 … 8",
+                    value: order as f64,
+                });
+            }
+        }
+        if !(self.mass_min > 0.0 && self.mass_min < self.mass_max && self.mass_max.is_finite()) {
+            return Err(DesignError::Value {
+                name: "mass_min, mass_max",
+                expected: "0 < mass_min < mass_max < inf",
+                value: self.mass_min,
+            });
+        }
+        if self.mass_grid_points < 2 {
+            return Err(DesignError::Value {
+                name: "mass_grid_points",
+                expected: "at least 2",
+                value: self.mass_grid_points as f64,
+            });
+        }
+        if !(self.fault_rho_min > 0.0 && self.fault_rho_min < 1.0) {
+            return Err(DesignError::Value {
+                name: "fault_rho_min",
+                expected: "in (0, 1)",
+                value: self.fault_rho_min,
+            });
+        }
+        Ok(())
+    }
 }
 
 #[derive(Debug, thiserror::Error)]

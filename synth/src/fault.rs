@@ -281,12 +281,35 @@ pub struct DetectionResidual {
 impl DetectionResidual {
     /// From the plant (`B_w` the road only, `B_u` per kN), `T` in s.
     pub fn new(g: &GeneralizedPlant, time_constant: f64) -> Self {
-        let (n, ny, nw) = (g.n(), g.c_y.nrows(), g.b_w.ncols());
+        Self::build(&g.a, &g.b_w, &g.b_u, FORCE_UNIT, &g.c_y, time_constant)
+    }
+
+    /// From the car's `A`, its road input `B_r`, `B_u` per N and the measurements `C_y`.
+    pub fn from_car(
+        a: &DMatrix<f64>,
+        b_road: &DMatrix<f64>,
+        b_u: &DMatrix<f64>,
+        c_y: &DMatrix<f64>,
+        time_constant: f64,
+    ) -> Self {
+        Self::build(a, b_road, b_u, 1.0, c_y, time_constant)
+    }
+
+    /// `B_u / force_unit` is per N (the division last, as the thesis designs always did).
+    fn build(
+        a: &DMatrix<f64>,
+        b_road: &DMatrix<f64>,
+        b_u: &DMatrix<f64>,
+        force_unit: f64,
+        c_y: &DMatrix<f64>,
+        time_constant: f64,
+    ) -> Self {
+        let (n, ny, nw) = (a.nrows(), c_y.nrows(), b_road.ncols());
         // [π κ] M = 0, M = [[C_y A, C_y B_w], [−C_y, 0]]: the left null space of M.
         let mut m = DMatrix::zeros(2 * ny, n + nw);
-        m.view_mut((0, 0), (ny, n)).copy_from(&(&g.c_y * &g.a));
-        m.view_mut((0, n), (ny, nw)).copy_from(&(&g.c_y * &g.b_w));
-        m.view_mut((ny, 0), (ny, n)).copy_from(&-&g.c_y);
+        m.view_mut((0, 0), (ny, n)).copy_from(&(c_y * a));
+        m.view_mut((0, n), (ny, nw)).copy_from(&(c_y * b_road));
+        m.view_mut((ny, 0), (ny, n)).copy_from(&-c_y);
         let svd = m.transpose().svd(false, true);
         let v_t = svd.v_t.expect("requested");
         let tol = 1e-9 * svd.singular_values.max();
@@ -297,7 +320,7 @@ impl DetectionResidual {
         let basis = DMatrix::from_fn(null.len(), 2 * ny, |i, j| v_t[(null[i], j)]);
         let pi = basis.columns(0, ny).into_owned();
         let kappa = basis.columns(ny, ny).into_owned();
-        let gm = &pi * &g.c_y * &g.b_u / FORCE_UNIT;
+        let gm = &pi * c_y * b_u / force_unit;
         DetectionResidual {
             pi,
             kappa,

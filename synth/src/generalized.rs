@@ -125,7 +125,7 @@ impl RoadMap {
     }
 }
 
-fn row<'a>(rows: &'a [OutputRow], name: &str) -> &'a OutputRow {
+pub(crate) fn row<'a>(rows: &'a [OutputRow], name: &str) -> &'a OutputRow {
     rows.iter()
         .find(|r| r.name == name)
         .unwrap_or_else(|| panic!("vehicle has no output {name}"))

@@ -69,11 +69,7 @@ impl Lti {
 
     /// Largest real part of the eigenvalues of `A`.
     pub fn spectral_abscissa(&self) -> f64 {
-        self.a
-            .complex_eigenvalues()
-            .iter()
-            .map(|l| l.re)
-            .fold(f64::NEG_INFINITY, f64::max)
+        crate::eig::spectral_abscissa(&self.a)
     }
 
     /// `σ_max(G(jω))`.
@@ -107,7 +103,7 @@ impl Lti {
         self.require_stable()?;
         let (n, m, p) = (self.a.nrows(), self.b.ncols(), self.c.nrows());
         // Initial lower bound: D, DC gain, and the most lightly damped pole's frequency.
-        let poles = self.a.complex_eigenvalues();
+        let poles = crate::eig::eigenvalues(&self.a);
         let w_p = poles
             .iter()
             .max_by(|x, y| {
@@ -166,8 +162,7 @@ impl Lti {
                 &(-self.a.transpose() + self.c.transpose() * &self.d * &r_inv * self.b.transpose()),
             );
             let scale = h.norm().max(1.0);
-            let mut freqs: Vec<f64> = h
-                .complex_eigenvalues()
+            let mut freqs: Vec<f64> = crate::eig::eigenvalues(&h)
                 .iter()
                 .filter(|l| l.re.abs() <= 1e-8 * scale.max(l.norm()) && l.im >= 0.0)
                 .map(|l| l.im)
@@ -206,24 +201,17 @@ impl Lti {
 }
 
 impl Lti {
-    /// The controllability Gramian `P`, `AP + PAᵀ + BBᵀ = 0`, solved as its Kronecker linear
-    /// system `(I ⊗ A + A ⊗ I) vec P = −vec BBᵀ` — exact and independent of any LMI bound; cubic
-    /// in n², which is a fraction of a second for our n ≤ 32 (a Bartels–Stewart solver is not
-    /// worth its code here).
-    fn controllability_gramian(&self) -> Result<DMatrix<f64>, NormError> {
+    /// The controllability Gramian `P`, `AP + PAᵀ + BBᵀ = 0` (the state covariance under unit
+    /// white noise), by Bartels–Stewart ([`crate::riccati::lyapunov`]): exact and independent
+    /// of any LMI bound.
+    pub fn controllability_gramian(&self) -> Result<DMatrix<f64>, NormError> {
         self.require_stable()?;
         if self.d.amax() != 0.0 {
             return Err(NormError::Feedthrough(self.d.norm()));
         }
-        let n = self.order();
-        let eye = DMatrix::<f64>::identity(n, n);
-        let op = eye.kronecker(&self.a) + self.a.kronecker(&eye);
-        let rhs = -(&self.b * self.b.transpose());
-        let p = op
-            .lu()
-            .solve(&DMatrix::from_column_slice(n * n, 1, rhs.as_slice()))
-            .expect("I ⊗ A + A ⊗ I is invertible for a stable A");
-        Ok(DMatrix::from_column_slice(n, n, p.as_slice()))
+        let abscissa = self.spectral_abscissa();
+        crate::riccati::lyapunov(&self.a, &(&self.b * self.b.transpose()))
+            .map_err(|_| NormError::Unstable(abscissa))
     }
 
     /// The H2 norm `√tr(C P Cᵀ)`, `P` the controllability Gramian.

@@ -7,17 +7,27 @@
 
 pub mod anti_windup;
 pub mod certificate;
+pub mod comfort_controllers;
+pub mod comfort_designs;
+pub mod comfort_plant;
 pub mod controller_file;
 pub mod delay;
 pub mod design;
+pub mod eig;
 pub mod fault;
 pub mod generalized;
+pub mod guaranteed;
 pub mod hinf_norm;
+pub mod interconnect;
 pub mod lmi;
 pub mod output_feedback;
+pub mod prediction;
+pub mod predictor;
+pub mod registry;
+pub mod riccati;
 pub mod robust;
 pub mod state_feedback;
-pub mod variants;
+pub mod thesis;
 
 /// Why a synthesis run failed.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +42,8 @@ pub enum SynthError {
     Lmi(String, lmi::LmiError),
     #[error(transparent)]
     Certificate(#[from] certificate::CertificateError),
+    #[error(transparent)]
+    Comfort(#[from] comfort_designs::ComfortError),
     #[error("{variant}: the constraint LMIs cannot all hold for the design bump {bump:?}: the best common energy-to-peak bound any state feedback proves is {best:.4} of the limits (the bound grows with the bump height: feasible up to about {:.4} m at this bump's length and speed)", bump.height / best)]
     ConstraintsInfeasible {
         variant: String,

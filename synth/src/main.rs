@@ -1,77 +1,81 @@
 //! `synth`: synthesise every controller, certify it, and write for each variant
 //! `dist/<variant>.certificate.json` and `dist/<variant>/controller.json` (the FMU's resource).
-//! A design that fails its certificate stops the run with an error: it never becomes an FMU.
+//! A design that fails its certificate never gets a controller: a thesis design stops the run
+//! with an error (its FMUs are the default build), a comfort design is reported as refused.
 
 use clap::Parser;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use synth::design::Design;
-use synth::{variants, SynthError};
+use synth::registry::{self, DesignFile};
+use synth::SynthError;
 use vehicle::VehicleParams;
 
 #[derive(Parser)]
-#[command(about = "Synthesise and certify the H-infinity controllers")]
+#[command(about = "Synthesise and certify the suspension controllers")]
 struct Cli {
-    /// Design file (weights, scales, limits).
+    /// Design file: the thesis's H∞ designs (the default, the FMUs `make` builds;
+    /// `constrained.json`) or the comfort designs (`"objective": "comfort"`, `comfort.json`).
     #[arg(long, default_value = "synth/designs/default.json")]
     design: PathBuf,
     /// Output directory for the certificates and controller.json files.
     #[arg(long, default_value = "dist")]
     out: PathBuf,
+    /// Print the variants' names, one per line, and exit.
+    #[arg(long)]
+    list: bool,
     /// Variants to synthesise (all when none is given).
-    #[arg(value_parser = clap::builder::PossibleValuesParser::new(variants::ALL))]
     variants: Vec<String>,
 }
 
 fn run(cli: Cli) -> Result<(), SynthError> {
-    let Cli {
-        design: design_path,
-        out,
-        variants: only,
-    } = cli;
-    let text = std::fs::read_to_string(&design_path)
-        .map_err(|e| SynthError::Io(format!("{}: {e}", design_path.display())))?;
-    let design = Design::from_json(&text)?;
+    if cli.list {
+        for v in registry::VARIANTS.iter() {
+            println!("{}", v.name);
+        }
+        return Ok(());
+    }
+    let text = std::fs::read_to_string(&cli.design)
+        .map_err(|e| SynthError::Io(format!("{}: {e}", cli.design.display())))?;
+    let file = DesignFile::from_json(&text)?;
     let params = VehicleParams::default();
     let started = std::time::Instant::now();
-    let names: Vec<&str> = if only.is_empty() {
-        variants::ALL.to_vec()
-    } else {
-        only.iter().map(|s| s.as_str()).collect()
+    let names: Vec<&str> = cli.variants.iter().map(|s| s.as_str()).collect();
+    let outcome = registry::synthesise_all(&names, &params, &file)?;
+    let results = &outcome.designs;
+    let out = &cli.out;
+    std::fs::create_dir_all(out).map_err(|e| SynthError::Io(format!("{}: {e}", out.display())))?;
+    let write = |path: PathBuf, value: &serde_json::Value| {
+        std::fs::write(&path, serde_json::to_string_pretty(value).expect("JSON"))
+            .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))
     };
-    let results = variants::synthesise_all(&names, &params, &design)?;
-    for (name, result) in &results {
-        let elapsed = result.seconds;
+    for (name, s) in results {
         let dir = out.join(name);
         std::fs::create_dir_all(&dir)
             .map_err(|e| SynthError::Io(format!("{}: {e}", dir.display())))?;
-        let write = |path: PathBuf, value: &serde_json::Value| {
-            std::fs::write(&path, serde_json::to_string_pretty(value).unwrap())
-                .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))
-        };
-        let mut cert = serde_json::to_value(&result.certificate).unwrap();
-        cert["synthesis_seconds"] = serde_json::json!(elapsed);
+        let mut cert = s.certificate.clone();
+        cert["synthesis_seconds"] = serde_json::json!(s.seconds);
         write(out.join(format!("{name}.certificate.json")), &cert)?;
-        write(dir.join("controller.json"), &result.controller_json)?;
-        println!(
-            "{name:<10} γ = {:.6}  certified ‖T_zw‖∞ ∈ [{:.6}, {:.6}]  spectral abscissa {:.3}  ({elapsed:.2} s)",
-            result.certificate.gamma, result.certificate.norm_lower, result.certificate.norm_upper, result.certificate.spectral_abscissa
-        );
+        write(dir.join("controller.json"), &s.controller_json)?;
+        println!("{name:<10} {} ({:.2} s)", s.row.certified, s.seconds);
     }
     let wall = started.elapsed().as_secs_f64();
-    let rows = variants::summary_rows(&results);
-    let table = variants::summary_table(&rows, wall);
+    let rows: Vec<_> = results.iter().map(|(_, s)| s.row.clone()).collect();
+    let mut table = registry::summary_table(&rows, wall);
+    for (name, why) in &outcome.refused {
+        table += &format!("\nRefused `{name}` (no controller written): {why}\n");
+    }
     let path = out.join("synthesis.md");
     std::fs::write(&path, &table)
         .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
     // The same, for tools (the master's design table).
-    let path = out.join("synthesis.json");
-    std::fs::write(
-        &path,
-        serde_json::to_string_pretty(&serde_json::json!({"designs": rows, "wall_seconds": wall}))
-            .unwrap(),
-    )
-    .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+    write(
+        out.join("synthesis.json"),
+        &serde_json::json!({
+            "designs": rows,
+            "refused": outcome.refused.iter().map(|(n, why)| serde_json::json!({"variant": n, "reason": why})).collect::<Vec<_>>(),
+            "wall_seconds": wall,
+        }),
+    )?;
     println!("\n{table}");
     Ok(())
 }

@@ -6,7 +6,7 @@
 use nalgebra::DMatrix;
 use synth::design::{Bump, Design, RoadModel, CONSTRAINED_DESIGN_FILE};
 use synth::generalized::GeneralizedPlant;
-use synth::variants::synthesise;
+use synth::thesis::synthesise;
 use synth::SynthError;
 use vehicle::model::{physical_outputs, StateSpace, StaticEquilibrium, CORNERS, N_STATES};
 use vehicle::VehicleParams;

@@ -215,6 +215,12 @@ impl Road {
         r
     }
 
+    /// The cosines of an ISO road's track 0 (left) or 1 (right): `(amplitude [m], spatial
+    /// frequency [cycles/m], phase)`; empty for the other profiles.
+    pub fn iso_components(&self, track: usize) -> &[(f64, f64, f64)] {
+        &self.tracks[track]
+    }
+
     /// `(z, dz/ds)` of track 0 (left) or 1 (right) at distance `s`.
     pub fn track(&self, track: usize, s: f64) -> (f64, f64) {
         match self.profile {

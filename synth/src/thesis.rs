@@ -7,7 +7,7 @@ use crate::anti_windup::{circle_check, mraw};
 use crate::certificate::{
     certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate, Controller,
 };
-use crate::controller_file::controller_json;
+use crate::controller_file::{controller_json, Guarantee};
 use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
 use crate::design::{Design, RoadModel};
 use crate::fault::{
@@ -66,6 +66,17 @@ pub const ROAD_STATES: [&str; 5] = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_
 /// A state-feedback gain on `g`'s state as the controller on [`GeneralizedPlant::state_measurement`].
 fn sf_controller(g: &GeneralizedPlant, k: &DMatrix<f64>) -> Controller {
     Controller::static_gain(g.gain_on_measurement(k))
+}
+
+/// The H∞ level a thesis design guarantees, as its FMU reports it.
+fn gamma_guarantee(gamma: f64) -> Guarantee {
+    Guarantee {
+        name: "gamma",
+        value: gamma,
+        unit: "1",
+        description:
+            "H-infinity level the synthesis guarantees (scaled w to z, see the certificate)".into(),
+    }
 }
 
 fn of_inputs() -> Vec<String> {
@@ -433,7 +444,7 @@ fn synthesise_untimed(
                 design,
                 &sf.peak_bounds,
             )?;
-            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", sf.gamma, &meas.names, &controller);
+            let json = controller_json(variant, "H-infinity state feedback u = K x (thesis Th. 5.1, corrected; mixed H2/H-infinity point at 1.02 gamma*)", &gamma_guarantee(sf.gamma), &meas.names, &controller);
             Ok(Synthesised {
                 controller,
                 certificate,
@@ -495,7 +506,7 @@ fn synthesise_untimed(
             let json = controller_json(
                 variant,
                 "H-infinity dynamic output feedback (thesis Th. 5.2, Gahinet-Apkarian)",
-                of.gamma,
+                &gamma_guarantee(of.gamma),
                 &of_inputs(),
                 &of.controller,
             );
@@ -675,7 +686,7 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
         "delay_margin_s": margin,
         "delayed_hinf_norm_sweep": delayed_norm,
     });
-    let json = controller_json(variant, "Delay-dependent H-infinity state feedback (thesis Prop. 7.1, Lyapunov-Krasovskii with Jensen)", sf.gamma, &meas.names, &controller);
+    let json = controller_json(variant, "Delay-dependent H-infinity state feedback (thesis Prop. 7.1, Lyapunov-Krasovskii with Jensen)", &gamma_guarantee(sf.gamma), &meas.names, &controller);
     Ok(Synthesised {
         controller,
         certificate,
@@ -736,7 +747,7 @@ fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthEr
         "worst_norm_over_faults": fc.worst_vertex_norm,
         "detection": {"time_constant_s": det.time_constant, "threshold_n": design.fault_threshold, "pi": matrix_json(&det.pi), "kappa": matrix_json(&det.kappa), "G_per_newton": matrix_json(&det.g)},
     });
-    let mut json = controller_json(variant, "Fault-tolerant H-infinity output feedback with observer and residual (thesis Th. 8.1, corrected)", ob.gamma, &of_inputs(), &control);
+    let mut json = controller_json(variant, "Fault-tolerant H-infinity output feedback with observer and residual (thesis Th. 8.1, corrected)", &gamma_guarantee(ob.gamma), &of_inputs(), &control);
     let d = det.detector();
     json["fault_detection"] = serde_json::json!({"A": matrix_json(&d.a), "B": matrix_json(&d.b), "B_u": matrix_json(&d.b_u), "C": matrix_json(&d.c), "D": matrix_json(&d.d), "threshold": design.fault_threshold});
     Ok(Synthesised {
@@ -813,7 +824,7 @@ fn robust_sf(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     let json = controller_json(
         variant,
         "H-infinity state feedback robust to the sprung mass (thesis Th. 6.1)",
-        shipped.gamma,
+        &gamma_guarantee(shipped.gamma),
         &meas.names,
         &controller,
     );
@@ -907,7 +918,7 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     let json = controller_json(
         variant,
         "H-infinity output feedback robust to the sprung mass (thesis Th. 6.2)",
-        shipped.gamma,
+        &gamma_guarantee(shipped.gamma),
         &of_inputs(),
         &shipped.controller,
     );

@@ -1,0 +1,316 @@
+//! The comfort designs as controllers a car can run: what they read (plant outputs by name),
+//! their states, their commands.
+//!
+//! * **State feedback** `u = K x` on the design state `[car; road; weightings; delay weight]`
+//!   ([`realise_state_feedback`]): the car's 16 states are read, the road heights as
+//!   `z_u − tire_defl`, and the rest are the controller's own states driven by what it reads:
+//!   the rear-road Padé states by the front road heights (wheelbase preview), copies of the
+//!   ISO weightings by the measured accelerations `a_seat`, `alpha_roll`, `alpha_pitch`, and the
+//!   delay weight by its own command.
+//! * **Output feedback** ([`observer_based`]): an observer of the design state from the eight
+//!   sensors of [`OF_MEASUREMENTS`] (a Kalman filter of the road model and sensor noise), the same
+//!   kind of gain on the estimate.
+//!
+//! Both are plain LTI systems `ξ̇ = A ξ + B y`, `u = C ξ + D y` for the controller FMU.
+
+use crate::comfort_plant::{ComfortPlant, COMFORT_OUTPUTS, OF_MEASUREMENTS};
+use crate::design::SensorNoise;
+use crate::hinf_norm::Lti;
+use crate::interconnect::{Plant, Sensors};
+use crate::riccati::{care, RiccatiError};
+use nalgebra::DMatrix;
+use vehicle::iso2631::Weighting;
+use vehicle::model::{coord, CORNERS, N_STATES};
+
+/// The plant the controllers act on: the design plant without the delay weight (which is the
+/// controller's own), as `(A, B_w, B_u)`.
+pub fn plant_of(g: &ComfortPlant) -> Plant {
+    let n = g.layout.weight.as_ref().map_or(g.n(), |w| w.start);
+    Plant {
+        a: g.a.view((0, 0), (n, n)).into_owned(),
+        b_w: g.b_w.rows(0, n).into_owned(),
+        b_u: g.b_u.rows(0, n).into_owned(),
+    }
+}
+
+/// A plant output (or the state `x[k]`, 1-based) as sensor rows of `g`'s plant.
+fn sensor_row(g: &ComfortPlant, name: &str, n: usize) -> [DMatrix<f64>; 3] {
+    let nw = g.b_w.ncols();
+    if let Some(k) = name
+        .strip_prefix("x[")
+        .and_then(|s| s.strip_suffix(']'))
+        .and_then(|s| s.parse::<usize>().ok())
+    {
+        let mut c = DMatrix::zeros(1, n);
+        c[(0, k - 1)] = 1.0;
+        return [c, DMatrix::zeros(1, nw), DMatrix::zeros(1, g.b_u.ncols())];
+    }
+    let (c, d_w, d_u) = g.output(name);
+    [c.columns(0, n).into_owned(), d_w, d_u]
+}
+
+fn sensors(g: &ComfortPlant, names: Vec<String>) -> Sensors {
+    let n = plant_of(g).a.nrows();
+    let rows: Vec<[DMatrix<f64>; 3]> = names.iter().map(|s| sensor_row(g, s, n)).collect();
+    let stack = |i: usize| {
+        DMatrix::from_rows(
+            &rows
+                .iter()
+                .map(|r| r[i].row(0).into_owned())
+                .collect::<Vec<_>>(),
+        )
+    };
+    Sensors {
+        c: stack(0),
+        d_w: stack(1),
+        d_u: stack(2),
+        names,
+    }
+}
+
+/// The wheel index of each road height the state holds ([`ComfortPlant::road_height_rows`]).
+fn height_wheels(g: &ComfortPlant) -> Vec<(usize, usize)> {
+    g.road_height_rows()
+}
+
+/// What a state-feedback design reads: `x[1]…x[16]`, the tyre deflections of the wheels whose
+/// road height is a state, and the three accelerations the comfort weightings filter.
+pub fn state_feedback_sensors(g: &ComfortPlant) -> Sensors {
+    let mut names: Vec<String> = (1..=N_STATES).map(|k| format!("x[{k}]")).collect();
+    names.extend(
+        height_wheels(g)
+            .iter()
+            .map(|(_, w)| format!("tire_defl_{}", CORNERS[*w])),
+    );
+    names.extend(COMFORT_OUTPUTS.iter().map(|(n, _)| n.to_string()));
+    sensors(g, names)
+}
+
+/// The weighting realisations the design plant uses, in the order of its filter states.
+fn weighting(i: usize) -> [DMatrix<f64>; 4] {
+    let w = if i == 0 {
+        Weighting::wk()
+    } else {
+        Weighting::we()
+    };
+    w.without_low_pass().state_space()
+}
+
+/// How a state-feedback controller knows the design state: `x = S_y y + S_ξ ξ` from what it
+/// reads (`y`, [`state_feedback_sensors`]) and its own states `ξ`, which follow
+/// `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u_a` with `u_a` the force the actuators apply (the command, delayed
+/// when there is a delay): the rear-road preview states as in the plant (driven by the front
+/// road heights), the weighting copies by the measured accelerations, the delay weight by `u_a`.
+#[derive(Debug, Clone)]
+pub struct Reconstruction {
+    pub s_y: DMatrix<f64>,
+    pub s_xi: DMatrix<f64>,
+    pub a_xi: DMatrix<f64>,
+    pub b_xi: DMatrix<f64>,
+    pub b_xiu: DMatrix<f64>,
+}
+
+/// The [`Reconstruction`] of `g`'s state (which includes the delay weight).
+pub fn reconstruction(g: &ComfortPlant) -> Reconstruction {
+    let layout = &g.layout;
+    let heights = height_wheels(g);
+    let height_states: Vec<usize> = heights.iter().map(|(s, _)| *s).collect();
+    let preview: Vec<usize> = layout
+        .road
+        .clone()
+        .filter(|s| !height_states.contains(s))
+        .collect();
+    let filters: Vec<usize> = layout.filters.iter().flat_map(|r| r.clone()).collect();
+    let weight: Vec<usize> = layout
+        .weight
+        .clone()
+        .map(|r| r.collect())
+        .unwrap_or_default();
+    let own: Vec<usize> = preview
+        .iter()
+        .chain(&filters)
+        .chain(&weight)
+        .copied()
+        .collect();
+    let (n, nc, nu) = (g.n(), own.len(), g.b_u.ncols());
+    let ny = N_STATES + heights.len() + COMFORT_OUTPUTS.len();
+    let (acc0, defl0) = (N_STATES + heights.len(), N_STATES);
+    let mut s_y = DMatrix::zeros(n, ny);
+    let mut s_xi = DMatrix::zeros(n, nc);
+    for i in 0..N_STATES {
+        s_y[(i, i)] = 1.0;
+    }
+    for (j, (state, wheel)) in heights.iter().enumerate() {
+        // z_r = z_u − tire_defl.
+        s_y[(*state, coord::WHEEL[*wheel])] = 1.0;
+        s_y[(*state, defl0 + j)] = -1.0;
+    }
+    for (j, state) in own.iter().enumerate() {
+        s_xi[(*state, j)] = 1.0;
+    }
+    let mut a_xi = DMatrix::zeros(nc, nc);
+    let mut b_xi = DMatrix::zeros(nc, ny);
+    let mut b_xiu = DMatrix::zeros(nc, nu);
+    for (j, state) in own.iter().enumerate() {
+        if preview.contains(state) {
+            let row = g.a.row(*state);
+            a_xi.row_mut(j).copy_from(&(row * &s_xi));
+            b_xi.row_mut(j).copy_from(&(row * &s_y));
+        }
+    }
+    let mut o = preview.len();
+    for (i, range) in layout.filters.iter().enumerate() {
+        let [fa, fb, _, _] = weighting(i);
+        let m = range.len();
+        a_xi.view_mut((o, o), (m, m)).copy_from(&fa);
+        b_xi.view_mut((o, acc0 + i), (m, 1)).copy_from(&fb);
+        o += m;
+    }
+    if let Some(range) = &layout.weight {
+        for (j, state) in range.clone().enumerate() {
+            a_xi[(o + j, o + j)] = g.a[(state, state)];
+            b_xiu.row_mut(o + j).copy_from(&g.b_u.row(state));
+        }
+    }
+    Reconstruction {
+        s_y,
+        s_xi,
+        a_xi,
+        b_xi,
+        b_xiu,
+    }
+}
+
+/// State feedback `u = K x` on `g`'s state (which includes the delay weight) as an LTI controller
+/// on [`state_feedback_sensors`]: `C = K S_ξ`, `D = K S_y`, and with `u_a = u`,
+/// `A = A_ξ + B_ξu C`, `B = B_ξ + B_ξu D` ([`reconstruction`]).
+pub fn realise_state_feedback(g: &ComfortPlant, k: &DMatrix<f64>) -> Lti {
+    let r = reconstruction(g);
+    let c = k * &r.s_xi;
+    let d = k * &r.s_y;
+    Lti::new(&r.a_xi + &r.b_xiu * &c, &r.b_xi + &r.b_xiu * &d, c, d)
+}
+
+/// The output-feedback designs' sensors with their noise: `y = C x + n`, `n` white with the
+/// one-sided densities of `noise`, as unit white inputs appended to `w` (two-sided intensity
+/// `density²/2`). Returns the plant and sensors with the extended `w`.
+pub fn output_feedback_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
+    let plant = plant_of(g);
+    let base = sensors(g, OF_MEASUREMENTS.iter().map(|s| s.to_string()).collect());
+    let (n, nw, ny) = (plant.a.nrows(), plant.b_w.ncols(), base.c.nrows());
+    let mut b_w = DMatrix::zeros(n, nw + ny);
+    b_w.view_mut((0, 0), (n, nw)).copy_from(&plant.b_w);
+    let mut d_w = DMatrix::zeros(ny, nw + ny);
+    d_w.view_mut((0, 0), (ny, nw)).copy_from(&base.d_w);
+    for (k, name) in OF_MEASUREMENTS.iter().enumerate() {
+        let density = if name.starts_with("stroke") {
+            noise.stroke
+        } else {
+            noise.rate
+        };
+        d_w[(k, nw + k)] = density / std::f64::consts::SQRT_2;
+    }
+    (Plant { b_w, ..plant }, Sensors { d_w, ..base })
+}
+
+/// The Kalman filter gain `L` of `plant` from `sensors` (noise in their `D_w`), with
+/// `fictitious` extra process noise `B_f B_fᵀ` (a robustness device: the filter then trusts its
+/// model less where the model is uncertain).
+pub fn kalman_gain(
+    plant: &Plant,
+    sensors: &Sensors,
+    fictitious: Option<&DMatrix<f64>>,
+) -> Result<DMatrix<f64>, RiccatiError> {
+    let mut w = &plant.b_w * plant.b_w.transpose();
+    if let Some(bf) = fictitious {
+        w += bf * bf.transpose();
+    }
+    let v = &sensors.d_w * sensors.d_w.transpose();
+    let s = &plant.b_w * sensors.d_w.transpose();
+    let r = care(
+        &plant.a.transpose(),
+        &sensors.c.transpose(),
+        &w,
+        &v,
+        Some(&s),
+    )?;
+    Ok(r.k.transpose())
+}
+
+/// The observer-based controller: `x̂̇ = A x̂ + B_u u + L (y − C x̂)`, the delay weight
+/// `ẋ_d = A_d x_d + B_d u` (`g` holds it), `u = K [x̂; x_d]` with `K` a gain on `g`'s state.
+pub fn observer_based(
+    g: &ComfortPlant,
+    k: &DMatrix<f64>,
+    sensors: &Sensors,
+    l: &DMatrix<f64>,
+) -> Lti {
+    let plant = plant_of(g);
+    let n = plant.a.nrows();
+    let nd = g.n() - n;
+    let (kp, kd) = (k.columns(0, n).into_owned(), k.columns(n, nd).into_owned());
+    let ny = sensors.c.nrows();
+    let mut a = DMatrix::zeros(n + nd, n + nd);
+    a.view_mut((0, 0), (n, n))
+        .copy_from(&(&plant.a - l * &sensors.c + &plant.b_u * &kp));
+    a.view_mut((0, n), (n, nd)).copy_from(&(&plant.b_u * &kd));
+    if nd > 0 {
+        let ad = g.a.view((n, n), (nd, nd)).into_owned();
+        let bd = g.b_u.rows(n, nd).into_owned();
+        a.view_mut((n, 0), (nd, n)).copy_from(&(&bd * &kp));
+        a.view_mut((n, n), (nd, nd)).copy_from(&(ad + &bd * &kd));
+    }
+    let mut b = DMatrix::zeros(n + nd, ny);
+    b.view_mut((0, 0), (n, ny)).copy_from(l);
+    Lti::new(a, b, k.clone(), DMatrix::zeros(k.nrows(), ny))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::ComfortDesign;
+    use crate::guaranteed::state_feedback;
+    use crate::interconnect::close;
+    use vehicle::VehicleParams;
+
+    fn design() -> ComfortDesign {
+        ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap()
+    }
+
+    /// The realised state feedback, reading plant outputs, closes the same loop as `A + B_u K` on
+    /// the design state: the same comfort covariance (its own copies track the plant's states).
+    #[test]
+    fn realised_state_feedback_closes_the_design_loop() {
+        let d = design();
+        let p = VehicleParams::default();
+        let g0 = ComfortPlant::new(&p, &d);
+        let limits = [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat];
+        let (g, delay) = g0.with_delay_weight(d.unmodelled_delay, &limits);
+        let t = std::time::Instant::now();
+        let sf = state_feedback(&g, &[delay], d.limit_sigmas).unwrap();
+        eprintln!(
+            "synthesis {:?}, multipliers {:?}",
+            t.elapsed(),
+            sf.multipliers
+        );
+        let direct = Lti::new(
+            &g.a + &g.b_u * &sf.k,
+            g.b_w.clone(),
+            g.c_z.clone(),
+            DMatrix::zeros(3, 2),
+        );
+        let k = realise_state_feedback(&g, &sf.k);
+        let cl = close(&plant_of(&g), &state_feedback_sensors(&g0), &k).unwrap();
+        let n = plant_of(&g).a.nrows();
+        let realised = cl.from_w(&g0.c_z, &DMatrix::zeros(3, 2), &DMatrix::zeros(3, 5));
+        let (a, b) = (direct.h2_norm().unwrap(), realised.h2_norm().unwrap());
+        let seat = realised.select_outputs(&[0]).h2_norm().unwrap();
+        eprintln!(
+            "a_v direct {a:.5}, realised {b:.5}, seat {seat:.5}; controller order {}",
+            k.order()
+        );
+        // Equal up to the Lyapunov solutions' rounding on the 59-state loop (a few 1e-6).
+        assert!((a - b).abs() <= 1e-5 * a, "direct {a}, realised {b}");
+        assert_eq!(cl.plant_order, n);
+    }
+}

@@ -1,0 +1,1039 @@
+//! The shipped designs: each minimises the ISO 2631-1 comfort norm on the design's ISO 8608
+//! road subject to its own guarantee (`synth/designs/default.json`), and is certified by
+//! computations independent of its synthesis.
+//!
+//! Every design tolerates the actuators' unmodelled delay up to `unmodelled_delay` (the
+//! input-multiplicative channel of [`ComfortPlant::with_delay_weight`]); the robust ones also:
+//! * `robust_sf` / `robust_of`: every sprung mass of `[mass_min, mass_max]` (rank-one channel,
+//!   [`mass_channel`]), the guaranteed-cost gain over it, and for `robust_of` a Kalman filter
+//!   that trusts its heave dynamics less (fictitious noise on the mass channel);
+//! * `delay_sf`: any known actuator delay up to `delay_max`, by a predictor in the controller
+//!   ([`crate::predictor`]) in front of `hinf_sf`'s gain;
+//! * `ft_of`: every actuator effectiveness in `[fault_rho_min, 1]` ([`fault_channel`]);
+//! * `hinf_of_aw`: saturation, by `hinf_of` plus the decoupled anti-windup of thesis Th. 5.3.
+//!
+//! Certificates ([`ComfortCertificate`]): the comfort figures predicted on the car as the FMUs
+//! run it ([`crate::prediction`], exact wheelbase delay, full weightings) beside the passive
+//! car's; robust stability to the unmodelled delay (the small-gain norm by Hamiltonian bisection
+//! and the exact delay margin); the design's guaranteed bound over its uncertainty
+//! ([`UncertainLoop::bound`], one Lyapunov matrix, checked by eigenvalues) checked against the
+//! design model's exact H2 norms on a dense grid of the uncertainty; predictions over the
+//! uncertainty; the limits at `limit_sigmas` standard deviations. A failed check is an error.
+
+use crate::comfort_controllers::{
+    kalman_gain, observer_based, output_feedback_sensors, plant_of, realise_state_feedback,
+    state_feedback_sensors,
+};
+use crate::comfort_plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
+use crate::design::ComfortDesign;
+use crate::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
+use crate::hinf_norm::Lti;
+use crate::interconnect::{close, ClosedLoop, Plant, Sensors};
+use crate::prediction::{predict, Conditions, ControlLaw, Figures, Loop};
+use nalgebra::DMatrix;
+use serde::Serialize;
+use vehicle::model::N_ACTUATORS;
+use vehicle::VehicleParams;
+
+/// Why a comfort design was not produced.
+#[derive(Debug, thiserror::Error)]
+pub enum ComfortError {
+    #[error("{variant}: synthesis failed: {reason}")]
+    Synthesis { variant: String, reason: String },
+    #[error("{variant}: certificate failed: {reason}")]
+    Certificate { variant: String, reason: String },
+}
+
+/// What a design is robust to, beyond the unmodelled delay every design tolerates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Uncertainty {
+    None,
+    SprungMass,
+    InputDelay,
+    ActuatorFaults,
+    Saturation,
+}
+
+/// The comfort figures of a certificate.
+#[derive(Debug, Clone, Serialize)]
+pub struct Comfort {
+    pub road: RoadDescription,
+    /// At the nominal car, continuous time (the co-simulation's hold aside).
+    pub predicted_wk_rms_seat_m_s2: f64,
+    pub passive_wk_rms_seat_m_s2: f64,
+    /// The prediction for a nominal design; for a robust one the bound over its uncertainty,
+    /// where one is certified and covers every prediction on the exact car (else `null`, and
+    /// `uncertainty.bound_failure` says why).
+    pub guaranteed_wk_rms_seat_m_s2: Option<f64>,
+    pub predicted: Figures,
+    pub passive: Figures,
+    /// The same on the design model (Padé rear track, weightings without their 100 Hz
+    /// band-limit, the road's full band): its exact H2 norms.
+    pub design_model_wk_rms_seat_m_s2: f64,
+    pub design_model_vibration_total_m_s2: f64,
+    /// Over the design's uncertainty, when it has one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<OverUncertainty>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct RoadDescription {
+    pub iso_class: String,
+    pub speed_m_s: f64,
+    pub tracks: &'static str,
+    pub rear_wheels: String,
+    pub band_hz: [f64; 2],
+}
+
+/// Predictions and bounds over the design's uncertainty.
+#[derive(Debug, Clone, Serialize)]
+pub struct OverUncertainty {
+    pub kind: Uncertainty,
+    /// `(condition, figures)` at the checked conditions.
+    pub predictions: Vec<(String, Figures)>,
+    pub worst_predicted_wk_rms_seat_m_s2: f64,
+    /// The guaranteed bounds (design model), seat and vibration total.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bound_wk_rms_seat: Option<Bound>,
+    /// Why there is no bound, where there is none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bound_failure: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bound_vibration_total: Option<Bound>,
+    /// The design model's exact H2 norm (seat) at every point of the dense check grid, worst.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub design_model_grid_worst_wk_rms_seat: Option<f64>,
+    pub design_model_grid_points: usize,
+    /// The nominal counterpart at the same conditions (filled by the registry; `None` where it
+    /// is unstable).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nominal_name: Option<String>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub nominal_design: Vec<(String, Option<Figures>)>,
+    /// The conditions of `predictions`.
+    #[serde(skip)]
+    pub conditions: Vec<Conditions>,
+}
+
+/// Robust stability to the actuators' unmodelled delay.
+#[derive(Debug, Clone, Serialize)]
+pub struct UnmodelledDelay {
+    pub tolerated_delay_s: f64,
+    /// `‖q ← p‖∞` of the input-multiplicative channel (Hamiltonian bisection): below 1.
+    pub small_gain_norm: f64,
+    /// The exact delay margin of the loop broken at the actuators.
+    pub delay_margin_s: f64,
+}
+
+/// The limits: their standard deviations predicted on the design road, over the limits,
+/// times `limit_sigmas` (≤ 1 holds).
+#[derive(Debug, Clone, Serialize)]
+pub struct Limits {
+    pub limit_sigmas: f64,
+    pub stroke: [f64; 4],
+    pub tire_load: [f64; 4],
+    pub force: [f64; 5],
+}
+
+/// The worst-case (H∞) gain of the comfort channel: the road noise to the weighted comfort
+/// output on the design model, the design's and the passive car's (Hamiltonian bisection).
+#[derive(Debug, Clone, Serialize)]
+pub struct HinfComfort {
+    pub design: f64,
+    pub passive: f64,
+    pub design_peak_hz: f64,
+    pub passive_peak_hz: f64,
+}
+
+/// A comfort design's certificate (`dist/<variant>.certificate.json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct ComfortCertificate {
+    pub variant: String,
+    pub objective: &'static str,
+    pub robust_to: Uncertainty,
+    pub comfort: Comfort,
+    pub unmodelled_delay: UnmodelledDelay,
+    pub limits: Limits,
+    pub hinf_comfort: HinfComfort,
+    pub spectral_abscissa: f64,
+    pub closed_loop_poles: Vec<[f64; 2]>,
+    pub measurements: Vec<String>,
+    pub controller: serde_json::Value,
+    pub notes: Vec<String>,
+}
+
+/// A synthesised, certified comfort design.
+#[derive(Debug, Clone)]
+pub struct ComfortDesignResult {
+    pub law: ControlLaw,
+    /// Extra blocks of `controller.json` (anti-windup, fault detection, predictor).
+    pub extensions: serde_json::Map<String, serde_json::Value>,
+    pub certificate: ComfortCertificate,
+}
+
+/// Everything a design needs: the car, the design file, the nominal plant.
+pub struct Context<'a> {
+    pub params: &'a VehicleParams,
+    pub design: &'a ComfortDesign,
+}
+
+impl Context<'_> {
+    fn plant(&self) -> ComfortPlant {
+        ComfortPlant::new(self.params, self.design)
+    }
+
+    fn fail(&self, variant: &str, reason: impl std::fmt::Display) -> ComfortError {
+        ComfortError::Synthesis {
+            variant: variant.into(),
+            reason: reason.to_string(),
+        }
+    }
+}
+
+/// The nominal guaranteed-cost state feedback (the unmodelled delay only): `(plant with the
+/// delay weight, gain)`. `hinf_sf`, `hinf_of` and `delay_sf` share it.
+pub fn nominal_gain(ctx: &Context) -> Result<(ComfortPlant, StateFeedback), ComfortError> {
+    let d = ctx.design;
+    let (g, delay) = ctx
+        .plant()
+        .with_delay_weight(d.unmodelled_delay, &force_limits(d));
+    let sf = guaranteed::state_feedback(&g, &[delay], d.limit_sigmas)
+        .map_err(|e| ctx.fail("hinf_sf", e))?;
+    Ok((g, sf))
+}
+
+/// The guaranteed-cost gain over the mass range (and the unmodelled delay), at the range's
+/// centre: `robust_sf` and `robust_of`.
+pub fn robust_gain(ctx: &Context) -> Result<(ComfortPlant, StateFeedback), ComfortError> {
+    let (g, delay, mass) = mass_channel(ctx.params, ctx.design);
+    let sf = guaranteed::state_feedback(&g, &[delay, mass], ctx.design.limit_sigmas)
+        .map_err(|e| ctx.fail("robust_sf", e))?;
+    Ok((g, sf))
+}
+
+/// `hinf_sf`, `robust_sf`: the gain as a controller reading the car's states, tyre deflections
+/// and accelerations ([`realise_state_feedback`]).
+pub fn state_feedback_design(
+    ctx: &Context,
+    variant: &str,
+    robust_to: Uncertainty,
+    gain: &(ComfortPlant, StateFeedback),
+    notes: Vec<String>,
+) -> Result<ComfortDesignResult, ComfortError> {
+    let (g, sf) = gain;
+    let k = realise_state_feedback(g, &sf.k);
+    let law = ControlLaw {
+        inputs: state_feedback_sensors(g).names,
+        lti: k,
+        predictor: None,
+    };
+    let certificate = certify(ctx, variant, robust_to, &law, &state_feedback_wiring, notes)?;
+    Ok(ComfortDesignResult {
+        law,
+        extensions: serde_json::Map::new(),
+        certificate,
+    })
+}
+
+/// The observer-based controller of `gain` on the sensors of [`output_feedback_sensors`], with
+/// the Kalman filter's fictitious process noise `fictitious` (`None`: the road and the sensor
+/// noise only).
+fn observer_law(
+    ctx: &Context,
+    variant: &str,
+    gain: &(ComfortPlant, StateFeedback),
+    fictitious: Option<&DMatrix<f64>>,
+) -> Result<(ControlLaw, Plant, Sensors), ComfortError> {
+    let (g, sf) = gain;
+    let (plant, sensors) = output_feedback_sensors(g, &ctx.design.sensor_noise);
+    let l = kalman_gain(&plant, &sensors, fictitious).map_err(|e| ctx.fail(variant, e))?;
+    let law = ControlLaw {
+        lti: observer_based(g, &sf.k, &sensors, &l),
+        inputs: sensors.names.clone(),
+        predictor: None,
+    };
+    Ok((law, plant, sensors))
+}
+
+/// `hinf_of`: the nominal gain on a Kalman estimate of the design state.
+pub fn output_feedback_design(
+    ctx: &Context,
+    gain: &(ComfortPlant, StateFeedback),
+) -> Result<ComfortDesignResult, ComfortError> {
+    let variant = "hinf_of";
+    let (law, _, sensors) = observer_law(ctx, variant, gain, None)?;
+    let notes = vec![format!(
+        "Observer-based: a Kalman filter of the design state (car, road, weightings) from {} \
+             with sensor noise of {} m/sqrt(Hz) (strokes) and {} (rates), the nominal \
+             guaranteed-cost gain on its estimate.",
+        sensors.names.join(", "),
+        ctx.design.sensor_noise.stroke,
+        ctx.design.sensor_noise.rate
+    )];
+    let noise = ctx.design.sensor_noise;
+    let wiring = move |g: &ComfortPlant| output_feedback_sensors(g, &noise);
+    let certificate = certify(ctx, variant, Uncertainty::None, &law, &wiring, notes)?;
+    Ok(ComfortDesignResult {
+        law,
+        extensions: serde_json::Map::new(),
+        certificate,
+    })
+}
+
+/// `robust_of`: the robust gain on a Kalman filter at the centre mass that also expects the
+/// mass channel's input `H p` as process noise of intensity `ζ²`, `ζ` chosen among a grid to
+/// minimise the worst predicted seat comfort at both ends of the range and the centre.
+pub fn robust_output_feedback_design(
+    ctx: &Context,
+    gain: &(ComfortPlant, StateFeedback),
+) -> Result<ComfortDesignResult, ComfortError> {
+    let variant = "robust_of";
+    let d = ctx.design;
+    let (_, _, mass) = mass_channel(ctx.params, d);
+    let n = plant_of(&gain.0).a.nrows();
+    let h = mass.b_p.rows(0, n).into_owned();
+    let masses = [d.mass_min, ctx.params.m_s, d.mass_max];
+    let worst = |law: &ControlLaw| -> f64 {
+        masses
+            .iter()
+            .map(|m| {
+                predict(
+                    Some(law),
+                    Conditions::nominal(VehicleParams {
+                        m_s: *m,
+                        ..*ctx.params
+                    }),
+                    &d.road,
+                )
+                .map_or(f64::INFINITY, |f| f.wk_rms_seat_m_s2)
+            })
+            .fold(0.0, f64::max)
+    };
+    let mut best: Option<(f64, f64, ControlLaw)> = None;
+    for zeta in [0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1] {
+        let fictitious = &h * zeta;
+        let Ok((law, _, _)) = observer_law(ctx, variant, gain, Some(&fictitious)) else {
+            continue;
+        };
+        let w = worst(&law);
+        if best.as_ref().is_none_or(|b| w < b.0) {
+            best = Some((w, zeta, law));
+        }
+    }
+    let (_, zeta, law) =
+        best.ok_or_else(|| ctx.fail(variant, "no Kalman filter of the grid is stabilising"))?;
+    let notes = vec![format!(
+        "Observer-based: the guaranteed-cost gain over m_s in [{}, {}] kg on a Kalman estimate at \
+         the centre mass {:.1} kg, the filter expecting the mass channel's input as process noise \
+         of intensity zeta^2, zeta = {zeta:e} (of a grid, the least worst predicted seat comfort \
+         at {:?} kg).",
+        d.mass_min,
+        d.mass_max,
+        2.0 / (1.0 / d.mass_min + 1.0 / d.mass_max),
+        masses
+    )];
+    let noise = d.sensor_noise;
+    let wiring = move |g: &ComfortPlant| output_feedback_sensors(g, &noise);
+    let certificate = certify(ctx, variant, Uncertainty::SprungMass, &law, &wiring, notes)?;
+    Ok(ComfortDesignResult {
+        law,
+        extensions: serde_json::Map::new(),
+        certificate,
+    })
+}
+
+/// `ft_of`: the guaranteed-cost gain over the effectiveness box (and the unmodelled delay) at
+/// the box's centre, on a Kalman estimate whose filter expects the fault channel's input as
+/// process noise of intensity `ζ²` (`ζ` from a grid: the least worst predicted seat comfort over
+/// the healthy car and each actuator at `fault_rho_min`), plus the road-decoupled detection
+/// residual of [`crate::fault::DetectionResidual`] (thesis fig. 8.1).
+pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
+    let variant = "ft_of";
+    let d = ctx.design;
+    let g0 = ctx.plant();
+    let (centre, delay, faults) = fault_channel(&g0, d);
+    let _ = &delay;
+    let gain = nominal_gain(ctx).map_err(|e| ctx.fail(variant, e))?;
+    let n = plant_of(&centre).a.nrows();
+    let b_fault = faults.b_p.rows(0, n) * faults.d_q[(0, 0)];
+    let mut conditions = vec![Conditions::nominal(*ctx.params)];
+    for i in 0..N_ACTUATORS {
+        let mut rho = [1.0; N_ACTUATORS];
+        rho[i] = d.fault_rho_min;
+        conditions.push(Conditions {
+            effectiveness: rho,
+            ..Conditions::nominal(*ctx.params)
+        });
+    }
+    let mut best: Option<(f64, f64, ControlLaw)> = None;
+    for zeta in [0.0, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 300.0] {
+        let fictitious = &b_fault * zeta;
+        let Ok((law, plant, sensors)) = observer_law(ctx, variant, &gain, Some(&fictitious)) else {
+            continue;
+        };
+        // Only filters that keep the unmodelled-delay guarantee every design gives, and the
+        // design model stable at every vertex of the box.
+        let limits = crate::comfort_plant::force_limits(d);
+        let norm = design_loop(&plant, &sensors, &law)
+            .and_then(|cl| unmodelled_delay_norm(&cl, d.unmodelled_delay, &limits));
+        let unstable_vertices = (0..1usize << N_ACTUATORS)
+            .filter(|bits| {
+                let rho = std::array::from_fn(|i| {
+                    if bits >> i & 1 == 1 {
+                        d.fault_rho_min
+                    } else {
+                        1.0
+                    }
+                });
+                let (plant, sensors) =
+                    output_feedback_sensors(&g0.with_effectiveness(&rho), &d.sensor_noise);
+                design_loop(&plant, &sensors, &law)
+                    .map_or(true, |cl| !crate::eig::is_hurwitz(&cl.a))
+            })
+            .count();
+        if !norm.is_ok_and(|norm| norm < 1.0) || unstable_vertices > 0 {
+            continue;
+        }
+        let worst = conditions
+            .iter()
+            .map(|c| predict(Some(&law), *c, &d.road).map_or(f64::INFINITY, |f| f.wk_rms_seat_m_s2))
+            .fold(0.0, f64::max);
+        if worst.is_finite() && best.as_ref().is_none_or(|b| worst < b.0) {
+            best = Some((worst, zeta, law));
+        }
+    }
+    let (_, zeta, law) =
+        best.ok_or_else(|| ctx.fail(variant, "no Kalman filter of the grid is stabilising"))?;
+    // The detection residual, from the car alone (the parity relations are the body's).
+    let car = StateSpaceRows::of(ctx.params);
+    let det = crate::fault::DetectionResidual::from_car(
+        &car.a,
+        &car.b_r,
+        &car.b_u,
+        &car.c_y,
+        d.fault_time_constant,
+    );
+    let road_leak = (&det.pi * &car.c_y * &car.b_r).amax()
+        + (&det.pi * &car.c_y * &car.a - &det.kappa * &car.c_y).amax();
+    let projection = det.to_force() * &det.g * det.time_constant;
+    let dc: Vec<f64> = (0..N_ACTUATORS)
+        .map(|i| projection.column(i).norm())
+        .collect();
+    if road_leak > 1e-9 * (&car.c_y * &car.a).amax() || dc.iter().any(|v| v.is_nan() || *v <= 0.05)
+    {
+        return Err(ComfortError::Certificate {
+            variant: variant.into(),
+            reason: format!(
+                "the detection residual is not road-decoupled (leak {road_leak:e}) or misses an \
+                 actuator (DC gains {dc:?})"
+            ),
+        });
+    }
+    let noise = d.sensor_noise;
+    let wiring = move |g: &ComfortPlant| output_feedback_sensors(g, &noise);
+    let notes = vec![
+        format!(
+            "Fault-tolerant: the guaranteed-cost gain over every actuator effectiveness in [{}, 1] \
+             (one real parameter per actuator around the centre {}, and the unmodelled delay), on a \
+             Kalman estimate at the centre whose filter expects the fault channel's input as \
+             process noise, zeta = {zeta} (of a grid, the least worst predicted seat comfort over \
+             the healthy car and each actuator alone at {}).",
+            d.fault_rho_min,
+            (1.0 + d.fault_rho_min) / 2.0,
+            d.fault_rho_min
+        ),
+        format!(
+            "Detection: {} parity relations of the measurements the road cannot excite (the \
+             body's momentum balance; |pi C_y B_r| + |pi C_y A - kappa C_y| = {road_leak:.1e}), \
+             filtered with T = {} s, reported as the smallest force deficit consistent with them \
+             (DC gain per unit deficit {:?}); fault_detected latches above fault_threshold \
+             (default {} N).",
+            det.order(),
+            d.fault_time_constant,
+            dc.iter().map(|v| (v * 1000.0).round() / 1000.0).collect::<Vec<_>>(),
+            d.fault_threshold
+        ),
+    ];
+    let certificate = certify(
+        ctx,
+        variant,
+        Uncertainty::ActuatorFaults,
+        &law,
+        &wiring,
+        notes,
+    )?;
+    let detector = det.detector();
+    let mut extensions = serde_json::Map::new();
+    extensions.insert(
+        "fault_detection".into(),
+        serde_json::json!({
+            "A": crate::certificate::matrix_json(&detector.a),
+            "B": crate::certificate::matrix_json(&detector.b),
+            "B_u": crate::certificate::matrix_json(&detector.b_u),
+            "C": crate::certificate::matrix_json(&detector.c),
+            "D": crate::certificate::matrix_json(&detector.d),
+            "threshold": d.fault_threshold,
+        }),
+    );
+    Ok(ComfortDesignResult {
+        law,
+        extensions,
+        certificate,
+    })
+}
+
+/// The car's own matrices (16 states) and the output-feedback sensors' rows on them.
+struct StateSpaceRows {
+    a: DMatrix<f64>,
+    b_r: DMatrix<f64>,
+    /// Per N.
+    b_u: DMatrix<f64>,
+    c_y: DMatrix<f64>,
+}
+
+impl StateSpaceRows {
+    fn of(p: &VehicleParams) -> Self {
+        let ss = vehicle::StateSpace::new(p);
+        let rows = vehicle::model::physical_outputs(p);
+        let c_y = DMatrix::from_fn(
+            crate::comfort_plant::OF_MEASUREMENTS.len(),
+            vehicle::model::N_STATES,
+            |i, j| {
+                rows.iter()
+                    .find(|r| r.name == crate::comfort_plant::OF_MEASUREMENTS[i])
+                    .expect("a plant output")
+                    .c[j]
+            },
+        );
+        StateSpaceRows {
+            a: ss.a,
+            b_r: ss.b_r,
+            b_u: ss.b_u,
+            c_y,
+        }
+    }
+}
+
+/// `hinf_of_aw`: `hinf_of` plus the decoupled anti-windup compensator of thesis Th. 5.3
+/// ([`crate::anti_windup`]): `F` from the sector LMI on the car (performance: the comfort
+/// accelerations with their ISO factors), re-checked by the circle criterion. Its linear
+/// behaviour, and so every prediction, is `hinf_of`'s.
+pub fn anti_windup_design(
+    ctx: &Context,
+    of: &ComfortDesignResult,
+) -> Result<ComfortDesignResult, ComfortError> {
+    let variant = "hinf_of_aw";
+    let d = ctx.design;
+    let car = StateSpaceRows::of(ctx.params);
+    let rows = vehicle::model::physical_outputs(ctx.params);
+    let perf: Vec<(&str, f64)> = crate::comfort_plant::COMFORT_OUTPUTS.to_vec();
+    let row = |name: &str| {
+        rows.iter()
+            .find(|r| r.name == name)
+            .expect("a plant output")
+    };
+    let c_z = DMatrix::from_fn(perf.len(), vehicle::model::N_STATES, |i, j| {
+        row(perf[i].0).c[j] * perf[i].1
+    });
+    // Forces in kN inside the LMI (its conditioning), as elsewhere in the synthesis.
+    let ku = crate::generalized::FORCE_UNIT;
+    let d_zu = DMatrix::from_fn(perf.len(), N_ACTUATORS, |i, j| {
+        row(perf[i].0).d_u[j] * perf[i].1 * ku
+    });
+    let b_u = &car.b_u * ku;
+    let aw = crate::anti_windup::mraw_for(&car.a, &b_u, &c_z, &d_zu, 1e-6)
+        .map_err(|e| ctx.fail(variant, e))?;
+    let check = crate::anti_windup::circle_check(&car.a, &b_u, &aw.f, &aw.w);
+    if !check.holds() {
+        return Err(ComfortError::Certificate {
+            variant: variant.into(),
+            reason: format!(
+                "the anti-windup loop fails its check: A + B_u F spectral abscissa {:e}, circle \
+                 margin {:e}",
+                check.spectral_abscissa, check.min_margin
+            ),
+        });
+    }
+    let mut certificate = of.certificate.clone();
+    certificate.variant = variant.into();
+    certificate.robust_to = Uncertainty::Saturation;
+    certificate.notes.insert(
+        0,
+        format!(
+            "hinf_of plus the decoupled model-recovery anti-windup of thesis Th. 5.3 (corrected): \
+             eta' = (A + B_u F) eta - B_u dz(u_lin), u = sat(u_lin), the controller reads y - C_y \
+             eta; F from the generalised-sector LMI on the car with the comfort accelerations as \
+             performance (L2 gain {:.4}); re-checked: A + B_u F spectral abscissa {:.3}, circle \
+             criterion with the LMI's multiplier on {} frequencies (min margin {:.3e}). Below \
+             saturation it is hinf_of: the predictions are hinf_of's.",
+            aw.gamma, check.spectral_abscissa, check.frequencies, check.min_margin
+        ),
+    );
+    let mut extensions = of.extensions.clone();
+    extensions.insert(
+        "anti_windup".into(),
+        serde_json::json!({
+            "A": crate::certificate::matrix_json(&car.a),
+            "B": crate::certificate::matrix_json(&car.b_u),
+            "C": crate::certificate::matrix_json(&car.c_y),
+            "F": crate::certificate::matrix_json(&(&aw.f * ku)),
+            "u_max": force_limits(d),
+        }),
+    );
+    Ok(ComfortDesignResult {
+        law: of.law.clone(),
+        extensions,
+        certificate,
+    })
+}
+
+/// The closed loop of `law` on the design plant at `g0`'s conditions.
+fn design_loop(plant: &Plant, sensors: &Sensors, law: &ControlLaw) -> Result<ClosedLoop, String> {
+    close(plant, sensors, &law.lti).map_err(|e| e.to_string())
+}
+
+fn spectral_abscissa(a: &DMatrix<f64>) -> f64 {
+    crate::eig::spectral_abscissa(a)
+}
+
+/// `‖q ← p‖∞` of the unmodelled-delay channel of a closed loop: `W` of
+/// [`crate::comfort_plant::delay_cover`] on the command, `p` added to the applied forces, both in
+/// units of the force limits.
+fn unmodelled_delay_norm(
+    cl: &ClosedLoop,
+    tau: f64,
+    limits: &[f64; N_ACTUATORS],
+) -> Result<f64, String> {
+    let (c, d) = crate::comfort_plant::delay_cover();
+    let (n, m) = (cl.a.nrows(), N_ACTUATORS);
+    let lim = DMatrix::from_fn(m, m, |i, j| if i == j { limits[i] } else { 0.0 });
+    let inv = DMatrix::from_fn(m, m, |i, j| if i == j { 1.0 / limits[i] } else { 0.0 });
+    // States [x_cl; x_w], x_w' = −(d/τ) x_w + (d/τ) u, q = c d (u − x_w)/limit, f = limit p.
+    let mut a = DMatrix::zeros(n + m, n + m);
+    a.view_mut((0, 0), (n, n)).copy_from(&cl.a);
+    a.view_mut((n, 0), (m, n)).copy_from(&(&cl.c_u * (d / tau)));
+    for k in 0..m {
+        a[(n + k, n + k)] = -d / tau;
+    }
+    let mut b = DMatrix::zeros(n + m, m);
+    b.view_mut((0, 0), (n, m)).copy_from(&(&cl.b_f * &lim));
+    b.view_mut((n, 0), (m, m))
+        .copy_from(&(&cl.d_uf * &lim * (d / tau)));
+    let mut cq = DMatrix::zeros(m, n + m);
+    cq.view_mut((0, 0), (m, n))
+        .copy_from(&(&inv * &cl.c_u * (c * d)));
+    cq.view_mut((0, n), (m, m)).copy_from(&(&inv * (-c * d)));
+    let dq = &inv * &cl.d_uf * &lim * (c * d);
+    Lti::new(a, b, cq, dq)
+        .hinf_norm(1e-6)
+        .map(|n| n.upper)
+        .map_err(|e| e.to_string())
+}
+
+/// How a design's controller is wired to a design plant: `(plant, sensors)` (the output-feedback
+/// designs' sensors add their noise to `w`).
+pub type Wiring<'a> = &'a dyn Fn(&ComfortPlant) -> (Plant, Sensors);
+
+/// The state-feedback designs' wiring.
+pub fn state_feedback_wiring(g: &ComfortPlant) -> (Plant, Sensors) {
+    (plant_of(g), state_feedback_sensors(g))
+}
+
+/// Certify a comfort design; an error is never an FMU.
+pub fn certify(
+    ctx: &Context,
+    variant: &str,
+    robust_to: Uncertainty,
+    law: &ControlLaw,
+    wiring: Wiring,
+    notes: Vec<String>,
+) -> Result<ComfortCertificate, ComfortError> {
+    let fail = |reason: String| ComfortError::Certificate {
+        variant: variant.into(),
+        reason,
+    };
+    let d = ctx.design;
+    let g0 = ctx.plant();
+    let (plant, sensors) = wiring(&g0);
+    let (plant, sensors) = (&plant, &sensors);
+    // The design model's closed loop: stable, its exact comfort H2 norms.
+    let cl = design_loop(plant, sensors, law).map_err(&fail)?;
+    let abscissa = spectral_abscissa(&cl.a);
+    if abscissa.is_nan() || abscissa >= 0.0 {
+        return Err(fail(format!(
+            "closed loop unstable (spectral abscissa {abscissa:e})"
+        )));
+    }
+    let nw = plant.b_w.ncols();
+    let cz = DMatrix::from_fn(g0.c_z.nrows(), plant.a.nrows(), |i, j| g0.c_z[(i, j)]);
+    let comfort_sys = cl.from_w(
+        &cz,
+        &DMatrix::zeros(cz.nrows(), nw),
+        &DMatrix::zeros(cz.nrows(), N_ACTUATORS),
+    );
+    let h2 = |rows: &[usize]| {
+        comfort_sys
+            .select_outputs(rows)
+            .h2_norm()
+            .map_err(|e| fail(e.to_string()))
+    };
+    let (dm_seat, dm_total) = (h2(&[0])?, h2(&[0, 1, 2])?);
+    // Robust stability to the unmodelled delay.
+    let limits = force_limits(d);
+    let small_gain = unmodelled_delay_norm(&cl, d.unmodelled_delay, &limits).map_err(&fail)?;
+    if small_gain.is_nan() || small_gain >= 1.0 {
+        return Err(fail(format!(
+            "the unmodelled-delay channel's norm {small_gain:.4} is not below 1"
+        )));
+    }
+    let nominal = Conditions::nominal(*ctx.params);
+    let lp = Loop::new(Some(law), nominal).map_err(|e| fail(e.to_string()))?;
+    let delay_margin = lp.delay_margin();
+    if delay_margin.is_nan() || delay_margin <= d.unmodelled_delay {
+        return Err(fail(format!(
+            "delay margin {delay_margin} s is not above the unmodelled delay {} s",
+            d.unmodelled_delay
+        )));
+    }
+    // Predictions, design and passive.
+    let predicted = lp.figures(&d.road);
+    let passive = predict(None, nominal, &d.road).map_err(|e| fail(e.to_string()))?;
+    let seat = predicted.wk_rms_seat_m_s2;
+    if seat.is_nan() || seat >= 0.5 * passive.wk_rms_seat_m_s2 {
+        return Err(fail(format!(
+            "predicted W_k seat {:.4} m/s² is not even half the passive car's {:.4}",
+            predicted.wk_rms_seat_m_s2, passive.wk_rms_seat_m_s2
+        )));
+    }
+    // The limits.
+    let k = d.limit_sigmas;
+    let lim = Limits {
+        limit_sigmas: k,
+        stroke: predicted.rms_stroke_m.map(|s| k * s / d.stroke_max),
+        tire_load: predicted.rms_tire_load_ratio.map(|s| k * s),
+        force: std::array::from_fn(|i| k * predicted.rms_force_n[i] / limits[i]),
+    };
+    if let Some(bad) = lim.stroke.iter().chain(&lim.force).find(|v| **v > 1.0) {
+        return Err(fail(format!(
+            "a stroke or force exceeds its limit at {k} standard deviations ({bad:.3} of it)"
+        )));
+    }
+    // The comfort channel's worst-case gain, design and passive (design model).
+    let passive_sys = Lti::new(
+        plant.a.clone(),
+        plant.b_w.clone(),
+        cz.clone(),
+        DMatrix::zeros(cz.nrows(), nw),
+    );
+    let (hd, hp) = (
+        comfort_sys
+            .hinf_norm(1e-6)
+            .map_err(|e| fail(e.to_string()))?,
+        passive_sys
+            .hinf_norm(1e-6)
+            .map_err(|e| fail(e.to_string()))?,
+    );
+    let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
+    let mut poles: Vec<[f64; 2]> = crate::eig::eigenvalues(&cl.a)
+        .iter()
+        .map(|l| [l.re, l.im])
+        .collect();
+    poles.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    let uncertainty = over_uncertainty(ctx, robust_to, law, wiring).map_err(&fail)?;
+    // The prediction for a nominal design; for a robust one the design model's bound, claimed
+    // only where it covers every prediction on the exact car (the design model's Padé rear track
+    // and band-unlimited weightings differ from the car; a bound that does not cover is no
+    // guarantee of the car, and is reported as such).
+    let mut uncertainty = uncertainty;
+    let guaranteed = match uncertainty.as_mut() {
+        Some(u) => match u.bound_wk_rms_seat.as_ref().map(|b| b.value) {
+            Some(b) if b >= u.worst_predicted_wk_rms_seat_m_s2 => Some(b),
+            Some(b) => {
+                u.bound_failure = Some(format!(
+                    "the design model's bound {b:.5} does not cover the exact car's worst \
+                     prediction {:.5} (the design model's rear track is a Padé approximation): \
+                     no guarantee claimed",
+                    u.worst_predicted_wk_rms_seat_m_s2
+                ));
+                None
+            }
+            None => None,
+        },
+        None => Some(predicted.wk_rms_seat_m_s2),
+    };
+    let road = &d.road;
+    let band = road.band_hz();
+    Ok(ComfortCertificate {
+        variant: variant.into(),
+        objective: "comfort",
+        robust_to,
+        comfort: Comfort {
+            road: RoadDescription {
+                iso_class: String::from(road.iso_class),
+                speed_m_s: road.speed,
+                tracks: "independent",
+                rear_wheels: format!(
+                    "the front track {:.4} s later (exact; the design model: {:?})",
+                    (ctx.params.l1 + ctx.params.l2) / road.speed,
+                    road.rear_wheels
+                ),
+                band_hz: [band.0, band.1],
+            },
+            predicted_wk_rms_seat_m_s2: predicted.wk_rms_seat_m_s2,
+            passive_wk_rms_seat_m_s2: passive.wk_rms_seat_m_s2,
+            guaranteed_wk_rms_seat_m_s2: guaranteed,
+            predicted,
+            passive,
+            design_model_wk_rms_seat_m_s2: dm_seat,
+            design_model_vibration_total_m_s2: dm_total,
+            uncertainty,
+        },
+        unmodelled_delay: UnmodelledDelay {
+            tolerated_delay_s: d.unmodelled_delay,
+            small_gain_norm: small_gain,
+            delay_margin_s: delay_margin,
+        },
+        limits: lim,
+        hinf_comfort: HinfComfort {
+            design: hd.upper,
+            passive: hp.upper,
+            design_peak_hz: hz(hd.peak_frequency),
+            passive_peak_hz: hz(hp.peak_frequency),
+        },
+        spectral_abscissa: abscissa,
+        closed_loop_poles: poles,
+        measurements: law.inputs.clone(),
+        controller: serde_json::json!({
+            "A": crate::certificate::matrix_json(&law.lti.a),
+            "B": crate::certificate::matrix_json(&law.lti.b),
+            "C": crate::certificate::matrix_json(&law.lti.c),
+            "D": crate::certificate::matrix_json(&law.lti.d),
+        }),
+        notes,
+    })
+}
+
+/// Predictions and bounds over the design's uncertainty.
+fn over_uncertainty(
+    ctx: &Context,
+    kind: Uncertainty,
+    law: &ControlLaw,
+    wiring: Wiring,
+) -> Result<Option<OverUncertainty>, String> {
+    let d = ctx.design;
+    let (labels, conditions, channel, grid): (Vec<String>, Vec<Conditions>, _, Vec<ComfortPlant>) =
+        match kind {
+            Uncertainty::None | Uncertainty::Saturation | Uncertainty::InputDelay => {
+                return Ok(None)
+            }
+            Uncertainty::SprungMass => {
+                let masses: Vec<f64> = (0..5)
+                    .map(|i| d.mass_min + (d.mass_max - d.mass_min) * i as f64 / 4.0)
+                    .collect();
+                let (centre, _, mass) = mass_channel(ctx.params, d);
+                // The dense check grid: the design model at every mass of the file's grid.
+                let grid = (0..d.mass_grid_points)
+                    .map(|i| {
+                        let m = d.mass_min
+                            + (d.mass_max - d.mass_min) * i as f64
+                                / (d.mass_grid_points - 1) as f64;
+                        ComfortPlant::at_mass(ctx.params, d, m)
+                    })
+                    .collect();
+                (
+                    masses.iter().map(|m| format!("m_s = {m} kg")).collect(),
+                    masses
+                        .iter()
+                        .map(|m| {
+                            Conditions::nominal(VehicleParams {
+                                m_s: *m,
+                                ..*ctx.params
+                            })
+                        })
+                        .collect(),
+                    (centre, vec![mass]),
+                    grid,
+                )
+            }
+            Uncertainty::ActuatorFaults => {
+                let mut labels = Vec::new();
+                let mut conditions = Vec::new();
+                for (i, a) in vehicle::model::ACTUATORS.iter().enumerate() {
+                    let mut rho = [1.0; N_ACTUATORS];
+                    rho[i] = d.fault_rho_min;
+                    labels.push(format!("{a} at {}", d.fault_rho_min));
+                    conditions.push(Conditions {
+                        effectiveness: rho,
+                        ..Conditions::nominal(*ctx.params)
+                    });
+                }
+                labels.push(format!("all at {}", d.fault_rho_min));
+                conditions.push(Conditions {
+                    effectiveness: [d.fault_rho_min; N_ACTUATORS],
+                    ..Conditions::nominal(*ctx.params)
+                });
+                let (centre, _, faults) = fault_channel(&ctx.plant(), d);
+                // The dense check: every vertex of the effectiveness box.
+                let g0 = ctx.plant();
+                let grid = (0..1usize << N_ACTUATORS)
+                    .map(|bits| {
+                        let rho = std::array::from_fn(|i| {
+                            if bits >> i & 1 == 1 {
+                                d.fault_rho_min
+                            } else {
+                                1.0
+                            }
+                        });
+                        g0.with_effectiveness(&rho)
+                    })
+                    .collect();
+                (labels, conditions, (centre, faults.split()), grid)
+            }
+        };
+    let predictions = labels
+        .into_iter()
+        .zip(conditions.iter().copied())
+        .map(|(label, c)| {
+            predict(Some(law), c, &d.road)
+                .map(|f| (label.clone(), f))
+                .map_err(|e| format!("at {label}: {e}"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let worst = worst_seat(&predictions);
+    // The guaranteed bound at the uncertainty's centre, and the design model's exact H2 norm at
+    // every grid point, which the bound must cover.
+    let (centre, channel) = channel;
+    let (plant, sensors) = wiring(&centre);
+    let cl = design_loop(&plant, &sensors, law)?;
+    let uncertain = uncertain_loop(&cl, &channel, plant.a.nrows())?;
+    let g0 = ctx.plant();
+    let seat_rows = comfort_rows(&g0, &cl, &[0]);
+    let all_rows = comfort_rows(&g0, &cl, &[0, 1, 2]);
+    // A multiplier bound, or (only for the effectiveness box, whose five independent real
+    // parameters the one-Lyapunov-matrix bound over-covers as complex blocks) none, said so.
+    let seat = uncertain.bound(&seat_rows);
+    let bound_failure = match (&seat, kind) {
+        (Some(_), _) => None,
+        (None, Uncertainty::ActuatorFaults) => Some(
+            "no multipliers certify a bound over the whole box: the guarantee is the design \
+             model's worst case over the box's vertices and the predictions, not a certificate"
+                .to_string(),
+        ),
+        (None, _) => {
+            return Err(
+                "no multiplier gives a guaranteed bound: the loop is not robustly stable \
+                        on its channel"
+                    .into(),
+            )
+        }
+    };
+    let total = uncertain.bound(&all_rows);
+    let mut grid_worst: f64 = 0.0;
+    for g in &grid {
+        let (plant, sensors) = wiring(g);
+        let cl = design_loop(&plant, &sensors, law)?;
+        if !crate::eig::is_hurwitz(&cl.a) {
+            return Err("the design model is unstable at a point of the check grid".into());
+        }
+        let rows = comfort_rows(&g0, &cl, &[0]);
+        let h2 = Lti::new(
+            cl.a.clone(),
+            cl.b_w.clone(),
+            rows,
+            DMatrix::zeros(1, cl.b_w.ncols()),
+        )
+        .h2_norm()
+        .map_err(|e| format!("design model on the check grid: {e}"))?;
+        grid_worst = grid_worst.max(h2);
+    }
+    if let Some(seat) = &seat {
+        if grid_worst > seat.value * (1.0 + 1e-6) {
+            return Err(format!(
+                "the design model's seat comfort {grid_worst} on the check grid exceeds the \
+                 guaranteed bound {}",
+                seat.value
+            ));
+        }
+    }
+    Ok(Some(OverUncertainty {
+        kind,
+        predictions,
+        worst_predicted_wk_rms_seat_m_s2: worst,
+        bound_wk_rms_seat: seat,
+        bound_failure,
+        bound_vibration_total: total,
+        design_model_grid_worst_wk_rms_seat: Some(grid_worst),
+        design_model_grid_points: grid.len(),
+        nominal_name: None,
+        nominal_design: Vec::new(),
+        conditions,
+    }))
+}
+
+fn worst_seat(predictions: &[(String, Figures)]) -> f64 {
+    predictions
+        .iter()
+        .map(|(_, f)| f.wk_rms_seat_m_s2)
+        .fold(0.0, f64::max)
+}
+
+/// The uncertain closed loop of a channel for the bound: `p` entering as `ΔA x + ΔB_u u_a` (the
+/// channel's `B_p` on the plant's rows, or through the loop's force input when `p` is an applied
+/// force, which the accelerometers feel) and `q = C_q x + D_q u`. `q` must not feel `p` directly
+/// (the bound has no `D_qp`): an error if the controller passes a force straight to its command.
+pub fn uncertain_loop(
+    cl: &ClosedLoop,
+    channels: &[Channel],
+    plant_rows: usize,
+) -> Result<UncertainLoop, String> {
+    let n = cl.a.nrows();
+    let mut loop_channels = Vec::new();
+    for channel in channels {
+        let np = channel.b_p.ncols();
+        let b_p = match &channel.applied_force {
+            Some(f) => {
+                let d_qp = &channel.d_q * &cl.d_uf * f;
+                if d_qp.amax() > 0.0 {
+                    return Err(format!(
+                        "the {} channel's q feels p directly through the controller's feedthrough",
+                        channel.name
+                    ));
+                }
+                &cl.b_f * f
+            }
+            None => {
+                let mut b_p = DMatrix::zeros(n, np);
+                b_p.view_mut((0, 0), (plant_rows, np))
+                    .copy_from(&channel.b_p.rows(0, plant_rows));
+                b_p
+            }
+        };
+        let mut c_q = DMatrix::zeros(channel.c_q.nrows(), n);
+        c_q.view_mut((0, 0), (channel.c_q.nrows(), plant_rows))
+            .copy_from(&channel.c_q.columns(0, plant_rows));
+        c_q += &channel.d_q * &cl.c_u;
+        loop_channels.push((b_p, c_q));
+    }
+    Ok(UncertainLoop {
+        a: cl.a.clone(),
+        b_w: cl.b_w.clone(),
+        channels: loop_channels,
+    })
+}
+
+/// The comfort output rows (`C_z` of the design plant) on a closed loop's state.
+pub fn comfort_rows(g0: &ComfortPlant, cl: &ClosedLoop, rows: &[usize]) -> DMatrix<f64> {
+    let n = cl.a.nrows();
+    let mut c = DMatrix::zeros(rows.len(), n);
+    for (i, r) in rows.iter().enumerate() {
+        c.view_mut((i, 0), (1, cl.plant_order))
+            .copy_from(&g0.c_z.view((*r, 0), (1, cl.plant_order)));
+    }
+    c
+}
+
+/// `ft_of` and the fault channel, for the registry.
+pub fn fault_plant(ctx: &Context) -> (ComfortPlant, Channel, Channel) {
+    fault_channel(&ctx.plant(), ctx.design)
+}

@@ -1,0 +1,641 @@
+//! The generalised plant of the comfort designs: the car on an ISO 8608 road, its seat and body
+//! accelerations weighted as ISO 2631-1 says people feel them.
+//!
+//! * **Road** (ISO 8608, waviness 2): each track's vertical velocity is white noise of one-sided
+//!   PSD `S = 4π² n₀² G_d(n₀) V` ([`vehicle::road::iso_velocity_psd`]): `w` is unit white
+//!   noise (two-sided PSD 1), `ż_f = −a z_f + √(S/2) w`. The small corner `a = 2π n_lo V` is the
+//!   lower edge `n_lo` of the road FMU's spatial band: below it neither road has content. The
+//!   left and right tracks are independent; the rear wheels see the front track `T = L/V` later,
+//!   here a Padé approximant of `e^{−sT}` of the design's order (or, `independent`, four
+//!   independent tracks). The certificates use the exact delay ([`crate::prediction`]).
+//! * **Comfort output** `z`: the seat's vertical acceleration weighted by `W_k`, the body's roll
+//!   and pitch acceleration (the seat's, which has no rotation of its own) weighted by `W_e` and
+//!   the ISO 2631-1 comfort factors 0.63 and 0.40 m/rad ([`vehicle::iso2631`]): `E|z|²` is the
+//!   square of the vibration total value `a_v`, `E z₁²` that of the W_k RMS seat acceleration.
+//!   The weightings are realised without their 100 Hz band-limit (within 0.1 % below 16 Hz).
+//! * **Limits**, each over its limit, not part of the comfort norm: suspension strokes over
+//!   `stroke_max`, the tyres' spring force `k_t (z_u − z_r)` over the static load (the dynamic
+//!   tyre load less its damper part `c_t (ż_u − ż_r)`, which white road velocity makes
+//!   unbounded in variance), and the forces over their limits.
+//!
+//! State `x = [car (16); road; W_k seat; W_e roll; W_e pitch]`, control `u` the five forces in N.
+
+use crate::design::{ComfortDesign, RearWheels};
+use crate::generalized::row;
+use nalgebra::DMatrix;
+use std::ops::Range;
+use vehicle::iso2631::{Weighting, PITCH_FACTOR, ROLL_FACTOR};
+use vehicle::model::{
+    physical_outputs, OutputRow, StateSpace, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS,
+    N_ROAD, N_STATES, N_WHEELS,
+};
+use vehicle::VehicleParams;
+
+/// The plant outputs the output-feedback designs measure, with the sensor they need.
+pub const OF_MEASUREMENTS: [&str; 8] = [
+    "stroke_fl",
+    "stroke_fr",
+    "stroke_rl",
+    "stroke_rr",
+    "stroke_seat",
+    "v_body",
+    "omega_roll",
+    "omega_pitch",
+];
+
+/// The accelerations the comfort output weights, in the order of `z`, with their factors.
+pub const COMFORT_OUTPUTS: [(&str, f64); 3] = [
+    ("a_seat", 1.0),
+    ("alpha_roll", ROLL_FACTOR),
+    ("alpha_pitch", PITCH_FACTOR),
+];
+
+/// The weighting of each comfort output.
+fn comfort_weighting(i: usize) -> Weighting {
+    if i == 0 {
+        Weighting::wk()
+    } else {
+        Weighting::we()
+    }
+}
+
+/// `[A B; C D]` of a linear system, for the small building blocks here.
+pub type Abcd = [DMatrix<f64>; 4];
+
+/// The `[p/p]` Padé approximant of `e^{−sT}`: `Σ c_k (−sT)^k / Σ c_k (sT)^k`,
+/// `c_k = (2p − k)! p! / ((2p)! k! (p − k)!)`, realised for `T = 1` in controllable canonical
+/// form and scaled in time (`A/T`, `B/T`) so its coefficients stay of order one.
+pub fn pade(order: usize, delay: f64) -> Abcd {
+    let p = order;
+    if p == 0 {
+        return [
+            DMatrix::zeros(0, 0),
+            DMatrix::zeros(0, 1),
+            DMatrix::zeros(1, 0),
+            DMatrix::from_element(1, 1, 1.0),
+        ];
+    }
+    let fact = |k: usize| (1..=k).map(|i| i as f64).product::<f64>();
+    let c: Vec<f64> = (0..=p)
+        .map(|k| fact(2 * p - k) * fact(p) / (fact(2 * p) * fact(k) * fact(p - k)))
+        .collect();
+    // Monic denominator s^p + d_{p−1} s^{p−1} + … + d_0 (T = 1), numerator likewise.
+    let lead = c[p];
+    let den: Vec<f64> = (0..p).map(|k| c[k] / lead).collect();
+    let sign = if p.is_multiple_of(2) { 1.0 } else { -1.0 };
+    let num: Vec<f64> = (0..p)
+        .map(|k| c[k] * (-1f64).powi(k as i32) / lead)
+        .collect();
+    let d0 = sign; // leading numerator coefficient (−1)^p c_p / c_p
+    let mut a = DMatrix::zeros(p, p);
+    for i in 0..p - 1 {
+        a[(i, i + 1)] = 1.0;
+    }
+    for k in 0..p {
+        a[(p - 1, k)] = -den[k];
+    }
+    let mut b = DMatrix::zeros(p, 1);
+    b[(p - 1, 0)] = 1.0;
+    let cm = DMatrix::from_fn(1, p, |_, k| num[k] - d0 * den[k]);
+    [a / delay, b / delay, cm, DMatrix::from_element(1, 1, d0)]
+}
+
+/// Where each part of the state lives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    pub car: Range<usize>,
+    pub road: Range<usize>,
+    /// One range per comfort output ([`COMFORT_OUTPUTS`]).
+    pub filters: Vec<Range<usize>>,
+    /// The delay weight's states, one per actuator ([`ComfortPlant::with_delay_weight`]).
+    pub weight: Option<Range<usize>>,
+}
+
+/// The road model's numbers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoadModel {
+    /// `√(S/2)`: road velocity [m/s] per unit of `w`.
+    pub sigma: f64,
+    /// `a` [rad/s].
+    pub corner: f64,
+    /// Wheelbase delay `T = (L1 + L2)/V` [s].
+    pub delay: f64,
+    pub rear: RearWheels,
+}
+
+/// The comfort design plant: `ẋ = A x + B_w w + B_u u`, `z = C_z x`, limits `l = C_l x + D_lu u`.
+#[derive(Debug, Clone)]
+pub struct ComfortPlant {
+    pub a: DMatrix<f64>,
+    pub b_w: DMatrix<f64>,
+    /// Per newton.
+    pub b_u: DMatrix<f64>,
+    /// `[W_k a_seat; 0.63 W_e α_roll; 0.40 W_e α_pitch]` [m/s²].
+    pub c_z: DMatrix<f64>,
+    /// Each limit signal over its limit.
+    pub c_lim: DMatrix<f64>,
+    pub d_lim_u: DMatrix<f64>,
+    pub limit_names: Vec<String>,
+    pub layout: Layout,
+    pub road: RoadModel,
+    /// The road under the four wheels `r = [z_r; ż_r] = R_x x + R_w w`.
+    pub r_x: DMatrix<f64>,
+    pub r_w: DMatrix<f64>,
+    /// The car's physical output rows (vehicle crate) at this plant's mass.
+    pub outputs: Vec<OutputRow>,
+    pub sprung_mass: f64,
+    /// Each actuator's effectiveness: the force applied per unit command (1 when healthy). It
+    /// scales `B_u`'s car and weighting rows and the outputs' `D_u` (accelerometers feel the
+    /// applied force), not the delay weight, which the command drives.
+    pub effectiveness: [f64; N_ACTUATORS],
+}
+
+/// The road states and `r = R_x x_r + R_w w`: `(A_r, B_r, R_x, R_w)`.
+fn road_system(m: &RoadModel) -> Abcd {
+    let (s, a) = (m.sigma, m.corner);
+    match m.rear {
+        RearWheels::Independent => {
+            let eye = DMatrix::<f64>::identity(N_WHEELS, N_WHEELS);
+            let mut rx = DMatrix::zeros(N_ROAD, N_WHEELS);
+            rx.view_mut((0, 0), (4, 4)).copy_from(&eye);
+            rx.view_mut((4, 0), (4, 4)).copy_from(&(&eye * -a));
+            let mut rw = DMatrix::zeros(N_ROAD, N_WHEELS);
+            rw.view_mut((4, 0), (4, 4)).copy_from(&(&eye * s));
+            [&eye * -a, &eye * s, rx, rw]
+        }
+        RearWheels::Pade { order } => {
+            let [pa, pb, pc, pd] = pade(order, m.delay);
+            let per = 1 + order;
+            let nr = 2 * per;
+            let (mut ar, mut br) = (DMatrix::zeros(nr, nr), DMatrix::zeros(nr, 2));
+            let (mut rx, mut rw) = (DMatrix::zeros(N_ROAD, nr), DMatrix::zeros(N_ROAD, 2));
+            let pd = pd[(0, 0)];
+            for t in 0..2 {
+                let o = t * per;
+                // Front height: ż_f = −a z_f + s w; the Padé states ξ̇ = A_p ξ + B_p z_f.
+                ar[(o, o)] = -a;
+                br[(o, t)] = s;
+                ar.view_mut((o + 1, o + 1), (order, order)).copy_from(&pa);
+                ar.view_mut((o + 1, o), (order, 1)).copy_from(&pb);
+                let (front, rear) = (t, 2 + t);
+                rx[(front, o)] = 1.0;
+                rx[(N_WHEELS + front, o)] = -a;
+                rw[(N_WHEELS + front, t)] = s;
+                // Rear height C_p ξ + D_p z_f, its velocity C_p ξ̇ + D_p ż_f.
+                rx.view_mut((rear, o + 1), (1, order)).copy_from(&pc);
+                rx[(rear, o)] = pd;
+                rx.view_mut((N_WHEELS + rear, o + 1), (1, order))
+                    .copy_from(&(&pc * &pa));
+                rx[(N_WHEELS + rear, o)] = (&pc * &pb)[(0, 0)] - a * pd;
+                rw[(N_WHEELS + rear, t)] = s * pd;
+            }
+            [ar, br, rx, rw]
+        }
+    }
+}
+
+impl ComfortPlant {
+    pub fn new(p: &VehicleParams, d: &ComfortDesign) -> Self {
+        Self::at_mass(p, d, p.m_s)
+    }
+
+    /// The plant of the car `p` with sprung mass `m_s`; the limits stay those of the nominal car
+    /// (its static tyre loads), so the plant is affine in `1/m_s` like the car.
+    pub fn at_mass(p: &VehicleParams, d: &ComfortDesign, m_s: f64) -> Self {
+        let static_load = StaticEquilibrium::new(p).tire_load;
+        let car = VehicleParams { m_s, ..*p };
+        let ss = StateSpace::new(&car);
+        let outputs = physical_outputs(&car);
+        let road = d.road.model(&car);
+        let [ar, br, r_x, r_w] = road_system(&road);
+        let nr = ar.nrows();
+        let weightings: Vec<Abcd> = (0..COMFORT_OUTPUTS.len())
+            .map(|i| comfort_weighting(i).without_low_pass().state_space())
+            .collect();
+        let nf: usize = weightings.iter().map(|w| w[0].nrows()).sum();
+        let n = N_STATES + nr + nf;
+        let nw = br.ncols();
+        let mut a = DMatrix::zeros(n, n);
+        let mut b_w = DMatrix::zeros(n, nw);
+        let mut b_u = DMatrix::zeros(n, N_ACTUATORS);
+        a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
+        a.view_mut((0, N_STATES), (N_STATES, nr))
+            .copy_from(&(&ss.b_r * &r_x));
+        b_w.view_mut((0, 0), (N_STATES, nw))
+            .copy_from(&(&ss.b_r * &r_w));
+        b_u.view_mut((0, 0), (N_STATES, N_ACTUATORS))
+            .copy_from(&ss.b_u);
+        a.view_mut((N_STATES, N_STATES), (nr, nr)).copy_from(&ar);
+        b_w.view_mut((N_STATES, 0), (nr, nw)).copy_from(&br);
+        let layout_car = 0..N_STATES;
+        let road_range = N_STATES..N_STATES + nr;
+        // A physical output as rows of (x, w, u).
+        let out = |name: &str| physical_rows(row(&outputs, name), &r_x, &r_w, n);
+        let mut c_z = DMatrix::zeros(COMFORT_OUTPUTS.len(), n);
+        let mut filters = Vec::new();
+        let mut o = N_STATES + nr;
+        for (i, ((name, factor), [fa, fb, fc, fd])) in
+            COMFORT_OUTPUTS.iter().zip(&weightings).enumerate()
+        {
+            assert_eq!(fd[(0, 0)], 0.0, "the weightings are strictly proper");
+            let m = fa.nrows();
+            let (cx, dw, du) = out(name);
+            a.view_mut((o, o), (m, m)).copy_from(fa);
+            let drive = fb * &cx;
+            let mut block = a.view_mut((o, 0), (m, n));
+            block += &drive;
+            b_w.view_mut((o, 0), (m, nw)).copy_from(&(fb * &dw));
+            b_u.view_mut((o, 0), (m, N_ACTUATORS))
+                .copy_from(&(fb * &du));
+            c_z.view_mut((i, o), (1, m)).copy_from(&(fc * *factor));
+            filters.push(o..o + m);
+            o += m;
+        }
+        // Limits.
+        let mut limit_names = Vec::new();
+        let mut c_lim = DMatrix::zeros(0, n);
+        let mut d_lim_u = DMatrix::zeros(0, N_ACTUATORS);
+        let mut push = |name: String, c: DMatrix<f64>, du: DMatrix<f64>| {
+            c_lim = stack(&c_lim, &c);
+            d_lim_u = stack(&d_lim_u, &du);
+            limit_names.push(name);
+        };
+        for c in CORNERS {
+            let (cx, _, du) = out(&format!("stroke_{c}"));
+            push(format!("stroke_{c}"), cx / d.stroke_max, du);
+        }
+        for (i, c) in CORNERS.iter().enumerate() {
+            let (cx, _, du) = out(&format!("tire_defl_{c}"));
+            let scale = p.k_t / static_load[i];
+            push(format!("tire_spring_load_{c}"), cx * scale, du * scale);
+        }
+        let limits = [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat];
+        for (k, a) in ACTUATORS.iter().enumerate() {
+            let mut du = DMatrix::zeros(1, N_ACTUATORS);
+            du[(0, k)] = 1.0 / limits[k];
+            push(format!("force_{a}"), DMatrix::zeros(1, n), du);
+        }
+        ComfortPlant {
+            a,
+            b_w,
+            b_u,
+            c_z,
+            c_lim,
+            d_lim_u,
+            limit_names,
+            layout: Layout {
+                car: layout_car,
+                road: road_range,
+                filters,
+                weight: None,
+            },
+            road,
+            r_x,
+            r_w,
+            outputs,
+            sprung_mass: m_s,
+            effectiveness: [1.0; N_ACTUATORS],
+        }
+    }
+
+    pub fn n(&self) -> usize {
+        self.a.nrows()
+    }
+
+    /// A physical output of the car as rows of this plant's `(x, w, u)`.
+    pub fn output(&self, name: &str) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+        let (c, d_w, mut d_u) =
+            physical_rows(row(&self.outputs, name), &self.r_x, &self.r_w, self.n());
+        for (k, rho) in self.effectiveness.iter().enumerate() {
+            d_u.column_mut(k).scale_mut(*rho);
+        }
+        (c, d_w, d_u)
+    }
+
+    /// This plant with actuator `k`'s effectiveness multiplied by `rho[k]` (before the delay
+    /// weight is added).
+    pub fn with_effectiveness(&self, rho: &[f64; N_ACTUATORS]) -> Self {
+        assert!(
+            self.layout.weight.is_none(),
+            "scale the effectiveness before adding the delay weight"
+        );
+        let mut g = self.clone();
+        for (k, r) in rho.iter().enumerate() {
+            g.b_u.column_mut(k).scale_mut(*r);
+            g.effectiveness[k] *= r;
+        }
+        g
+    }
+
+    /// The front road heights (left, right) in terms of the state (Padé rear model), or the four
+    /// heights (independent rear wheels): what a state-feedback controller must know of the
+    /// road, and which it reads as `z_u − tire_defl`.
+    pub fn road_height_rows(&self) -> Vec<(usize, usize)> {
+        // (state index, wheel) of each road height that is itself a state.
+        match self.road.rear {
+            RearWheels::Independent => (0..N_WHEELS)
+                .map(|k| (self.layout.road.start + k, k))
+                .collect(),
+            RearWheels::Pade { order } => (0..2)
+                .map(|t| (self.layout.road.start + t * (1 + order), t))
+                .collect(),
+        }
+    }
+}
+
+/// A norm-bounded uncertainty of the plant: `p = Δ q`, `‖Δ‖ ≤ 1` (a real parameter, or an LTI
+/// system of gain ≤ 1 at every frequency), entering as `B_p p`, with `q = C_q x + D_q u`.
+#[derive(Debug, Clone)]
+pub struct Channel {
+    pub name: &'static str,
+    pub b_p: DMatrix<f64>,
+    /// When `p` acts as an applied force `f = F p` (`B_p = B_u F` on the plant's rows), `F`:
+    /// accelerometers then feel it too, and a closed loop must route it like a force.
+    pub applied_force: Option<DMatrix<f64>>,
+    pub c_q: DMatrix<f64>,
+    pub d_q: DMatrix<f64>,
+}
+
+impl Channel {
+    /// One channel per column of `p` (row of `q`): a block-diagonal uncertainty, each block with
+    /// its own multiplier (less conservative than one full block when the `p`'s are independent
+    /// parameters, such as one effectiveness per actuator).
+    pub fn split(&self) -> Vec<Channel> {
+        (0..self.b_p.ncols())
+            .map(|k| Channel {
+                name: self.name,
+                b_p: self.b_p.columns(k, 1).into_owned(),
+                applied_force: self
+                    .applied_force
+                    .as_ref()
+                    .map(|f| f.columns(k, 1).into_owned()),
+                c_q: self.c_q.rows(k, 1).into_owned(),
+                d_q: self.d_q.rows(k, 1).into_owned(),
+            })
+            .collect()
+    }
+}
+
+/// `W(s) = c τ s / (1 + τ s / d)` covers the envelope `max_{θ ≤ τ} |e^{−jωθ} − 1|` of every
+/// delay up to `τ`, `2 sin(min(ωτ, π)/2)`: `(c, d)` with `d = 3` and the smallest `c` that covers
+/// on a log grid of `ωτ` over 10⁻³…10³ (1.0163…, times 1.001). A second-order cover could be
+/// tighter; at `d = 3` the first-order one over-bounds by under 2 % below `ωτ = 1`.
+pub fn delay_cover() -> (f64, f64) {
+    let d = 3.0;
+    let c = (0..=6000)
+        .map(|i| 10f64.powf(-3.0 + i as f64 * 1e-3))
+        .map(|x| {
+            2.0 * (x.min(std::f64::consts::PI) / 2.0).sin() * (1.0 + (x / d).powi(2)).sqrt() / x
+        })
+        .fold(0.0, f64::max);
+    (c * 1.001, d)
+}
+
+impl ComfortPlant {
+    /// The actuators' unmodelled delay, up to `tau`, as the input-multiplicative uncertainty
+    /// `u_applied = (I + Δ W) u` with `W` the [`delay_cover`], and the plant with `W`'s states
+    /// (one per actuator, driven by the command `u`): `(plant, channel)`. `q` and `p` are in
+    /// units of each actuator's force limit, so one multiplier serves all five.
+    pub fn with_delay_weight(
+        &self,
+        tau: f64,
+        u_limit: &[f64; N_ACTUATORS],
+    ) -> (ComfortPlant, Channel) {
+        let (c, d) = delay_cover();
+        let (n, m) = (self.n(), N_ACTUATORS);
+        let mut g = self.clone();
+        let grow = |x: &DMatrix<f64>, rows: usize, cols: usize| {
+            let mut y = DMatrix::zeros(rows, cols);
+            y.view_mut((0, 0), x.shape()).copy_from(x);
+            y
+        };
+        g.a = grow(&self.a, n + m, n + m);
+        g.b_w = grow(&self.b_w, n + m, self.b_w.ncols());
+        g.b_u = grow(&self.b_u, n + m, m);
+        g.c_z = grow(&self.c_z, self.c_z.nrows(), n + m);
+        g.c_lim = grow(&self.c_lim, self.c_lim.nrows(), n + m);
+        for k in 0..m {
+            g.a[(n + k, n + k)] = -d / tau;
+            g.b_u[(n + k, k)] = d / tau;
+        }
+        g.layout.weight = Some(n..n + m);
+        // p enters where u does, except the weight's own states (the controller's: the applied
+        // force does not drive them), in units of the limits.
+        let limits = DMatrix::from_fn(m, m, |i, j| if i == j { u_limit[i] } else { 0.0 });
+        let mut b_p = &g.b_u * &limits;
+        b_p.rows_mut(n, m).fill(0.0);
+        let per_limit = DMatrix::from_fn(m, m, |i, j| if i == j { 1.0 / u_limit[i] } else { 0.0 });
+        let mut c_q = DMatrix::zeros(m, n + m);
+        c_q.view_mut((0, n), (m, m))
+            .copy_from(&(&per_limit * (-c * d)));
+        let channel = Channel {
+            name: "actuator delay",
+            b_p,
+            applied_force: Some(limits),
+            c_q,
+            d_q: per_limit * (c * d),
+        };
+        (g, channel)
+    }
+}
+
+/// `(c, d_w, d_u)` of a physical output row with the road `r = R_x x + R_w w`.
+fn physical_rows(
+    r: &OutputRow,
+    r_x: &DMatrix<f64>,
+    r_w: &DMatrix<f64>,
+    n: usize,
+) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let d_r = DMatrix::from_row_slice(1, N_ROAD, &r.d_r);
+    let mut c = DMatrix::zeros(1, n);
+    c.view_mut((0, 0), (1, N_STATES))
+        .copy_from(&DMatrix::from_row_slice(1, N_STATES, &r.c));
+    c.view_mut((0, N_STATES), (1, r_x.ncols()))
+        .copy_from(&(&d_r * r_x));
+    (
+        c,
+        &d_r * r_w,
+        DMatrix::from_row_slice(1, N_ACTUATORS, &r.d_u),
+    )
+}
+
+pub(crate) fn stack(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut m = DMatrix::zeros(top.nrows() + bottom.nrows(), top.ncols());
+    m.view_mut((0, 0), top.shape()).copy_from(top);
+    m.view_mut((top.nrows(), 0), bottom.shape())
+        .copy_from(bottom);
+    m
+}
+
+/// Evaluate a state-space system's frequency response at `s = jω` (helper for tests and
+/// certificates): `C (sI − A)⁻¹ B + D`.
+pub fn frequency_response(sys: &Abcd, omega: f64) -> DMatrix<nalgebra::Complex<f64>> {
+    use nalgebra::Complex;
+    let [a, b, c, d] = sys;
+    let n = a.nrows();
+    let cx = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
+    let m = DMatrix::<Complex<f64>>::identity(n, n) * Complex::new(0.0, omega) - cx(a);
+    let x = m.lu().solve(&cx(b)).expect("jωI − A is invertible");
+    cx(c) * x + cx(d)
+}
+
+/// The limits of the five actuators [N].
+pub fn force_limits(d: &ComfortDesign) -> [f64; N_ACTUATORS] {
+    [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat]
+}
+
+/// The sprung-mass range as a channel around the plant at the harmonic-mean mass (the middle of
+/// the range in `1/m_s`, in which the plant is affine): `[A B_u](m) = centre + H δ E`,
+/// `δ ∈ [−1, 1]` (`δ = 1` at `mass_min`), rank one (only the heave row of `M⁻¹` depends on the
+/// mass). Returns the centre plant with the delay weight, its delay channel and the mass channel.
+pub fn mass_channel(p: &VehicleParams, d: &ComfortDesign) -> (ComfortPlant, Channel, Channel) {
+    let limits = force_limits(d);
+    let at = |m: f64| ComfortPlant::at_mass(p, d, m).with_delay_weight(d.unmodelled_delay, &limits);
+    let centre_mass = 2.0 / (1.0 / d.mass_min + 1.0 / d.mass_max);
+    let ((light, _), (heavy, _)) = (at(d.mass_min), at(d.mass_max));
+    let (centre, delay) = at(centre_mass);
+    let (n, m) = (centre.n(), centre.b_u.ncols());
+    let system = |g: &ComfortPlant| {
+        let mut s = DMatrix::zeros(n, n + m);
+        s.view_mut((0, 0), (n, n)).copy_from(&g.a);
+        s.view_mut((0, n), (n, m)).copy_from(&g.b_u);
+        s
+    };
+    let half = (system(&light) - system(&heavy)) * 0.5;
+    let svd = half.svd(true, true);
+    let (u, vt) = (svd.u.expect("requested"), svd.v_t.expect("requested"));
+    let (k, s0) = svd
+        .singular_values
+        .iter()
+        .enumerate()
+        .fold((0, 0.0), |a, (i, s)| if *s > a.1 { (i, *s) } else { a });
+    let h = u.column(k) * s0.sqrt();
+    let e = DMatrix::from_row_slice(1, n + m, (vt.row(k) * s0.sqrt()).transpose().as_slice());
+    (
+        centre,
+        delay,
+        Channel {
+            name: "sprung mass",
+            b_p: DMatrix::from_column_slice(n, 1, h.as_slice()),
+            applied_force: None,
+            c_q: e.columns(0, n).into_owned(),
+            d_q: e.columns(n, m).into_owned(),
+        },
+    )
+}
+
+/// The actuators' effectiveness box `ρᵢ ∈ [rho_min, 1]` as a channel around its centre
+/// `ρ_c = (1 + rho_min)/2`: the applied force `(ρ_c + r δᵢ) uᵢ`, `r = (1 − rho_min)/2`,
+/// `|δᵢ| ≤ 1` (one real parameter per actuator; one multiplier serves them, `q` and `p` in units
+/// of the limits). Returns the plant at the centre with the delay weight, its delay channel and
+/// the fault channel.
+pub fn fault_channel(g0: &ComfortPlant, d: &ComfortDesign) -> (ComfortPlant, Channel, Channel) {
+    let limits = force_limits(d);
+    let (rc, r) = ((1.0 + d.fault_rho_min) / 2.0, (1.0 - d.fault_rho_min) / 2.0);
+    let centre = g0.with_effectiveness(&[rc; N_ACTUATORS]);
+    let (g, delay) = centre.with_delay_weight(d.unmodelled_delay, &limits);
+    let (n, m) = (g.n(), g.b_u.ncols());
+    let lim = DMatrix::from_fn(m, m, |i, j| if i == j { limits[i] } else { 0.0 });
+    let mut b_p = g0.b_u.clone() * &lim;
+    b_p = stack(&b_p, &DMatrix::zeros(n - g0.n(), m));
+    let channel = Channel {
+        name: "actuator effectiveness",
+        b_p,
+        // B_u is the centre's, ρ_c times the car's: p's force is lim p / ρ_c in its units.
+        applied_force: Some(&lim / rc),
+        c_q: DMatrix::zeros(m, n),
+        d_q: lim.try_inverse().expect("limits > 0") * r,
+    };
+    (g, delay, channel)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hinf_norm::Lti;
+    use nalgebra::Complex;
+
+    pub(crate) fn design() -> ComfortDesign {
+        ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap()
+    }
+
+    #[test]
+    fn pade_approximant_matches_the_delay_at_low_frequency() {
+        for order in 1..=4 {
+            let sys = pade(order, 0.12);
+            for f in [0.1, 0.5, 1.0] {
+                let w = 2.0 * std::f64::consts::PI * f;
+                let g = frequency_response(&sys, w)[(0, 0)];
+                let exact = Complex::from_polar(1.0, -w * 0.12);
+                // All-pass, and the phase error of [p/p] grows as (ωT)^(2p+1).
+                assert!((g.norm() - 1.0).abs() < 1e-12, "order {order}");
+                let tol = (w * 0.12f64).powi(2 * order as i32 + 1) * 0.1 + 1e-12;
+                assert!(
+                    (g - exact).norm() < tol,
+                    "order {order}, {f} Hz: {g} vs {exact}"
+                );
+            }
+        }
+    }
+
+    /// The plant's frequency response from the left track's noise to the comfort output equals
+    /// its composition from independent parts: the car's response (vehicle crate) to the left
+    /// wheels' road, the road filter `√(S/2)/(jω + a)` and the Padé delay to the rear wheel, and
+    /// the weighting times its comfort factor.
+    #[test]
+    fn comfort_plant_is_the_car_on_the_road_model_weighted() {
+        let d = design();
+        let p = VehicleParams::default();
+        let g = ComfortPlant::new(&p, &d);
+        let sys = [
+            g.a.clone(),
+            g.b_w.clone(),
+            g.c_z.clone(),
+            DMatrix::zeros(3, g.b_w.ncols()),
+        ];
+        let ss = StateSpace::new(&p);
+        let car_rows = physical_outputs(&p);
+        let order = match d.road.rear_wheels {
+            RearWheels::Pade { order } => order,
+            RearWheels::Independent => unreachable!("the checked-in design uses Padé"),
+        };
+        let delay = pade(order, g.road.delay);
+        for f in [0.3, 1.2, 4.0, 11.0] {
+            let w = 2.0 * std::f64::consts::PI * f;
+            let s = Complex::new(0.0, w);
+            let plant = frequency_response(&sys, w);
+            // Car: C (sI − A)⁻¹ B_r + D_r for each output.
+            let car = |name: &str| {
+                let r = row(&car_rows, name);
+                let c = DMatrix::from_row_slice(1, N_STATES, &r.c);
+                let dr = DMatrix::from_row_slice(1, N_ROAD, &r.d_r);
+                frequency_response(&[ss.a.clone(), ss.b_r.clone(), c, dr], w)
+            };
+            let height = Complex::new(g.road.sigma, 0.0) / (s + g.road.corner);
+            let rear = frequency_response(&delay, w)[(0, 0)];
+            for (i, (name, factor)) in COMFORT_OUTPUTS.iter().enumerate() {
+                let h = car(name);
+                // Left track: FL (index 0) now, RL (index 2) delayed; heights and velocities.
+                let left =
+                    (h[(0, 0)] + h[(0, 4)] * s + (h[(0, 2)] + h[(0, 6)] * s) * rear) * height;
+                let expected = left * comfort_weighting(i).without_low_pass().response(f) * *factor;
+                let got = plant[(i, 0)];
+                assert!(
+                    (got - expected).norm() <= 1e-8 * expected.norm(),
+                    "{name} at {f} Hz: {got} vs {expected}"
+                );
+            }
+        }
+        // Passive comfort on the design road: finite, and the seat's W_k part of it.
+        let passive = Lti::new(
+            g.a.clone(),
+            g.b_w.clone(),
+            g.c_z.clone(),
+            DMatrix::zeros(3, 2),
+        );
+        let seat = passive.select_outputs(&[0]).h2_norm().unwrap();
+        let total = passive.h2_norm().unwrap();
+        eprintln!("passive on ISO C at 20 m/s (design model): a_v {total:.4}, W_k seat {seat:.4}");
+        assert!(seat > 0.3 && seat < total);
+    }
+}

@@ -1,0 +1,541 @@
+//! The shipped controllers, one typed definition each: its name (the FMU's), the design it is
+//! compared with in its own uncertainty, what it is robust to, and how it is synthesised for
+//! each kind of design file. The CLI (`synth --list`, the Makefile's list), the summary table
+//! and the comparisons all derive from [`VARIANTS`].
+//!
+//! Two kinds of design file ([`DesignFile`]): the comfort designs ([`crate::comfort_designs`],
+//! `synth/designs/default.json`, what `make` ships) and the thesis's H∞ designs
+//! ([`crate::thesis`], `synth/designs/thesis_hinf.json`, `constrained.json`).
+//!
+//! To add a variant: one entry in [`VARIANTS`] with its comfort synthesis (a function of the
+//! [`Context`] and the [`Shared`] designs it builds on) and its thesis synthesis (the match of
+//! [`crate::thesis::synthesise`]); the Makefile, the tables and the comparisons follow.
+
+use crate::comfort_designs::{
+    anti_windup_design, fault_tolerant_design, nominal_gain, output_feedback_design, robust_gain,
+    robust_output_feedback_design, state_feedback_design, Comfort, ComfortDesignResult,
+    ComfortError, Context, Uncertainty,
+};
+use crate::controller_file::{controller_json, Guarantee};
+use crate::design::{ComfortDesign, Design, DesignError};
+use crate::guaranteed::StateFeedback;
+use crate::prediction::{predict, ControlLaw};
+use crate::{comfort_plant::ComfortPlant, SynthError};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::sync::OnceLock;
+use vehicle::VehicleParams;
+
+/// Designs several variants build on, made once per run.
+#[derive(Default)]
+pub struct Shared {
+    nominal: OnceLock<Result<(ComfortPlant, StateFeedback), String>>,
+    robust: OnceLock<Result<(ComfortPlant, StateFeedback), String>>,
+    hinf_of: OnceLock<Result<ComfortDesignResult, String>>,
+}
+
+impl Shared {
+    fn nominal(&self, ctx: &Context) -> Result<&(ComfortPlant, StateFeedback), ComfortError> {
+        shared(&self.nominal, || nominal_gain(ctx), "hinf_sf")
+    }
+    fn robust(&self, ctx: &Context) -> Result<&(ComfortPlant, StateFeedback), ComfortError> {
+        shared(&self.robust, || robust_gain(ctx), "robust_sf")
+    }
+    fn hinf_of(&self, ctx: &Context) -> Result<&ComfortDesignResult, ComfortError> {
+        let nominal = self.nominal(ctx)?;
+        shared(
+            &self.hinf_of,
+            || output_feedback_design(ctx, nominal),
+            "hinf_of",
+        )
+    }
+}
+
+fn shared<'a, T>(
+    cell: &'a OnceLock<Result<T, String>>,
+    make: impl FnOnce() -> Result<T, ComfortError>,
+    variant: &str,
+) -> Result<&'a T, ComfortError> {
+    cell.get_or_init(|| make().map_err(|e| e.to_string()))
+        .as_ref()
+        .map_err(|reason| ComfortError::Synthesis {
+            variant: variant.into(),
+            reason: reason.clone(),
+        })
+}
+
+type ComfortSynthesis = fn(&Context, &Shared) -> Result<ComfortDesignResult, ComfortError>;
+
+/// One shipped controller.
+pub struct Variant {
+    /// The FMU's model identifier.
+    pub name: &'static str,
+    /// The design it is compared with in its own uncertainty.
+    pub nominal: Option<&'static str>,
+    pub robust_to: Uncertainty,
+    /// What it is, in a line, with the thesis result it implements.
+    pub summary: &'static str,
+    pub comfort: ComfortSynthesis,
+}
+
+/// Every shipped controller, in the order of the tables.
+pub const VARIANTS: [Variant; 7] = [
+    Variant {
+        name: "hinf_sf",
+        nominal: None,
+        robust_to: Uncertainty::None,
+        summary: "state feedback (thesis Th. 5.1)",
+        comfort: |ctx, s| {
+            let notes = vec![state_feedback_note(ctx.design, "the unmodelled delay")];
+            state_feedback_design(ctx, "hinf_sf", Uncertainty::None, s.nominal(ctx)?, notes)
+        },
+    },
+    Variant {
+        name: "hinf_of",
+        nominal: None,
+        robust_to: Uncertainty::None,
+        summary: "dynamic output feedback from eight sensors (thesis Th. 5.2)",
+        comfort: |ctx, s| s.hinf_of(ctx).cloned(),
+    },
+    Variant {
+        name: "hinf_of_aw",
+        nominal: Some("hinf_of"),
+        robust_to: Uncertainty::Saturation,
+        summary: "hinf_of with anti-windup for actuator saturation (thesis Th. 5.3)",
+        comfort: |ctx, s| anti_windup_design(ctx, s.hinf_of(ctx)?),
+    },
+    Variant {
+        name: "robust_sf",
+        nominal: Some("hinf_sf"),
+        robust_to: Uncertainty::SprungMass,
+        summary: "state feedback robust to the sprung mass (thesis Th. 6.1)",
+        comfort: |ctx, s| {
+            let notes = vec![state_feedback_note(
+                ctx.design,
+                &format!(
+                    "every sprung mass in [{}, {}] kg (rank-one channel at the harmonic-mean mass) and the unmodelled delay",
+                    ctx.design.mass_min, ctx.design.mass_max
+                ),
+            )];
+            state_feedback_design(
+                ctx,
+                "robust_sf",
+                Uncertainty::SprungMass,
+                s.robust(ctx)?,
+                notes,
+            )
+        },
+    },
+    Variant {
+        name: "robust_of",
+        nominal: Some("hinf_of"),
+        robust_to: Uncertainty::SprungMass,
+        summary: "output feedback robust to the sprung mass (thesis Th. 6.2)",
+        comfort: |ctx, s| robust_output_feedback_design(ctx, s.robust(ctx)?),
+    },
+    Variant {
+        name: "delay_sf",
+        nominal: Some("hinf_sf"),
+        robust_to: Uncertainty::InputDelay,
+        summary: "state feedback for a known actuator delay (thesis Prop. 7.1)",
+        comfort: |ctx, s| crate::predictor::predictor_design(ctx, s.nominal(ctx)?),
+    },
+    Variant {
+        name: "ft_of",
+        nominal: Some("hinf_of"),
+        robust_to: Uncertainty::ActuatorFaults,
+        summary: "fault-tolerant output feedback with a fault detector (thesis Th. 8.1)",
+        comfort: |ctx, _| fault_tolerant_design(ctx),
+    },
+];
+
+fn state_feedback_note(d: &ComfortDesign, guarantee: &str) -> String {
+    format!(
+        "Guaranteed-cost state feedback: the gain minimising the bound of the ISO 2631-1 comfort \
+         norm (plus the limits' weights where needed) valid for {guarantee} (actuator delay up to \
+         {} s as an input-multiplicative uncertainty), from the game Riccati equation with the \
+         multipliers searched. It reads the car's states, the road heights as z_u - tire_defl, \
+         and the accelerations a_seat, alpha_roll, alpha_pitch; its own states are the rear \
+         road's Pade preview, copies of the ISO weightings and the delay weight.",
+        d.unmodelled_delay
+    )
+}
+
+/// The names of [`VARIANTS`].
+pub fn names() -> Vec<&'static str> {
+    VARIANTS.iter().map(|v| v.name).collect()
+}
+
+pub fn variant(name: &str) -> Option<&'static Variant> {
+    VARIANTS.iter().find(|v| v.name == name)
+}
+
+/// A design file: the comfort designs (`"objective": "comfort"`) or the thesis's H∞ designs
+/// (no `objective`, or `"objective": "hinf"`).
+#[derive(Debug, Clone)]
+pub enum DesignFile {
+    Comfort(ComfortDesign),
+    Thesis(Design),
+}
+
+impl DesignFile {
+    pub fn from_json(text: &str) -> Result<Self, DesignError> {
+        let mut value: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| DesignError::Syntax(e.to_string()))?;
+        let objective = value
+            .as_object_mut()
+            .and_then(|o| o.remove("objective"))
+            .unwrap_or_else(|| "hinf".into());
+        let rest = value.to_string();
+        match objective.as_str() {
+            Some("comfort") => Ok(DesignFile::Comfort(ComfortDesign::from_json(&rest)?)),
+            Some("hinf") => Ok(DesignFile::Thesis(Design::from_json(&rest)?)),
+            _ => Err(DesignError::Syntax(format!(
+                "\"objective\" must be \"comfort\" or \"hinf\", got {objective}"
+            ))),
+        }
+    }
+}
+
+/// One synthesised, certified design, whatever its kind.
+pub struct Synthesised {
+    pub law: ControlLaw,
+    pub certificate: serde_json::Value,
+    pub controller_json: serde_json::Value,
+    pub row: SummaryRow,
+    /// Wall time of this design alone [s].
+    pub seconds: f64,
+}
+
+/// One design in the summary of a run (`dist/synthesis.json`, [`summary_table`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct SummaryRow {
+    pub variant: String,
+    pub objective: &'static str,
+    pub robust_to: String,
+    /// Comfort designs: W_k RMS seat acceleration on the design road [m/s²], predicted at the
+    /// nominal car, the passive car's, and guaranteed over the design's uncertainty.
+    pub predicted_wk_rms_seat: Option<f64>,
+    pub passive_wk_rms_seat: Option<f64>,
+    pub guaranteed_wk_rms_seat: Option<f64>,
+    /// Thesis designs: the γ the LMI claims.
+    pub gamma: Option<f64>,
+    /// The headline certified figure over the design's uncertainty.
+    pub certified: String,
+    pub nominal_design: Option<String>,
+    /// The nominal design's figure over the same uncertainty.
+    pub nominal_figure: Option<String>,
+    pub seconds: f64,
+}
+
+/// What a run made: the certified designs, and (comfort designs only) those refused, with why.
+pub struct Outcome {
+    pub designs: Vec<(String, Synthesised)>,
+    pub refused: Vec<(String, String)>,
+}
+
+/// Synthesise and certify `names` (all when empty). A thesis design that fails stops the run (its
+/// FMUs are the default build); a comfort design that fails is refused and reported, the others
+/// go on.
+pub fn synthesise_all(
+    names: &[&str],
+    params: &VehicleParams,
+    file: &DesignFile,
+) -> Result<Outcome, SynthError> {
+    for n in names {
+        if variant(n).is_none() {
+            return Err(SynthError::Usage(format!(
+                "unknown variant '{n}', expected one of {:?}",
+                self::names()
+            )));
+        }
+    }
+    let all = self::names();
+    let names = if names.is_empty() { &all[..] } else { names };
+    match file {
+        DesignFile::Thesis(design) => Ok(Outcome {
+            designs: thesis_all(names, params, design)?,
+            refused: Vec::new(),
+        }),
+        DesignFile::Comfort(design) => comfort_all(names, params, design),
+    }
+}
+
+fn thesis_all(
+    names: &[&str],
+    params: &VehicleParams,
+    design: &Design,
+) -> Result<Vec<(String, Synthesised)>, SynthError> {
+    let results = crate::thesis::synthesise_all(names, params, design)?;
+    let rows = crate::thesis::summary_rows(&results);
+    Ok(results
+        .into_iter()
+        .zip(rows)
+        .map(|((name, s), r)| {
+            let row = SummaryRow {
+                variant: r.variant,
+                objective: "hinf",
+                robust_to: r.robust_to,
+                predicted_wk_rms_seat: None,
+                passive_wk_rms_seat: None,
+                guaranteed_wk_rms_seat: None,
+                gamma: Some(r.gamma),
+                certified: r.certified,
+                nominal_design: r.nominal_design,
+                nominal_figure: r.nominal_figure,
+                seconds: r.seconds,
+            };
+            let law = ControlLaw {
+                lti: s.controller,
+                inputs: s.certificate.measurements.clone(),
+                predictor: None,
+            };
+            let certificate = serde_json::to_value(&s.certificate).expect("serialisable");
+            (
+                name,
+                Synthesised {
+                    law,
+                    certificate,
+                    controller_json: s.controller_json,
+                    row,
+                    seconds: s.seconds,
+                },
+            )
+        })
+        .collect())
+}
+
+/// The comfort figure a controller FMU reports: the guaranteed one, or where the design's
+/// uncertainty has no certified bound, the nominal prediction under its own name.
+fn comfort_guarantee(d: &ComfortDesign, comfort: &Comfort, robust_to: Uncertainty) -> Guarantee {
+    let road = format!(
+        "on an ISO 8608 class {} road at {} m/s (left and right independent)",
+        String::from(d.road.iso_class),
+        d.road.speed
+    );
+    match comfort.guaranteed_wk_rms_seat_m_s2 {
+        Some(value) => Guarantee {
+            name: "guaranteed_wk_rms_seat",
+            value,
+            unit: "m/s2",
+            description: format!(
+                "W_k RMS seat acceleration the design guarantees {road}{} (see the certificate)",
+                match robust_to {
+                    Uncertainty::SprungMass => " for every sprung mass of its range",
+                    Uncertainty::ActuatorFaults => " for every actuator effectiveness of its box",
+                    _ => " at the nominal car",
+                }
+            ),
+        },
+        None => Guarantee {
+            name: "predicted_wk_rms_seat",
+            value: comfort.predicted_wk_rms_seat_m_s2,
+            unit: "m/s2",
+            description: format!(
+                "W_k RMS seat acceleration predicted {road} at the nominal car; no bound over the \
+                 design's uncertainty is certified (see the certificate)"
+            ),
+        },
+    }
+}
+
+fn comfort_all(
+    names: &[&str],
+    params: &VehicleParams,
+    design: &ComfortDesign,
+) -> Result<Outcome, SynthError> {
+    use rayon::prelude::*;
+    let ctx = Context { params, design };
+    let shared = Shared::default();
+    let names: Vec<&str> = if names.is_empty() {
+        self::names()
+    } else {
+        names.to_vec()
+    };
+    // The designs others build on first, then the rest, each on its own task.
+    let done: Vec<(String, Result<ComfortDesignResult, ComfortError>, f64)> = names
+        .par_iter()
+        .with_max_len(1)
+        .map(|name| {
+            let v = variant(name).expect("checked above");
+            let t = std::time::Instant::now();
+            let r = (v.comfort)(&ctx, &shared);
+            (name.to_string(), r, t.elapsed().as_secs_f64())
+        })
+        .collect();
+    let mut refused = Vec::new();
+    let mut by_name: BTreeMap<String, (ComfortDesignResult, f64)> = BTreeMap::new();
+    for (n, r, t) in done {
+        match r {
+            Ok(r) => {
+                by_name.insert(n, (r, t));
+            }
+            Err(e) => refused.push((n, e.to_string())),
+        }
+    }
+    let names: Vec<&str> = names
+        .into_iter()
+        .filter(|n| by_name.contains_key(*n))
+        .collect();
+    // Each robust design's nominal counterpart at the same conditions, when both were made.
+    let pairs: Vec<(String, String)> = by_name
+        .keys()
+        .filter_map(|n| {
+            variant(n)
+                .and_then(|v| v.nominal)
+                .filter(|nom| by_name.contains_key(*nom))
+                .map(|nom| (n.clone(), nom.to_string()))
+        })
+        .collect();
+    for (robust, nominal) in pairs {
+        let nominal_law = by_name[&nominal].0.law.clone();
+        let entry = &mut by_name.get_mut(&robust).expect("present").0;
+        if let Some(u) = entry.certificate.comfort.uncertainty.as_mut() {
+            u.nominal_design = u
+                .conditions
+                .iter()
+                .zip(&u.predictions)
+                .map(|(c, (label, _))| {
+                    (
+                        label.clone(),
+                        predict(Some(&nominal_law), *c, &design.road).ok(),
+                    )
+                })
+                .collect();
+            u.nominal_name = Some(nominal.clone());
+        }
+    }
+    let designs = names
+        .iter()
+        .map(|name| {
+            let (r, seconds) = by_name.remove(*name).expect("synthesised above");
+            let v = variant(name).expect("checked");
+            let c = &r.certificate;
+            let comfort = &c.comfort;
+            let guarantee = comfort_guarantee(design, comfort, c.robust_to);
+            let mut json = controller_json(
+                name,
+                &format!("{} — comfort design: {}", name, v.summary),
+                &guarantee,
+                &r.law.inputs,
+                &r.law.lti,
+            );
+            for (k, value) in &r.extensions {
+                json[k] = value.clone();
+            }
+            let (certified, nominal_figure) = headline(c);
+            let row = SummaryRow {
+                variant: name.to_string(),
+                objective: "comfort",
+                robust_to: format!("{:?}", c.robust_to),
+                predicted_wk_rms_seat: Some(comfort.predicted_wk_rms_seat_m_s2),
+                passive_wk_rms_seat: Some(comfort.passive_wk_rms_seat_m_s2),
+                guaranteed_wk_rms_seat: comfort.guaranteed_wk_rms_seat_m_s2,
+                gamma: None,
+                certified,
+                nominal_design: v.nominal.map(String::from),
+                nominal_figure,
+                seconds,
+            };
+            (
+                name.to_string(),
+                Synthesised {
+                    certificate: serde_json::to_value(c).expect("serialisable"),
+                    law: r.law,
+                    controller_json: json,
+                    row,
+                    seconds,
+                },
+            )
+        })
+        .collect();
+    Ok(Outcome { designs, refused })
+}
+
+/// The certified figure over the design's uncertainty and the nominal design's over the same.
+fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<String>) {
+    let comfort = &c.comfort;
+    match &comfort.uncertainty {
+        None => (
+            format!(
+                "W_k seat {:.4} (passive {:.4}); delay margin {:.1} ms",
+                comfort.predicted_wk_rms_seat_m_s2,
+                comfort.passive_wk_rms_seat_m_s2,
+                1e3 * c.unmodelled_delay.delay_margin_s
+            ),
+            None,
+        ),
+        Some(u) => {
+            let nominal = (!u.nominal_design.is_empty()).then(|| {
+                let worst = u
+                    .nominal_design
+                    .iter()
+                    .map(|(_, f)| f.as_ref().map_or(f64::INFINITY, |f| f.wk_rms_seat_m_s2))
+                    .fold(0.0, f64::max);
+                if worst.is_finite() {
+                    format!("worst W_k seat {worst:.4}")
+                } else {
+                    "unstable somewhere".into()
+                }
+            });
+            (
+                format!(
+                    "worst W_k seat {:.4} over {} conditions; design-model {}",
+                    u.worst_predicted_wk_rms_seat_m_s2,
+                    u.predictions.len(),
+                    match (&u.bound_wk_rms_seat, u.design_model_grid_worst_wk_rms_seat) {
+                        (Some(b), _) => format!("bound {:.4}", b.value),
+                        (None, Some(g)) => format!("grid worst {g:.4} (no bound)"),
+                        (None, None) => "-".into(),
+                    }
+                ),
+                nominal,
+            )
+        }
+    }
+}
+
+/// The summary table (Markdown) of a run.
+pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
+    let comfort = rows.iter().any(|r| r.objective == "comfort");
+    let mut t = if comfort {
+        String::from(
+            "| variant | robust to | predicted W_k seat [m/s²] | passive | guaranteed (car) | over its uncertainty | nominal design, same conditions | synthesis |\n|---|---|---|---|---|---|---|---|\n",
+        )
+    } else {
+        String::from(
+            "| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | nominal design, worst over the same | synthesis |\n|---|---|---|---|---|---|\n",
+        )
+    };
+    let f = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.4}"));
+    for r in rows {
+        if comfort {
+            t += &format!(
+                "| `{}` | {} | {} | {} | {} | {} | {} | {:.2} s |\n",
+                r.variant,
+                r.robust_to,
+                f(r.predicted_wk_rms_seat),
+                f(r.passive_wk_rms_seat),
+                f(r.guaranteed_wk_rms_seat),
+                r.certified,
+                r.nominal_figure.as_deref().unwrap_or("-"),
+                r.seconds
+            );
+        } else {
+            t += &format!(
+                "| `{}` | {} | {:.6} | {} | {} | {:.2} s |\n",
+                r.variant,
+                r.robust_to,
+                r.gamma.unwrap_or(f64::NAN),
+                r.certified,
+                r.nominal_figure.as_deref().unwrap_or("-"),
+                r.seconds
+            );
+        }
+    }
+    t += &format!(
+        "\nAll {} designs in {wall_seconds:.2} s wall time (designs in parallel, one BLAS thread each).\n",
+        rows.len()
+    );
+    t
+}
