@@ -531,7 +531,10 @@ pub fn mass_channel(p: &VehicleParams, d: &ComfortDesign) -> (ComfortPlant, Chan
 /// the fault channel.
 pub fn fault_channel(g0: &ComfortPlant, d: &ComfortDesign) -> (ComfortPlant, Channel, Channel) {
     let limits = force_limits(d);
-    let (rc, r) = ((1.0 + d.fault_rho_min) / 2.0, (1.0 - d.fault_rho_min) / 2.0);
+    let (rc, r) = crate::fault::FaultBox {
+        rho_min: d.fault_rho_min,
+    }
+    .center_radius();
     let centre = g0.with_effectiveness(&[rc; N_ACTUATORS]);
     let (g, delay) = centre.with_delay_weight(d.unmodelled_delay, &limits);
     let (n, m) = (g.n(), g.b_u.ncols());

@@ -256,15 +256,7 @@ impl ComfortDesign {
             ("fault_time_constant", self.fault_time_constant),
             ("fault_threshold", self.fault_threshold),
         ];
-        for (name, value) in positive {
-            if !(value > 0.0 && value.is_finite()) {
-                return Err(DesignError::Value {
-                    name,
-                    expected: "a finite number > 0",
-                    value,
-                });
-            }
-        }
+        require_positive(&positive)?;
         if let RearWheels::Pade { order } = self.road.rear_wheels {
             if !(1..=8).contains(&order) {
                 return Err(DesignError::Value {
@@ -274,13 +266,7 @@ impl ComfortDesign {
                 });
             }
         }
-        if !(self.mass_min > 0.0 && self.mass_min < self.mass_max && self.mass_max.is_finite()) {
-            return Err(DesignError::Value {
-                name: "mass_min, mass_max",
-                expected: "0 < mass_min < mass_max < inf",
-                value: self.mass_min,
-            });
-        }
+        require_mass_range(self.mass_min, self.mass_max)?;
         if self.mass_grid_points < 2 {
             return Err(DesignError::Value {
                 name: "mass_grid_points",
@@ -288,15 +274,45 @@ impl ComfortDesign {
                 value: self.mass_grid_points as f64,
             });
         }
-        if !(self.fault_rho_min > 0.0 && self.fault_rho_min < 1.0) {
-            return Err(DesignError::Value {
-                name: "fault_rho_min",
-                expected: "in (0, 1)",
-                value: self.fault_rho_min,
-            });
-        }
+        require_effectiveness(self.fault_rho_min)?;
         Ok(())
     }
+}
+
+/// Every `(name, value)` finite and > 0: the checks both design files share.
+fn require_positive(values: &[(&'static str, f64)]) -> Result<(), DesignError> {
+    for &(name, value) in values {
+        if !(value > 0.0 && value.is_finite()) {
+            return Err(DesignError::Value {
+                name,
+                expected: "a finite number > 0",
+                value,
+            });
+        }
+    }
+    Ok(())
+}
+
+fn require_mass_range(mass_min: f64, mass_max: f64) -> Result<(), DesignError> {
+    if !(mass_min > 0.0 && mass_min < mass_max && mass_max.is_finite()) {
+        return Err(DesignError::Value {
+            name: "mass_min, mass_max",
+            expected: "0 < mass_min < mass_max < inf",
+            value: mass_min,
+        });
+    }
+    Ok(())
+}
+
+fn require_effectiveness(rho_min: f64) -> Result<(), DesignError> {
+    if !(rho_min > 0.0 && rho_min < 1.0) {
+        return Err(DesignError::Value {
+            name: "fault_rho_min",
+            expected: "in (0, 1)",
+            value: rho_min,
+        });
+    }
+    Ok(())
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -379,22 +395,8 @@ impl Design {
             ("fault_time_constant", self.fault_time_constant),
             ("fault_threshold", self.fault_threshold),
         ];
-        for (name, value) in positive {
-            if !(value > 0.0 && value.is_finite()) {
-                return Err(DesignError::Value {
-                    name,
-                    expected: "a finite number > 0",
-                    value,
-                });
-            }
-        }
-        if !(self.mass_min > 0.0 && self.mass_min < self.mass_max && self.mass_max.is_finite()) {
-            return Err(DesignError::Value {
-                name: "mass_min, mass_max",
-                expected: "0 < mass_min < mass_max < inf",
-                value: self.mass_min,
-            });
-        }
+        require_positive(&positive)?;
+        require_mass_range(self.mass_min, self.mass_max)?;
         if !(self.fault_h2_weight >= 0.0 && self.fault_h2_weight.is_finite()) {
             return Err(DesignError::Value {
                 name: "fault_h2_weight",
@@ -402,13 +404,7 @@ impl Design {
                 value: self.fault_h2_weight,
             });
         }
-        if !(self.fault_rho_min > 0.0 && self.fault_rho_min < 1.0) {
-            return Err(DesignError::Value {
-                name: "fault_rho_min",
-                expected: "in (0, 1)",
-                value: self.fault_rho_min,
-            });
-        }
+        require_effectiveness(self.fault_rho_min)?;
         if let RoadModel::Shaped { corner } = self.road_model {
             if !(corner > 0.0 && corner.is_finite()) {
                 return Err(DesignError::Value {
