@@ -4,7 +4,7 @@
 #              dist/) and pytest
 # `make bench` benchmarks (criterion)
 # `make constrained` (opt-in) the designs with the thesis's limits imposed as LMIs
-# `make comfort` (opt-in, work in progress) the comfort designs: certificates and summary only
+# `make comfort` (work in progress) the comfort designs and their FMUs in dist/comfort/
 # Everything the commands need is installed here: Debian packages and a .venv with FMPy.
 
 SHELL := /bin/bash
@@ -38,12 +38,23 @@ all: fmus validate compare
 compare: $(FMU_FILES) $(STAMP)/release
 	./target/release/master compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results --designs dist/synthesis.json
 
-# Opt-in, work in progress (README "Comfort designs"): every variant designed for ISO 2631 comfort
-# on an ISO 8608 road (synth/designs/comfort.json), certified against an exact frequency-domain
-# prediction: dist/comfort/<variant>.certificate.json, controller.json and synthesis.md. No FMUs
-# yet (delay_sf's predictor needs the controller runtime). About 45 s.
-comfort: $(STAMP)/release
+# Work in progress (README "Comfort designs"): every variant designed for ISO 2631 comfort on an
+# ISO 8608 road (synth/designs/comfort.json), certified against an exact frequency-domain
+# prediction: dist/comfort/<variant>.certificate.json, controller.json, synthesis.md and an FMU
+# of each design synthesis produced (a refused design is reported in synthesis.md and gets none),
+# beside copies of road.fmu and plant.fmu. About 45 s. `make test` builds it: the co-simulation
+# of these FMUs is tested against their certificates' predictions.
+comfort: $(STAMP)/comfort-fmus
+
+$(STAMP)/comfort: $(STAMP)/release synth/designs/comfort.json
 	./target/release/synth --design synth/designs/comfort.json --out dist/comfort
+	@touch $@
+
+$(STAMP)/comfort-fmus: $(STAMP)/comfort dist/road.fmu dist/plant.fmu
+	cp dist/road.fmu dist/plant.fmu dist/comfort/
+	for d in dist/comfort/*/controller.json; do v=$$(basename $$(dirname $$d)); \
+	  ./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/comfort/$$v --out dist/comfort/$$v.fmu || exit 1; done
+	@touch $@
 
 # Opt-in: thesis ch. 5 with its limits imposed as LMIs (synth/designs/constrained.json: shaped
 # road, 2.5 cm design bump) for the designs that impose them, compared like the shipped ones:
@@ -126,7 +137,7 @@ lint: | $(STAMP)/apt
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 
-test-rust: $(FMU_FILES) | $(STAMP)/apt
+test-rust: $(FMU_FILES) $(STAMP)/comfort-fmus | $(STAMP)/apt
 	$(CARGO) test --workspace
 
 test-python: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/venv

@@ -8,6 +8,7 @@
 //! A dynamic controller is stepped exactly (matrix exponential, measurements held over the
 //! communication step, which is what a sampled-data implementation does).
 
+pub mod predictor;
 pub mod spec;
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
@@ -20,7 +21,8 @@ use std::path::Path;
 use vehicle::exact::{discretize, mat_vec_sum, Discretization};
 
 /// Value references: inputs from 0, outputs from 1000, the guarantee at 2000, force limits of an
-/// anti-windup controller from 3000, a fault detector's variables from 4000.
+/// anti-windup controller from 3000, a fault detector's variables from 4000, a predictor's
+/// delay at 5000.
 pub mod vr {
     pub const INPUT: u32 = 0;
     pub const OUTPUT: u32 = 1000;
@@ -29,6 +31,7 @@ pub mod vr {
     pub const RESIDUAL_NORM: u32 = 4000;
     pub const FAULT_DETECTED: u32 = 4001;
     pub const FAULT_THRESHOLD: u32 = 4002;
+    pub const DELAY: u32 = 5000;
 }
 
 /// An anti-windup controller's force-limit parameters, named like the plant's (`u_max` for the
@@ -76,8 +79,13 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         );
     }
     for (i, s) in spec.outputs.iter().enumerate() {
+        // A predictor's feedthrough is K e^{Aθ} S_y, θ a parameter: every input S_y reads.
+        let feeds = |j: usize| match &spec.predictor {
+            Some(p) => p.s_y.column(j).iter().any(|v| *v != 0.0),
+            None => spec.d[(i, j)] != 0.0,
+        };
         let deps: Vec<String> = (0..spec.inputs.len())
-            .filter(|&j| spec.d[(i, j)] != 0.0)
+            .filter(|&j| feeds(j))
             .map(|j| spec.inputs[j].name.clone())
             .collect();
         vars.push(
@@ -128,6 +136,20 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .with_min(0.0),
         );
     }
+    if let Some(p) = &spec.predictor {
+        vars.push(
+            Variable::real(
+                "tau",
+                vr::DELAY,
+                Causality::Parameter,
+                "s",
+                "Actuator delay the predictor compensates (set it equal to the plant's tau)",
+            )
+            .with_start(0.0)
+            .with_min(0.0)
+            .with_max(p.delay_max),
+        );
+    }
     ModelDescription {
         model_name: spec.variant.clone(),
         model_identifier: spec.variant.clone(),
@@ -155,6 +177,7 @@ fn unit(u: &str) -> &'static str {
         "rad/s" => "rad/s",
         "rad/s2" => "rad/s2",
         "N" => "N",
+        "s" => "s",
         "1" => "1",
         _ => "",
     }
@@ -188,6 +211,9 @@ pub struct Controller {
     v: DVector<f64>,
     next: DVector<f64>,
     r: DVector<f64>,
+    /// A predictor over the actuators' delay, with the delay set for the next run.
+    predictor: Option<predictor::Runtime>,
+    tau: f64,
 }
 
 /// `(A, B)` of the stepped system: the controller alone; with the anti-windup compensator
@@ -234,6 +260,12 @@ impl Controller {
     /// `u = sat(y_c + F η)`; otherwise `u = y_c = C xc + D y`.
     fn update_commands(&mut self) {
         if self.valid {
+            return;
+        }
+        if let Some(p) = &self.predictor {
+            p.command(&self.y, self.x.as_slice(), &mut self.yc);
+            self.u.copy_from(&self.yc);
+            self.valid = true;
             return;
         }
         let n = self.spec.order();
@@ -310,7 +342,11 @@ impl Model for Controller {
             .map_or(f64::INFINITY, |fd| fd.threshold);
         let (nx, nv, nu, ny) = (a.nrows(), b.ncols(), spec.outputs.len(), spec.inputs.len());
         let nr = spec.fault_detection.as_ref().map_or(0, |fd| fd.c.nrows());
+        let predictor = spec.predictor.clone().map(predictor::Runtime::new);
+        let nx = predictor.as_ref().map_or(nx, |_| spec.order());
         Ok(Controller {
+            predictor,
+            tau: 0.0,
             x: DVector::zeros(nx),
             y: DVector::zeros(ny),
             limits,
@@ -331,9 +367,18 @@ impl Model for Controller {
         })
     }
 
+    fn check_real(&self, vr: ValueReference, value: f64) -> Result<(), String> {
+        match (&self.predictor, vr) {
+            (Some(p), vr::DELAY) => p.check(value),
+            _ => Ok(()),
+        }
+    }
+
     fn set_real(&mut self, vr: ValueReference, value: f64) {
         self.valid = false;
-        if vr == vr::FAULT_THRESHOLD {
+        if vr == vr::DELAY {
+            self.tau = value;
+        } else if vr == vr::FAULT_THRESHOLD {
             self.threshold = value;
         } else if vr >= vr::LIMIT {
             if let Some((_, outputs)) = self.limit_groups.get((vr - vr::LIMIT) as usize) {
@@ -350,6 +395,7 @@ impl Model for Controller {
         match vr {
             vr::RESIDUAL_NORM => self.residual_norm(),
             vr::FAULT_THRESHOLD => self.threshold,
+            vr::DELAY => self.tau,
             v if v >= vr::LIMIT => self
                 .limit_groups
                 .get((v - vr::LIMIT) as usize)
@@ -376,6 +422,10 @@ impl Model for Controller {
                 self.threshold
             ));
         }
+        if let Some(p) = &mut self.predictor {
+            p.check(self.tau)?;
+            p.reset(self.tau);
+        }
         self.x.fill(0.0);
         self.detected = false;
         self.valid = false;
@@ -383,6 +433,15 @@ impl Model for Controller {
     }
 
     fn do_step(&mut self, _time: f64, step: f64) -> Result<(), String> {
+        if let Some(p) = &mut self.predictor {
+            // update_commands, written out: the runtime is borrowed mutably below.
+            if !self.valid {
+                p.command(&self.y, self.x.as_slice(), &mut self.u);
+            }
+            self.x = p.step(self.x.as_slice(), &self.y, &self.u, step)?;
+            self.valid = false;
+            return Ok(());
+        }
         if self.a.nrows() == 0 {
             return Ok(());
         }
@@ -431,6 +490,10 @@ impl Model for Controller {
         out.f64s(self.y.as_slice());
         out.f64s(&self.limits);
         out.f64s(&[self.threshold, if self.detected { 1.0 } else { 0.0 }]);
+        if let Some(p) = &self.predictor {
+            out.f64(self.tau);
+            out.f64s(&p.save());
+        }
     }
 
     fn restore(&mut self, input: &mut StateReader) -> Result<(), String> {
@@ -442,7 +505,21 @@ impl Model for Controller {
         let y = input.f64s_exact(self.spec.inputs.len(), "controller inputs")?;
         let limits = input.f64s_exact(self.limits.len(), "force limits")?;
         let detector = input.f64s_exact(2, "fault detector")?;
+        let predictor = match &self.predictor {
+            Some(p) => {
+                let tau = input.f64()?;
+                p.check(tau)?;
+                let mut p = p.clone();
+                p.restore(&input.f64s()?)?;
+                Some((tau, p))
+            }
+            None => None,
+        };
         input.finish()?;
+        if let Some((tau, p)) = predictor {
+            self.tau = tau;
+            self.predictor = Some(p);
+        }
         self.threshold = detector[0];
         self.detected = detector[1] != 0.0;
         self.x = DVector::from_vec(x);

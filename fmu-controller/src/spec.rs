@@ -35,6 +35,8 @@ struct Raw {
     anti_windup: Option<RawAntiWindup>,
     #[serde(default)]
     fault_detection: Option<RawFaultDetection>,
+    #[serde(default)]
+    predictor: Option<RawPredictor>,
 }
 
 /// What the synthesis guarantees, reported by the FMU as a calculated parameter of this name.
@@ -79,6 +81,51 @@ pub struct FaultDetection {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
+struct RawPredictor {
+    #[serde(rename = "A")]
+    a: Vec<Vec<f64>>,
+    #[serde(rename = "B")]
+    b: Vec<Vec<f64>>,
+    #[serde(rename = "K")]
+    k: Vec<Vec<f64>>,
+    #[serde(rename = "S_y")]
+    s_y: Vec<Vec<f64>>,
+    #[serde(rename = "S_xi")]
+    s_xi: Vec<Vec<f64>>,
+    #[serde(rename = "A_xi")]
+    a_xi: Vec<Vec<f64>>,
+    #[serde(rename = "B_xi")]
+    b_xi: Vec<Vec<f64>>,
+    #[serde(rename = "B_xiu")]
+    b_xiu: Vec<Vec<f64>>,
+    delay_max: f64,
+    /// The synthesis's figures about it, for the reader (not used here).
+    #[serde(default)]
+    #[allow(dead_code)]
+    facts: serde_json::Value,
+}
+
+/// A state feedback behind a predictor over the actuators' known delay `θ` (synth's
+/// `predictor.rs`): the design state `x = S_y y + S_ξ ξ` from the inputs `y` and the
+/// controller's own states `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u(t − θ)`, and the command
+/// `u(t) = K [e^{Aθ} x(t) + ∫_{t−θ}^{t} e^{A(t−r)} B u(r) dr]`: the design state `θ` ahead.
+/// With `θ = 0` it is the controller `A, B, C, D` of the file (checked on reading).
+#[derive(Debug, Clone)]
+pub struct Predictor {
+    pub a: DMatrix<f64>,
+    pub b: DMatrix<f64>,
+    pub k: DMatrix<f64>,
+    pub s_y: DMatrix<f64>,
+    pub s_xi: DMatrix<f64>,
+    pub a_xi: DMatrix<f64>,
+    pub b_xi: DMatrix<f64>,
+    pub b_xiu: DMatrix<f64>,
+    /// The largest delay it is certified for [s] (the parameter `tau`'s maximum).
+    pub delay_max: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct RawAntiWindup {
     #[serde(rename = "A")]
     a: Vec<Vec<f64>>,
@@ -117,6 +164,7 @@ pub struct Spec {
     pub d: DMatrix<f64>,
     pub anti_windup: Option<AntiWindup>,
     pub fault_detection: Option<FaultDetection>,
+    pub predictor: Option<Predictor>,
     /// FNV-1a of the file's bytes: enters the version string, hence the GUID.
     pub content_hash: u64,
 }
@@ -167,6 +215,60 @@ fn matrix(
         return Err(SpecError::NonFinite(name));
     }
     Ok(DMatrix::from_fn(r, c, |i, j| rows[i][j]))
+}
+
+fn predictor(p: &RawPredictor, ny: usize, nu: usize) -> Result<Predictor, SpecError> {
+    let (n, m) = (p.a.len(), p.a_xi.len());
+    if !(p.delay_max >= 0.0 && p.delay_max.is_finite()) {
+        return Err(SpecError::Invalid(format!(
+            "predictor.delay_max must be finite and >= 0, found {}",
+            p.delay_max
+        )));
+    }
+    Ok(Predictor {
+        a: matrix("predictor.A", &p.a, n, n)?,
+        b: matrix("predictor.B", &p.b, n, nu)?,
+        k: matrix("predictor.K", &p.k, nu, n)?,
+        s_y: matrix("predictor.S_y", &p.s_y, n, ny)?,
+        s_xi: matrix("predictor.S_xi", &p.s_xi, n, m)?,
+        a_xi: matrix("predictor.A_xi", &p.a_xi, m, m)?,
+        b_xi: matrix("predictor.B_xi", &p.b_xi, m, ny)?,
+        b_xiu: matrix("predictor.B_xiu", &p.b_xiu, m, nu)?,
+        delay_max: p.delay_max,
+    })
+}
+
+/// At `θ = 0` the predictor is the file's controller: `C = K S_ξ`, `D = K S_y`,
+/// `A = A_ξ + B_ξu K S_ξ`, `B = B_ξ + B_ξu K S_y` (to rounding). A file whose blocks disagree
+/// was edited or corrupted.
+fn check_undelayed(spec: &Spec, p: &Predictor) -> Result<(), SpecError> {
+    let ks = &p.k * &p.s_xi;
+    let ky = &p.k * &p.s_y;
+    let pairs = [
+        ("C", &spec.c, ks.clone()),
+        ("D", &spec.d, ky.clone()),
+        ("A", &spec.a, &p.a_xi + &p.b_xiu * &ks),
+        ("B", &spec.b, &p.b_xi + &p.b_xiu * &ky),
+    ];
+    for (name, given, implied) in pairs {
+        if given.shape() != implied.shape() {
+            return Err(SpecError::Invalid(format!(
+                "predictor: {name} is {:?}, the predictor's blocks imply {:?}",
+                given.shape(),
+                implied.shape()
+            )));
+        }
+        let scale = given.amax().max(implied.amax()).max(1.0);
+        let error = (given - &implied).amax();
+        // NaN-aware: a NaN difference fails too.
+        if error.is_nan() || error > 1e-9 * scale {
+            return Err(SpecError::Invalid(format!(
+                "predictor: without delay it should be the controller A, B, C, D, but {name} \
+                 differs by {error:e} (largest entry {scale:e})"
+            )));
+        }
+    }
+    Ok(())
 }
 
 impl Spec {
@@ -255,9 +357,20 @@ impl Spec {
                 })
             }
         };
+        if raw.predictor.is_some() && (raw.anti_windup.is_some() || raw.fault_detection.is_some()) {
+            return Err(SpecError::Invalid(
+                "a controller with a predictor has neither anti_windup nor fault_detection".into(),
+            ));
+        }
+        let predictor = raw
+            .predictor
+            .as_ref()
+            .map(|p| predictor(p, ny, nu))
+            .transpose()?;
         let spec = Spec {
             anti_windup,
             fault_detection,
+            predictor,
             a: matrix("A", &raw.a, n, n)?,
             b: matrix("B", &raw.b, n, ny)?,
             c: matrix("C", &raw.c, nu, n)?,
@@ -277,6 +390,9 @@ impl Spec {
             .chain(&spec.outputs)
             .map(|s| s.name.as_str())
             .collect();
+        if let Some(p) = &spec.predictor {
+            check_undelayed(&spec, p)?;
+        }
         names.sort_unstable();
         if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
             return Err(SpecError::Invalid(format!(

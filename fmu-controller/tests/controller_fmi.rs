@@ -294,3 +294,161 @@ fn fault_detector_integrates_the_command_sent_and_latches_its_flag() {
         log.messages()
     );
 }
+
+/// A scalar predictor: design model `ẋ = −2 x + 1.5 u`, gain `K = −0.8`, `x = y + 0.7 ξ`,
+/// `ξ̇ = −3 ξ + 0.3 y + u(t − θ)`; `delay_max` 0.3 s. Its undelayed controller (A, B, C, D) is
+/// `A = −3 + 1·(−0.8)·0.7`, `B = 0.3 − 0.8`, `C = −0.8·0.7`, `D = −0.8`.
+const PRED_SPEC: &str = r#"{
+  "format": "suspension-controller/2", "variant": "test_pred", "description": "test", "guarantee": {"name": "gamma", "value": 1.0, "unit": "1", "description": "test"},
+  "inputs": [{"name": "stroke_fl", "unit": "m"}],
+  "outputs": [{"name": "u_fl", "unit": "N"}],
+  "A": [[-3.56]], "B": [[-0.5]], "C": [[-0.56]], "D": [[-0.8]],
+  "predictor": {"A": [[-2.0]], "B": [[1.5]], "K": [[-0.8]], "S_y": [[1.0]], "S_xi": [[0.7]],
+                "A_xi": [[-3.0]], "B_xi": [[0.3]], "B_xiu": [[1.0]], "delay_max": 0.3, "facts": {}}
+}"#;
+
+/// The scalar predictor of [`PRED_SPEC`] in closed form, independent of the runtime's matrix
+/// exponentials: the commands held over their steps, `ξ` exact on each piece where `y` and the
+/// delayed command are constant, the in-flight integral `∫ e^{−2(t−r)} 1.5 u(r) dr` piece by piece.
+struct ScalarPredictor {
+    theta: f64,
+    xi: f64,
+    /// `(start, end, command)`.
+    sent: Vec<(f64, f64, f64)>,
+}
+
+impl ScalarPredictor {
+    fn sent_at(&self, r: f64) -> f64 {
+        self.sent
+            .iter()
+            .find(|(s, e, _)| *s <= r && r < *e)
+            .map_or(0.0, |p| p.2)
+    }
+
+    fn command(&self, t: f64, y: f64) -> f64 {
+        let in_flight: f64 = self
+            .sent
+            .iter()
+            .map(|&(s, e, u)| {
+                let (lo, hi) = (s.max(t - self.theta), e.min(t));
+                if hi > lo {
+                    1.5 * u * ((-2.0 * (t - hi)).exp() - (-2.0 * (t - lo)).exp()) / 2.0
+                } else {
+                    0.0
+                }
+            })
+            .sum();
+        -0.8 * ((-2.0 * self.theta).exp() * (y + 0.7 * self.xi) + in_flight)
+    }
+
+    fn step(&mut self, t: f64, h: f64, y: f64) -> f64 {
+        let u = self.command(t, y);
+        self.sent.push((t, t + h, u));
+        let mut cuts = vec![t, t + h];
+        for &(s, e, _) in &self.sent {
+            for b in [s + self.theta, e + self.theta] {
+                if b > t && b < t + h {
+                    cuts.push(b);
+                }
+            }
+        }
+        cuts.sort_by(f64::total_cmp);
+        for w in cuts.windows(2) {
+            let d = w[1] - w[0];
+            let input = 0.3 * y + self.sent_at(0.5 * (w[0] + w[1]) - self.theta);
+            self.xi = (-3.0 * d).exp() * self.xi + (1.0 - (-3.0 * d).exp()) / 3.0 * input;
+        }
+        u
+    }
+}
+
+#[test]
+fn predictor_commands_are_the_closed_form_over_any_steps_and_restore_whole() {
+    let log = LogCapture::default();
+    let dir = dir_with("pred", Some(PRED_SPEC));
+    let spec = Spec::from_json(PRED_SPEC).unwrap();
+    let tau = description_for(&spec)
+        .variables
+        .iter()
+        .find(|v| v.name == "tau")
+        .map(|v| v.value_reference)
+        .expect("a tau parameter");
+    // Delays beyond the certified range are refused at the setter, with the reason.
+    let (c, _cb) = instantiate(&log, &guid_of(PRED_SPEC), Some(&dir));
+    assert!(!c.is_null(), "{:?}", log.messages());
+    unsafe {
+        assert_ne!(fmi2SetReal(c, &tau, 1, &0.31), 0);
+        fmi2FreeInstance(c);
+    }
+    assert!(log.contains("0.31"), "{:?}", log.messages());
+    // θ = 0.25 s: not a multiple of the steps, which change on the way.
+    let theta = 0.25;
+    let steps = [
+        0.1, 0.1, 0.1, 0.1, 0.05, 0.15, 0.1, 0.02, 0.1, 0.1, 0.1, 0.1, 0.1,
+    ];
+    let y = |t: f64| (3.0 * t).sin() + 0.5;
+    let mut reference = ScalarPredictor {
+        theta,
+        xi: 0.0,
+        sent: Vec::new(),
+    };
+    let (c, _cb) = instantiate(&log, &guid_of(PRED_SPEC), Some(&dir));
+    let mut sent = Vec::new();
+    let mut saved: Fmi2FmuState = std::ptr::null_mut();
+    unsafe {
+        assert_eq!(fmi2SetReal(c, &tau, 1, &theta), 0);
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        assert_eq!(fmi2ExitInitializationMode(c), 0);
+        let mut t = 0.0;
+        for (k, h) in steps.iter().enumerate() {
+            if k == 6 {
+                assert_eq!(fmi2GetFMUstate(c, &mut saved), 0);
+            }
+            fmi2SetReal(c, &vr::INPUT, 1, &y(t));
+            let mut u = 0.0;
+            fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+            let expected = reference.step(t, *h, y(t));
+            assert!(
+                (u - expected).abs() <= 1e-12 * expected.abs().max(1.0),
+                "t = {t}: command {u}, closed form {expected}"
+            );
+            sent.push(u);
+            assert_eq!(fmi2DoStep(c, t, *h, 1), 0);
+            t += h;
+        }
+        assert!(sent.iter().any(|u| u.abs() > 0.1), "{sent:?}");
+        // Back to the state before step 6 (commands in flight included): the same commands again.
+        assert_eq!(fmi2SetFMUstate(c, saved), 0);
+        let mut t: f64 = steps[..6].iter().sum();
+        for (k, h) in steps.iter().enumerate().skip(6) {
+            fmi2SetReal(c, &vr::INPUT, 1, &y(t));
+            let mut u = 0.0;
+            fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+            assert_eq!(u, sent[k], "after restoring, step {k}");
+            assert_eq!(fmi2DoStep(c, t, *h, 1), 0);
+            t += h;
+        }
+        fmi2FreeFMUstate(c, &mut saved);
+        fmi2FreeInstance(c);
+    }
+}
+
+#[test]
+fn predictor_blocks_must_be_the_controller_without_delay() {
+    assert!(Spec::from_json(PRED_SPEC).unwrap().predictor.is_some());
+    // An edited gain no longer matches C, D, A, B.
+    let edited = PRED_SPEC.replace("\"K\": [[-0.8]]", "\"K\": [[-0.9]]");
+    let err = Spec::from_json(&edited).unwrap_err().to_string();
+    assert!(err.contains("without delay"), "{err}");
+    let bad_delay = PRED_SPEC.replace("\"delay_max\": 0.3", "\"delay_max\": -1.0");
+    assert!(Spec::from_json(&bad_delay)
+        .unwrap_err()
+        .to_string()
+        .contains("delay_max"));
+    let wrong_shape = PRED_SPEC.replace("\"S_y\": [[1.0]]", "\"S_y\": [[1.0, 2.0]]");
+    assert!(Spec::from_json(&wrong_shape)
+        .unwrap_err()
+        .to_string()
+        .contains("predictor.S_y"));
+}

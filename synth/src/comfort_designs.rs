@@ -115,6 +115,9 @@ pub struct OverUncertainty {
     /// The conditions of `predictions`.
     #[serde(skip)]
     pub conditions: Vec<Conditions>,
+    /// The same as the plant FMU's parameters (beside its defaults): what a co-simulation sets
+    /// to measure each prediction.
+    pub plant_parameters: Vec<std::collections::BTreeMap<String, f64>>,
 }
 
 /// Robust stability to the actuators' unmodelled delay.
@@ -942,6 +945,10 @@ fn over_uncertainty(
         design_model_grid_points: grid.len(),
         nominal_name: None,
         nominal_design: Vec::new(),
+        plant_parameters: conditions
+            .iter()
+            .map(|c| c.plant_parameters(ctx.params))
+            .collect(),
         conditions,
     }))
 }

@@ -21,6 +21,7 @@ use crate::design::ComfortRoad;
 use crate::hinf_norm::Lti;
 use nalgebra::{Complex, DMatrix, DVector, Hessenberg};
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use vehicle::iso2631::{Weighting, PITCH_FACTOR, ROLL_FACTOR};
 use vehicle::model::{
@@ -52,7 +53,7 @@ pub struct PredictorLaw {
     pub b: DMatrix<f64>,
     pub k: DMatrix<f64>,
     pub reconstruction: crate::comfort_controllers::Reconstruction,
-    /// The delay the predictor compensates [s] (the FMU's `actuator_delay`).
+    /// The delay the predictor compensates [s] (the FMU's `tau`).
     pub delay: f64,
 }
 
@@ -75,7 +76,41 @@ impl Conditions {
             effectiveness: [1.0; N_ACTUATORS],
         }
     }
+
+    /// The plant FMU's parameters that realise these conditions on a car whose defaults are
+    /// `nominal`: every car parameter that differs (by its FMU name), `tau` for the delay,
+    /// `fault_loss_*` from `fault_time = 0` for the effectiveness. What a co-simulation sets to
+    /// measure a prediction.
+    pub fn plant_parameters(&self, nominal: &VehicleParams) -> BTreeMap<String, f64> {
+        let mut out = BTreeMap::new();
+        let (ours, theirs) = (
+            serde_json::to_value(self.params).expect("serialisable"),
+            serde_json::to_value(nominal).expect("serialisable"),
+        );
+        if let (Some(ours), Some(theirs)) = (ours.as_object(), theirs.as_object()) {
+            for (name, value) in ours {
+                if theirs.get(name) != Some(value) {
+                    out.insert(name.clone(), value.as_f64().unwrap_or(f64::NAN));
+                }
+            }
+        }
+        if self.delay != 0.0 {
+            out.insert("tau".into(), self.delay);
+        }
+        if self.effectiveness.iter().any(|r| *r != 1.0) {
+            out.insert("fault_time".into(), 0.0);
+            for (corner, rho) in ACTUATOR_NAMES.iter().zip(self.effectiveness) {
+                if rho != 1.0 {
+                    out.insert(format!("fault_loss_{corner}"), 1.0 - rho);
+                }
+            }
+        }
+        out
+    }
 }
+
+/// The actuators' suffixes in the plant FMU's names, in the order of `effectiveness`.
+const ACTUATOR_NAMES: [&str; N_ACTUATORS] = ["fl", "fr", "rl", "rr", "seat"];
 
 /// The predicted figures (RMS values) on the road.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -758,6 +793,43 @@ mod tests {
     }
 
     /// Doubling the grid changes nothing that matters.
+    /// A condition as the plant FMU's parameters: only what differs from the defaults, under
+    /// the FMU's names.
+    #[test]
+    fn conditions_name_the_plant_parameters_that_realise_them() {
+        let p = VehicleParams::default();
+        assert!(Conditions::nominal(p).plant_parameters(&p).is_empty());
+        let heavy = Conditions::nominal(VehicleParams {
+            m_s: 1800.0,
+            i_x: 600.0,
+            ..p
+        });
+        assert_eq!(
+            heavy.plant_parameters(&p),
+            BTreeMap::from([("m_s".to_string(), 1800.0), ("I_x".to_string(), 600.0)])
+        );
+        let late = Conditions {
+            delay: 0.02,
+            ..Conditions::nominal(p)
+        };
+        assert_eq!(
+            late.plant_parameters(&p),
+            BTreeMap::from([("tau".to_string(), 0.02)])
+        );
+        let faulty = Conditions {
+            effectiveness: [1.0, 0.5, 1.0, 1.0, 0.25],
+            ..Conditions::nominal(p)
+        };
+        assert_eq!(
+            faulty.plant_parameters(&p),
+            BTreeMap::from([
+                ("fault_time".to_string(), 0.0),
+                ("fault_loss_fr".to_string(), 0.5),
+                ("fault_loss_seat".to_string(), 0.75)
+            ])
+        );
+    }
+
     #[test]
     fn the_frequency_grid_is_fine_enough() {
         let d = design();

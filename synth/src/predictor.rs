@@ -4,7 +4,7 @@
 //! delays: measured, `hinf_sf` redesigned for a 20 ms unmodelled delay loses a factor five in
 //! seat comfort at no delay).
 //!
-//! The controller knows `θ` (the FMU parameter `actuator_delay`, at most `delay_max`) and
+//! The controller knows `θ` (the FMU parameter `tau`, at most `delay_max`) and
 //! commands `u(t) = K x̂(t + θ)`, `x̂(t + θ) = e^{Aθ} x(t) + ∫_{t−θ}^{t} e^{A(t−s)} B u(s) ds`: the
 //! design state `θ` ahead, from what it reads now and the commands still in flight (Smith 1959;
 //! Manitius & Olbrot, IEEE TAC 24(4), 1979, finite spectrum assignment; Artstein 1982). With the
@@ -113,7 +113,7 @@ pub fn predictor_design(
     let law = law_at(0.0);
     let notes = vec![format!(
         "hinf_sf's guaranteed-cost gain behind a predictor of the design state over the \
-         actuators' known delay theta (parameter actuator_delay, 0 ... {} s): u(t) = K \
+         actuators' known delay theta (parameter tau, 0 ... {} s): u(t) = K \
          x_hat(t + theta), x_hat(t + theta) = e^(A theta) x(t) + integral over the commands \
          still in flight. With the delay it predicts over, the closed loop has the roots of A + B K \
          and of A for every theta (finite spectrum assignment): stable over the whole interval.",
@@ -181,6 +181,10 @@ pub fn predictor_design(
         design_model_grid_points: DELAY_GRID,
         nominal_name: None,
         nominal_design: Vec::new(),
+        plant_parameters: conditions
+            .iter()
+            .map(|c| c.plant_parameters(ctx.params))
+            .collect(),
         conditions,
     });
     certificate.notes.push(format!(

@@ -1,0 +1,236 @@
+//! A predictor's runtime ([`crate::spec::Predictor`]): the commands still in flight to the
+//! actuators and what they add to the design state `θ` ahead.
+//!
+//! The controller holds each command over its communication step, as the plant receives it, so
+//! the command history is a list of held segments `(duration, u)`, newest first, ages measured
+//! back from now. Over `[t, t + h)`:
+//! * the command is `u(t) = K e^{Aθ} (S_y y + S_ξ ξ) + Σ_j K e^{A a_j} G(ℓ_j) u_j`, the sum over
+//!   the parts `[a_j, a_j + ℓ_j]` of the segments younger than `θ` (`G(ℓ) = ∫₀^ℓ e^{As} ds B`),
+//!   exactly the integral of the in-flight commands for held segments;
+//! * `ξ` steps exactly with `y` held and the delayed command `u(· − θ)` piecewise constant:
+//!   `ξ(t + h) = Φ_ξ ξ + Γ_ξ y + Σ_j e^{A_ξ b_j} G_ξ(ℓ_j) u_j` over the parts of the segments
+//!   whose commands act during the step.
+//!
+//! Each term's matrix depends only on the part's age and length, so it is computed once (Van
+//! Loan's exponential, [`vehicle::exact::discretize`]) and kept: with a constant communication
+//! step every step reuses the same `θ / h + 1` small matrices (`K e^{A a} G` is 5×5); a master
+//! that changes its step pays a few exponentials per new part, and stays exact.
+
+use crate::spec::Predictor;
+use nalgebra::{DMatrix, DVector};
+use std::collections::{HashMap, VecDeque};
+use vehicle::exact::discretize;
+
+/// The number of cached matrices above which a cache is cleared (a master that varies its
+/// step at every call would otherwise grow it without bound).
+const CACHE_LIMIT: usize = 4096;
+
+/// `(age, length)` of a part of a held segment, by their bits.
+type Key = (u64, u64);
+
+#[derive(Debug, Clone)]
+pub struct Runtime {
+    spec: Predictor,
+    /// The delay compensated [s].
+    theta: f64,
+    /// `K e^{Aθ} S_y`, `K e^{Aθ} S_ξ` at `theta`.
+    k_y: DMatrix<f64>,
+    k_xi: DMatrix<f64>,
+    /// Held commands `(duration, u)`, newest first, back to age `θ`.
+    history: VecDeque<(f64, DVector<f64>)>,
+    /// `Σ_j K e^{A a_j} G(ℓ_j) u_j` over the history now.
+    in_flight: DVector<f64>,
+    prediction: HashMap<Key, DMatrix<f64>>,
+    delayed: HashMap<Key, DMatrix<f64>>,
+    /// `(step, Φ_ξ, Γ_ξ)` of the last step length.
+    own: Option<(f64, DMatrix<f64>, DMatrix<f64>)>,
+}
+
+impl Runtime {
+    pub fn new(spec: Predictor) -> Self {
+        let nu = spec.k.nrows();
+        let mut r = Runtime {
+            k_y: DMatrix::zeros(0, 0),
+            k_xi: DMatrix::zeros(0, 0),
+            theta: 0.0,
+            history: VecDeque::new(),
+            in_flight: DVector::zeros(nu),
+            prediction: HashMap::new(),
+            delayed: HashMap::new(),
+            own: None,
+            spec,
+        };
+        r.reset(0.0);
+        r
+    }
+
+    pub fn delay_max(&self) -> f64 {
+        self.spec.delay_max
+    }
+
+    pub fn theta(&self) -> f64 {
+        self.theta
+    }
+
+    /// Why `theta` cannot be compensated, if it cannot.
+    pub fn check(&self, theta: f64) -> Result<(), String> {
+        if theta >= 0.0 && theta <= self.spec.delay_max {
+            Ok(())
+        } else {
+            Err(format!(
+                "tau must be in [0, {}] s (the delays this predictor is certified for), got {theta}",
+                self.spec.delay_max
+            ))
+        }
+    }
+
+    /// Compensate `theta` from now on, with no command in flight (the start of a run).
+    pub fn reset(&mut self, theta: f64) {
+        if theta != self.theta || self.k_y.is_empty() {
+            self.theta = theta;
+            let e = discretize(&self.spec.a, &DMatrix::zeros(self.spec.a.nrows(), 0), theta).phi;
+            let ke = &self.spec.k * e;
+            self.k_y = &ke * &self.spec.s_y;
+            self.k_xi = &ke * &self.spec.s_xi;
+            self.prediction.clear();
+            self.delayed.clear();
+        }
+        self.history.clear();
+        self.in_flight.fill(0.0);
+    }
+
+    /// The command for inputs `y` and own states `xi`.
+    pub fn command(&self, y: &DVector<f64>, xi: &[f64], u: &mut DVector<f64>) {
+        u.copy_from(&self.in_flight);
+        u.gemv(1.0, &self.k_y, y, 1.0);
+        u.gemv(1.0, &self.k_xi, &DVector::from_column_slice(xi), 1.0);
+    }
+
+    /// `ξ` after a step of `h` with `y` held and `u` sent (held over the step); the history
+    /// and the in-flight sum move on. Returns the new `ξ` without changing anything when it is
+    /// not finite (the caller discards the step).
+    pub fn step(
+        &mut self,
+        xi: &[f64],
+        y: &DVector<f64>,
+        u: &DVector<f64>,
+        h: f64,
+    ) -> Result<DVector<f64>, String> {
+        if self.own.as_ref().map(|o| o.0.to_bits()) != Some(h.to_bits()) {
+            let d = discretize(&self.spec.a_xi, &self.spec.b_xi, h);
+            self.own = Some((h, d.phi, d.gamma_hold));
+        }
+        let (_, phi, gamma) = self.own.as_ref().expect("set above");
+        let mut next = phi * DVector::from_column_slice(xi);
+        next.gemv(1.0, gamma, y, 1.0);
+        // The history with this step's command, ages from the end of the step.
+        let mut history = self.history.clone();
+        history.push_front((h, u.clone()));
+        // The delayed command acts during the step with ages (from its end) in [θ, θ + h].
+        let theta = self.theta;
+        let mut age = 0.0f64;
+        for (len, uj) in &history {
+            let (lo, hi) = (age.max(theta), (age + len).min(theta + h));
+            if hi > lo {
+                let m = cached(&mut self.delayed, (lo - theta, hi - lo), |b, l| {
+                    let g = discretize(&self.spec.a_xi, &self.spec.b_xiu, l).gamma_hold;
+                    discretize(&self.spec.a_xi, &DMatrix::zeros(g.nrows(), 0), b).phi * g
+                });
+                next.gemv(1.0, m, uj, 1.0);
+            }
+            age += len;
+        }
+        if !next.iter().all(|v| v.is_finite()) {
+            return Err("controller state became non-finite; the step was discarded".into());
+        }
+        // Keep what the next steps need: the segments younger than θ.
+        let mut age = 0.0f64;
+        let mut keep = 0;
+        for (len, _) in &history {
+            if age >= theta {
+                break;
+            }
+            keep += 1;
+            age += len;
+        }
+        history.truncate(keep);
+        self.history = history;
+        self.update_in_flight();
+        Ok(next)
+    }
+
+    fn update_in_flight(&mut self) {
+        self.in_flight.fill(0.0);
+        let theta = self.theta;
+        let mut age = 0.0f64;
+        for (len, uj) in &self.history {
+            let (lo, hi) = (age, (age + len).min(theta));
+            if hi > lo {
+                let m = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
+                    let g = discretize(&self.spec.a, &self.spec.b, l).gamma_hold;
+                    let e = discretize(&self.spec.a, &DMatrix::zeros(g.nrows(), 0), a).phi;
+                    &self.spec.k * e * g
+                });
+                self.in_flight.gemv(1.0, m, uj, 1.0);
+            }
+            age += len;
+        }
+    }
+
+    /// The state the runtime carries between steps: `θ`, then per segment its duration and
+    /// command.
+    pub fn save(&self) -> Vec<f64> {
+        let mut out = vec![self.theta];
+        for (len, u) in &self.history {
+            out.push(*len);
+            out.extend(u.iter());
+        }
+        out
+    }
+
+    /// Restore what [`Runtime::save`] wrote, checked like a parameter and an input.
+    pub fn restore(&mut self, saved: &[f64]) -> Result<(), String> {
+        let nu = self.in_flight.len();
+        let (&theta, rest) = saved
+            .split_first()
+            .ok_or("predictor state: empty".to_string())?;
+        self.check(theta)?;
+        if rest.len() % (nu + 1) != 0 {
+            return Err(format!(
+                "predictor state: {} values are not segments of {} values",
+                rest.len(),
+                nu + 1
+            ));
+        }
+        let history: VecDeque<(f64, DVector<f64>)> = rest
+            .chunks_exact(nu + 1)
+            .map(|c| (c[0], DVector::from_column_slice(&c[1..])))
+            .collect();
+        if history
+            .iter()
+            .any(|(len, u)| !(*len > 0.0 && len.is_finite() && u.iter().all(|v| v.is_finite())))
+        {
+            return Err(
+                "predictor state: segment durations must be finite and > 0, commands finite".into(),
+            );
+        }
+        self.reset(theta);
+        self.history = history;
+        self.update_in_flight();
+        Ok(())
+    }
+}
+
+/// `cache[key]`, computed by `make(age, length)` on a miss.
+fn cached(
+    cache: &mut HashMap<Key, DMatrix<f64>>,
+    (age, len): (f64, f64),
+    make: impl FnOnce(f64, f64) -> DMatrix<f64>,
+) -> &DMatrix<f64> {
+    if cache.len() >= CACHE_LIMIT {
+        cache.clear();
+    }
+    cache
+        .entry((age.to_bits(), len.to_bits()))
+        .or_insert_with(|| make(age, len))
+}
