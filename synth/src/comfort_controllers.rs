@@ -265,6 +265,75 @@ pub fn observer_based(
     Lti::new(a, b, k.clone(), DMatrix::zeros(k.nrows(), ny))
 }
 
+/// The names of the actuators' applied forces, the plant outputs `f_*`.
+pub fn applied_force_names() -> Vec<String> {
+    vehicle::model::applied_force_rows()
+        .into_iter()
+        .map(|r| r.name)
+        .collect()
+}
+
+/// [`output_feedback_sensors`] followed by the actuators' applied forces `f_*` (noise-free: a
+/// load cell's noise is far below the road's forces), which [`force_sensing_observer`] takes
+/// as its input.
+pub fn force_sensing_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
+    let (plant, base) = output_feedback_sensors(g, noise);
+    let forces = sensors(g, applied_force_names());
+    let (ny, nf, nw) = (base.c.nrows(), forces.c.nrows(), base.d_w.ncols());
+    let stack = |top: &DMatrix<f64>, bottom: &DMatrix<f64>| {
+        let mut m = DMatrix::zeros(ny + nf, top.ncols());
+        m.rows_mut(0, ny).copy_from(top);
+        m.view_mut((ny, 0), (nf, bottom.ncols())).copy_from(bottom);
+        m
+    };
+    let mut d_w_forces = DMatrix::zeros(nf, nw);
+    d_w_forces
+        .columns_mut(0, forces.d_w.ncols())
+        .copy_from(&forces.d_w);
+    let sensors = Sensors {
+        c: stack(&base.c, &forces.c),
+        d_w: stack(&base.d_w, &d_w_forces),
+        d_u: stack(&base.d_u, &forces.d_u),
+        names: base.names.iter().chain(&forces.names).cloned().collect(),
+    };
+    (plant, sensors)
+}
+
+/// The observer-based controller whose observer is driven by the forces the actuators apply,
+/// measured, instead of its own command: `x̂̇ = A x̂ + B_u f + L (y − C x̂ − D_u f)`, the delay
+/// weight `ẋ_d = A_d x_d + B_d u`, `u = K [x̂; x_d]`; inputs `[y; f]` (`sensors` are the `y`
+/// only, [`output_feedback_sensors`]). Its estimation error `ẋ − x̂̇ = (A − L C)(x − x̂)` does
+/// not depend on what happens between command and force — delay, saturation, a loss of
+/// effectiveness — so the loop at effectiveness `ρ` is stable exactly when `A + B_u diag(ρ) K`
+/// and `A − L C` are (separation holds for every `ρ`).
+pub fn force_sensing_observer(
+    g: &ComfortPlant,
+    k: &DMatrix<f64>,
+    sensors: &Sensors,
+    l: &DMatrix<f64>,
+) -> Lti {
+    let plant = plant_of(g);
+    let n = plant.a.nrows();
+    let nd = g.n() - n;
+    let nu = plant.b_u.ncols();
+    let (kp, kd) = (k.columns(0, n).into_owned(), k.columns(n, nd).into_owned());
+    let ny = sensors.c.nrows();
+    let mut a = DMatrix::zeros(n + nd, n + nd);
+    a.view_mut((0, 0), (n, n))
+        .copy_from(&(&plant.a - l * &sensors.c));
+    if nd > 0 {
+        let ad = g.a.view((n, n), (nd, nd)).into_owned();
+        let bd = g.b_u.rows(n, nd).into_owned();
+        a.view_mut((n, 0), (nd, n)).copy_from(&(&bd * &kp));
+        a.view_mut((n, n), (nd, nd)).copy_from(&(ad + &bd * &kd));
+    }
+    let mut b = DMatrix::zeros(n + nd, ny + nu);
+    b.view_mut((0, 0), (n, ny)).copy_from(l);
+    b.view_mut((0, ny), (n, nu))
+        .copy_from(&(&plant.b_u - l * &sensors.d_u));
+    Lti::new(a, b, k.clone(), DMatrix::zeros(k.nrows(), ny + nu))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

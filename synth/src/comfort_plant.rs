@@ -205,7 +205,8 @@ impl ComfortPlant {
         let static_load = StaticEquilibrium::new(p).tire_load;
         let car = VehicleParams { m_s, ..*p };
         let ss = StateSpace::new(&car);
-        let outputs = physical_outputs(&car);
+        let mut outputs = physical_outputs(&car);
+        outputs.extend(vehicle::model::applied_force_rows());
         let road = d.road.model(&car);
         let [ar, br, r_x, r_w] = road_system(&road);
         let nr = ar.nrows();

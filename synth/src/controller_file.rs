@@ -16,7 +16,7 @@ pub struct Guarantee {
     pub description: String,
 }
 
-/// Unit of a plant output by name (states `x[k]`, physical outputs).
+/// Unit of a plant output by name (states `x[k]`, physical outputs, applied forces).
 pub fn plant_output_unit(name: &str) -> &'static str {
     if let Some(k) = name
         .strip_prefix("x[")
@@ -27,6 +27,7 @@ pub fn plant_output_unit(name: &str) -> &'static str {
     }
     vehicle::model::physical_outputs(&vehicle::VehicleParams::default())
         .into_iter()
+        .chain(vehicle::model::applied_force_rows())
         .find(|r| r.name == name)
         .map(|r| r.unit)
         .unwrap_or_else(|| panic!("the plant has no output {name}"))

@@ -353,7 +353,8 @@ impl Loop {
     pub fn new(law: Option<&ControlLaw>, conditions: Conditions) -> Result<Self, PredictionError> {
         let p = &conditions.params;
         let ss = StateSpace::new(p);
-        let outputs = physical_outputs(p);
+        let mut outputs = physical_outputs(p);
+        outputs.extend(vehicle::model::applied_force_rows());
         let names: &[String] = law.map_or(&[], |l| &l.inputs);
         let rows = names
             .iter()

@@ -467,6 +467,32 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
     rows
 }
 
+/// The forces the actuators actually apply (`f_fl … f_seat`, the plant FMU's outputs of those
+/// names) as output rows: each its own applied force, `d_u` a unit row. A controller that reads
+/// them (force sensors on the actuators) knows what acts on the car whatever the actuators'
+/// delay, saturation or loss of effectiveness.
+pub fn applied_force_rows() -> Vec<OutputRow> {
+    ACTUATORS
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let mut d_u = [0.0; N_ACTUATORS];
+            d_u[i] = 1.0;
+            OutputRow {
+                name: format!("f_{a}"),
+                unit: "N",
+                description: format!(
+                    "Force actually applied by the {} actuator",
+                    a.to_uppercase()
+                ),
+                c: [0.0; N_STATES],
+                d_r: [0.0; N_ROAD],
+                d_u,
+            }
+        })
+        .collect()
+}
+
 /// Static values under gravity, for the calculated parameters of the plant.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StaticEquilibrium {
