@@ -42,9 +42,12 @@ compare: $(FMU_FILES) $(STAMP)/release
 # ISO 8608 road (synth/designs/comfort.json), certified against an exact frequency-domain
 # prediction: dist/comfort/<variant>.certificate.json, controller.json, synthesis.md and an FMU
 # of each design synthesis produced (a refused design is reported in synthesis.md and gets none),
-# beside copies of road.fmu and plant.fmu. About 45 s. `make test` builds it: the co-simulation
-# of these FMUs is tested against their certificates' predictions.
+# beside copies of road.fmu and plant.fmu, and their comparison on scenarios/ with the predicted
+# figure beside the measured ones (results/comfort/report.md). About a minute. `make test` builds
+# the FMUs: their co-simulation is tested against their certificates' predictions.
 comfort: $(STAMP)/comfort-fmus
+	ctrls=$$(cd dist/comfort && ls *.fmu | grep -v -e '^road\.fmu' -e '^plant\.fmu' | sed 's/\.fmu$$//' | paste -sd, -); \
+	./target/release/master --dist dist/comfort compare --scenarios scenarios --controllers $$ctrls --out results/comfort --designs dist/comfort/synthesis.json
 
 $(STAMP)/comfort: $(STAMP)/release synth/designs/comfort.json
 	./target/release/synth --design synth/designs/comfort.json --out dist/comfort

@@ -1,7 +1,7 @@
 //! Figures of a run, the comparison tables and the plots.
 
 use crate::cosim::{MasterError, Run, Scenario};
-use crate::metrics::{peak, rms, vdv, welch_psd, wk_filter};
+use crate::metrics::{peak, rms, vdv, weighted as weighted_by, welch_psd, wk_filter};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -14,8 +14,12 @@ pub struct Figures {
     pub vdv_seat: f64,
     /// Peak (unweighted) seat acceleration [m/s²].
     pub peak_seat: f64,
+    /// Unweighted RMS roll and pitch acceleration [rad/s²].
     pub rms_roll: f64,
     pub rms_pitch: f64,
+    /// ISO 2631-1 `W_e`-weighted RMS roll and pitch acceleration [rad/s²]: as people feel them.
+    pub we_rms_roll: f64,
+    pub we_rms_pitch: f64,
     /// Largest |suspension stroke| [m].
     pub max_stroke: f64,
     /// Largest |dynamic tyre load| / static load.
@@ -37,6 +41,7 @@ pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
         .position(|t| *t > scenario.metrics_from + 1e-12)
         .unwrap_or(0);
     let window = |x: Vec<f64>| x[from..].to_vec();
+    let we = |x: &[f64]| weighted_by(x, scenario.step, &vehicle::iso2631::Weighting::we());
     let weighted = window(wk_filter(&col("a_seat"), scenario.step));
     let strokes = ["stroke_fl", "stroke_fr", "stroke_rl", "stroke_rr"]
         .map(|n| peak(&window(col(n))))
@@ -65,6 +70,8 @@ pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
         peak_seat: peak(&window(col("a_seat"))),
         rms_roll: rms(&window(col("alpha_roll"))),
         rms_pitch: rms(&window(col("alpha_pitch"))),
+        we_rms_roll: rms(&window(we(&col("alpha_roll")))),
+        we_rms_pitch: rms(&window(we(&col("alpha_pitch")))),
         max_stroke: strokes,
         max_tyre_ratio: tyre,
         peak_force: force,
@@ -87,19 +94,21 @@ pub fn scenario_table(scenario: &Scenario, results: &[(String, Figures)]) -> Str
     if scenario.metrics_from > 0.0 {
         t += &format!("Figures over t > {} s.\n\n", scenario.metrics_from);
     }
-    t += "| controller | W_k RMS seat [m/s²] | VDV seat [m/s^1.75] | peak seat [m/s²] | RMS roll [rad/s²] | RMS pitch [rad/s²] | max stroke [cm] | max dyn./static tyre load | peak force [N] | fault detected |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    t += "| controller | W_k RMS seat [m/s²] | VDV seat [m/s^1.75] | peak seat [m/s²] | RMS roll [rad/s²] | RMS pitch [rad/s²] | W_e RMS roll [rad/s²] | W_e RMS pitch [rad/s²] | max stroke [cm] | max dyn./static tyre load | peak force [N] | fault detected |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (name, f) in results {
         let rel = |a: f64, p: fn(&Figures) -> f64| match passive {
             Some(ps) if name != "passive" => format!("{a:.4} ({})", pct(a, p(&ps))),
             _ => format!("{a:.4}"),
         };
         t += &format!(
-            "| `{name}` | {} | {} | {} | {} | {} | {} | {} | {:.0} | {} |\n",
+            "| `{name}` | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} | {} |\n",
             rel(f.wk_rms_seat, |p| p.wk_rms_seat),
             rel(f.vdv_seat, |p| p.vdv_seat),
             rel(f.peak_seat, |p| p.peak_seat),
             rel(f.rms_roll, |p| p.rms_roll),
             rel(f.rms_pitch, |p| p.rms_pitch),
+            rel(f.we_rms_roll, |p| p.we_rms_roll),
+            rel(f.we_rms_pitch, |p| p.we_rms_pitch),
             match passive {
                 Some(ps) if name != "passive" => format!(
                     "{:.2} ({})",
@@ -273,12 +282,16 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
     Ok(())
 }
 
-/// A design of `dist/synthesis.json` (written by `synth`).
+/// A design of `dist/synthesis.json` (written by `synth`): a thesis H∞ design (`gamma`) or a
+/// comfort design (the W_k seat RMS its certificate predicts on its design road).
 #[derive(Debug, Clone, serde::Deserialize)]
 pub struct Design {
     pub variant: String,
     pub robust_to: String,
-    pub gamma: f64,
+    #[serde(default)]
+    pub gamma: Option<f64>,
+    #[serde(default)]
+    pub predicted_wk_rms_seat: Option<f64>,
     pub certified: String,
     pub nominal_design: Option<String>,
     pub seconds: f64,
@@ -296,15 +309,16 @@ pub fn load_designs(path: &Path) -> Result<Vec<Design>, MasterError> {
         .designs)
 }
 
-/// Per design: what it is robust to, γ, the certified norm, the synthesis time (from `synth`),
-/// and the `W_k` RMS seat acceleration in its own scenario (the first that showcases it) against
-/// the passive car and against its nominal design in the same scenario.
+/// Per design: what it is robust to, γ or the predicted `W_k` seat RMS on its design road, what
+/// is certified, the synthesis time (from `synth`), and the `W_k` RMS seat acceleration measured
+/// in its own scenario (the first that showcases it) against the passive car and against its
+/// nominal design in the same scenario.
 pub fn design_table(
     designs: &[Design],
     scenarios: &[Scenario],
     results: &[Vec<(String, Figures)>],
 ) -> String {
-    let mut t = String::from("| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | synthesis | own scenario | W_k RMS seat [m/s²] | vs passive | vs nominal design |\n|---|---|---|---|---|---|---|---|---|\n");
+    let mut t = String::from("| variant | robust to | γ / predicted W_k seat on its design road | certified (worst over its uncertainty) | synthesis | own scenario | W_k RMS seat [m/s²] | vs passive | vs nominal design |\n|---|---|---|---|---|---|---|---|---|\n");
     for d in designs {
         let own = scenarios
             .iter()
@@ -327,10 +341,14 @@ pub fn design_table(
             None => ("-".into(), None, None, None),
         };
         t += &format!(
-            "| `{}` | {} | {:.6} | {} | {:.2} s | {scenario} | {} | {} | {} |\n",
+            "| `{}` | {} | {} | {} | {:.2} s | {scenario} | {} | {} | {} |\n",
             d.variant,
             d.robust_to,
-            d.gamma,
+            match (d.gamma, d.predicted_wk_rms_seat) {
+                (Some(g), _) => format!("γ {g:.6}"),
+                (None, Some(p)) => format!("{p:.4} m/s²"),
+                (None, None) => "-".into(),
+            },
             d.certified,
             d.seconds,
             seat.map_or("-".into(), |v| format!("{v:.4}")),

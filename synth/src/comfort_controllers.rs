@@ -237,6 +237,18 @@ pub fn kalman_gain(
     Ok(r.k.transpose())
 }
 
+/// The rows of the delay weight's states `ẋ_d = A_d x_d + B_d u`, `u = K_p x̂ + K_d x_d`, in an
+/// observer-based controller's `A` (state `[x̂; x_d]`).
+fn delay_weight_rows(g: &ComfortPlant, kp: &DMatrix<f64>, kd: &DMatrix<f64>, a: &mut DMatrix<f64>) {
+    let (n, nd) = (kp.ncols(), kd.ncols());
+    if nd > 0 {
+        let ad = g.a.view((n, n), (nd, nd)).into_owned();
+        let bd = g.b_u.rows(n, nd).into_owned();
+        a.view_mut((n, 0), (nd, n)).copy_from(&(&bd * kp));
+        a.view_mut((n, n), (nd, nd)).copy_from(&(ad + &bd * kd));
+    }
+}
+
 /// The observer-based controller: `x̂̇ = A x̂ + B_u u + L (y − C x̂)`, the delay weight
 /// `ẋ_d = A_d x_d + B_d u` (`g` holds it), `u = K [x̂; x_d]` with `K` a gain on `g`'s state.
 pub fn observer_based(
@@ -254,12 +266,7 @@ pub fn observer_based(
     a.view_mut((0, 0), (n, n))
         .copy_from(&(&plant.a - l * &sensors.c + &plant.b_u * &kp));
     a.view_mut((0, n), (n, nd)).copy_from(&(&plant.b_u * &kd));
-    if nd > 0 {
-        let ad = g.a.view((n, n), (nd, nd)).into_owned();
-        let bd = g.b_u.rows(n, nd).into_owned();
-        a.view_mut((n, 0), (nd, n)).copy_from(&(&bd * &kp));
-        a.view_mut((n, n), (nd, nd)).copy_from(&(ad + &bd * &kd));
-    }
+    delay_weight_rows(g, &kp, &kd, &mut a);
     let mut b = DMatrix::zeros(n + nd, ny);
     b.view_mut((0, 0), (n, ny)).copy_from(l);
     Lti::new(a, b, k.clone(), DMatrix::zeros(k.nrows(), ny))
@@ -321,12 +328,7 @@ pub fn force_sensing_observer(
     let mut a = DMatrix::zeros(n + nd, n + nd);
     a.view_mut((0, 0), (n, n))
         .copy_from(&(&plant.a - l * &sensors.c));
-    if nd > 0 {
-        let ad = g.a.view((n, n), (nd, nd)).into_owned();
-        let bd = g.b_u.rows(n, nd).into_owned();
-        a.view_mut((n, 0), (nd, n)).copy_from(&(&bd * &kp));
-        a.view_mut((n, n), (nd, nd)).copy_from(&(ad + &bd * &kd));
-    }
+    delay_weight_rows(g, &kp, &kd, &mut a);
     let mut b = DMatrix::zeros(n + nd, ny + nu);
     b.view_mut((0, 0), (n, ny)).copy_from(l);
     b.view_mut((0, ny), (n, nu))
