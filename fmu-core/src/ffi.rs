@@ -463,6 +463,10 @@ pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> 
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
     call::<M>(c, "fmi2FreeFMUstate", sm::FMU_STATE, |inst| {
+        // A NULL pointer, like a NULL state, frees nothing (as free(NULL) does).
+        if state.is_null() {
+            return Ok(Status::Ok);
+        }
         let slot = out_ptr(state, "FMUstate")?;
         if slot.is_null() {
             return Ok(Status::Ok);

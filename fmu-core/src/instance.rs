@@ -418,7 +418,7 @@ impl<M: Model> Instance<M> {
     pub fn status_unavailable(&self, func: &str, kind: Fmi2StatusKind) -> Status {
         self.logger.log(
             Status::Discard,
-            Category::StatusWarning,
+            Category::StatusDiscard,
             &format!("{func}: status kind {kind} is not available (steps are synchronous)"),
         );
         Status::Discard

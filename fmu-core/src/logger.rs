@@ -11,36 +11,47 @@ pub enum Category {
     /// Calls that return `fmi2Error` or `fmi2Fatal`, with the reason. On by default, even
     /// with `loggingOn = false`, so that an importer always learns why a call failed.
     StatusError,
-    /// Calls that return `fmi2Warning` or `fmi2Discard`.
+    /// Calls that return `fmi2Warning`.
     StatusWarning,
+    /// Calls that return `fmi2Discard`.
+    StatusDiscard,
     /// Noteworthy events: instantiation, initialisation, step-size changes, FMU state use.
     Events,
+    /// The standard's recommended name for every category (FMI 2.0.4 §2.2.4): switching it on
+    /// switches on all of them. Nothing is logged under it.
+    All,
 }
 
 impl Category {
-    pub const ALL: [Category; 3] = [
+    pub const ALL: [Category; 5] = [
         Category::StatusError,
         Category::StatusWarning,
+        Category::StatusDiscard,
         Category::Events,
+        Category::All,
     ];
 
     pub fn name(self) -> &'static str {
         match self {
             Category::StatusError => "logStatusError",
             Category::StatusWarning => "logStatusWarning",
+            Category::StatusDiscard => "logStatusDiscard",
             Category::Events => "logEvents",
+            Category::All => "logAll",
         }
     }
 
     pub fn description(self) -> &'static str {
         match self {
             Category::StatusError => {
-                "Why a call returned fmi2Error (logged even when loggingOn is false)"
+                "Why a call returned fmi2Error (always logged, whatever loggingOn and the categories)"
             }
-            Category::StatusWarning => "Why a call returned fmi2Warning or fmi2Discard",
+            Category::StatusWarning => "Why a call returned fmi2Warning",
+            Category::StatusDiscard => "Why a call returned fmi2Discard",
             Category::Events => {
                 "Instantiation, initialisation, FMU state save/restore and other events"
             }
+            Category::All => "Every category above",
         }
     }
 
@@ -59,7 +70,7 @@ pub struct Logger {
     environment: Fmi2ComponentEnvironment,
     instance_name: CString,
     logging_on: bool,
-    enabled: [bool; 3],
+    enabled: [bool; Category::ALL.len()],
 }
 
 // The environment pointer is the importer's opaque token; FMI lets an instance be used from
@@ -73,7 +84,7 @@ impl Logger {
             environment: callbacks.component_environment,
             instance_name: to_cstring(instance_name),
             logging_on,
-            enabled: [true; 3],
+            enabled: [true; Category::ALL.len()],
         }
     }
 
@@ -84,18 +95,21 @@ impl Logger {
             environment: std::ptr::null_mut(),
             instance_name: CString::default(),
             logging_on: false,
-            enabled: [false; 3],
+            enabled: [false; Category::ALL.len()],
         }
     }
 
-    /// `fmi2SetDebugLogging`: no categories means all of them.
+    /// `fmi2SetDebugLogging`: no categories, or `logAll`, means all of them.
     pub fn configure(&mut self, logging_on: bool, categories: &[&str]) -> Result<(), String> {
-        let mut enabled = [categories.is_empty(); 3];
+        let mut enabled = [categories.is_empty(); Category::ALL.len()];
         for name in categories {
             let c = Category::from_name(name).ok_or_else(|| {
                 let known: Vec<_> = Category::ALL.iter().map(|c| c.name()).collect();
                 format!("unknown log category '{name}', expected one of {known:?}")
             })?;
+            if c == Category::All {
+                enabled = [true; Category::ALL.len()];
+            }
             enabled[c.index()] = true;
         }
         self.logging_on = logging_on;
@@ -103,11 +117,11 @@ impl Logger {
         Ok(())
     }
 
+    /// Errors always: an importer must learn why a call failed, whatever it switched off.
     pub fn is_enabled(&self, category: Category) -> bool {
-        let on = self.enabled[category.index()];
         match category {
-            Category::StatusError => on,
-            _ => on && self.logging_on,
+            Category::StatusError => true,
+            _ => self.enabled[category.index()] && self.logging_on,
         }
     }
 

@@ -536,6 +536,11 @@ fn fmu_state_restores_exactly_and_moves_between_instances_by_value() {
         OK,
         "freeing NULL is a no-op"
     );
+    assert_eq!(
+        unsafe { fmi2FreeFMUstate(a.c, null_mut()) },
+        OK,
+        "so is a NULL pointer to a state"
+    );
 }
 
 #[test]
@@ -621,6 +626,56 @@ fn logging_honours_logging_on_and_categories() {
         ERROR
     );
     assert!(log.contains("unknown log category 'logEverything'"));
+}
+
+/// An error reaches the logger whatever categories are on: with only `logEvents`, and with
+/// logging off. The standard's `logAll` switches every category on.
+#[test]
+fn errors_are_logged_whatever_the_categories_and_log_all_is_accepted() {
+    for logging_on in [1, 0] {
+        let log = LogCapture::default();
+        let fmu = Fmu::new(&log, true);
+        let events = [c"logEvents".as_ptr()];
+        assert_eq!(
+            unsafe { fmi2SetDebugLogging(fmu.c, logging_on, 1, events.as_ptr()) },
+            OK
+        );
+        log.clear();
+        assert_eq!(fmu.step(0.0, 0.1), ERROR, "a step before initialisation");
+        let e = log.entries();
+        assert!(
+            e.iter()
+                .any(|e| e.status == ERROR && e.category == "logStatusError"),
+            "loggingOn {logging_on}: {e:?}"
+        );
+    }
+    let log = LogCapture::default();
+    let fmu = Fmu::new(&log, false);
+    let all = [c"logAll".as_ptr()];
+    assert_eq!(
+        unsafe { fmi2SetDebugLogging(fmu.c, 1, 1, all.as_ptr()) },
+        OK
+    );
+    log.clear();
+    fmu.init();
+    assert!(
+        log.entries().iter().any(|e| e.category == "logEvents"),
+        "{:?}",
+        log.messages()
+    );
+    // A discard is logged under its own category.
+    let mut s = 0;
+    assert_eq!(
+        unsafe { fmi2GetStatus(fmu.c, status_kind::PENDING_STATUS, &mut s) },
+        DISCARD
+    );
+    assert!(
+        log.entries()
+            .iter()
+            .any(|e| e.status == DISCARD && e.category == "logStatusDiscard"),
+        "{:?}",
+        log.messages()
+    );
 }
 
 #[test]
