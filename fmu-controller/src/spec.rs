@@ -400,7 +400,31 @@ impl Spec {
                 w[0]
             )));
         }
+        // The variables the runtime adds must not share a name with a signal.
+        let generated = spec.generated_names();
+        if let Some(clash) = names.iter().find(|n| generated.contains(n)) {
+            return Err(SpecError::Invalid(format!(
+                "signal name '{clash}' is also the name of a variable the controller FMU adds \
+                 (reserved here: {generated:?})"
+            )));
+        }
         Ok(spec)
+    }
+
+    /// The names of the variables the runtime adds beside the signals: the guarantee, the
+    /// anti-windup limits, the fault detector's, the predictor's delay.
+    pub fn generated_names(&self) -> Vec<&str> {
+        let mut names = vec![self.guarantee.name.as_str()];
+        if self.anti_windup.is_some() {
+            names.extend(["u_max", "u_max_seat"]);
+        }
+        if self.fault_detection.is_some() {
+            names.extend(["residual_norm", "fault_detected", "fault_threshold"]);
+        }
+        if self.predictor.is_some() {
+            names.push("tau");
+        }
+        names
     }
 
     pub fn order(&self) -> usize {

@@ -446,6 +446,13 @@ fn predictor_blocks_must_be_the_controller_without_delay() {
         .unwrap_err()
         .to_string()
         .contains("delay_max"));
+    // An input named like a variable the runtime adds (here the predictor's delay) is refused.
+    let clash = PRED_SPEC.replace("\"name\": \"stroke_fl\"", "\"name\": \"tau\"");
+    let err = Spec::from_json(&clash).unwrap_err().to_string();
+    assert!(err.contains("'tau'") && err.contains("adds"), "{err}");
+    let clash = SPEC.replace("\"name\": \"stroke_fl\"", "\"name\": \"gamma\"");
+    let err = Spec::from_json(&clash).unwrap_err().to_string();
+    assert!(err.contains("'gamma'"), "{err}");
     let wrong_shape = PRED_SPEC.replace("\"S_y\": [[1.0]]", "\"S_y\": [[1.0, 2.0]]");
     assert!(Spec::from_json(&wrong_shape)
         .unwrap_err()
