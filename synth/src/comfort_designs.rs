@@ -9,7 +9,8 @@
 //!   that trusts its heave dynamics less (fictitious noise on the mass channel);
 //! * `delay_sf`: any known actuator delay up to `delay_max`, by a predictor in the controller
 //!   ([`crate::predictor`]) in front of `hinf_sf`'s gain;
-//! * `ft_of`: every actuator effectiveness in `[fault_rho_min, 1]` ([`fault_channel`]);
+//! * `ft_of`: every actuator effectiveness in `[fault_rho_min, 1]` ([`fault_channel`]), by an
+//!   observer driven by the measured applied forces ([`fault_tolerant_design`]);
 //! * `hinf_of_aw`: saturation, by `hinf_of` plus the decoupled anti-windup of thesis Th. 5.3.
 //!
 //! Certificates ([`ComfortCertificate`]): the comfort figures predicted on the car as the FMUs
