@@ -21,6 +21,10 @@ pub(crate) const INSTANCE_MAGIC: u64 = 0x5355_5350_494e_5354;
 /// Relative tolerance when comparing the master's communication point with our time.
 const TIME_TOLERANCE: f64 = 1e-9;
 
+/// `repr(C)` so that `magic` is the first word whatever the model: a pointer that is not an
+/// instance of this FMU (another FMU's, a freed one) is recognised by reading one `u64` at its
+/// address, never a field the compiler placed elsewhere.
+#[repr(C)]
 pub struct Instance<M: Model> {
     pub(crate) magic: u64,
     description: ModelDescription,
@@ -476,5 +480,41 @@ impl<M: Model> Instance<M> {
             self.time
         ));
         Ok(Status::Ok)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The smallest model, for the layout check.
+    struct Nothing;
+
+    impl Model for Nothing {
+        fn description(_: Option<&std::path::Path>) -> Result<ModelDescription, String> {
+            Err("unused".into())
+        }
+        fn instantiate(_: Option<&std::path::Path>) -> Result<Self, String> {
+            Ok(Nothing)
+        }
+        fn set_real(&mut self, _: ValueReference, _: f64) {}
+        fn get_real(&mut self, _: ValueReference) -> f64 {
+            0.0
+        }
+        fn exit_initialization(&mut self, _: f64) -> Result<(), String> {
+            Ok(())
+        }
+        fn do_step(&mut self, _: f64, _: f64) -> Result<(), String> {
+            Ok(())
+        }
+        fn save(&self, _: &mut StateWriter) {}
+        fn restore(&mut self, _: &mut StateReader) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn the_magic_is_the_first_word_of_every_instance() {
+        assert_eq!(std::mem::offset_of!(Instance<Nothing>, magic), 0);
     }
 }
