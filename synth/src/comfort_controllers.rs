@@ -249,27 +249,57 @@ fn delay_weight_rows(g: &ComfortPlant, kp: &DMatrix<f64>, kd: &DMatrix<f64>, a: 
     }
 }
 
-/// The observer-based controller: `x̂̇ = A x̂ + B_u u + L (y − C x̂)`, the delay weight
-/// `ẋ_d = A_d x_d + B_d u` (`g` holds it), `u = K [x̂; x_d]` with `K` a gain on `g`'s state.
+/// What drives an observer's model of the actuators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObserverInput {
+    /// Its own command `u`: inputs `y`.
+    Command,
+    /// The forces the actuators apply, measured (`f_*`): inputs `[y; f]`. The estimation error
+    /// `ẋ − x̂̇ = (A − L C)(x − x̂)` then does not depend on what happens between command and
+    /// force — delay, saturation, a loss of effectiveness — so the loop at effectiveness `ρ` is
+    /// stable exactly when `A + B_u diag(ρ) K` and `A − L C` are (separation for every `ρ`).
+    MeasuredForce,
+}
+
+/// The observer-based controller: `x̂̇ = A x̂ + B_u v + L (y − C x̂ − D_u v)` with `v` the
+/// command `u` or the measured applied force `f` ([`ObserverInput`]; `sensors` are the `y` only,
+/// whose `D_u` is zero for the command-driven one), the delay weight `ẋ_d = A_d x_d + B_d u`
+/// (`g` holds it), `u = K [x̂; x_d]` with `K` a gain on `g`'s state.
 pub fn observer_based(
     g: &ComfortPlant,
     k: &DMatrix<f64>,
     sensors: &Sensors,
     l: &DMatrix<f64>,
+    input: ObserverInput,
 ) -> Lti {
     let plant = plant_of(g);
     let n = plant.a.nrows();
     let nd = g.n() - n;
     let (kp, kd) = (k.columns(0, n).into_owned(), k.columns(n, nd).into_owned());
     let ny = sensors.c.nrows();
+    let nv = match input {
+        ObserverInput::Command => 0,
+        ObserverInput::MeasuredForce => plant.b_u.ncols(),
+    };
     let mut a = DMatrix::zeros(n + nd, n + nd);
-    a.view_mut((0, 0), (n, n))
-        .copy_from(&(&plant.a - l * &sensors.c + &plant.b_u * &kp));
-    a.view_mut((0, n), (n, nd)).copy_from(&(&plant.b_u * &kd));
+    match input {
+        ObserverInput::Command => {
+            a.view_mut((0, 0), (n, n))
+                .copy_from(&(&plant.a - l * &sensors.c + &plant.b_u * &kp));
+            a.view_mut((0, n), (n, nd)).copy_from(&(&plant.b_u * &kd));
+        }
+        ObserverInput::MeasuredForce => a
+            .view_mut((0, 0), (n, n))
+            .copy_from(&(&plant.a - l * &sensors.c)),
+    }
     delay_weight_rows(g, &kp, &kd, &mut a);
-    let mut b = DMatrix::zeros(n + nd, ny);
+    let mut b = DMatrix::zeros(n + nd, ny + nv);
     b.view_mut((0, 0), (n, ny)).copy_from(l);
-    Lti::new(a, b, k.clone(), DMatrix::zeros(k.nrows(), ny))
+    if nv > 0 {
+        b.view_mut((0, ny), (n, nv))
+            .copy_from(&(&plant.b_u - l * &sensors.d_u));
+    }
+    Lti::new(a, b, k.clone(), DMatrix::zeros(k.nrows(), ny + nv))
 }
 
 /// The names of the actuators' applied forces, the plant outputs `f_*`.
@@ -281,8 +311,8 @@ pub fn applied_force_names() -> Vec<String> {
 }
 
 /// [`output_feedback_sensors`] followed by the actuators' applied forces `f_*` (noise-free: a
-/// load cell's noise is far below the road's forces), which [`force_sensing_observer`] takes
-/// as its input.
+/// load cell's noise is far below the road's forces), which [`observer_based`] with
+/// [`ObserverInput::MeasuredForce`] takes as its input.
 pub fn force_sensing_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
     let (plant, base) = output_feedback_sensors(g, noise);
     let forces = sensors(g, applied_force_names());
@@ -304,36 +334,6 @@ pub fn force_sensing_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, S
         names: base.names.iter().chain(&forces.names).cloned().collect(),
     };
     (plant, sensors)
-}
-
-/// The observer-based controller whose observer is driven by the forces the actuators apply,
-/// measured, instead of its own command: `x̂̇ = A x̂ + B_u f + L (y − C x̂ − D_u f)`, the delay
-/// weight `ẋ_d = A_d x_d + B_d u`, `u = K [x̂; x_d]`; inputs `[y; f]` (`sensors` are the `y`
-/// only, [`output_feedback_sensors`]). Its estimation error `ẋ − x̂̇ = (A − L C)(x − x̂)` does
-/// not depend on what happens between command and force — delay, saturation, a loss of
-/// effectiveness — so the loop at effectiveness `ρ` is stable exactly when `A + B_u diag(ρ) K`
-/// and `A − L C` are (separation holds for every `ρ`).
-pub fn force_sensing_observer(
-    g: &ComfortPlant,
-    k: &DMatrix<f64>,
-    sensors: &Sensors,
-    l: &DMatrix<f64>,
-) -> Lti {
-    let plant = plant_of(g);
-    let n = plant.a.nrows();
-    let nd = g.n() - n;
-    let nu = plant.b_u.ncols();
-    let (kp, kd) = (k.columns(0, n).into_owned(), k.columns(n, nd).into_owned());
-    let ny = sensors.c.nrows();
-    let mut a = DMatrix::zeros(n + nd, n + nd);
-    a.view_mut((0, 0), (n, n))
-        .copy_from(&(&plant.a - l * &sensors.c));
-    delay_weight_rows(g, &kp, &kd, &mut a);
-    let mut b = DMatrix::zeros(n + nd, ny + nu);
-    b.view_mut((0, 0), (n, ny)).copy_from(l);
-    b.view_mut((0, ny), (n, nu))
-        .copy_from(&(&plant.b_u - l * &sensors.d_u));
-    Lti::new(a, b, k.clone(), DMatrix::zeros(k.nrows(), ny + nu))
 }
 
 #[cfg(test)]

@@ -22,8 +22,8 @@
 //! uncertainty; the limits at `limit_sigmas` standard deviations. A failed check is an error.
 
 use crate::comfort_controllers::{
-    force_sensing_observer, force_sensing_sensors, kalman_gain, observer_based,
-    output_feedback_sensors, plant_of, realise_state_feedback, state_feedback_sensors,
+    force_sensing_sensors, kalman_gain, observer_based, output_feedback_sensors, plant_of,
+    realise_state_feedback, state_feedback_sensors, ObserverInput,
 };
 use crate::comfort_plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
 use crate::design::ComfortDesign;
@@ -254,7 +254,7 @@ fn observer_law(
     let (plant, sensors) = output_feedback_sensors(g, &ctx.design.sensor_noise);
     let l = kalman_gain(&plant, &sensors, fictitious).map_err(|e| ctx.fail(variant, e))?;
     let law = ControlLaw {
-        lti: observer_based(g, &sf.k, &sensors, &l),
+        lti: observer_based(g, &sf.k, &sensors, &l, ObserverInput::Command),
         inputs: sensors.names.clone(),
         predictor: None,
     };
@@ -350,7 +350,7 @@ pub fn robust_output_feedback_design(
 
 /// `ft_of`: the nominal guaranteed-cost gain on an observer of the design state driven by the
 /// forces the actuators actually apply, measured (the plant outputs `f_*`: load cells on the
-/// actuators), instead of the commands ([`force_sensing_observer`]). A loss of effectiveness
+/// actuators), instead of the commands ([`ObserverInput::MeasuredForce`]). A loss of effectiveness
 /// then never reaches the estimate: the loop at effectiveness `ρ` is stable exactly when the
 /// state feedback `A + B diag(ρ) K` is, which is checked at every vertex of the box with the
 /// unmodelled delay's small-gain guarantee. (An observer driven by its own command, as
@@ -367,7 +367,7 @@ pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, Comfo
     let (plant, of_sensors) = output_feedback_sensors(g, &d.sensor_noise);
     let l = kalman_gain(&plant, &of_sensors, None).map_err(|e| ctx.fail(variant, e))?;
     let law = ControlLaw {
-        lti: force_sensing_observer(g, &sf.k, &of_sensors, &l),
+        lti: observer_based(g, &sf.k, &of_sensors, &l, ObserverInput::MeasuredForce),
         inputs: force_sensing_sensors(g, &d.sensor_noise).1.names,
         predictor: None,
     };
