@@ -31,17 +31,8 @@ use vehicle::model::{
 };
 use vehicle::VehicleParams;
 
-/// The plant outputs the output-feedback designs measure, with the sensor they need.
-pub const OF_MEASUREMENTS: [&str; 8] = [
-    "stroke_fl",
-    "stroke_fr",
-    "stroke_rl",
-    "stroke_rr",
-    "stroke_seat",
-    "v_body",
-    "omega_roll",
-    "omega_pitch",
-];
+/// The plant outputs the output-feedback designs measure: the thesis designs' eight sensors.
+pub use crate::generalized::MEASUREMENTS as OF_MEASUREMENTS;
 
 /// The accelerations the comfort output weights, in the order of `z`, with their factors.
 pub const COMFORT_OUTPUTS: [(&str, f64); 3] = [

@@ -147,10 +147,6 @@ pub fn predictor_design(
         predictions.push((format!("delay {:.1} ms", 1e3 * theta), lp.figures(&d.road)));
         conditions.push(c);
     }
-    let worst = predictions
-        .iter()
-        .map(|(_, f)| f.wk_rms_seat_m_s2)
-        .fold(0.0, f64::max);
     let seat = g.c_z.rows(0, 1).into_owned();
     let grid_worst = over_delay_grid(g, &sf.k, &seat, d.delay_max, DELAY_GRID)
         .ok_or_else(|| fail("the design model's comfort over the delays".into()))?;
@@ -167,25 +163,14 @@ pub fn predictor_design(
     }
     certificate.comfort.guaranteed_wk_rms_seat_m_s2 = None;
     certificate.comfort.uncertainty = Some(OverUncertainty {
-        kind: Uncertainty::InputDelay,
-        predictions,
-        worst_predicted_wk_rms_seat_m_s2: worst,
         bound_failure: Some(format!(
             "no bound between the grid's delays is certified yet: the design model's comfort on \
              {DELAY_GRID} delays over [0, {} s] is the figure",
             d.delay_max
         )),
-        bound_wk_rms_seat: None,
-        bound_vibration_total: None,
         design_model_grid_worst_wk_rms_seat: Some(grid_worst),
         design_model_grid_points: DELAY_GRID,
-        nominal_name: None,
-        nominal_design: Vec::new(),
-        plant_parameters: conditions
-            .iter()
-            .map(|c| c.plant_parameters(ctx.params))
-            .collect(),
-        conditions,
+        ..OverUncertainty::predicted(Uncertainty::InputDelay, predictions, conditions, ctx.params)
     });
     certificate.notes.push(format!(
         "Over delays: the design model's W_k seat comfort with the predictor matched, at \
