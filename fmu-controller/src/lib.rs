@@ -343,7 +343,6 @@ impl Model for Controller {
         let (nx, nv, nu, ny) = (a.nrows(), b.ncols(), spec.outputs.len(), spec.inputs.len());
         let nr = spec.fault_detection.as_ref().map_or(0, |fd| fd.c.nrows());
         let predictor = spec.predictor.clone().map(predictor::Runtime::new);
-        let nx = predictor.as_ref().map_or(nx, |_| spec.order());
         Ok(Controller {
             predictor,
             tau: 0.0,
@@ -433,11 +432,9 @@ impl Model for Controller {
     }
 
     fn do_step(&mut self, _time: f64, step: f64) -> Result<(), String> {
-        if let Some(p) = &mut self.predictor {
-            // update_commands, written out: the runtime is borrowed mutably below.
-            if !self.valid {
-                p.command(&self.y, self.x.as_slice(), &mut self.u);
-            }
+        if self.predictor.is_some() {
+            self.update_commands();
+            let p = self.predictor.as_mut().expect("checked above");
             self.x = p.step(self.x.as_slice(), &self.y, &self.u, step)?;
             self.valid = false;
             return Ok(());

@@ -17,7 +17,7 @@
 //! that changes its step pays a few exponentials per new part, and stays exact.
 
 use crate::spec::Predictor;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, DVectorView};
 use std::collections::{HashMap, VecDeque};
 use vehicle::exact::discretize;
 
@@ -103,7 +103,7 @@ impl Runtime {
     pub fn command(&self, y: &DVector<f64>, xi: &[f64], u: &mut DVector<f64>) {
         u.copy_from(&self.in_flight);
         u.gemv(1.0, &self.k_y, y, 1.0);
-        u.gemv(1.0, &self.k_xi, &DVector::from_column_slice(xi), 1.0);
+        u.gemv(1.0, &self.k_xi, &DVectorView::from_slice(xi, xi.len()), 1.0);
     }
 
     /// `ξ` after a step of `h` with `y` held and `u` sent (held over the step); the history
@@ -121,15 +121,15 @@ impl Runtime {
             self.own = Some((h, d.phi, d.gamma_hold));
         }
         let (_, phi, gamma) = self.own.as_ref().expect("set above");
-        let mut next = phi * DVector::from_column_slice(xi);
+        let mut next = phi * DVectorView::from_slice(xi, xi.len());
         next.gemv(1.0, gamma, y, 1.0);
-        // The history with this step's command, ages from the end of the step.
-        let mut history = self.history.clone();
-        history.push_front((h, u.clone()));
+        // The history with this step's command, ages from the end of the step (taken back out
+        // if the step fails).
+        self.history.push_front((h, u.clone()));
         // The delayed command acts during the step with ages (from its end) in [θ, θ + h].
         let theta = self.theta;
         let mut age = 0.0f64;
-        for (len, uj) in &history {
+        for (len, uj) in &self.history {
             let (lo, hi) = (age.max(theta), (age + len).min(theta + h));
             if hi > lo {
                 let m = cached(&mut self.delayed, (lo - theta, hi - lo), |b, l| {
@@ -141,20 +141,20 @@ impl Runtime {
             age += len;
         }
         if !next.iter().all(|v| v.is_finite()) {
+            self.history.pop_front();
             return Err("controller state became non-finite; the step was discarded".into());
         }
         // Keep what the next steps need: the segments younger than θ.
         let mut age = 0.0f64;
         let mut keep = 0;
-        for (len, _) in &history {
+        for (len, _) in &self.history {
             if age >= theta {
                 break;
             }
             keep += 1;
             age += len;
         }
-        history.truncate(keep);
-        self.history = history;
+        self.history.truncate(keep);
         self.update_in_flight();
         Ok(next)
     }
