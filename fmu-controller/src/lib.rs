@@ -342,7 +342,11 @@ impl Model for Controller {
             .map_or(f64::INFINITY, |fd| fd.threshold);
         let (nx, nv, nu, ny) = (a.nrows(), b.ncols(), spec.outputs.len(), spec.inputs.len());
         let nr = spec.fault_detection.as_ref().map_or(0, |fd| fd.c.nrows());
-        let predictor = spec.predictor.clone().map(predictor::Runtime::new);
+        let predictor = spec
+            .predictor
+            .clone()
+            .map(predictor::Runtime::new)
+            .transpose()?;
         Ok(Controller {
             predictor,
             tau: 0.0,
@@ -423,7 +427,7 @@ impl Model for Controller {
         }
         if let Some(p) = &mut self.predictor {
             p.check(self.tau)?;
-            p.reset(self.tau);
+            p.reset(self.tau)?;
         }
         self.x.fill(0.0);
         self.detected = false;
@@ -442,11 +446,16 @@ impl Model for Controller {
         if self.a.nrows() == 0 {
             return Ok(());
         }
-        // The detector latches on the values at the start of the step (what a master read).
-        self.detected = self.fault_detected();
         if self.cache.as_ref().map(|d| d.step.to_bits()) != Some(step.to_bits()) {
-            self.cache = Some(discretize(&self.a, &self.b, step));
+            self.cache = Some(discretize(&self.a, &self.b, step).map_err(|e| {
+                format!(
+                    "cannot discretise the controller over {step} s: {e}; the step was discarded"
+                )
+            })?);
         }
+        // The detector latches on the values at the start of the step (what a master read).
+        let detected_before = self.detected;
+        self.detected = self.fault_detected();
         // Measurements held over the step; with anti-windup the saturation excess u − y_c too,
         // with a detector the command sent (evaluated at the start of the step, as a
         // sampled-data implementation does and as the plant receives it).
@@ -474,6 +483,7 @@ impl Model for Controller {
             ],
         );
         if !self.next.iter().all(|v| v.is_finite()) {
+            self.detected = detected_before;
             return Err("controller state became non-finite; the step was discarded".into());
         }
         std::mem::swap(&mut self.x, &mut self.next);

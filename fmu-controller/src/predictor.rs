@@ -19,7 +19,7 @@
 use crate::spec::Predictor;
 use nalgebra::{DMatrix, DVector, DVectorView};
 use std::collections::{HashMap, VecDeque};
-use vehicle::exact::discretize;
+use vehicle::exact::{discretize, ExpError};
 
 /// The number of cached matrices above which a cache is cleared (a master that varies its
 /// step at every call would otherwise grow it without bound).
@@ -47,7 +47,7 @@ pub struct Runtime {
 }
 
 impl Runtime {
-    pub fn new(spec: Predictor) -> Self {
+    pub fn new(spec: Predictor) -> Result<Self, String> {
         let nu = spec.k.nrows();
         let mut r = Runtime {
             k_y: DMatrix::zeros(0, 0),
@@ -60,8 +60,8 @@ impl Runtime {
             own: None,
             spec,
         };
-        r.reset(0.0);
-        r
+        r.reset(0.0)?;
+        Ok(r)
     }
 
     pub fn delay_max(&self) -> f64 {
@@ -85,10 +85,12 @@ impl Runtime {
     }
 
     /// Compensate `theta` from now on, with no command in flight (the start of a run).
-    pub fn reset(&mut self, theta: f64) {
+    pub fn reset(&mut self, theta: f64) -> Result<(), String> {
         if theta != self.theta || self.k_y.is_empty() {
+            let e = discretize(&self.spec.a, &DMatrix::zeros(self.spec.a.nrows(), 0), theta)
+                .map_err(|e| format!("cannot predict the state {theta} s ahead: {e}"))?
+                .phi;
             self.theta = theta;
-            let e = discretize(&self.spec.a, &DMatrix::zeros(self.spec.a.nrows(), 0), theta).phi;
             let ke = &self.spec.k * e;
             self.k_y = &ke * &self.spec.s_y;
             self.k_xi = &ke * &self.spec.s_xi;
@@ -97,6 +99,7 @@ impl Runtime {
         }
         self.history.clear();
         self.in_flight.fill(0.0);
+        Ok(())
     }
 
     /// The command for inputs `y` and own states `xi`.
@@ -116,8 +119,11 @@ impl Runtime {
         u: &DVector<f64>,
         h: f64,
     ) -> Result<DVector<f64>, String> {
+        let failed = |e: ExpError| {
+            format!("cannot discretise the controller over {h} s: {e}; the step was discarded")
+        };
         if self.own.as_ref().map(|o| o.0.to_bits()) != Some(h.to_bits()) {
-            let d = discretize(&self.spec.a_xi, &self.spec.b_xi, h);
+            let d = discretize(&self.spec.a_xi, &self.spec.b_xi, h).map_err(failed)?;
             self.own = Some((h, d.phi, d.gamma_hold));
         }
         let (_, phi, gamma) = self.own.as_ref().expect("set above");
@@ -129,20 +135,26 @@ impl Runtime {
         // The delayed command acts during the step with ages (from its end) in [θ, θ + h].
         let theta = self.theta;
         let mut age = 0.0f64;
+        let mut result = Ok(());
         for (len, uj) in &self.history {
             let (lo, hi) = (age.max(theta), (age + len).min(theta + h));
             if hi > lo {
                 let m = cached(&mut self.delayed, (lo - theta, hi - lo), |b, l| {
-                    let g = discretize(&self.spec.a_xi, &self.spec.b_xiu, l).gamma_hold;
-                    discretize(&self.spec.a_xi, &DMatrix::zeros(g.nrows(), 0), b).phi * g
+                    let g = discretize(&self.spec.a_xi, &self.spec.b_xiu, l)?.gamma_hold;
+                    Ok(discretize(&self.spec.a_xi, &DMatrix::zeros(g.nrows(), 0), b)?.phi * g)
                 });
-                next.gemv(1.0, m, uj, 1.0);
+                match m {
+                    Ok(m) => next.gemv(1.0, m, uj, 1.0),
+                    Err(e) => {
+                        result = Err(failed(e));
+                        break;
+                    }
+                }
             }
             age += len;
         }
-        if !next.iter().all(|v| v.is_finite()) {
-            self.history.pop_front();
-            return Err("controller state became non-finite; the step was discarded".into());
+        if result.is_ok() && !next.iter().all(|v| v.is_finite()) {
+            result = Err("controller state became non-finite; the step was discarded".into());
         }
         // Keep what the next steps need: the segments younger than θ.
         let mut age = 0.0f64;
@@ -154,27 +166,38 @@ impl Runtime {
             keep += 1;
             age += len;
         }
-        self.history.truncate(keep);
-        self.update_in_flight();
-        Ok(next)
+        let in_flight = result.and_then(|()| self.in_flight_of(keep).map_err(failed));
+        match in_flight {
+            Ok(v) => {
+                self.history.truncate(keep);
+                self.in_flight = v;
+                Ok(next)
+            }
+            Err(e) => {
+                self.history.pop_front();
+                Err(e)
+            }
+        }
     }
 
-    fn update_in_flight(&mut self) {
-        self.in_flight.fill(0.0);
+    /// `Σ_j K e^{A a_j} G(ℓ_j) u_j` over the newest `keep` segments of the history.
+    fn in_flight_of(&mut self, keep: usize) -> Result<DVector<f64>, ExpError> {
+        let mut sum = DVector::zeros(self.in_flight.len());
         let theta = self.theta;
         let mut age = 0.0f64;
-        for (len, uj) in &self.history {
+        for (len, uj) in self.history.iter().take(keep) {
             let (lo, hi) = (age, (age + len).min(theta));
             if hi > lo {
                 let m = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
-                    let g = discretize(&self.spec.a, &self.spec.b, l).gamma_hold;
-                    let e = discretize(&self.spec.a, &DMatrix::zeros(g.nrows(), 0), a).phi;
-                    &self.spec.k * e * g
-                });
-                self.in_flight.gemv(1.0, m, uj, 1.0);
+                    let g = discretize(&self.spec.a, &self.spec.b, l)?.gamma_hold;
+                    let e = discretize(&self.spec.a, &DMatrix::zeros(g.nrows(), 0), a)?.phi;
+                    Ok(&self.spec.k * e * g)
+                })?;
+                sum.gemv(1.0, m, uj, 1.0);
             }
             age += len;
         }
+        Ok(sum)
     }
 
     /// The state the runtime carries between steps: `θ`, then per segment its duration and
@@ -214,23 +237,29 @@ impl Runtime {
                 "predictor state: segment durations must be finite and > 0, commands finite".into(),
             );
         }
-        self.reset(theta);
-        self.history = history;
-        self.update_in_flight();
+        let mut candidate = self.clone();
+        candidate.reset(theta)?;
+        candidate.history = history;
+        let keep = candidate.history.len();
+        candidate.in_flight = candidate
+            .in_flight_of(keep)
+            .map_err(|e| format!("predictor state: {e}"))?;
+        *self = candidate;
         Ok(())
     }
 }
 
-/// `cache[key]`, computed by `make(age, length)` on a miss.
+/// `cache[key]`, computed by `make(age, length)` on a miss (a failure is not cached).
 fn cached(
     cache: &mut HashMap<Key, DMatrix<f64>>,
     (age, len): (f64, f64),
-    make: impl FnOnce(f64, f64) -> DMatrix<f64>,
-) -> &DMatrix<f64> {
+    make: impl FnOnce(f64, f64) -> Result<DMatrix<f64>, ExpError>,
+) -> Result<&DMatrix<f64>, ExpError> {
     if cache.len() >= CACHE_LIMIT {
         cache.clear();
     }
-    cache
-        .entry((age.to_bits(), len.to_bits()))
-        .or_insert_with(|| make(age, len))
+    match cache.entry((age.to_bits(), len.to_bits())) {
+        std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
+        std::collections::hash_map::Entry::Vacant(e) => Ok(e.insert(make(age, len)?)),
+    }
 }

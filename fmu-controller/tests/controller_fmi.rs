@@ -459,3 +459,31 @@ fn predictor_blocks_must_be_the_controller_without_delay() {
         .to_string()
         .contains("predictor.S_y"));
 }
+
+/// A `controller.json` whose `A` is absurd (1e40, finite, so it loads): a step returns
+/// `fmi2Error` with the reason instead of never returning (nalgebra's exponential squared
+/// forever), leaves the state as it was, and a shorter step cannot rescue it either.
+#[test]
+fn an_absurd_controller_matrix_fails_the_step_and_returns() {
+    let log = LogCapture::default();
+    let spec = SPEC.replace(r#""A": [[-2.0]]"#, r#""A": [[-1e40]]"#);
+    assert_ne!(spec, SPEC);
+    let dir = dir_with("absurd", Some(&spec));
+    let (c, _cb) = instantiate(&log, &guid_of(&spec), Some(&dir));
+    assert!(!c.is_null(), "{:?}", log.messages());
+    unsafe {
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        fmi2ExitInitializationMode(c);
+        let inputs = [vr::INPUT, vr::INPUT + 1];
+        assert_eq!(fmi2SetReal(c, inputs.as_ptr(), 2, [0.2, 4.0].as_ptr()), 0);
+        assert_eq!(fmi2DoStep(c, 0.0, 1e-3, 1), 3, "fmi2Error");
+        fmi2FreeInstance(c);
+    }
+    assert!(
+        log.contains("cannot discretise the controller over 0.001 s")
+            && log.contains("exceeds 1e20"),
+        "{:?}",
+        log.messages()
+    );
+}

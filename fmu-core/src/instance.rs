@@ -277,12 +277,16 @@ impl<M: Model> Instance<M> {
             if let VarType::Real { min, max, .. } = &v.kind {
                 if let Some(m) = min.filter(|m| value < *m) {
                     return Err(format!(
-                        "value {value} of '{name}' is below its minimum {m}"
+                        "value {} of '{name}' is below its minimum {}",
+                        number(value),
+                        number(m)
                     ));
                 }
                 if let Some(m) = max.filter(|m| value > *m) {
                     return Err(format!(
-                        "value {value} of '{name}' is above its maximum {m}"
+                        "value {} of '{name}' is above its maximum {}",
+                        number(value),
+                        number(m)
                     ));
                 }
             }
@@ -480,6 +484,15 @@ impl<M: Model> Instance<M> {
             self.time
         ));
         Ok(Status::Ok)
+    }
+}
+
+/// A number as people write it: `1e-12` and `1e44`, not forty zeros; `1500` and `0.01` as is.
+fn number(v: f64) -> String {
+    if v != 0.0 && (v.abs() < 1e-4 || v.abs() >= 1e7) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
     }
 }
 

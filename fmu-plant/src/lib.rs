@@ -17,7 +17,7 @@ use vehicle::model::{
     physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS, N_PHYSICAL_OUTPUTS,
     N_ROAD, STATES,
 };
-use vehicle::params::{Admissible, PARAMETERS};
+use vehicle::params::PARAMETERS;
 use vehicle::VehicleParams;
 
 /// Value-reference ranges, one per kind of variable.
@@ -98,7 +98,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "actuator_bandwidth",
         "Hz",
         0.0,
-        None,
+        Some(1e5),
         false,
         "Bandwidth of the first-order actuator lag (0 = ideal actuator)",
         |p| p.bandwidth
@@ -262,14 +262,10 @@ impl Plant {
                 s.unit,
                 s.description,
             )
-            .with_start((s.get)(&defaults));
-            // XML `min` is inclusive: 0 for positive and non-negative parameters (check_real
-            // refuses 0 where it must), none for the seat offsets, which may be negative.
-            vars.push(if s.admissible == Admissible::Finite {
-                v
-            } else {
-                v.with_min(0.0)
-            });
+            .with_start((s.get)(&defaults))
+            .with_min(s.admissible.min)
+            .with_max(s.admissible.max);
+            vars.push(v);
         }
         for (i, s) in ACTUATOR_PARAMETERS.iter().enumerate() {
             let mut v = Variable::real(

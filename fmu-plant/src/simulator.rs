@@ -16,7 +16,7 @@
 
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
-use vehicle::exact::{discretize, mat_vec_sum, Discretization};
+use vehicle::exact::{discretize, mat_vec_sum, Discretization, ExpError};
 use vehicle::model::{
     physical_outputs, StateSpace, StaticEquilibrium, N_ACTUATORS, N_ROAD, N_STATES,
 };
@@ -165,19 +165,20 @@ impl System {
     }
 
     /// The discretisation for step `h`, from the cache or computed (matrix exponential).
-    fn discretization(&mut self, h: f64) -> &Discretization {
+    fn discretization(&mut self, h: f64) -> Result<&Discretization, ExpError> {
         if let Some(pos) = self
             .cache
             .iter()
             .position(|d| d.step.to_bits() == h.to_bits())
         {
-            return &self.cache[pos];
+            return Ok(&self.cache[pos]);
         }
+        let d = discretize(&self.a, &self.b, h)?;
         if self.cache.len() == CACHE_SIZE {
             self.cache.pop_front();
         }
-        self.cache.push_back(discretize(&self.a, &self.b, h));
-        self.cache.back().unwrap()
+        self.cache.push_back(d);
+        Ok(self.cache.back().unwrap())
     }
 }
 
@@ -208,6 +209,11 @@ pub struct Simulator {
 #[derive(Debug, Clone, PartialEq)]
 pub enum StepError {
     NonFinite(f64),
+    /// The step's matrix exponential was refused (a step far too long for the parameters).
+    Exponential {
+        step: f64,
+        error: ExpError,
+    },
 }
 
 impl std::fmt::Display for StepError {
@@ -216,6 +222,10 @@ impl std::fmt::Display for StepError {
             StepError::NonFinite(t) => write!(
                 f,
                 "the state became non-finite at t = {t}; the step was discarded"
+            ),
+            StepError::Exponential { step, error } => write!(
+                f,
+                "cannot discretise the car over {step} s: {error}; the step was discarded"
             ),
         }
     }
@@ -400,6 +410,7 @@ impl Simulator {
         }
         xi.copy_from(&self.xi);
         let (mut wa, mut dw) = (std::mem::take(&mut self.wa), std::mem::take(&mut self.dw));
+        let mut failure = None;
         for k in 0..breaks.len() - 1 {
             let (a, b) = (breaks[k], breaks[k + 1]);
             let mid = 0.5 * (a + b);
@@ -417,7 +428,13 @@ impl Simulator {
                 dw[N_ROAD + i] = vb - va;
                 ramp |= vb != va;
             }
-            let d = self.system.as_mut().unwrap().discretization(b - a);
+            let d = match self.system.as_mut().unwrap().discretization(b - a) {
+                Ok(d) => d,
+                Err(error) => {
+                    failure = Some(StepError::Exponential { step: b - a, error });
+                    break;
+                }
+            };
             let (x, wa, dw) = (xi.as_slice(), wa.as_slice(), dw.as_slice());
             if ramp {
                 mat_vec_sum(
@@ -431,14 +448,16 @@ impl Simulator {
         }
         self.breaks = breaks;
         (self.wa, self.dw) = (wa, dw);
-        let finite = xi.iter().all(|v| v.is_finite());
-        if finite {
+        if failure.is_none() && !xi.iter().all(|v| v.is_finite()) {
+            failure = Some(StepError::NonFinite(end));
+        }
+        if failure.is_none() {
             std::mem::swap(&mut self.xi, &mut xi);
         }
         self.work = [xi, next];
-        if !finite {
+        if let Some(e) = failure {
             self.history.pop_back();
-            return Err(StepError::NonFinite(end));
+            return Err(e);
         }
 
         self.time = end;

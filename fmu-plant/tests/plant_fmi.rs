@@ -379,15 +379,30 @@ fn inadmissible_parameters_are_refused_with_a_message() {
         (
             "m_s",
             -1500.0,
-            "fmi2SetReal: value -1500 of 'm_s' is below its minimum 0",
+            "fmi2SetReal: value -1500 of 'm_s' is below its minimum 1",
         ),
+        // Values the FMU once accepted and then failed on (a panic in the static equilibrium,
+        // or a matrix exponential that never returned): out of their physical range.
         (
             "k_t",
-            0.0,
-            "fmi2SetReal: rejected value for 'k_t': parameter 'k_t' must be a number > 0, got 0",
+            1e-12,
+            "value 1e-12 of 'k_t' is below its minimum 1000",
         ),
-        ("I_y", 0.0, "parameter 'I_y' must be a number > 0, got 0"),
+        (
+            "I_x",
+            1e-40,
+            "value 1e-40 of 'I_x' is below its minimum 0.01",
+        ),
+        ("m_u", 1e-40, "below its minimum 0.1"),
+        (
+            "c_s_f",
+            1e44,
+            "value 1e44 of 'c_s_f' is above its maximum 1000000",
+        ),
+        ("L1", 1e20, "above its maximum 20"),
+        ("I_y", 0.0, "below its minimum 0.01"),
         ("c_seat", -1.0, "below its minimum 0"),
+        ("actuator_bandwidth", 1e40, "above its maximum"),
         ("u_max", 0.0, "u_max must be > 0 N, got 0"),
         ("tau", -0.01, "value -0.01 of 'tau' is below its minimum 0"),
         (
@@ -507,4 +522,28 @@ fn two_instances_on_two_threads_give_identical_results() {
     assert_eq!(a, b);
     assert_eq!(a, run(), "same as on the main thread");
     assert!(max_abs(&a) > 1e-4);
+}
+
+/// The stiffest car the parameter ranges admit, stepped over an absurdly long step: the
+/// matrix exponential is refused with `fmi2Error` and the reason (it once never returned), and
+/// the state is unchanged; sensible steps of that car work.
+#[test]
+fn an_absurd_step_fails_with_a_message_and_loses_nothing() {
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    for (name, value) in [("k_t", 1e8), ("m_u", 0.1), ("c_s_f", 1e6)] {
+        assert_eq!(p.set(name, value), OK, "{name}");
+    }
+    p.init(0.0);
+    assert_eq!(p.set("road_z_fl", 0.01), OK);
+    assert_eq!(p.step(0.0, 1e-4), OK);
+    let before = p.states();
+    assert!(before.iter().all(|v| v.is_finite()) && before.iter().any(|v| *v != 0.0));
+    assert_eq!(p.step(1e-4, 1e15), ERROR);
+    assert!(
+        log.contains("cannot discretise the car over") && log.contains("exceeds 1e20"),
+        "{:?}",
+        log.messages()
+    );
+    assert_eq!(p.states(), before);
 }

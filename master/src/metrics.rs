@@ -23,7 +23,7 @@ pub fn weighted(signal: &[f64], h: f64, weighting: &Weighting) -> Vec<f64> {
             sec.b[0] - sec.b[2] * sec.a[0],
             sec.b[1] - sec.b[2] * sec.a[1],
         ];
-        let d = vehicle::exact::discretize(&a, &b, h);
+        let d = vehicle::exact::discretize(&a, &b, h).expect("a fixed ISO 2631 filter section");
         let mut x = DVector::zeros(2);
         let input = out.clone();
         for k in 0..input.len() {

@@ -23,6 +23,7 @@ use nalgebra::{Complex, DMatrix, DVector, Hessenberg};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
+use vehicle::exact::expm;
 use vehicle::iso2631::{Weighting, PITCH_FACTOR, ROLL_FACTOR};
 use vehicle::model::{
     physical_outputs, OutputRow, StateSpace, CORNERS, N_ACTUATORS, N_ROAD, N_STATES, N_WHEELS,
@@ -274,7 +275,8 @@ struct PredictorResponse {
 
 impl PredictorResponse {
     fn new(p: &PredictorLaw) -> Self {
-        let e_at = (&p.a * p.delay).exp();
+        let e_at =
+            expm(&(&p.a * p.delay)).expect("the predictor's delay is within its certified range");
         let r = &p.reconstruction;
         let nxi = r.a_xi.nrows();
         let (ny, nu) = (r.b_xi.ncols(), r.b_xiu.ncols());

@@ -30,6 +30,7 @@ use crate::prediction::{Conditions, ControlLaw, Loop, PredictorLaw};
 use crate::riccati::lyapunov;
 use nalgebra::DMatrix;
 use serde::Serialize;
+use vehicle::exact::expm;
 
 /// The design model's comfort with the predictor at the delay it compensates:
 /// `x = x̂ + ε`, `x̂` driven by `e^{Aθ} B_w w` through `A + B K`, `ε` the road's effect during the
@@ -39,7 +40,7 @@ use serde::Serialize;
 pub fn comfort_at(g: &ComfortPlant, k: &DMatrix<f64>, c: &DMatrix<f64>, theta: f64) -> Option<f64> {
     let n = g.n();
     let a_cl = &g.a + &g.b_u * k;
-    let e = (&g.a * theta).exp();
+    let e = expm(&(&g.a * theta)).ok()?;
     let f = &e * &g.b_w;
     let p_hat = lyapunov(&a_cl, &(&f * f.transpose())).ok()?;
     let mut m = DMatrix::zeros(2 * n, 2 * n);
@@ -48,7 +49,7 @@ pub fn comfort_at(g: &ComfortPlant, k: &DMatrix<f64>, c: &DMatrix<f64>, theta: f
         .copy_from(&(&g.b_w * g.b_w.transpose() * theta));
     m.view_mut((n, n), (n, n))
         .copy_from(&(g.a.transpose() * theta));
-    let big = m.exp();
+    let big = expm(&m).ok()?;
     let p_eps = big.view((n, n), (n, n)).transpose() * big.view((0, n), (n, n));
     let p = p_hat + p_eps;
     Some((c * p * c.transpose()).trace().max(0.0).sqrt())

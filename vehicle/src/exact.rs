@@ -5,9 +5,50 @@
 //! `exp([[A h, B h, 0], [0, 0, I], [0, 0, 0]]) = [[Φ, Γ₀, Γ₁], [0, I, I], [0, 0, I]]` gives
 //! `x(h) = Φ x₀ + Γ₀ v₀ + Γ₁ (v₁ − v₀)` without approximation beyond rounding
 //! (Franklin, Powell & Workman, *Digital Control*, §6.3.2, triangle-hold equivalent).
-//! The matrix exponential is nalgebra's (Padé with scaling and squaring).
+//! The matrix exponential is nalgebra's (Padé with scaling and squaring), behind [`expm`]'s
+//! bounds: nalgebra's scaling count is an `f64` cast to `u64`, which saturates when its norm
+//! estimates (powers of the matrix up to the 27th) overflow, and then squares forever.
 
 use nalgebra::DMatrix;
+
+/// The largest 1-norm of a matrix [`expm`] exponentiates. nalgebra's estimates take powers of
+/// the unscaled matrix up to the 10th (1e200 here, far below `f64::MAX`; the 27th power it
+/// takes is of the matrix already scaled to a norm of about 4), and the result takes at most
+/// 66 squarings. The plant at the most extreme parameters it admits has `‖A‖₁` up to about
+/// 2e13/s (an inertia of 0.01 kg·m² on 20 m levers with 1e8 N/m springs), so steps of minutes
+/// pass; beyond, scaling and squaring would lose the slow modes' digits anyway.
+pub const MAX_EXP_NORM: f64 = 1e20;
+
+/// Why a matrix exponential was not computed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ExpError {
+    #[error("the matrix has non-finite entries")]
+    NonFinite,
+    #[error("the matrix's 1-norm {0:e} exceeds {MAX_EXP_NORM:e} (a step far too long for the system's time constants, or entries far out of range)")]
+    TooLarge(f64),
+    #[error("the exponential overflows (the system grows by more than 1e308 over the step)")]
+    Overflow,
+}
+
+/// `e^M`, refused (never hanging) when `M` is non-finite or too large, or the result overflows.
+pub fn expm(m: &DMatrix<f64>) -> Result<DMatrix<f64>, ExpError> {
+    if !m.iter().all(|v| v.is_finite()) {
+        return Err(ExpError::NonFinite);
+    }
+    let norm = m
+        .column_iter()
+        .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    if norm > MAX_EXP_NORM {
+        return Err(ExpError::TooLarge(norm));
+    }
+    let e = m.exp();
+    if e.iter().all(|v| v.is_finite()) {
+        Ok(e)
+    } else {
+        Err(ExpError::Overflow)
+    }
+}
 
 /// `x(h) = Φ x₀ + Γ₀ v₀ + Γ₁ (v₁ − v₀)`.
 #[derive(Debug, Clone, PartialEq)]
@@ -18,21 +59,21 @@ pub struct Discretization {
     pub gamma_ramp: DMatrix<f64>,
 }
 
-/// Discretise `(A, B)` exactly for step `h ≥ 0`.
-pub fn discretize(a: &DMatrix<f64>, b: &DMatrix<f64>, h: f64) -> Discretization {
+/// Discretise `(A, B)` exactly for step `h ≥ 0`; [`expm`]'s errors for absurd `A h` or `B h`.
+pub fn discretize(a: &DMatrix<f64>, b: &DMatrix<f64>, h: f64) -> Result<Discretization, ExpError> {
     let (n, m) = (a.nrows(), b.ncols());
     assert!(a.is_square() && b.nrows() == n, "A must be n×n and B n×m");
     let mut big = DMatrix::zeros(n + 2 * m, n + 2 * m);
     big.view_mut((0, 0), (n, n)).copy_from(&(a * h));
     big.view_mut((0, n), (n, m)).copy_from(&(b * h));
     big.view_mut((n, n + m), (m, m)).fill_with_identity();
-    let e = big.exp();
-    Discretization {
+    let e = expm(&big)?;
+    Ok(Discretization {
         step: h,
         phi: e.view((0, 0), (n, n)).into_owned(),
         gamma_hold: e.view((0, n), (n, m)).into_owned(),
         gamma_ramp: e.view((0, n + m), (n, m)).into_owned(),
-    }
+    })
 }
 
 /// `y = Σ_k A_k x_k`, e.g. `Φ x + Γ₀ v₀` in one pass.
@@ -146,7 +187,8 @@ mod tests {
             &DMatrix::from_element(1, 1, a),
             &DMatrix::from_element(1, 1, b),
             h,
-        );
+        )
+        .unwrap();
         let phi = (a * h).exp();
         let g0 = b * (phi - 1.0) / a;
         // ∫₀ʰ e^{a(h−s)} b s/h ds = b/(a² h) (e^{ah} − 1 − a h)
@@ -160,8 +202,31 @@ mod tests {
     fn undamped_oscillator_rotates_exactly() {
         let w = 7.0;
         let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -w * w, 0.0]);
-        let d = discretize(&a, &DMatrix::zeros(2, 1), 0.1);
+        let d = discretize(&a, &DMatrix::zeros(2, 1), 0.1).unwrap();
         assert!((d.phi[(0, 0)] - (0.7f64).cos()).abs() < 1e-14);
         assert!((d.phi[(0, 1)] - (0.7f64).sin() / w).abs() < 1e-14);
+    }
+
+    /// nalgebra's `exp` of these never returns (its scaling count saturates); ours refuses
+    /// them, and still computes a large but admissible one: a stiff decay over a long step.
+    #[test]
+    fn absurd_exponentials_are_refused_not_computed_forever() {
+        let m = |v: f64| DMatrix::from_row_slice(2, 2, &[-v, 1.0, 0.0, -1.0]);
+        assert_eq!(expm(&m(1e40)), Err(ExpError::TooLarge(1e40)));
+        assert_eq!(expm(&m(1e21)), Err(ExpError::TooLarge(1e21)));
+        assert_eq!(expm(&m(f64::NAN)), Err(ExpError::NonFinite));
+        assert_eq!(expm(&m(f64::INFINITY)), Err(ExpError::NonFinite));
+        let e = expm(&m(1e14)).unwrap();
+        assert_eq!(e[(0, 0)], 0.0);
+        // The slow mode after 45 squarings: scaling and squaring loses digits (3e-9 here).
+        assert!((e[(1, 1)] - (-1.0f64).exp()).abs() < 1e-8);
+        // Growth beyond f64: refused, not returned as infinities.
+        let grow = DMatrix::from_row_slice(2, 2, &[800.0, 0.0, 0.0, 1.0]);
+        assert_eq!(expm(&grow), Err(ExpError::Overflow));
+        let b = DMatrix::from_element(2, 1, 1e40);
+        assert!(matches!(
+            discretize(&m(1.0), &b, 1.0),
+            Err(ExpError::TooLarge(_))
+        ));
     }
 }

@@ -61,25 +61,25 @@ pub struct VehicleParams {
     pub g: f64,
 }
 
-/// What values a parameter admits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Admissible {
-    /// Finite and strictly positive (masses, inertias, stiffnesses, lever arms of the wheels).
-    Positive,
-    /// Finite and non-negative (damping coefficients, gravity).
-    NonNegative,
-    /// Any finite value (seat offsets).
-    Finite,
+/// The closed interval of values a parameter admits: its physically plausible range.
+///
+/// Wide enough for any road vehicle from a small robot to a loaded truck, narrow enough that
+/// every admitted car has a positive definite stiffness matrix, finite static equilibrium and
+/// a matrix exponential that converges: a tyre of 1e-12 N/m or an inertia of 1e-40 kg·m² is a
+/// typing error, and is refused with the parameter's name instead of failing deep inside.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Admissible {
+    pub min: f64,
+    pub max: f64,
 }
 
 impl Admissible {
     /// `Ok(())` if `value` is admissible, else a sentence saying what was expected.
-    pub fn check(self, value: f64) -> Result<(), &'static str> {
-        match self {
-            _ if !value.is_finite() => Err("a finite number"),
-            Admissible::Positive if value <= 0.0 => Err("a number > 0"),
-            Admissible::NonNegative if value < 0.0 => Err("a number >= 0"),
-            _ => Ok(()),
+    pub fn check(self, value: f64) -> Result<(), String> {
+        if value.is_finite() && self.min <= value && value <= self.max {
+            Ok(())
+        } else {
+            Err(format!("a number in [{:e}, {:e}]", self.min, self.max))
         }
     }
 }
@@ -96,12 +96,15 @@ pub struct ParamSpec {
 }
 
 macro_rules! param {
-    ($name:literal, $field:ident, $unit:literal, $adm:ident, $desc:literal) => {
+    ($name:literal, $field:ident, $unit:literal, [$min:expr, $max:expr], $desc:literal) => {
         ParamSpec {
             name: $name,
             unit: $unit,
             description: $desc,
-            admissible: Admissible::$adm,
+            admissible: Admissible {
+                min: $min,
+                max: $max,
+            },
             get: |p| p.$field,
             set: |p, v| p.$field = v,
         }
@@ -110,96 +113,102 @@ macro_rules! param {
 
 /// Every physical parameter, in the order of the parameter file.
 pub const PARAMETERS: &[ParamSpec] = &[
-    param!("m_s", m_s, "kg", Positive, "Sprung (body) mass"),
-    param!("m_u", m_u, "kg", Positive, "Unsprung mass of each wheel"),
+    param!("m_s", m_s, "kg", [1.0, 1e5], "Sprung (body) mass"),
+    param!("m_u", m_u, "kg", [0.1, 1e4], "Unsprung mass of each wheel"),
     param!(
         "I_x",
         i_x,
         "kg.m2",
-        Positive,
+        [0.01, 1e7],
         "Roll moment of inertia of the body"
     ),
     param!(
         "I_y",
         i_y,
         "kg.m2",
-        Positive,
+        [0.01, 1e7],
         "Pitch moment of inertia of the body"
     ),
     param!(
         "k_s_f",
         k_s_f,
         "N/m",
-        Positive,
+        [100.0, 1e8],
         "Front suspension stiffness"
     ),
-    param!("k_s_r", k_s_r, "N/m", Positive, "Rear suspension stiffness"),
+    param!(
+        "k_s_r",
+        k_s_r,
+        "N/m",
+        [100.0, 1e8],
+        "Rear suspension stiffness"
+    ),
     param!(
         "c_s_f",
         c_s_f,
         "N.s/m",
-        NonNegative,
+        [0.0, 1e6],
         "Front suspension damping"
     ),
     param!(
         "c_s_r",
         c_s_r,
         "N.s/m",
-        NonNegative,
+        [0.0, 1e6],
         "Rear suspension damping"
     ),
-    param!("k_t", k_t, "N/m", Positive, "Tyre stiffness"),
-    param!("c_t", c_t, "N.s/m", NonNegative, "Tyre damping"),
+    param!("k_t", k_t, "N/m", [1e3, 1e8], "Tyre stiffness"),
+    param!("c_t", c_t, "N.s/m", [0.0, 1e6], "Tyre damping"),
     param!(
         "L1",
         l1,
         "m",
-        Positive,
+        [0.05, 20.0],
         "Distance from the body COG to the rear axle"
     ),
     param!(
         "L2",
         l2,
         "m",
-        Positive,
+        [0.05, 20.0],
         "Distance from the body COG to the front axle"
     ),
     param!(
         "w1",
         w1,
         "m",
-        Positive,
+        [0.05, 5.0],
         "Distance from the body COG to the left wheels"
     ),
     param!(
         "w2",
         w2,
         "m",
-        Positive,
+        [0.05, 5.0],
         "Distance from the body COG to the right wheels"
     ),
     param!(
         "s1",
         s1,
         "m",
-        Finite,
+        [-5.0, 5.0],
         "Lateral seat offset to the right of the COG"
     ),
     param!(
         "s2",
         s2,
         "m",
-        Finite,
+        [-10.0, 10.0],
         "Longitudinal seat offset ahead of the COG"
     ),
-    param!("m_seat", m_seat, "kg", Positive, "Seat plus driver mass"),
-    param!("k_seat", k_seat, "N/m", Positive, "Seat stiffness"),
-    param!("c_seat", c_seat, "N.s/m", NonNegative, "Seat damping"),
+    param!("m_seat", m_seat, "kg", [1.0, 1e4], "Seat plus driver mass"),
+    param!("k_seat", k_seat, "N/m", [100.0, 1e8], "Seat stiffness"),
+    param!("c_seat", c_seat, "N.s/m", [0.0, 1e6], "Seat damping"),
     param!(
         "g",
         g,
         "m/s2",
-        NonNegative,
+        [0.0, 100.0],
         "Gravitational acceleration (static equilibrium)"
     ),
 ];
@@ -222,7 +231,7 @@ pub enum ParamError {
     #[error("parameter '{name}' must be {expected}, got {value}")]
     Value {
         name: &'static str,
-        expected: &'static str,
+        expected: String,
         value: f64,
     },
 }
@@ -392,7 +401,7 @@ mod tests {
             err,
             ParamError::Value {
                 name: "m_s",
-                expected: "a number > 0",
+                expected: "a number in [1e0, 1e5]".into(),
                 value: -1500.0
             }
         );
@@ -437,7 +446,7 @@ mod tests {
             p.with_overrides(r#"{"c_seat": -1}"#),
             Err(ParamError::Value {
                 name: "c_seat",
-                expected: "a number >= 0",
+                expected: "a number in [0e0, 1e6]".into(),
                 value: -1.0
             })
         );

@@ -60,7 +60,7 @@ fn energy_is_conserved_without_dampers() {
     };
     let mech = MechanicalModel::new(&p);
     let ss = StateSpace::from_mechanical(&mech);
-    let d = discretize(&ss.a, &ss.b_u, 0.01);
+    let d = discretize(&ss.a, &ss.b_u, 0.01).unwrap();
     let energy = |x: &DVector<f64>| {
         let q = x.rows(0, N_DOF);
         let v = x.rows(N_DOF, N_DOF);
@@ -79,7 +79,7 @@ fn energy_is_conserved_without_dampers() {
 
     // The check has teeth: the same run with the thesis's damping loses energy.
     let damped = StateSpace::new(&VehicleParams::default());
-    let dd = discretize(&damped.a, &damped.b_u, 0.01);
+    let dd = discretize(&damped.a, &damped.b_u, 0.01).unwrap();
     let mut y = DVector::from_fn(16, |i, _| 0.01 * ((i as f64) * 0.7).sin());
     for _ in 0..100 {
         y = &dd.phi * y;
@@ -297,4 +297,53 @@ fn outputs_are_consistent_with_the_state_equation() {
     // Dynamic tyre load RR: k_t (z_r − z_u) + c_t (ż_r − ż_u).
     let load = p.k_t * (r[3] - x[7]) + p.c_t * (r[7] - x[15]);
     assert!((eval("tire_load_rr") - load).abs() < 1e-9);
+}
+
+/// The parameter ranges are a promise: every car they admit has a positive definite stiffness
+/// matrix (the static equilibrium solves by Cholesky), a finite equilibrium, and a
+/// discretisation over a millisecond and over a minute. Checked at 2000 random corners of the
+/// box (each parameter at its minimum or maximum), the default car with each parameter alone at
+/// either end, and the stiffest car against the longest step the bound admits.
+#[test]
+fn every_admitted_car_has_an_equilibrium_and_a_discretisation() {
+    use vehicle::model::{StateSpace, StaticEquilibrium};
+    use vehicle::params::PARAMETERS;
+    let check = |p: &VehicleParams, what: &str| {
+        p.validate().unwrap();
+        let eq = StaticEquilibrium::new(p);
+        assert!(
+            eq.stroke.iter().chain(&eq.tire_load).all(|v| v.is_finite()),
+            "{what}: {eq:?}"
+        );
+        let ss = StateSpace::new(p);
+        for h in [1e-3, 60.0] {
+            let d =
+                discretize(&ss.a, &ss.b_u, h).unwrap_or_else(|e| panic!("{what}, h = {h}: {e}"));
+            assert!(d.phi.iter().all(|v| v.is_finite()), "{what}, h = {h}");
+        }
+    };
+    let default = VehicleParams::default();
+    for spec in PARAMETERS {
+        for v in [spec.admissible.min, spec.admissible.max] {
+            let mut p = default;
+            p.set(spec.name, v).unwrap();
+            check(&p, &format!("{} = {v}", spec.name));
+        }
+    }
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    for k in 0..2000 {
+        let mut p = default;
+        for spec in PARAMETERS {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let v = if state & 1 == 0 {
+                spec.admissible.min
+            } else {
+                spec.admissible.max
+            };
+            p.set(spec.name, v).unwrap();
+        }
+        check(&p, &format!("corner {k}: {p:?}"));
+    }
 }
