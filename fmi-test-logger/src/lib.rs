@@ -114,3 +114,25 @@ unsafe extern "C" fn fmi_test_record(
         });
     }
 }
+
+/// A serialised FMU state with one parameter value replaced and the checksum made right again:
+/// what a buggy tool or a hand-edited file hands an FMU. `old` must occur exactly once (as
+/// little-endian f64 bytes). The checksum (FNV-1a 64 over everything before the last 8 bytes)
+/// is written from the format's documentation in `fmu_core::fmu_state`, independently of it.
+pub fn forge_state(bytes: &[u8], old: f64, new: f64) -> Vec<u8> {
+    let pattern = old.to_le_bytes();
+    let body_len = bytes.len() - 8;
+    let hits: Vec<usize> = (0..body_len - 7)
+        .filter(|&i| bytes[i..i + 8] == pattern)
+        .collect();
+    assert_eq!(hits.len(), 1, "{old} must occur once in the state");
+    let mut forged = bytes.to_vec();
+    forged[hits[0]..hits[0] + 8].copy_from_slice(&new.to_le_bytes());
+    let sum = forged[..body_len]
+        .iter()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ *b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+        });
+    forged[body_len..].copy_from_slice(&sum.to_le_bytes());
+    forged
+}

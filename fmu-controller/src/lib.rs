@@ -413,7 +413,7 @@ impl Model for Controller {
         vr == vr::FAULT_DETECTED && self.fault_detected()
     }
 
-    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+    fn check_parameters(&self) -> Result<(), String> {
         if let Some(bad) = self.limits.iter().find(|l| !(**l > 0.0 && l.is_finite())) {
             return Err(format!("force limits must be finite and > 0, got {bad}"));
         }
@@ -425,8 +425,15 @@ impl Model for Controller {
                 self.threshold
             ));
         }
+        match &self.predictor {
+            Some(p) => p.check(self.tau),
+            None => Ok(()),
+        }
+    }
+
+    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+        self.check_parameters()?;
         if let Some(p) = &mut self.predictor {
-            p.check(self.tau)?;
             p.reset(self.tau)?;
         }
         self.x.fill(0.0);

@@ -487,3 +487,78 @@ fn an_absurd_controller_matrix_fails_the_step_and_returns() {
         log.messages()
     );
 }
+
+/// A state whose checksum matches but whose force limit is forged (NaN, 0, negative) is refused
+/// with the reason and changes nothing; it once gave "internal error" on every later call.
+#[test]
+fn forged_limits_in_a_state_are_refused() {
+    let log = LogCapture::default();
+    let dir = dir_with("aw-forged", Some(AW_SPEC));
+    let serialize = |c: Fmi2Component| -> Vec<u8> {
+        let mut s: Fmi2FmuState = std::ptr::null_mut();
+        let mut size = 0;
+        unsafe {
+            assert_eq!(fmi2GetFMUstate(c, &mut s), 0);
+            fmi2SerializedFMUstateSize(c, s, &mut size);
+            let mut bytes = vec![0 as Fmi2Byte; size];
+            fmi2SerializeFMUstate(c, s, bytes.as_mut_ptr(), size);
+            fmi2FreeFMUstate(c, &mut s);
+            bytes.into_iter().map(|b| b as u8).collect()
+        }
+    };
+    let restore = |c: Fmi2Component, bytes: &[u8]| -> Fmi2Status {
+        let mut s: Fmi2FmuState = std::ptr::null_mut();
+        unsafe {
+            let st =
+                fmi2DeSerializeFMUstate(c, bytes.as_ptr() as *const Fmi2Byte, bytes.len(), &mut s);
+            if st != 0 {
+                return st;
+            }
+            let st = fmi2SetFMUstate(c, s);
+            fmi2FreeFMUstate(c, &mut s);
+            st
+        }
+    };
+    let start = |limit: f64| {
+        let (c, cb) = instantiate(&log, &guid_of(AW_SPEC), Some(&dir));
+        assert!(!c.is_null(), "{:?}", log.messages());
+        unsafe {
+            assert_eq!(fmi2SetReal(c, &vr::LIMIT, 1, &limit), 0);
+            fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+            fmi2EnterInitializationMode(c);
+            assert_eq!(fmi2ExitInitializationMode(c), 0);
+            fmi2SetReal(c, &vr::INPUT, 1, &1.0);
+            assert_eq!(fmi2DoStep(c, 0.0, 0.1, 1), 0);
+        }
+        (c, cb)
+    };
+    let (a, _cba) = start(4.25);
+    let good = serialize(a);
+    let (b, _cbb) = start(3.5);
+    let outs = [vr::OUTPUT, vr::OUTPUT + 1];
+    let read = |c: Fmi2Component| {
+        let mut u = [0.0; 2];
+        unsafe { fmi2GetReal(c, outs.as_ptr(), 2, u.as_mut_ptr()) };
+        u
+    };
+    let before = read(b);
+    for forged in [f64::NAN, 0.0, -4.25] {
+        log.clear();
+        assert_ne!(
+            restore(b, &fmi_test_logger::forge_state(&good, 4.25, forged)),
+            0
+        );
+        assert!(
+            log.contains("FMU state refused"),
+            "{forged}: {:?}",
+            log.messages()
+        );
+        assert_eq!(read(b), before, "{forged}");
+    }
+    assert_eq!(restore(b, &good), 0, "{:?}", log.messages());
+    assert_eq!(read(b), read(a));
+    unsafe {
+        fmi2FreeInstance(a);
+        fmi2FreeInstance(b);
+    }
+}

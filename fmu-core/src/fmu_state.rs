@@ -2,13 +2,14 @@
 //! `fmi2SetFMUstate` parses and checks it. The same bytes are what `fmi2SerializeFMUstate`
 //! hands out, so a state restored into a different instance continues bit-identically.
 //!
-//! Layout (little-endian): magic `"SUSPFMU1"`, GUID (u64 length + bytes), FMI state (u8),
-//! time (f64), model payload (u64 length + bytes), FNV-1a 64 checksum of everything before it.
+//! Layout (little-endian): magic `"SUSPFMU2"`, GUID (u64 length + bytes), FMI state (u8),
+//! time, start time (f64), stop time (u8 flag + f64), model payload (u64 length + bytes),
+//! FNV-1a 64 checksum of everything before it.
 //! A truncated, altered or foreign byte string is rejected before anything is changed.
 
 use crate::state_machine::FmiState;
 
-const MAGIC: &[u8; 8] = b"SUSPFMU1";
+const MAGIC: &[u8; 8] = b"SUSPFMU2";
 
 /// Appends values to a model's payload.
 #[derive(Default)]
@@ -121,6 +122,10 @@ fn checksum(bytes: &[u8]) -> u64 {
 pub struct Snapshot {
     pub state: FmiState,
     pub time: f64,
+    /// What `fmi2SetupExperiment` set: a state taken in initialisation mode carries them into
+    /// `fmi2ExitInitializationMode` of the instance it is restored into.
+    pub start_time: f64,
+    pub stop_time: Option<f64>,
     pub payload: Vec<u8>,
 }
 
@@ -130,6 +135,9 @@ pub fn encode(guid: &str, snapshot: &Snapshot) -> Vec<u8> {
     w.bytes(guid.as_bytes());
     w.bytes.push(snapshot.state as u8);
     w.f64(snapshot.time);
+    w.f64(snapshot.start_time);
+    w.bool(snapshot.stop_time.is_some());
+    w.f64(snapshot.stop_time.unwrap_or(0.0));
     w.bytes(&snapshot.payload);
     let sum = checksum(&w.bytes);
     w.u64(sum);
@@ -156,14 +164,25 @@ pub fn decode(guid: &str, bytes: &[u8]) -> Result<Snapshot, String> {
     let state = FmiState::from_u8(state_byte)
         .ok_or_else(|| format!("FMU state has invalid FMI state {state_byte}"))?;
     let time = r.f64()?;
-    if !time.is_finite() {
-        return Err("FMU state has a non-finite time".into());
+    let start_time = r.f64()?;
+    let has_stop = r.bool()?;
+    let stop = r.f64()?;
+    if !time.is_finite() || !start_time.is_finite() {
+        return Err("FMU state has a non-finite time or start time".into());
+    }
+    let stop_time = has_stop.then_some(stop);
+    if stop_time.is_some_and(|s| s.is_nan() || s < start_time) {
+        return Err(format!(
+            "FMU state has stop time {stop} before its start time {start_time}"
+        ));
     }
     let payload = r.bytes()?.to_vec();
     r.finish()?;
     Ok(Snapshot {
         state,
         time,
+        start_time,
+        stop_time,
         payload,
     })
 }
@@ -181,6 +200,8 @@ mod tests {
             &Snapshot {
                 state: FmiState::StepComplete,
                 time: 0.125,
+                start_time: 0.0,
+                stop_time: Some(10.0),
                 payload: w.into_bytes(),
             },
         )
@@ -191,6 +212,7 @@ mod tests {
         let s = decode("{g}", &sample()).unwrap();
         assert_eq!(s.state, FmiState::StepComplete);
         assert_eq!(s.time, 0.125);
+        assert_eq!((s.start_time, s.stop_time), (0.0, Some(10.0)));
         let mut r = StateReader::new(&s.payload);
         assert_eq!(r.f64s().unwrap(), vec![1.0, -2.5, f64::MIN_POSITIVE]);
         assert!(r.bool().unwrap());

@@ -271,33 +271,40 @@ impl<M: Model> Instance<M> {
                     v.causality, v.variability
                 ));
             }
-            if !value.is_finite() {
-                return Err(format!("value of '{name}' must be finite, got {value}"));
-            }
-            if let VarType::Real { min, max, .. } = &v.kind {
-                if let Some(m) = min.filter(|m| value < *m) {
-                    return Err(format!(
-                        "value {} of '{name}' is below its minimum {}",
-                        number(value),
-                        number(m)
-                    ));
-                }
-                if let Some(m) = max.filter(|m| value > *m) {
-                    return Err(format!(
-                        "value {} of '{name}' is above its maximum {}",
-                        number(value),
-                        number(m)
-                    ));
-                }
-            }
-            self.model
-                .check_real(vr, value)
-                .map_err(|e| format!("rejected value for '{name}': {e}"))?;
+            self.check_real_value(v, value)?;
         }
         for (&vr, &value) in vrs.iter().zip(values) {
             self.model.set_real(vr, value);
         }
         Ok(Status::Ok)
+    }
+
+    /// The setter's rules for one value of a Real variable: finite, within the variable's
+    /// `min`/`max`, accepted by the model.
+    fn check_real_value(&self, v: &Variable, value: f64) -> Result<(), String> {
+        let name = &v.name;
+        if !value.is_finite() {
+            return Err(format!("value of '{name}' must be finite, got {value}"));
+        }
+        if let VarType::Real { min, max, .. } = &v.kind {
+            if let Some(m) = min.filter(|m| value < *m) {
+                return Err(format!(
+                    "value {} of '{name}' is below its minimum {}",
+                    number(value),
+                    number(m)
+                ));
+            }
+            if let Some(m) = max.filter(|m| value > *m) {
+                return Err(format!(
+                    "value {} of '{name}' is above its maximum {}",
+                    number(value),
+                    number(m)
+                ));
+            }
+        }
+        self.model
+            .check_real(v.value_reference, value)
+            .map_err(|e| format!("rejected value for '{name}': {e}"))
     }
 
     pub fn get_integer(
@@ -462,6 +469,8 @@ impl<M: Model> Instance<M> {
             &Snapshot {
                 state: self.state,
                 time: self.time,
+                start_time: self.start_time,
+                stop_time: self.stop_time,
                 payload: w.into_bytes(),
             },
         )
@@ -472,18 +481,54 @@ impl<M: Model> Instance<M> {
         fmu_state::decode(&self.description.guid, bytes).map(|_| ())
     }
 
-    /// Restore from bytes; on error nothing changes.
+    /// Restore from bytes; on error nothing changes. The restored values obey the setters'
+    /// rules (every parameter and input), and past initialisation the parameters' joint rules:
+    /// a state whose checksum matches may still have been forged or written by a buggy tool.
     pub fn restore_state(&mut self, bytes: &[u8]) -> Result<Status, String> {
         let snap = fmu_state::decode(&self.description.guid, bytes)?;
-        let mut reader = StateReader::new(&snap.payload);
-        self.model.restore(&mut reader)?;
+        let mut backup = StateWriter::default();
+        self.model.save(&mut backup);
+        self.model.restore(&mut StateReader::new(&snap.payload))?;
+        let initialised = !matches!(
+            snap.state,
+            FmiState::Instantiated | FmiState::InitializationMode
+        );
+        if let Err(e) = self.check_restored(initialised) {
+            self.model
+                .restore(&mut StateReader::new(&backup.into_bytes()))
+                .map_err(|b| format!("{e}; restoring the previous state failed too: {b}"))?;
+            return Err(format!("FMU state refused: {e}"));
+        }
         self.state = snap.state;
         self.time = snap.time;
+        self.start_time = snap.start_time;
+        self.stop_time = snap.stop_time;
         self.logger.event(&format!(
             "fmi2SetFMUstate: restored state at t = {}",
             self.time
         ));
         Ok(Status::Ok)
+    }
+}
+
+impl<M: Model> Instance<M> {
+    /// Every settable Real variable of the restored model, by the setters' rules.
+    fn check_restored(&mut self, initialised: bool) -> Result<(), String> {
+        for i in 0..self.description.variables.len() {
+            let v = &self.description.variables[i];
+            if !matches!(v.causality, Causality::Parameter | Causality::Input)
+                || !matches!(v.kind, VarType::Real { .. })
+            {
+                continue;
+            }
+            let vr = v.value_reference;
+            let value = self.model.get_real(vr);
+            self.check_real_value(&self.description.variables[i], value)?;
+        }
+        if initialised {
+            self.model.check_parameters()?;
+        }
+        Ok(())
     }
 }
 

@@ -41,7 +41,16 @@ pub trait Model: Sized + Send + 'static {
     /// (only called if the description says `canInterpolateInputs`).
     fn set_input_derivative(&mut self, _vr: ValueReference, _value: f64) {}
 
-    /// End of initialisation: check the parameters together and build what the steps need.
+    /// The rules the parameters obey together (beyond each one's range, which the runtime and
+    /// [`Model::check_real`] check), as `exit_initialization` enforces them. The runtime also
+    /// calls it on a state restored past initialisation, so a forged state cannot bring in
+    /// what initialisation would have refused.
+    fn check_parameters(&self) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// End of initialisation: check the parameters together ([`Model::check_parameters`]) and
+    /// build what the steps need.
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;
 
     /// Advance from `time` by `step` (> 0). On error the model must be left unchanged.

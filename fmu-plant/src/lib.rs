@@ -467,8 +467,12 @@ impl Model for Plant {
         }
     }
 
+    fn check_parameters(&self) -> Result<(), String> {
+        self.sim.params.validate().map_err(|e| e.to_string())
+    }
+
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
-        self.sim.params.validate().map_err(|e| e.to_string())?;
+        self.check_parameters()?;
         self.sim.start(start_time);
         self.invalidate_outputs();
         Ok(())

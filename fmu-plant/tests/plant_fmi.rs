@@ -547,3 +547,67 @@ fn an_absurd_step_fails_with_a_message_and_loses_nothing() {
     );
     assert_eq!(p.states(), before);
 }
+
+/// States whose checksum matches but whose values the setters refuse (an actuator limit of
+/// NaN or 0, a tyre of 1e-12 N/m, a fault loss of 1.5, a NaN road input) are refused with the
+/// reason and change nothing; the untouched state is still accepted.
+#[test]
+fn forged_states_are_refused_and_change_nothing() {
+    let log = LogCapture::default();
+    let a = Plant::new(&log);
+    for (n, v) in [
+        ("u_max", 1234.5),
+        ("k_t", 191234.0),
+        ("fault_loss_rl", 0.375),
+    ] {
+        assert_eq!(a.set(n, v), OK);
+    }
+    a.init(0.0);
+    a.set("road_z_fl", 0.0123);
+    assert_eq!(a.step(0.0, 1e-3), OK);
+    let state = |p: &Plant| -> Vec<u8> {
+        let mut s: Fmi2FmuState = null_mut();
+        assert_eq!(unsafe { fmi2GetFMUstate(p.c, &mut s) }, OK);
+        let mut size = 0;
+        unsafe { fmi2SerializedFMUstateSize(p.c, s, &mut size) };
+        let mut bytes = vec![0 as Fmi2Byte; size];
+        unsafe { fmi2SerializeFMUstate(p.c, s, bytes.as_mut_ptr(), size) };
+        unsafe { fmi2FreeFMUstate(p.c, &mut s) };
+        bytes.into_iter().map(|b| b as u8).collect()
+    };
+    let restore = |p: &Plant, bytes: &[u8]| -> i32 {
+        let mut s: Fmi2FmuState = null_mut();
+        let st = unsafe {
+            fmi2DeSerializeFMUstate(p.c, bytes.as_ptr() as *const Fmi2Byte, bytes.len(), &mut s)
+        };
+        if st != OK {
+            return st;
+        }
+        let st = unsafe { fmi2SetFMUstate(p.c, s) };
+        unsafe { fmi2FreeFMUstate(p.c, &mut s) };
+        st
+    };
+    let good = state(&a);
+    let b = Plant::new(&log);
+    b.init(0.0);
+    b.set("road_z_fr", 0.02);
+    assert_eq!(b.step(0.0, 2e-3), OK);
+    let before = b.states();
+    for (old, new, why) in [
+        (1234.5, f64::NAN, "must be finite"),
+        (1234.5, 0.0, "u_max must be > 0"),
+        (191234.0, 1e-12, "k_t"),
+        (0.375, 1.5, "above its maximum 1"),
+        (0.0123, f64::INFINITY, "finite"),
+    ] {
+        log.clear();
+        let forged = fmi_test_logger::forge_state(&good, old, new);
+        assert_ne!(restore(&b, &forged), OK, "{old} -> {new} accepted");
+        assert!(log.contains(why), "{old} -> {new}: {:?}", log.messages());
+        assert_eq!(b.states(), before);
+        assert_eq!(b.get("u_max"), 2500.0, "b's own parameters");
+    }
+    assert_eq!(restore(&b, &good), OK, "{:?}", log.messages());
+    assert_eq!(b.states(), a.states());
+    assert_eq!(b.get("u_max"), 1234.5);
+}

@@ -233,6 +233,13 @@ impl Model for RoadFmu {
         self.identical_tracks
     }
 
+    fn check_parameters(&self) -> Result<(), String> {
+        match self.road {
+            Some(_) => Ok(()),
+            None => self.build().map(|_| ()),
+        }
+    }
+
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
         self.road = Some(self.build()?);
         self.time = start_time;

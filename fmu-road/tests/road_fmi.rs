@@ -211,3 +211,95 @@ fn checked_in_description_and_readme_table_are_current() {
     );
     model_description().check().unwrap();
 }
+
+impl Inst {
+    fn serialized_state(&self) -> Vec<u8> {
+        let mut s: Fmi2FmuState = null_mut();
+        assert_eq!(unsafe { fmi2GetFMUstate(self.c, &mut s) }, 0);
+        let mut size = 0;
+        unsafe { fmi2SerializedFMUstateSize(self.c, s, &mut size) };
+        let mut bytes = vec![0 as Fmi2Byte; size];
+        assert_eq!(
+            unsafe { fmi2SerializeFMUstate(self.c, s, bytes.as_mut_ptr(), size) },
+            0
+        );
+        unsafe { fmi2FreeFMUstate(self.c, &mut s) };
+        bytes.into_iter().map(|b| b as u8).collect()
+    }
+    fn set_serialized_state(&self, bytes: &[u8]) -> Fmi2Status {
+        let mut s: Fmi2FmuState = null_mut();
+        let status = unsafe {
+            fmi2DeSerializeFMUstate(
+                self.c,
+                bytes.as_ptr() as *const Fmi2Byte,
+                bytes.len(),
+                &mut s,
+            )
+        };
+        if status != 0 {
+            return status;
+        }
+        let status = unsafe { fmi2SetFMUstate(self.c, s) };
+        unsafe { fmi2FreeFMUstate(self.c, &mut s) };
+        status
+    }
+}
+
+/// A state taken in initialisation mode carries the experiment's start and stop time: the
+/// instance it is restored into starts where the original does (it used its own start time).
+#[test]
+fn a_state_taken_in_initialisation_mode_carries_start_and_stop_time() {
+    let log = LogCapture::default();
+    let a = Inst::new(&log);
+    assert_eq!(a.set_int("profile", 3), 0);
+    unsafe {
+        assert_eq!(fmi2SetupExperiment(a.c, 0, 0.0, 2.5, 1, 4.0), 0);
+        assert_eq!(fmi2EnterInitializationMode(a.c), 0);
+    }
+    let bytes = a.serialized_state();
+    assert_eq!(unsafe { fmi2ExitInitializationMode(a.c) }, 0);
+    let b = Inst::new(&log);
+    assert_eq!(b.set_serialized_state(&bytes), 0, "{:?}", log.messages());
+    assert_eq!(unsafe { fmi2ExitInitializationMode(b.c) }, 0);
+    assert_eq!(b.outputs(), a.outputs());
+    assert_ne!(a.outputs(), [0.0; 8], "the sweep has started at 2.5 s");
+    unsafe {
+        assert_eq!(fmi2DoStep(a.c, 2.5, 0.5, 1), 0);
+        assert_eq!(fmi2DoStep(b.c, 2.5, 0.5, 1), 0);
+    }
+    assert_eq!(b.outputs(), a.outputs());
+    // The stop time came along too: a step past it is refused.
+    unsafe {
+        assert_ne!(fmi2DoStep(b.c, 3.0, 1.5, 1), 0);
+    }
+}
+
+/// A state whose checksum matches but whose parameters the setters or initialisation would
+/// refuse is refused, with the reason, and the instance keeps its own state.
+#[test]
+fn forged_states_are_refused_and_change_nothing() {
+    let log = LogCapture::default();
+    let a = Inst::new(&log);
+    assert_eq!(a.set_real("speed", 12.345), 0);
+    assert_eq!(a.init(), 0);
+    unsafe { fmi2DoStep(a.c, 0.0, 0.1, 1) };
+    let good = a.serialized_state();
+    let b = Inst::new(&log);
+    assert_eq!(b.set_real("speed", 11.0), 0);
+    assert_eq!(b.init(), 0);
+    unsafe { fmi2DoStep(b.c, 0.0, 0.2, 1) };
+    let before = b.outputs();
+    for (forged, why) in [(f64::NAN, "must be finite"), (-12.345, "speed")] {
+        log.clear();
+        let bytes = fmi_test_logger::forge_state(&good, 12.345, forged);
+        assert_ne!(b.set_serialized_state(&bytes), 0, "speed {forged} accepted");
+        assert!(
+            log.contains("FMU state refused") && log.contains(why),
+            "{forged}: {:?}",
+            log.messages()
+        );
+        assert_eq!(b.outputs(), before);
+    }
+    assert_eq!(b.set_serialized_state(&good), 0);
+    assert_eq!(b.outputs(), a.outputs());
+}
