@@ -14,16 +14,54 @@ use crate::logger::Logger;
 use crate::model::Model;
 use crate::state_machine::{self as sm, FmiState, Mask};
 use crate::types::*;
+use std::cell::{Cell, RefCell};
 use std::ffi::CStr;
 use std::os::raw::c_char;
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::Once;
 
-fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
+thread_local! {
+    /// How deep this thread is inside our FMI functions.
+    static INSIDE: Cell<u32> = const { Cell::new(0) };
+    /// Where the last panic inside them happened, for the log.
+    static LOCATION: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+static QUIET_HOOK: Once = Once::new();
+
+/// `catch_unwind`, keeping the panic off the importer's stderr: the message goes to the FMI
+/// logger instead (the caller logs it, with the location recorded here). A panic hook belongs
+/// to the Rust runtime, one per FMU library (each links its own `std`), so it is installed once;
+/// it is silent only for panics inside our FMI calls on the panicking thread and passes any
+/// other panic (a Rust importer linking this crate, its tests) to the hook it replaced.
+fn catch_quietly<R>(f: impl FnOnce() -> R) -> Result<R, String> {
+    QUIET_HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if INSIDE.with(Cell::get) > 0 {
+                let at = info
+                    .location()
+                    .map(|l| format!("{}:{}", l.file(), l.line()));
+                LOCATION.with(|l| *l.borrow_mut() = at);
+            } else {
+                previous(info)
+            }
+        }));
+    });
+    INSIDE.with(|c| c.set(c.get() + 1));
+    let result = catch_unwind(AssertUnwindSafe(f));
+    INSIDE.with(|c| c.set(c.get() - 1));
+    result.map_err(|payload| {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into());
+        match LOCATION.with(|l| l.borrow_mut().take()) {
+            Some(at) => format!("{message} (at {at})"),
+            None => message,
+        }
+    })
 }
 
 /// `n` elements at `ptr`, or an error naming the argument if it is NULL while `n > 0`.
@@ -81,19 +119,17 @@ unsafe fn call<M: Model>(
         }
         return Status::Error as Fmi2Status;
     }
-    match catch_unwind(AssertUnwindSafe(|| body(inst))) {
+    match catch_quietly(|| body(inst)) {
         Ok(Ok(status)) => status as Fmi2Status,
         Ok(Err(msg)) => {
             inst.logger.error(&format!("{func}: {msg}"));
             inst.state = FmiState::Error;
             Status::Error as Fmi2Status
         }
-        Err(payload) => {
+        Err(panic) => {
             // The instance may be half-updated: only reset, free or a saved state can help.
-            inst.logger.error(&format!(
-                "{func}: internal error: {}",
-                panic_message(&*payload)
-            ));
+            inst.logger
+                .error(&format!("{func}: internal error: {panic}"));
             inst.state = FmiState::Error;
             Status::Error as Fmi2Status
         }
@@ -129,7 +165,7 @@ pub unsafe fn instantiate<M: Model>(
     _visible: Fmi2Boolean,
     logging_on: Fmi2Boolean,
 ) -> Fmi2Component {
-    let result = catch_unwind(AssertUnwindSafe(|| {
+    let result = catch_quietly(|| {
         // Without callbacks there is nobody to tell; the standard requires them.
         let callbacks = *functions.as_ref()?;
         let fail = |logger: &Logger, msg: &str| {
@@ -165,7 +201,7 @@ pub unsafe fn instantiate<M: Model>(
             Ok(inst) => Some(Box::into_raw(inst) as Fmi2Component),
             Err((logger, msg)) => fail(&logger, &msg),
         }
-    }));
+    });
     result.ok().flatten().unwrap_or(std::ptr::null_mut())
 }
 
@@ -174,7 +210,7 @@ pub unsafe fn instantiate<M: Model>(
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
-    let _ = catch_unwind(AssertUnwindSafe(|| {
+    let _ = catch_quietly(|| {
         let Some(inst) = instance::<M>(c) else { return };
         if !inst.state.is_in(sm::FREE_INSTANCE) {
             inst.logger.error(&format!(
@@ -188,7 +224,7 @@ pub unsafe fn free_instance<M: Model>(c: Fmi2Component) {
         }
         inst.magic = 0;
         drop(Box::from_raw(c as *mut Instance<M>));
-    }));
+    });
 }
 
 /// `fmi2SetDebugLogging`.
@@ -708,7 +744,7 @@ pub unsafe fn description_document<M: Model>(
     resources: *const c_char,
     format: std::os::raw::c_int,
 ) -> *mut c_char {
-    let result = catch_unwind(AssertUnwindSafe(|| {
+    let result = catch_quietly(|| {
         let dir = match c_str(resources) {
             None => None,
             Some(Ok(p)) => Some(std::path::PathBuf::from(p)),
@@ -721,14 +757,17 @@ pub unsafe fn description_document<M: Model>(
         } else {
             d.to_xml()
         })
-    }));
+    });
     match result {
         Ok(Ok(text)) => crate::logger::to_cstring(&text).into_raw(),
         Ok(Err(e)) => {
             eprintln!("fmuCoreDescription: {e}");
             std::ptr::null_mut()
         }
-        Err(_) => std::ptr::null_mut(),
+        Err(panic) => {
+            eprintln!("fmuCoreDescription: internal error: {panic}");
+            std::ptr::null_mut()
+        }
     }
 }
 

@@ -383,9 +383,9 @@ impl<M: Model> Instance<M> {
             if v.causality != Causality::Input {
                 return Err(format!("variable '{}' is not an input", v.name));
             }
-            if order != 1 {
+            if order < 1 {
                 return Err(format!(
-                    "derivative order {order} for '{}' not supported (only 1)",
+                    "derivative order {order} for '{}': orders start at 1",
                     v.name
                 ));
             }
@@ -396,10 +396,29 @@ impl<M: Model> Instance<M> {
                 ));
             }
         }
-        for (&vr, &value) in vrs.iter().zip(values) {
-            self.model.set_input_derivative(vr, value);
+        // The inputs are interpolated linearly: first derivatives are used, higher ones (legal,
+        // the standard forbids only order 0) are ignored with a warning.
+        let mut ignored = Vec::new();
+        for ((&vr, &order), &value) in vrs.iter().zip(orders).zip(values) {
+            if order == 1 {
+                self.model.set_input_derivative(vr, value);
+            } else {
+                let name = &self.variable(BaseType::Real, vr)?.name;
+                ignored.push(format!("order {order} of '{name}'"));
+            }
         }
-        Ok(Status::Ok)
+        if ignored.is_empty() {
+            return Ok(Status::Ok);
+        }
+        self.logger.log(
+            Status::Warning,
+            Category::StatusWarning,
+            &format!(
+                "fmi2SetRealInputDerivatives: inputs are interpolated linearly, ignored {}",
+                ignored.join(", ")
+            ),
+        );
+        Ok(Status::Warning)
     }
 
     pub fn do_step(&mut self, current: f64, step: f64) -> Result<Status, String> {

@@ -82,7 +82,9 @@ pub const FMU_STATE: Mask = ANY_BUT_FATAL;
 pub const SETUP_EXPERIMENT: Mask = m(&[S::Instantiated]);
 pub const ENTER_INITIALIZATION_MODE: Mask = m(&[S::Instantiated]);
 pub const EXIT_INITIALIZATION_MODE: Mask = m(&[S::InitializationMode]);
-pub const TERMINATE: Mask = m(&[S::StepComplete, S::StepFailed, S::StepCanceled]);
+/// The FMI 2.0.4 table: not after a canceled step (only `fmi2CancelStep` leads there, which
+/// this FMU never allows), as the Reference FMUs have it.
+pub const TERMINATE: Mask = m(&[S::StepComplete, S::StepFailed]);
 pub const GET_VALUES: Mask = m(&[
     S::InitializationMode,
     S::StepComplete,
@@ -105,9 +107,48 @@ pub const GET_REAL_OUTPUT_DERIVATIVES: Mask = m(&[
 pub const DO_STEP: Mask = m(&[S::StepComplete]);
 /// Only legal while an asynchronous step is in progress, which never happens here.
 pub const CANCEL_STEP: Mask = Mask(0);
-pub const GET_STATUS: Mask = m(&[
-    S::StepComplete,
-    S::StepFailed,
-    S::StepCanceled,
-    S::Terminated,
-]);
+pub const GET_STATUS: Mask = m(&[S::StepComplete, S::StepFailed, S::Terminated]);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `stepCanceled` column of the FMI 2.0.4 Co-Simulation table (section 4.2.4, as the
+    /// Reference FMUs implement it): getters, output derivatives, free/reset, logging and FMU
+    /// states only; in particular not `fmi2Terminate` and not `fmi2Get*Status`.
+    #[test]
+    fn step_canceled_allows_what_the_standard_table_allows() {
+        let allowed = [
+            GET_VALUES,
+            GET_REAL_OUTPUT_DERIVATIVES,
+            DIRECTIONAL_DERIVATIVE,
+            FREE_INSTANCE,
+            RESET,
+            SET_DEBUG_LOGGING,
+            FMU_STATE,
+        ];
+        let refused = [
+            TERMINATE,
+            GET_STATUS,
+            DO_STEP,
+            CANCEL_STEP,
+            SET_VALUES,
+            SET_REAL_INPUT_DERIVATIVES,
+            SETUP_EXPERIMENT,
+            ENTER_INITIALIZATION_MODE,
+            EXIT_INITIALIZATION_MODE,
+        ];
+        for (i, m) in allowed.iter().enumerate() {
+            assert!(S::StepCanceled.is_in(*m), "allowed mask {i}");
+        }
+        for (i, m) in refused.iter().enumerate() {
+            assert!(!S::StepCanceled.is_in(*m), "refused mask {i}");
+        }
+        // fmi2Terminate: after a completed or failed step only.
+        let terminate: Vec<_> = FmiState::ALL
+            .iter()
+            .filter(|s| s.is_in(TERMINATE))
+            .collect();
+        assert_eq!(terminate, [&S::StepComplete, &S::StepFailed]);
+    }
+}

@@ -474,6 +474,15 @@ fn panic_in_the_model_becomes_fmi2error_not_a_crash() {
     fmu.set(VR_U, 666.0);
     assert_eq!(fmu.step(0.0, 0.1), ERROR);
     assert!(log.contains("fmi2DoStep: internal error: the number of the beast"));
+    // The FMU's quiet panic hook took the panic (it alone knows where it happened) instead of
+    // printing it to the importer's stderr.
+    assert!(
+        log.contains("the number of the beast (at fmu-core/tests/runtime.rs:"),
+        "{:?}",
+        log.messages()
+    );
+    // A panic outside our FMI calls still reaches the previous hook and unwinds as usual.
+    assert!(std::panic::catch_unwind(|| panic!("not ours")).is_err());
     assert_eq!(
         unsafe { fmi2Reset(fmu.c) },
         OK,

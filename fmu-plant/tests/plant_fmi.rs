@@ -611,3 +611,39 @@ fn forged_states_are_refused_and_change_nothing() {
     assert_eq!(b.states(), a.states());
     assert_eq!(b.get("u_max"), 1234.5);
 }
+
+/// Second derivatives are legal (the standard forbids only order 0): ignored with `fmi2Warning`
+/// and a message, the instance alive, the first derivatives of the same call used. Order 0 is
+/// refused with `fmi2Error`.
+#[test]
+fn higher_input_derivatives_are_ignored_with_a_warning_and_order_zero_refused() {
+    let log = LogCapture::default();
+    let reference = Plant::new(&log);
+    reference.init(0.0);
+    reference.der("road_z_fl", 0.1);
+    assert_eq!(reference.step(0.0, 0.2), OK);
+    let p = Plant::new(&log);
+    p.init(0.0);
+    let vrs = [p.vr("road_z_fl"), p.vr("road_z_fl")];
+    let (orders, values) = ([1, 2], [0.1, 5.0]);
+    // Warnings are logged when logging is on (errors always are).
+    assert_eq!(unsafe { fmi2SetDebugLogging(p.c, 1, 0, null()) }, OK);
+    log.clear();
+    let status = unsafe {
+        fmi2SetRealInputDerivatives(p.c, vrs.as_ptr(), 2, orders.as_ptr(), values.as_ptr())
+    };
+    assert_eq!(status, 1, "fmi2Warning");
+    assert!(
+        log.contains("ignored order 2 of 'road_z_fl'"),
+        "{:?}",
+        log.messages()
+    );
+    assert_eq!(p.step(0.0, 0.2), OK, "the instance goes on");
+    assert_eq!(p.states(), reference.states());
+    assert_eq!(p.get("road_z_fl"), reference.get("road_z_fl"));
+    let q = Plant::new(&log);
+    q.init(0.0);
+    let status = unsafe { fmi2SetRealInputDerivatives(q.c, &vrs[0], 1, &0, &1.0) };
+    assert_eq!(status, ERROR);
+    assert!(log.contains("orders start at 1"), "{:?}", log.messages());
+}
