@@ -454,11 +454,8 @@ impl Model for Controller {
             return Ok(());
         }
         if self.cache.as_ref().map(|d| d.step.to_bits()) != Some(step.to_bits()) {
-            self.cache = Some(discretize(&self.a, &self.b, step).map_err(|e| {
-                format!(
-                    "cannot discretise the controller over {step} s: {e}; the step was discarded"
-                )
-            })?);
+            self.cache =
+                Some(discretize(&self.a, &self.b, step).map_err(|e| step_refused(step, e))?);
         }
         // The detector latches on the values at the start of the step (what a master read).
         let detected_before = self.detected;
@@ -542,6 +539,12 @@ impl Model for Controller {
         self.valid = false;
         Ok(())
     }
+}
+
+/// Why a step was refused when its matrix exponential was (the controller's own dynamics or
+/// the predictor's blocks over a step far too long, or a corrupt `controller.json`).
+fn step_refused(step: f64, e: vehicle::exact::ExpError) -> String {
+    format!("cannot discretise the controller over {step} s: {e}; the step was discarded")
 }
 
 fmu_core::export_fmi2!(Controller);

@@ -119,9 +119,7 @@ impl Runtime {
         u: &DVector<f64>,
         h: f64,
     ) -> Result<DVector<f64>, String> {
-        let failed = |e: ExpError| {
-            format!("cannot discretise the controller over {h} s: {e}; the step was discarded")
-        };
+        let failed = |e: ExpError| crate::step_refused(h, e);
         if self.own.as_ref().map(|o| o.0.to_bits()) != Some(h.to_bits()) {
             let d = discretize(&self.spec.a_xi, &self.spec.b_xi, h).map_err(failed)?;
             self.own = Some((h, d.phi, d.gamma_hold));

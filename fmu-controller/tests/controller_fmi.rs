@@ -462,7 +462,7 @@ fn predictor_blocks_must_be_the_controller_without_delay() {
 
 /// A `controller.json` whose `A` is absurd (1e40, finite, so it loads): a step returns
 /// `fmi2Error` with the reason instead of never returning (nalgebra's exponential squared
-/// forever), leaves the state as it was, and a shorter step cannot rescue it either.
+/// forever), and leaves the commands as they were.
 #[test]
 fn an_absurd_controller_matrix_fails_the_step_and_returns() {
     let log = LogCapture::default();
@@ -477,7 +477,13 @@ fn an_absurd_controller_matrix_fails_the_step_and_returns() {
         fmi2ExitInitializationMode(c);
         let inputs = [vr::INPUT, vr::INPUT + 1];
         assert_eq!(fmi2SetReal(c, inputs.as_ptr(), 2, [0.2, 4.0].as_ptr()), 0);
+        let outs = [vr::OUTPUT, vr::OUTPUT + 1];
+        let (mut before, mut after) = ([0.0; 2], [0.0; 2]);
+        fmi2GetReal(c, outs.as_ptr(), 2, before.as_mut_ptr());
         assert_eq!(fmi2DoStep(c, 0.0, 1e-3, 1), 3, "fmi2Error");
+        // GetReal is legal in the Error state.
+        assert_eq!(fmi2GetReal(c, outs.as_ptr(), 2, after.as_mut_ptr()), 0);
+        assert_eq!(after, before);
         fmi2FreeInstance(c);
     }
     assert!(

@@ -214,10 +214,7 @@ impl<M: Model> Instance<M> {
     }
 
     fn initialising(&self) -> bool {
-        matches!(
-            self.state,
-            FmiState::Instantiated | FmiState::InitializationMode
-        )
+        self.state.initialising()
     }
 
     /// Check that every `vr` may be set now; nothing is changed if one may not.
@@ -378,6 +375,7 @@ impl<M: Model> Instance<M> {
         if !self.description.capabilities.can_interpolate_inputs {
             return Err("this FMU cannot interpolate inputs (canInterpolateInputs = false)".into());
         }
+        let mut ignored = Vec::new();
         for ((&vr, &order), &value) in vrs.iter().zip(orders).zip(values) {
             let v = self.variable(BaseType::Real, vr)?;
             if v.causality != Causality::Input {
@@ -395,16 +393,15 @@ impl<M: Model> Instance<M> {
                     v.name
                 ));
             }
+            // The inputs are interpolated linearly: higher derivatives (legal, the standard
+            // forbids only order 0) are ignored with a warning.
+            if order > 1 {
+                ignored.push(format!("order {order} of '{}'", v.name));
+            }
         }
-        // The inputs are interpolated linearly: first derivatives are used, higher ones (legal,
-        // the standard forbids only order 0) are ignored with a warning.
-        let mut ignored = Vec::new();
         for ((&vr, &order), &value) in vrs.iter().zip(orders).zip(values) {
             if order == 1 {
                 self.model.set_input_derivative(vr, value);
-            } else {
-                let name = &self.variable(BaseType::Real, vr)?.name;
-                ignored.push(format!("order {order} of '{name}'"));
             }
         }
         if ignored.is_empty() {
@@ -508,11 +505,7 @@ impl<M: Model> Instance<M> {
         let mut backup = StateWriter::default();
         self.model.save(&mut backup);
         self.model.restore(&mut StateReader::new(&snap.payload))?;
-        let initialised = !matches!(
-            snap.state,
-            FmiState::Instantiated | FmiState::InitializationMode
-        );
-        if let Err(e) = self.check_restored(initialised) {
+        if let Err(e) = self.check_restored(!snap.state.initialising()) {
             self.model
                 .restore(&mut StateReader::new(&backup.into_bytes()))
                 .map_err(|b| format!("{e}; restoring the previous state failed too: {b}"))?;
@@ -528,9 +521,7 @@ impl<M: Model> Instance<M> {
         ));
         Ok(Status::Ok)
     }
-}
 
-impl<M: Model> Instance<M> {
     /// Every settable Real variable of the restored model, by the setters' rules.
     fn check_restored(&mut self, initialised: bool) -> Result<(), String> {
         for i in 0..self.description.variables.len() {

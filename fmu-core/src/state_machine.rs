@@ -44,6 +44,11 @@ impl FmiState {
         FmiState::ALL.into_iter().find(|s| *s as u8 == v)
     }
 
+    /// Before initialisation has ended: `Instantiated` or `InitializationMode`.
+    pub fn initialising(self) -> bool {
+        matches!(self, FmiState::Instantiated | FmiState::InitializationMode)
+    }
+
     pub fn is_in(self, mask: Mask) -> bool {
         (self as u8) & mask.0 != 0
     }

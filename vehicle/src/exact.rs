@@ -35,10 +35,7 @@ pub fn expm(m: &DMatrix<f64>) -> Result<DMatrix<f64>, ExpError> {
     if !m.iter().all(|v| v.is_finite()) {
         return Err(ExpError::NonFinite);
     }
-    let norm = m
-        .column_iter()
-        .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
-        .fold(0.0, f64::max);
+    let norm = m.one_norm();
     if norm > MAX_EXP_NORM {
         return Err(ExpError::TooLarge(norm));
     }
