@@ -130,6 +130,7 @@ validate: $(FMU_FILES) $(STAMP)/venv
 descriptions: $(STAMP)/release
 	./target/release/fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
 	./target/release/fmu-pack description --lib target/release/libfmu_road.so --xml modelDescription/road.xml --readme README.md --tag road-variables
+	./target/release/fmu-pack glibc --lib target/release/libfmu_plant.so --lib target/release/libfmu_road.so --lib target/release/libfmu_controller.so --readme README.md --tag platform
 
 readme: descriptions
 

@@ -13,7 +13,8 @@ pub mod spec;
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
-    Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable,
+    Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
+    ValueReference, Variable,
 };
 use nalgebra::DVector;
 use spec::Spec;
@@ -78,6 +79,28 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .with_start(0.0),
         );
     }
+    // How a measurement enters a command: through the predictor's `K e^{Aθ} S_y` (θ the fixed
+    // parameter `tau`), through the anti-windup saturation, or as the constant `D` of the
+    // resource file. In Initialization Mode the state is zero, so a command also reads its
+    // saturation limit or the delay, and nothing else.
+    let (kind, initial): (DependencyKind, Box<dyn Fn(usize) -> Vec<String>>) =
+        if spec.predictor.is_some() {
+            (DependencyKind::Fixed, Box::new(|_| vec!["tau".to_string()]))
+        } else if spec.anti_windup.is_some() {
+            let groups = limit_groups(spec);
+            (
+                DependencyKind::Dependent,
+                Box::new(move |i| {
+                    groups
+                        .iter()
+                        .filter(|g| g.1.contains(&i))
+                        .map(|g| g.0.to_string())
+                        .collect()
+                }),
+            )
+        } else {
+            (DependencyKind::Constant, Box::new(|_| Vec::new()))
+        };
     for (i, s) in spec.outputs.iter().enumerate() {
         // A predictor's feedthrough is K e^{Aθ} S_y, θ a parameter: every input S_y reads.
         let feeds = |j: usize| match &spec.predictor {
@@ -96,7 +119,8 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
                 unit(&s.unit),
                 format!("Force command for plant input {}", s.name),
             )
-            .depending_on(deps),
+            .depending_on(deps, kind)
+            .initially_depending_on(initial(i)),
         );
     }
     let g = &spec.guarantee;
@@ -122,8 +146,8 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .filter(|&j| fd.d.column(j).iter().any(|v| *v != 0.0))
             .map(|j| spec.inputs[j].name.clone())
             .collect();
-        vars.push(Variable::real("residual_norm", vr::RESIDUAL_NORM, Causality::Output, "N", "Detection residual: the smallest actuator force deficit consistent with the measurements (0 when healthy, whatever the road)").depending_on(deps.clone()));
-        vars.push(Variable::boolean("fault_detected", vr::FAULT_DETECTED, Causality::Output, "True from the first communication point at which residual_norm exceeded fault_threshold (latched until re-initialisation)").depending_on(deps));
+        vars.push(Variable::real("residual_norm", vr::RESIDUAL_NORM, Causality::Output, "N", "Detection residual: the smallest actuator force deficit consistent with the measurements (0 when healthy, whatever the road)").depending_on(deps.clone(), DependencyKind::Dependent));
+        vars.push(Variable::boolean("fault_detected", vr::FAULT_DETECTED, Causality::Output, "True from the first communication point at which residual_norm exceeded fault_threshold (latched until re-initialisation)").depending_on(deps, DependencyKind::Dependent).initially_depending_on(vec!["fault_threshold".into()]));
         vars.push(
             Variable::real(
                 "fault_threshold",
@@ -161,6 +185,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             start_time: 0.0,
             stop_time: 10.0,
             step_size: 1e-3,
+            tolerance: 1e-6,
         },
         variables: vars,
     }
@@ -428,6 +453,19 @@ impl Model for Controller {
         match &self.predictor {
             Some(p) => p.check(self.tau),
             None => Ok(()),
+        }
+    }
+
+    /// The commands read in Initialization Mode are those of the first step: predicted over the
+    /// delay set.
+    fn prepare_initial_outputs(&mut self, _start_time: f64) -> Result<(), String> {
+        self.check_parameters()?;
+        match &mut self.predictor {
+            Some(p) if p.theta().to_bits() != self.tau.to_bits() => {
+                self.valid = false;
+                p.reset(self.tau)
+            }
+            _ => Ok(()),
         }
     }
 

@@ -568,3 +568,46 @@ fn forged_limits_in_a_state_are_refused() {
         fmi2FreeInstance(b);
     }
 }
+
+/// The `<ModelStructure>` of every kind of controller tells the truth: what each command moves
+/// with, measured by perturbing one known at a time, is declared, and what is declared is seen
+/// — except the fault flag, whose threshold and measurements move it only when the residual
+/// crosses the threshold (not at the probed point), and a saturation limit not reached.
+#[test]
+fn declared_dependencies_are_the_measured_ones() {
+    let log = LogCapture::default();
+    let cb = log.callbacks();
+    let callbacks = unsafe { &*(&cb as *const _ as *const CallbackFunctions) };
+    for (name, text) in [
+        ("plain", SPEC),
+        ("aw", AW_SPEC),
+        ("fd", FD_SPEC),
+        ("pred", PRED_SPEC),
+    ] {
+        let dir = dir_with(&format!("deps-{name}"), Some(text));
+        let uri = format!("file://{}", dir.display());
+        let measured = fmu_core::dependencies::measure::<fmu_controller::Controller>(
+            Some(&uri),
+            callbacks,
+            &[],
+        )
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let d = description_for(&Spec::from_json(text).unwrap());
+        let m = measured.compare(&d);
+        assert!(
+            m.undeclared.is_empty(),
+            "{name}: undeclared {:?}",
+            m.undeclared
+        );
+        let unexplained: Vec<_> = m
+            .unobserved
+            .iter()
+            .filter(|(unknown, known)| unknown != "fault_detected" && !known.starts_with("u_max"))
+            .collect();
+        assert!(
+            unexplained.is_empty(),
+            "{name}: declared, not seen {unexplained:?}"
+        );
+        eprintln!("{name}: {:?} / {:?}", measured.initial, m.unobserved);
+    }
+}

@@ -57,6 +57,30 @@ impl VarType {
     }
 }
 
+/// How a known enters an unknown (`dependenciesKind`, FMI 2.0.4 §2.2.8): `f(v)` without a
+/// particular structure, or `c·v` with `c` a constant, a fixed parameter, a tunable parameter or a
+/// discrete variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DependencyKind {
+    Dependent,
+    Constant,
+    Fixed,
+    Tunable,
+    Discrete,
+}
+
+impl DependencyKind {
+    fn name(self) -> &'static str {
+        match self {
+            DependencyKind::Dependent => "dependent",
+            DependencyKind::Constant => "constant",
+            DependencyKind::Fixed => "fixed",
+            DependencyKind::Tunable => "tunable",
+            DependencyKind::Discrete => "discrete",
+        }
+    }
+}
+
 /// One `ScalarVariable`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Variable {
@@ -66,8 +90,13 @@ pub struct Variable {
     pub causality: Causality,
     pub variability: Variability,
     pub kind: VarType,
-    /// For outputs: the inputs (by name) the output depends on directly (feed-through).
-    pub depends_on: Vec<String>,
+    /// For outputs: the inputs (by name) the output depends on directly at a communication
+    /// point (feed-through), and how.
+    pub depends_on: Vec<(String, DependencyKind)>,
+    /// For outputs and calculated parameters: the parameters (by name) the value depends on in
+    /// Initialization Mode. With the inputs of `depends_on` they are its `InitialUnknowns`
+    /// dependencies (the knowns there are the inputs and the `initial="exact"` variables).
+    pub initial_parameters: Vec<String>,
 }
 
 impl Variable {
@@ -95,6 +124,7 @@ impl Variable {
                 max: None,
             },
             depends_on: Vec::new(),
+            initial_parameters: Vec::new(),
         }
     }
 
@@ -117,6 +147,7 @@ impl Variable {
             variability,
             kind: VarType::Boolean { start: None },
             depends_on: Vec::new(),
+            initial_parameters: Vec::new(),
         }
     }
 
@@ -140,6 +171,7 @@ impl Variable {
             variability,
             kind: VarType::Integer { start: Some(start) },
             depends_on: Vec::new(),
+            initial_parameters: Vec::new(),
         }
     }
 
@@ -177,8 +209,16 @@ impl Variable {
         self
     }
 
-    pub fn depending_on(mut self, inputs: Vec<String>) -> Self {
-        self.depends_on = inputs;
+    /// Add direct dependencies on `inputs`, each entering as `kind`.
+    pub fn depending_on(mut self, inputs: Vec<String>, kind: DependencyKind) -> Self {
+        self.depends_on
+            .extend(inputs.into_iter().map(|i| (i, kind)));
+        self
+    }
+
+    /// Add dependencies on `parameters` in Initialization Mode.
+    pub fn initially_depending_on(mut self, parameters: Vec<String>) -> Self {
+        self.initial_parameters.extend(parameters);
         self
     }
 
@@ -229,6 +269,10 @@ pub struct DefaultExperiment {
     pub start_time: f64,
     pub stop_time: f64,
     pub step_size: f64,
+    /// The relative tolerance an importer passes to `fmi2SetupExperiment`. Our FMUs step
+    /// exactly (matrix exponentials, no error control), so it documents their accuracy rather
+    /// than tuning it.
+    pub tolerance: f64,
 }
 
 /// Everything `modelDescription.xml` says.
@@ -340,15 +384,45 @@ impl ModelDescription {
                     if needs_start { "" } else { "not " }
                 ));
             }
-            for d in &v.depends_on {
-                match self.variable(d) {
-                    Some(i) if i.causality == Causality::Input => {}
-                    _ => {
-                        return err(format!(
-                            "output '{}' depends on '{d}', which is not an input",
-                            v.name
-                        ))
-                    }
+            if !v.depends_on.is_empty() && v.causality != Causality::Output {
+                return err(format!(
+                    "'{}' has dependencies but is not an output",
+                    v.name
+                ));
+            }
+            for (d, kind) in &v.depends_on {
+                let Some(known) = self.variable(d).filter(|k| k.causality == Causality::Input)
+                else {
+                    return err(format!(
+                        "output '{}' depends on '{d}', which is not an input",
+                        v.name
+                    ));
+                };
+                let linear = !matches!(kind, DependencyKind::Dependent);
+                if linear && known.kind.base() != BaseType::Real {
+                    return err(format!(
+                        "output '{}' depends on '{d}' as {:?}, which only a Real can",
+                        v.name, kind
+                    ));
+                }
+            }
+            if !v.initial_parameters.is_empty()
+                && !matches!(
+                    v.causality,
+                    Causality::Output | Causality::CalculatedParameter
+                )
+            {
+                return err(format!(
+                    "'{}' has initial dependencies but is not an initial unknown",
+                    v.name
+                ));
+            }
+            for d in &v.initial_parameters {
+                if self.variable(d).map(|k| k.causality) != Some(Causality::Parameter) {
+                    return err(format!(
+                        "'{}' initially depends on '{d}', which is not a parameter",
+                        v.name
+                    ));
                 }
             }
         }
@@ -414,9 +488,10 @@ impl ModelDescription {
         writeln!(x, "  </LogCategories>").unwrap();
         writeln!(
             x,
-            r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#,
+            r#"  <DefaultExperiment startTime="{}" stopTime="{}" tolerance="{}" stepSize="{}"/>"#,
             num(e.start_time),
             num(e.stop_time),
+            num(e.tolerance),
             num(e.step_size)
         )
         .unwrap();
@@ -494,26 +569,32 @@ impl ModelDescription {
             .enumerate()
             .filter(|(_, v)| v.causality == Causality::Output)
             .collect();
+        // Dependencies by index, sorted as the standard requires, with their kinds.
+        let unknown = |i: usize, deps: Vec<(usize, DependencyKind)>| {
+            let mut deps = deps;
+            deps.sort_unstable_by_key(|(d, _)| *d);
+            deps.dedup_by_key(|(d, _)| *d);
+            let list = |f: &dyn Fn(&(usize, DependencyKind)) -> String| {
+                deps.iter().map(f).collect::<Vec<_>>().join(" ")
+            };
+            format!(
+                r#"      <Unknown index="{i}" dependencies="{}" dependenciesKind="{}"/>"#,
+                list(&|(d, _)| d.to_string()),
+                list(&|(_, k)| k.name().to_string())
+            )
+        };
         if !outputs.is_empty() {
             writeln!(x, "    <Outputs>").unwrap();
             for (i, v) in &outputs {
-                let mut deps: Vec<usize> = v.depends_on.iter().map(|d| index(d)).collect();
-                deps.sort_unstable();
-                let list: Vec<String> = deps.iter().map(|d| d.to_string()).collect();
-                writeln!(
-                    x,
-                    r#"      <Unknown index="{}" dependencies="{}"/>"#,
-                    i + 1,
-                    list.join(" ")
-                )
-                .unwrap();
+                let deps = v.depends_on.iter().map(|(d, k)| (index(d), *k)).collect();
+                writeln!(x, "{}", unknown(i + 1, deps)).unwrap();
             }
             writeln!(x, "    </Outputs>").unwrap();
         }
-        // Initial unknowns: outputs and calculated parameters. Their `dependencies` attribute is
-        // left out, which FMI 2.0.4 §2.2.8 defines as "depends on all knowns" — true here,
-        // because at initialisation they depend on the parameters as well as the inputs.
-        let initial: Vec<usize> = self
+        // Initial unknowns: outputs and calculated parameters, depending on their inputs and
+        // parameters. Only `dependent` and `constant` are kinds there, and no factor is constant
+        // once the parameters are knowns.
+        let initial: Vec<(usize, &Variable)> = self
             .variables
             .iter()
             .enumerate()
@@ -523,12 +604,18 @@ impl ModelDescription {
                     Causality::Output | Causality::CalculatedParameter
                 )
             })
-            .map(|(i, _)| i + 1)
             .collect();
         if !initial.is_empty() {
             writeln!(x, "    <InitialUnknowns>").unwrap();
-            for i in initial {
-                writeln!(x, r#"      <Unknown index="{i}"/>"#).unwrap();
+            for (i, v) in initial {
+                let deps = v
+                    .depends_on
+                    .iter()
+                    .map(|(d, _)| d)
+                    .chain(&v.initial_parameters)
+                    .map(|d| (index(d), DependencyKind::Dependent))
+                    .collect();
+                writeln!(x, "{}", unknown(i + 1, deps)).unwrap();
             }
             writeln!(x, "    </InitialUnknowns>").unwrap();
         }
@@ -614,13 +701,15 @@ mod tests {
                 start_time: 0.0,
                 stop_time: 1.0,
                 step_size: 1e-3,
+                tolerance: 1e-6,
             },
             variables: vec![
                 Variable::real("k", 0, Causality::Parameter, "N/m", "gain").with_start(2.5),
                 Variable::real("u", 1, Causality::Input, "N", "force").with_start(0.0),
                 Variable::real("y", 2, Causality::Output, "m", "position"),
                 Variable::real("a", 3, Causality::Output, "m/s2", "acceleration")
-                    .depending_on(vec!["u".into()]),
+                    .depending_on(vec!["u".into()], DependencyKind::Fixed)
+                    .initially_depending_on(vec!["k".into()]),
             ],
         }
     }
@@ -629,13 +718,21 @@ mod tests {
     fn xml_lists_outputs_with_their_input_dependencies_by_index() {
         let xml = sample().to_xml();
         assert!(
-            xml.contains(r#"<Unknown index="3" dependencies=""/>"#),
+            xml.contains(r#"<Unknown index="3" dependencies="" dependenciesKind=""/>"#),
+            "{xml}"
+        );
+        let (outputs, initial) = xml.split_once("<InitialUnknowns>").unwrap();
+        assert!(
+            outputs.contains(r#"<Unknown index="4" dependencies="2" dependenciesKind="fixed"/>"#),
             "{xml}"
         );
         assert!(
-            xml.contains(r#"<Unknown index="4" dependencies="2"/>"#),
+            initial.contains(
+                r#"<Unknown index="4" dependencies="1 2" dependenciesKind="dependent dependent"/>"#
+            ),
             "{xml}"
         );
+        assert!(xml.contains(r#"tolerance="1E-6""#), "{xml}");
         assert!(
             xml.contains(r#"<Unit name="N/m"><BaseUnit kg="1" s="-2"/></Unit>"#),
             "{xml}"
@@ -659,8 +756,11 @@ mod tests {
         d.variables[2] = Variable::real("y", 2, Causality::Output, "m", "").with_start(1.0);
         assert!(d.check().unwrap_err().0.contains("must not have a start"));
         let mut d = sample();
-        d.variables[3].depends_on = vec!["k".into()];
+        d.variables[3].depends_on = vec![("k".into(), DependencyKind::Dependent)];
         assert!(d.check().unwrap_err().0.contains("not an input"));
+        let mut d = sample();
+        d.variables[3].initial_parameters = vec!["u".into()];
+        assert!(d.check().unwrap_err().0.contains("not a parameter"));
         let mut d = sample();
         d.variables[0] =
             Variable::real("k", 0, Causality::Parameter, "furlong", "").with_start(1.0);

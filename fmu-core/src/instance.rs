@@ -141,6 +141,10 @@ impl<M: Model> Instance<M> {
         &self.model
     }
 
+    pub fn description(&self) -> &ModelDescription {
+        &self.description
+    }
+
     pub fn time(&self) -> f64 {
         self.time
     }
@@ -217,6 +221,28 @@ impl<M: Model> Instance<M> {
         self.state.initialising()
     }
 
+    /// Check that every `vr` is known and, in Initialization Mode, that the outputs and
+    /// calculated parameters among them can be computed for the parameters set so far.
+    fn check_gettable(&mut self, base: BaseType, vrs: &[ValueReference]) -> Result<(), String> {
+        let mut computed = None;
+        for &vr in vrs {
+            let v = self.variable(base, vr)?;
+            if matches!(
+                v.causality,
+                Causality::Output | Causality::CalculatedParameter
+            ) {
+                computed.get_or_insert_with(|| v.name.clone());
+            }
+        }
+        match computed {
+            Some(name) if self.initialising() => self
+                .model
+                .prepare_initial_outputs(self.start_time)
+                .map_err(|e| format!("'{name}' cannot be computed for the parameters set: {e}")),
+            _ => Ok(()),
+        }
+    }
+
     /// Check that every `vr` may be set now; nothing is changed if one may not.
     fn check_settable(&self, base: BaseType, vrs: &[ValueReference]) -> Result<(), String> {
         let initialising = self.initialising();
@@ -242,9 +268,7 @@ impl<M: Model> Instance<M> {
         vrs: &[ValueReference],
         values: &mut [f64],
     ) -> Result<Status, String> {
-        for &vr in vrs {
-            self.variable(BaseType::Real, vr)?;
-        }
+        self.check_gettable(BaseType::Real, vrs)?;
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             *out = self.model.get_real(*vr);
         }
@@ -309,9 +333,7 @@ impl<M: Model> Instance<M> {
         vrs: &[ValueReference],
         values: &mut [i32],
     ) -> Result<Status, String> {
-        for &vr in vrs {
-            self.variable(BaseType::Integer, vr)?;
-        }
+        self.check_gettable(BaseType::Integer, vrs)?;
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             *out = self.model.get_integer(*vr);
         }
@@ -335,9 +357,7 @@ impl<M: Model> Instance<M> {
         vrs: &[ValueReference],
         values: &mut [bool],
     ) -> Result<Status, String> {
-        for &vr in vrs {
-            self.variable(BaseType::Boolean, vr)?;
-        }
+        self.check_gettable(BaseType::Boolean, vrs)?;
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             *out = self.model.get_boolean(*vr);
         }

@@ -9,6 +9,7 @@
 //! Where to look: the state machine is [`state_machine`]; the semantics of each call is
 //! [`instance::Instance`]; the C ABI and panic barrier is [`ffi`].
 
+pub mod dependencies;
 pub mod description;
 pub mod ffi;
 pub mod fmu_state;
@@ -21,7 +22,7 @@ pub mod types;
 pub mod uri;
 
 pub use description::{
-    Capabilities, Causality, DefaultExperiment, ModelDescription, ValueReference, VarType,
-    Variability, Variable,
+    Capabilities, Causality, DefaultExperiment, DependencyKind, ModelDescription, ValueReference,
+    VarType, Variability, Variable,
 };
 pub use model::Model;

@@ -49,6 +49,14 @@ pub trait Model: Sized + Send + 'static {
         Ok(())
     }
 
+    /// Initialization Mode, before an output or calculated parameter is read: make them the
+    /// values at `start_time` for the parameters and inputs set so far (what the first step will
+    /// start from), or say why the parameters do not make a model yet (the getter then returns
+    /// `fmi2Error`). Parameters may be set again afterwards.
+    fn prepare_initial_outputs(&mut self, _start_time: f64) -> Result<(), String> {
+        self.check_parameters()
+    }
+
     /// End of initialisation: check the parameters together ([`Model::check_parameters`]) and
     /// build what the steps need.
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;

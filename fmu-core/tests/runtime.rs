@@ -38,6 +38,7 @@ impl Model for Lag {
                 start_time: 0.0,
                 stop_time: 1.0,
                 step_size: 0.01,
+                tolerance: 1e-6,
             },
             variables: vec![
                 Variable::real("T", VR_T, Causality::Parameter, "s", "time constant")
@@ -45,7 +46,7 @@ impl Model for Lag {
                 Variable::real("u", VR_U, Causality::Input, "1", "input").with_start(0.0),
                 Variable::real("y", VR_Y, Causality::Output, "1", "output"),
                 Variable::real("u_echo", VR_U_ECHO, Causality::Output, "1", "input echo")
-                    .depending_on(vec!["u".into()]),
+                    .depending_on(vec!["u".into()], DependencyKind::Constant),
             ],
         })
     }
@@ -751,4 +752,26 @@ fn many_instances_coexist_without_shared_state() {
     for (k, f) in fmus.iter().enumerate() {
         assert!((f.get(VR_Y) - k as f64 * (1.0 - (-2.0f64).exp())).abs() < 1e-14);
     }
+}
+
+/// The dependency probe sees exactly the lag's structure — `u_echo` follows `u` at once, `y`
+/// only through its state — and reports a description that leaves the feed-through out.
+#[test]
+fn measured_dependencies_match_the_lag_and_expose_a_missing_one() {
+    let log = LogCapture::default();
+    let cb = log.callbacks();
+    let callbacks = unsafe { &*(&cb as *const _ as *const CallbackFunctions) };
+    let uri = "file:///tmp/lag/resources";
+    let measured = fmu_core::dependencies::measure::<Lag>(Some(uri), callbacks, &[]).unwrap();
+    let d = Lag::description(None).unwrap();
+    let m = measured.compare(&d);
+    assert!(m.undeclared.is_empty() && m.unobserved.is_empty(), "{m:?}");
+    let mut wrong = d.clone();
+    wrong.variables[3].depends_on.clear();
+    let m = measured.compare(&wrong);
+    let echo = ("u_echo".to_string(), "u".to_string());
+    assert_eq!(m.undeclared, vec![echo.clone(), echo]);
+    // A point to probe at that names no variable is refused.
+    let err = fmu_core::dependencies::measure::<Lag>(Some(uri), callbacks, &[("nope", 1.0)]);
+    assert!(err.unwrap_err().contains("no variable 'nope'"));
 }

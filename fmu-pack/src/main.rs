@@ -7,6 +7,7 @@
 //! fmu-pack fmu --lib target/release/libfmu_plant.so --out dist/plant.fmu
 //! fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/hinf_sf --out dist/hinf_sf.fmu
 //! fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
+//! fmu-pack glibc --lib target/release/libfmu_plant.so --lib … --readme README.md --tag platform
 //! ```
 
 use clap::{Parser, Subcommand};
@@ -49,6 +50,16 @@ enum Command {
         readme: Option<PathBuf>,
         /// Marker name in the README: `<!-- TAG:begin -->` … `<!-- TAG:end -->`.
         #[arg(long)]
+        tag: Option<String>,
+    },
+    /// Print the oldest glibc the libraries load with, and/or state it in a README.
+    Glibc {
+        #[arg(long, required = true)]
+        lib: Vec<PathBuf>,
+        #[arg(long)]
+        readme: Option<PathBuf>,
+        /// Marker name in the README.
+        #[arg(long, requires = "readme")]
         tag: Option<String>,
     },
 }
@@ -170,6 +181,29 @@ fn run(cli: Cli) -> Result<(), String> {
                 let table = library.document(resources.as_deref(), 1)?;
                 let doc =
                     ModelDescription::splice_into(&doc, &tag, &table).map_err(|e| e.to_string())?;
+                std::fs::write(&path, doc)
+                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                println!("updated {} ({tag})", path.display());
+            }
+            Ok(())
+        }
+        Command::Glibc { lib, readme, tag } => {
+            let mut newest = None;
+            for path in &lib {
+                let bytes = std::fs::read(path)
+                    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+                let v = fmu_pack::glibc_needed(&bytes)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
+                newest = newest.max(v);
+            }
+            let v = newest.ok_or("the libraries import no versioned glibc symbol")?;
+            println!("glibc >= {}.{}", v.0, v.1);
+            if let Some(path) = readme {
+                let tag = tag.ok_or("--readme needs --tag")?;
+                let doc = std::fs::read_to_string(&path)
+                    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+                let doc = ModelDescription::splice_into(&doc, &tag, &fmu_pack::platform_note(v))
+                    .map_err(|e| e.to_string())?;
                 std::fs::write(&path, doc)
                     .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
                 println!("updated {} ({tag})", path.display());

@@ -9,7 +9,8 @@ pub mod simulator;
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
-    Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable,
+    Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
+    ValueReference, Variable,
 };
 use simulator::{ActuatorParams, Simulator};
 use std::path::Path;
@@ -178,6 +179,41 @@ fn static_values(s: &StaticEquilibrium) -> [f64; N_STATIC] {
     v
 }
 
+/// The parameters of actuator `j`'s chain from command to force.
+fn actuator_parameters(j: usize) -> Vec<String> {
+    let limit = if j < 4 { "u_max" } else { "u_max_seat" };
+    [limit, "tau", "actuator_bandwidth", "fault_time"]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([format!("fault_loss_{}", ACTUATORS[j])])
+        .collect()
+}
+
+/// For each physical output, the vehicle parameters its feed-through matrices `D_r`, `D_u`
+/// depend on. The matrices are built numerically from the mechanics, so each parameter is moved
+/// by 1 % in turn and the row compared: a rational function of the parameters that depends on
+/// one moves with it.
+fn feedthrough_parameters(p: &VehicleParams) -> Vec<Vec<String>> {
+    let feedthrough = |p: &VehicleParams| -> Vec<Vec<f64>> {
+        physical_outputs(p)
+            .iter()
+            .map(|r| r.d_r.iter().chain(&r.d_u).copied().collect())
+            .collect()
+    };
+    let base = feedthrough(p);
+    let mut deps = vec![Vec::new(); base.len()];
+    for s in PARAMETERS.iter() {
+        let mut moved = *p;
+        (s.set)(&mut moved, (s.get)(p) * 1.01 + 1e-3);
+        for (k, row) in feedthrough(&moved).iter().enumerate() {
+            if row != &base[k] {
+                deps[k].push(s.name.to_string());
+            }
+        }
+    }
+    deps
+}
+
 fn static_variables() -> Vec<Variable> {
     let mut v = Vec::new();
     let mut push = |name: String, unit, desc: String| {
@@ -284,7 +320,18 @@ impl Plant {
             }
             vars.push(v);
         }
-        vars.extend(static_variables());
+        // The static equilibrium depends on masses, springs, geometry and gravity, not on the
+        // dampers or the inertias.
+        let static_parameters: Vec<String> = PARAMETERS
+            .iter()
+            .filter(|s| !matches!(s.unit, "N.s/m" | "kg.m2"))
+            .map(|s| s.name.to_string())
+            .collect();
+        vars.extend(
+            static_variables()
+                .into_iter()
+                .map(|v| v.initially_depending_on(static_parameters.clone())),
+        );
         for (i, name) in input_names().into_iter().enumerate() {
             let (unit, desc) = match i {
                 0..4 => (
@@ -321,20 +368,27 @@ impl Plant {
                 format!("State {name}: {desc}, from static equilibrium"),
             ));
         }
-        // Direct feed-through, for the worst case of the actuator model (no delay, no lag).
+        // Direct feed-through, for the worst case of the actuator model (no delay, no lag): the
+        // road enters through the car's matrices (fixed parameters), a command through the
+        // actuator's saturation, fault and delay. The states start at the equilibrium whatever
+        // the parameters, so in Initialization Mode an output is its feed-through: it reads the
+        // parameters of those matrices and of the actuators it feeds through from.
         let inputs = input_names();
+        let matrix_parameters = feedthrough_parameters(&defaults);
         for (k, row) in physical_outputs(&defaults).iter().enumerate() {
-            let mut deps: Vec<String> = Vec::new();
-            deps.extend(
-                (0..N_ROAD)
-                    .filter(|&j| row.d_r[j] != 0.0)
-                    .map(|j| inputs[j].clone()),
-            );
-            deps.extend(
-                (0..N_ACTUATORS)
-                    .filter(|&j| row.d_u[j] != 0.0)
-                    .map(|j| inputs[N_ROAD + j].clone()),
-            );
+            let road: Vec<String> = (0..N_ROAD)
+                .filter(|&j| row.d_r[j] != 0.0)
+                .map(|j| inputs[j].clone())
+                .collect();
+            let actuators: Vec<usize> = (0..N_ACTUATORS).filter(|&j| row.d_u[j] != 0.0).collect();
+            let commands = actuators
+                .iter()
+                .map(|&j| inputs[N_ROAD + j].clone())
+                .collect();
+            let mut initial = matrix_parameters[k].clone();
+            for &j in &actuators {
+                initial.extend(actuator_parameters(j));
+            }
             vars.push(
                 Variable::real(
                     row.name.clone(),
@@ -343,13 +397,16 @@ impl Plant {
                     row.unit,
                     row.description.clone(),
                 )
-                .depending_on(deps),
+                .depending_on(road, DependencyKind::Fixed)
+                .depending_on(commands, DependencyKind::Dependent)
+                .initially_depending_on(initial),
             );
         }
         for (i, a) in ACTUATORS.iter().enumerate() {
             vars.push(
                 Variable::real(format!("f_{a}"), vr::FORCE + i as u32, Causality::Output, "N", format!("Force actually applied by the {} actuator (after delay, saturation, fault and lag)", a.to_uppercase()))
-                    .depending_on(vec![inputs[N_ROAD + i].clone()]),
+                    .depending_on(vec![inputs[N_ROAD + i].clone()], DependencyKind::Dependent)
+                    .initially_depending_on(actuator_parameters(i)),
             );
         }
         ModelDescription {
@@ -359,7 +416,7 @@ impl Plant {
             description: "8-DOF full car with driver seat and active suspension actuators (saturation, delay, bandwidth, faults), stepped exactly".into(),
             version: env!("CARGO_PKG_VERSION").into(),
             capabilities: Capabilities::exact_stepping(true),
-            default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+            default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3, tolerance: 1e-6 },
             variables: vars,
         }
         .with_derived_guid()

@@ -162,7 +162,10 @@ fn description_has_every_variable_the_issue_names_with_units() {
     }
     // a_seat feeds through from the seat actuator command only, not from the road.
     let a_seat = d.variable("a_seat").unwrap();
-    assert_eq!(a_seat.depends_on, vec!["u_seat".to_string()]);
+    assert_eq!(
+        a_seat.depends_on,
+        vec![("u_seat".to_string(), fmu_core::DependencyKind::Dependent)]
+    );
     assert!(d.variable("x[1]").unwrap().depends_on.is_empty());
 }
 
@@ -646,4 +649,47 @@ fn higher_input_derivatives_are_ignored_with_a_warning_and_order_zero_refused() 
     let status = unsafe { fmi2SetRealInputDerivatives(q.c, &vrs[0], 1, &0, &1.0) };
     assert_eq!(status, ERROR);
     assert!(log.contains("orders start at 1"), "{:?}", log.messages());
+}
+
+/// The `<ModelStructure>` tells the truth: every dependency the plant has, measured by
+/// perturbing one known at a time, is declared; every declared input dependency is seen; and a
+/// declared parameter dependency not seen is one that is flat at the probed point (no command
+/// saturates, the fault lies in the future) or a static-equilibrium value declared on every
+/// stiffness, mass and lever rather than on the subset its corner happens to read.
+#[test]
+fn declared_dependencies_are_the_measured_ones() {
+    let log = LogCapture::default();
+    let cb = log.callbacks();
+    let callbacks = unsafe { &*(&cb as *const _ as *const CallbackFunctions) };
+    let measured = fmu_core::dependencies::measure::<fmu_plant::Plant>(None, callbacks, &[])
+        .expect("measured");
+    let d = fmu_plant::Plant::model_description();
+    let m = measured.compare(&d);
+    assert!(m.undeclared.is_empty(), "undeclared: {:?}", m.undeclared);
+    let unexplained: Vec<&(String, String)> = m
+        .unobserved
+        .iter()
+        .filter(|(unknown, known)| {
+            let flat_here = known.starts_with("u_max") || known.starts_with("fault_");
+            !(flat_here || unknown.starts_with("static_"))
+        })
+        .collect();
+    assert!(
+        unexplained.is_empty(),
+        "declared, not seen: {unexplained:?}"
+    );
+    // The seat acceleration moves with the seat command and the seat mass, not with the road.
+    let (_, a_seat) = measured
+        .initial
+        .iter()
+        .find(|(n, _)| n == "a_seat")
+        .unwrap();
+    assert!(
+        a_seat.contains("u_seat") && a_seat.contains("m_seat"),
+        "{a_seat:?}"
+    );
+    assert!(!a_seat.iter().any(|k| k.starts_with("road_")), "{a_seat:?}");
+    // The states start at the equilibrium, whatever the knowns.
+    let (_, x1) = measured.initial.iter().find(|(n, _)| n == "x[1]").unwrap();
+    assert!(x1.is_empty(), "{x1:?}");
 }

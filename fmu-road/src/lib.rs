@@ -92,6 +92,8 @@ pub fn model_description() -> ModelDescription {
         )
         .with_boolean_start(false),
     );
+    // The road reads no inputs; at the start time each output depends on the whole profile.
+    let parameters: Vec<String> = vars.iter().map(|v| v.name.clone()).collect();
     for (k, name) in OUTPUT_NAMES.iter().enumerate() {
         let c = CORNERS[k % 4].to_uppercase();
         let (unit, desc) = if k < 4 {
@@ -99,13 +101,10 @@ pub fn model_description() -> ModelDescription {
         } else {
             ("m/s", format!("Road vertical velocity under the {c} wheel (exact time derivative of road_z_{})", CORNERS[k % 4]))
         };
-        vars.push(Variable::real(
-            *name,
-            vr::OUTPUT + k as u32,
-            Causality::Output,
-            unit,
-            desc,
-        ));
+        vars.push(
+            Variable::real(*name, vr::OUTPUT + k as u32, Causality::Output, unit, desc)
+                .initially_depending_on(parameters.clone()),
+        );
     }
     ModelDescription {
         model_name: "road".into(),
@@ -114,7 +113,7 @@ pub fn model_description() -> ModelDescription {
         description: "Road heights and vertical velocities under the four wheels: 1 - cos bump, ISO 8608 random road, sine sweep, pothole / step; rear wheels on the front track one wheelbase later".into(),
         version: env!("CARGO_PKG_VERSION").into(),
         capabilities: Capabilities::exact_stepping(false),
-        default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3 },
+        default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3, tolerance: 1e-6 },
         variables: vars,
     }
     .with_derived_guid()
@@ -125,7 +124,8 @@ pub struct RoadFmu {
     integers: [i32; 4],
     identical_tracks: bool,
     time: f64,
-    /// Built when initialisation ends (the parameters are fixed from then on).
+    /// Built when an output is first read in Initialization Mode or when initialisation ends,
+    /// dropped when a parameter changes (they are fixed once initialisation has ended).
     road: Option<Road>,
     /// The outputs at `time`, computed once (an ISO road is 3200 cosines per evaluation).
     outputs: Option<[f64; 8]>,
@@ -137,6 +137,11 @@ impl RoadFmu {
             .iter()
             .position(|r| r.0 == name)
             .expect("known parameter")]
+    }
+
+    fn parameters_changed(&mut self) {
+        self.road = None;
+        self.outputs = None;
     }
 
     /// The road of the current parameters, or why they do not make one.
@@ -201,12 +206,14 @@ impl Model for RoadFmu {
     fn set_real(&mut self, vr: ValueReference, value: f64) {
         if let Some(slot) = self.reals.get_mut((vr - vr::REAL) as usize) {
             *slot = value;
+            self.parameters_changed();
         }
     }
 
     fn get_real(&mut self, vr: ValueReference) -> f64 {
         if vr >= vr::OUTPUT {
-            // Before initialisation ends the parameters may not make a road yet: flat.
+            // The runtime builds the road before any output is read (`prepare_initial_outputs`);
+            // only a read outside the state machine's allowed states finds none: flat.
             let k = (vr - vr::OUTPUT) as usize;
             let Some(road) = &self.road else { return 0.0 };
             let time = self.time;
@@ -218,6 +225,7 @@ impl Model for RoadFmu {
     fn set_integer(&mut self, vr: ValueReference, value: i32) {
         if let Some(slot) = self.integers.get_mut((vr - vr::INTEGER) as usize) {
             *slot = value;
+            self.parameters_changed();
         }
     }
 
@@ -227,6 +235,7 @@ impl Model for RoadFmu {
 
     fn set_boolean(&mut self, _vr: ValueReference, value: bool) {
         self.identical_tracks = value;
+        self.parameters_changed();
     }
 
     fn get_boolean(&mut self, _vr: ValueReference) -> bool {
@@ -238,6 +247,17 @@ impl Model for RoadFmu {
             Some(_) => Ok(()),
             None => self.build().map(|_| ()),
         }
+    }
+
+    fn prepare_initial_outputs(&mut self, start_time: f64) -> Result<(), String> {
+        if self.road.is_none() {
+            self.road = Some(self.build()?);
+        }
+        if self.time.to_bits() != start_time.to_bits() {
+            self.time = start_time;
+            self.outputs = None;
+        }
+        Ok(())
     }
 
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {

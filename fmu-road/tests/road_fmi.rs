@@ -303,3 +303,80 @@ fn forged_states_are_refused_and_change_nothing() {
     assert_eq!(b.set_serialized_state(&good), 0);
     assert_eq!(b.outputs(), a.outputs());
 }
+
+/// The `<ModelStructure>` tells the truth: the road reads no inputs, and at the start time its
+/// outputs move with the parameters of the profile in use (probed with the wheels on the bump);
+/// the other profiles' parameters are declared, flat here.
+#[test]
+fn declared_dependencies_are_the_measured_ones() {
+    let log = LogCapture::default();
+    let cb = log.callbacks();
+    let callbacks = unsafe { &*(&cb as *const _ as *const CallbackFunctions) };
+    let measured = fmu_core::dependencies::measure::<fmu_road::RoadFmu>(
+        None,
+        callbacks,
+        &[("start_distance", -3.0)],
+    )
+    .expect("measured");
+    let d = fmu_road::model_description();
+    let m = measured.compare(&d);
+    assert!(m.undeclared.is_empty(), "undeclared: {:?}", m.undeclared);
+    assert!(measured.outputs.iter().all(|(_, k)| k.is_empty()));
+    let (_, z) = measured
+        .initial
+        .iter()
+        .find(|(n, _)| n == "road_z_fl")
+        .unwrap();
+    for k in [
+        "bump_height",
+        "bump_length",
+        "start_distance",
+        "profile",
+        "side",
+    ] {
+        assert!(z.contains(k), "road_z_fl does not move with {k}: {z:?}");
+    }
+    let (_, z) = measured
+        .initial
+        .iter()
+        .find(|(n, _)| n == "road_z_rl")
+        .unwrap();
+    assert!(z.contains("wheelbase"), "{z:?}");
+}
+
+/// Outputs read in Initialization Mode are the road at the start time — what the first step
+/// starts from — and parameters that do not make a road refuse the read with a message instead
+/// of returning a flat road with fmi2OK.
+#[test]
+fn outputs_in_initialisation_mode_are_the_road_at_the_start_time() {
+    let log = LogCapture::default();
+    let r = Inst::new(&log);
+    unsafe {
+        assert_eq!(fmi2SetupExperiment(r.c, 0, 0.0, 1.5, 0, 0.0), 0);
+        assert_eq!(fmi2EnterInitializationMode(r.c), 0);
+    }
+    // At 20 m/s the front wheels reach the 5 m bump 27.5 m ahead at t = 1.375 s.
+    assert_eq!(r.set_real("start_distance", 27.5), 0);
+    let during = r.outputs();
+    assert!(during[0] > 0.0, "{during:?}");
+    // A parameter set after a read is taken into account by the next read.
+    assert_eq!(r.set_real("bump_height", 0.1), 0);
+    let higher = r.outputs();
+    assert!(
+        (higher[0] - 2.0 * during[0]).abs() < 1e-15,
+        "{higher:?} vs {during:?}"
+    );
+    unsafe { assert_eq!(fmi2ExitInitializationMode(r.c), 0) };
+    assert_eq!(r.outputs(), higher);
+
+    let r = Inst::new(&log);
+    unsafe {
+        assert_eq!(fmi2SetupExperiment(r.c, 0, 0.0, 0.0, 0, 0.0), 0);
+        assert_eq!(fmi2EnterInitializationMode(r.c), 0);
+    }
+    assert_eq!(r.set_int("side", 7), 0);
+    let mut z = 0.0;
+    let status = unsafe { fmi2GetReal(r.c, &vr::OUTPUT, 1, &mut z) };
+    assert_eq!(status, 3, "{:?}", log.messages());
+    assert!(log.contains("side must be 0"), "{:?}", log.messages());
+}
