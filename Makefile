@@ -156,6 +156,7 @@ $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
 # closed loop in the Rust master against the same loop in FMPy.
 bench: $(FMU_FILES) $(STAMP)/venv-bench
 	$(CARGO) bench -p fmu-plant --bench do_step
+	$(CARGO) bench -p vehicle --bench road
 	$(PY) bench/synth_vs_cvxpy.py
 	./target/release/synth --design synth/designs/default.json --out $(STAMP)/bench-synth
 	$(PY) bench/master_vs_fmpy.py

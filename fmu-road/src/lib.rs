@@ -127,7 +127,7 @@ pub struct RoadFmu {
     /// Built when an output is first read in Initialization Mode or when initialisation ends,
     /// dropped when a parameter changes (they are fixed once initialisation has ended).
     road: Option<Road>,
-    /// The outputs at `time`, computed once (an ISO road is 3200 cosines per evaluation).
+    /// The outputs at `time`, computed once per communication point.
     outputs: Option<[f64; 8]>,
 }
 
