@@ -574,24 +574,24 @@ mod tests {
             .collect()
     }
 
+    /// An ISO road at 20 m/s with independent tracks, not faded in.
+    fn iso_road(class: u8, seed: u64) -> Road {
+        let profile = Profile::Iso {
+            class,
+            seed,
+            identical_tracks: false,
+            fade_in: 0.0,
+        };
+        Road::new(profile, 20.0, 2.4, 0.0).unwrap()
+    }
+
     /// The sampled track is the direct sum within its error bounds — over negative and positive
     /// distances, across block boundaries, for the smoothest and the roughest class — and the
     /// bounds are small: under 1e-6 of the height's RMS and 1e-4 of the slope's.
     #[test]
     fn sampled_iso_tracks_are_the_direct_sum_within_their_bounds() {
         for (class, seed) in [(1u8, 3u64), (3, 1), (8, 99)] {
-            let road = Road::new(
-                Profile::Iso {
-                    class,
-                    seed,
-                    identical_tracks: false,
-                    fade_in: 0.0,
-                },
-                20.0,
-                2.4,
-                0.0,
-            )
-            .unwrap();
+            let road = iso_road(class, seed);
             for track in 0..2 {
                 let grid = road.iso_grid(track).unwrap();
                 let (ez, ed) = grid.error_bounds();
@@ -745,18 +745,7 @@ mod tests {
     #[test]
     fn iso_road_psd_matches_its_class() {
         for class in [1u8, 3, 6] {
-            let road = Road::new(
-                Profile::Iso {
-                    class,
-                    seed: 11 + class as u64,
-                    identical_tracks: false,
-                    fade_in: 0.0,
-                },
-                20.0,
-                2.4,
-                0.0,
-            )
-            .unwrap();
+            let road = iso_road(class, 11 + class as u64);
             let (length, ds) = (2000.0, 0.2);
             let n = (length / ds) as usize;
             for track in 0..2 {
