@@ -83,24 +83,24 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
     // parameter `tau`), through the anti-windup saturation, or as the constant `D` of the
     // resource file. In Initialization Mode the state is zero, so a command also reads its
     // saturation limit or the delay, and nothing else.
-    let (kind, initial): (DependencyKind, Box<dyn Fn(usize) -> Vec<String>>) =
+    let kind = if spec.predictor.is_some() {
+        DependencyKind::Fixed
+    } else if spec.anti_windup.is_some() {
+        DependencyKind::Dependent
+    } else {
+        DependencyKind::Constant
+    };
+    let limits = limit_groups(spec);
+    let initial = |i: usize| -> Vec<String> {
         if spec.predictor.is_some() {
-            (DependencyKind::Fixed, Box::new(|_| vec!["tau".to_string()]))
+            vec!["tau".to_string()]
         } else if spec.anti_windup.is_some() {
-            let groups = limit_groups(spec);
-            (
-                DependencyKind::Dependent,
-                Box::new(move |i| {
-                    groups
-                        .iter()
-                        .filter(|g| g.1.contains(&i))
-                        .map(|g| g.0.to_string())
-                        .collect()
-                }),
-            )
+            let group = limits.iter().filter(|g| g.1.contains(&i));
+            group.map(|g| g.0.to_string()).collect()
         } else {
-            (DependencyKind::Constant, Box::new(|_| Vec::new()))
-        };
+            Vec::new()
+        }
+    };
     for (i, s) in spec.outputs.iter().enumerate() {
         // A predictor's feedthrough is K e^{Aθ} S_y, θ a parameter: every input S_y reads.
         let feeds = |j: usize| match &spec.predictor {

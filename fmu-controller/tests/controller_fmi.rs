@@ -434,30 +434,28 @@ fn predictor_commands_are_the_closed_form_over_any_steps_and_restore_whole() {
     }
 }
 
+/// Why `Spec::from_json` refuses `text` with `from` replaced by `to`.
+fn refusal(text: &str, from: &str, to: &str) -> String {
+    let edited = text.replace(from, to);
+    assert_ne!(edited, text, "'{from}' is not in the spec");
+    Spec::from_json(&edited).unwrap_err().to_string()
+}
+
 #[test]
 fn predictor_blocks_must_be_the_controller_without_delay() {
     assert!(Spec::from_json(PRED_SPEC).unwrap().predictor.is_some());
     // An edited gain no longer matches C, D, A, B.
-    let edited = PRED_SPEC.replace("\"K\": [[-0.8]]", "\"K\": [[-0.9]]");
-    let err = Spec::from_json(&edited).unwrap_err().to_string();
+    let err = refusal(PRED_SPEC, "\"K\": [[-0.8]]", "\"K\": [[-0.9]]");
     assert!(err.contains("without delay"), "{err}");
-    let bad_delay = PRED_SPEC.replace("\"delay_max\": 0.3", "\"delay_max\": -1.0");
-    assert!(Spec::from_json(&bad_delay)
-        .unwrap_err()
-        .to_string()
-        .contains("delay_max"));
+    let err = refusal(PRED_SPEC, "\"delay_max\": 0.3", "\"delay_max\": -1.0");
+    assert!(err.contains("delay_max"), "{err}");
     // An input named like a variable the runtime adds (here the predictor's delay) is refused.
-    let clash = PRED_SPEC.replace("\"name\": \"stroke_fl\"", "\"name\": \"tau\"");
-    let err = Spec::from_json(&clash).unwrap_err().to_string();
+    let err = refusal(PRED_SPEC, "\"name\": \"stroke_fl\"", "\"name\": \"tau\"");
     assert!(err.contains("'tau'") && err.contains("adds"), "{err}");
-    let clash = SPEC.replace("\"name\": \"stroke_fl\"", "\"name\": \"gamma\"");
-    let err = Spec::from_json(&clash).unwrap_err().to_string();
+    let err = refusal(SPEC, "\"name\": \"stroke_fl\"", "\"name\": \"gamma\"");
     assert!(err.contains("'gamma'"), "{err}");
-    let wrong_shape = PRED_SPEC.replace("\"S_y\": [[1.0]]", "\"S_y\": [[1.0, 2.0]]");
-    assert!(Spec::from_json(&wrong_shape)
-        .unwrap_err()
-        .to_string()
-        .contains("predictor.S_y"));
+    let err = refusal(PRED_SPEC, "\"S_y\": [[1.0]]", "\"S_y\": [[1.0, 2.0]]");
+    assert!(err.contains("predictor.S_y"), "{err}");
 }
 
 /// A `controller.json` whose `A` is absurd (1e40, finite, so it loads): a step returns

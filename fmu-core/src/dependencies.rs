@@ -69,26 +69,21 @@ struct Probe<M: Model> {
 }
 
 impl<M: Model> Probe<M> {
-    fn new(resource_uri: Option<&str>, callbacks: &CallbackFunctions) -> Result<Self, String> {
-        let resources = resource_uri
-            .map(crate::uri::resource_path)
-            .transpose()
-            .map_err(|e| e.to_string())?;
-        let guid = M::description(resources.as_deref())?.guid;
+    fn new(
+        guid: &str,
+        resource_uri: Option<&str>,
+        callbacks: &CallbackFunctions,
+    ) -> Result<Self, String> {
         let instance = Instance::<M>::instantiate(
             "probe",
             FMI2_CO_SIMULATION,
-            Some(&guid),
+            Some(guid),
             resource_uri,
             callbacks,
             false,
         )
         .map_err(|(_, e)| e)?;
         Ok(Probe { instance })
-    }
-
-    fn description(&self) -> &ModelDescription {
-        self.instance.description()
     }
 
     fn get(&mut self, v: &Variable) -> Result<Value, String> {
@@ -185,8 +180,12 @@ pub fn measure<M: Model>(
     callbacks: &CallbackFunctions,
     at: &[(&str, f64)],
 ) -> Result<Measured, String> {
-    let mut probe = Probe::<M>::new(resource_uri, callbacks)?;
-    let d = probe.description().clone();
+    let resources = resource_uri
+        .map(crate::uri::resource_path)
+        .transpose()
+        .map_err(|e| e.to_string())?;
+    let d = M::description(resources.as_deref())?;
+    let mut probe = Probe::<M>::new(&d.guid, resource_uri, callbacks)?;
     let inputs = of(&d, &[Causality::Input]);
     let parameters = of(&d, &[Causality::Parameter]);
     let outputs = of(&d, &[Causality::Output]);
@@ -207,7 +206,7 @@ pub fn measure<M: Model>(
     let base = probe.read(&initial_unknowns)?;
     let knowns: Vec<Variable> = inputs.iter().chain(&parameters).cloned().collect();
     let initial = record(&initial_unknowns, &knowns, |k| {
-        let mut p = Probe::<M>::new(resource_uri, callbacks)?;
+        let mut p = Probe::<M>::new(&d.guid, resource_uri, callbacks)?;
         initial_state(&mut p)?;
         let now = p.get(k)?;
         p.set(k, perturbed(k, now))?;

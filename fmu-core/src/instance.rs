@@ -141,10 +141,6 @@ impl<M: Model> Instance<M> {
         &self.model
     }
 
-    pub fn description(&self) -> &ModelDescription {
-        &self.description
-    }
-
     pub fn time(&self) -> f64 {
         self.time
     }

@@ -175,15 +175,8 @@ fn run(cli: Cli) -> Result<(), String> {
                 println!("wrote {}", path.display());
             }
             if let Some(path) = readme {
-                let tag = tag.ok_or("--readme needs --tag")?;
-                let doc = std::fs::read_to_string(&path)
-                    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
                 let table = library.document(resources.as_deref(), 1)?;
-                let doc =
-                    ModelDescription::splice_into(&doc, &tag, &table).map_err(|e| e.to_string())?;
-                std::fs::write(&path, doc)
-                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-                println!("updated {} ({tag})", path.display());
+                splice_readme(&path, tag, &table)?;
             }
             Ok(())
         }
@@ -199,18 +192,22 @@ fn run(cli: Cli) -> Result<(), String> {
             let v = newest.ok_or("the libraries import no versioned glibc symbol")?;
             println!("glibc >= {}.{}", v.0, v.1);
             if let Some(path) = readme {
-                let tag = tag.ok_or("--readme needs --tag")?;
-                let doc = std::fs::read_to_string(&path)
-                    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-                let doc = ModelDescription::splice_into(&doc, &tag, &fmu_pack::platform_note(v))
-                    .map_err(|e| e.to_string())?;
-                std::fs::write(&path, doc)
-                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-                println!("updated {} ({tag})", path.display());
+                splice_readme(&path, tag, &fmu_pack::platform_note(v))?;
             }
             Ok(())
         }
     }
+}
+
+/// Replace what stands between the README's `tag` markers with `content`.
+fn splice_readme(path: &Path, tag: Option<String>, content: &str) -> Result<(), String> {
+    let tag = tag.ok_or("--readme needs --tag")?;
+    let doc = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let doc = ModelDescription::splice_into(&doc, &tag, content).map_err(|e| e.to_string())?;
+    std::fs::write(path, doc).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    println!("updated {} ({tag})", path.display());
+    Ok(())
 }
 
 fn main() -> ExitCode {

@@ -260,11 +260,9 @@ impl Model for RoadFmu {
         Ok(())
     }
 
+    /// The road read in Initialization Mode (kept: any parameter set since would have dropped it).
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
-        self.road = Some(self.build()?);
-        self.time = start_time;
-        self.outputs = None;
-        Ok(())
+        self.prepare_initial_outputs(start_time)
     }
 
     fn do_step(&mut self, time: f64, step: f64) -> Result<(), String> {

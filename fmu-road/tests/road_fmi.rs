@@ -158,25 +158,12 @@ fn fmu_state_round_trips_with_its_parameters() {
     for k in 0..100 {
         unsafe { fmi2DoStep(a.c, k as f64 * 0.01, 0.01, 1) };
     }
-    let mut s: Fmi2FmuState = null_mut();
-    assert_eq!(unsafe { fmi2GetFMUstate(a.c, &mut s) }, 0);
-    let mut size = 0;
-    unsafe { fmi2SerializedFMUstateSize(a.c, s, &mut size) };
-    let mut bytes = vec![0 as Fmi2Byte; size];
-    assert_eq!(
-        unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) },
-        0
-    );
+    let bytes = a.serialized_state();
     let at_one = a.outputs();
     // A fresh instance with default parameters (a bump) takes the sweep and its time.
     let b = Inst::new(&log);
     assert_eq!(b.init(), 0);
-    let mut sb: Fmi2FmuState = null_mut();
-    assert_eq!(
-        unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) },
-        0
-    );
-    assert_eq!(unsafe { fmi2SetFMUstate(b.c, sb) }, 0);
+    assert_eq!(b.set_serialized_state(&bytes), 0);
     assert_eq!(b.outputs(), at_one);
     unsafe {
         fmi2DoStep(a.c, 1.0, 0.5, 1);

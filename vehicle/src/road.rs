@@ -346,52 +346,61 @@ type Nodes = std::sync::Arc<[[f64; 2]]>;
 /// derivative of its height, and both are within [`IsoTrack::error_bounds`] of the direct sum.
 #[derive(Debug)]
 pub struct IsoTrack {
-    /// Per cosine `a cos(k s + φ)`: `a`, `k = 2π n`, `φ`, and one node's rotation
-    /// `(cos k h, sin k h)`.
-    amplitude: Vec<f64>,
-    wavenumber: Vec<f64>,
-    phase: Vec<f64>,
-    rotation: Vec<(f64, f64)>,
+    cosines: Cosines,
     /// The blocks computed last: `(block index, [z, dz/ds] at its BLOCK + 1 nodes)`.
     blocks: std::sync::Mutex<Vec<(i64, Nodes)>>,
 }
 
+/// Per cosine `a cos(k s + φ)`: `a`, `k = 2π n`, `φ`, the slope's weight `−a k` and one node's
+/// rotation `(cos k h, sin k h)`; padded with zero cosines to a multiple of four, so that the
+/// node loop runs in lanes of four.
+#[derive(Debug, Clone, PartialEq)]
+struct Cosines {
+    amplitude: Vec<f64>,
+    wavenumber: Vec<f64>,
+    phase: Vec<f64>,
+    slope: Vec<f64>,
+    rotation_cos: Vec<f64>,
+    rotation_sin: Vec<f64>,
+}
+
+/// A copy starts with no block computed.
 impl Clone for IsoTrack {
     fn clone(&self) -> Self {
-        let components: Vec<(f64, f64, f64)> = (0..self.amplitude.len())
-            .map(|i| {
-                (
-                    self.amplitude[i],
-                    self.wavenumber[i] / (2.0 * PI),
-                    self.phase[i],
-                )
-            })
-            .collect();
-        IsoTrack::new(&components)
+        IsoTrack::of(self.cosines.clone())
     }
 }
 
 /// Two tracks are equal when their cosines are (whatever each has computed so far).
 impl PartialEq for IsoTrack {
     fn eq(&self, other: &Self) -> bool {
-        self.amplitude == other.amplitude
-            && self.wavenumber == other.wavenumber
-            && self.phase == other.phase
+        self.cosines == other.cosines
     }
 }
 
 impl IsoTrack {
     /// The track of `components`, `(amplitude [m], spatial frequency [cycles/m], phase)`.
     pub fn new(components: &[(f64, f64, f64)]) -> IsoTrack {
-        let wavenumber: Vec<f64> = components.iter().map(|c| 2.0 * PI * c.1).collect();
+        let lanes = components.len().div_ceil(4) * 4;
+        let padded = |f: &dyn Fn(&(f64, f64, f64)) -> f64, zero: f64| -> Vec<f64> {
+            let mut v: Vec<f64> = components.iter().map(f).collect();
+            v.resize(lanes, zero);
+            v
+        };
+        let k = |c: &(f64, f64, f64)| 2.0 * PI * c.1;
+        IsoTrack::of(Cosines {
+            amplitude: padded(&|c| c.0, 0.0),
+            wavenumber: padded(&k, 0.0),
+            phase: padded(&|c| c.2, 0.0),
+            slope: padded(&|c| -c.0 * k(c), 0.0),
+            rotation_cos: padded(&|c| (k(c) * ISO_GRID).cos(), 1.0),
+            rotation_sin: padded(&|c| (k(c) * ISO_GRID).sin(), 0.0),
+        })
+    }
+
+    fn of(cosines: Cosines) -> IsoTrack {
         IsoTrack {
-            amplitude: components.iter().map(|c| c.0).collect(),
-            rotation: wavenumber
-                .iter()
-                .map(|k| ((k * ISO_GRID).cos(), (k * ISO_GRID).sin()))
-                .collect(),
-            wavenumber,
-            phase: components.iter().map(|c| c.2).collect(),
+            cosines,
             blocks: std::sync::Mutex::new(Vec::with_capacity(BLOCKS_KEPT)),
         }
     }
@@ -401,9 +410,10 @@ impl IsoTrack {
     /// `√3/216 h³ max|z⁗|` in slope, and `|z⁗| ≤ Σ a k⁴`.
     pub fn error_bounds(&self) -> (f64, f64) {
         let m4: f64 = self
+            .cosines
             .amplitude
             .iter()
-            .zip(&self.wavenumber)
+            .zip(&self.cosines.wavenumber)
             .map(|(a, k)| a * k.powi(4))
             .sum();
         let h = ISO_GRID;
@@ -452,39 +462,29 @@ impl IsoTrack {
 
     /// `[z, dz/ds]` at the `BLOCK + 1` nodes of block `b`.
     fn compute(&self, b: i64) -> Vec<[f64; 2]> {
+        let x = &self.cosines;
         let s0 = (b * BLOCK as i64) as f64 * ISO_GRID;
-        let n = self.amplitude.len();
-        let (mut c, mut s): (Vec<f64>, Vec<f64>) = (0..n)
-            .map(|i| {
-                let arg = self.wavenumber[i] * s0 + self.phase[i];
-                (arg.cos(), arg.sin())
-            })
+        let (mut c, mut s): (Vec<f64>, Vec<f64>) = x
+            .wavenumber
+            .iter()
+            .zip(&x.phase)
+            .map(|(k, p)| (k * s0 + p).sin_cos())
+            .map(|(sin, cos)| (cos, sin))
             .unzip();
-        // Per cosine: the height's weight a, the slope's −a k, the rotation. Padded with zero
-        // weights to a multiple of four, so the loop below runs in lanes of four (partial sums
-        // per lane: it vectorises without reordering any one sum).
-        let lanes = n.div_ceil(4) * 4;
-        let pad = |mut v: Vec<f64>| {
-            v.resize(lanes, 0.0);
-            v
-        };
-        c = pad(c);
-        s = pad(s);
-        let weight = pad(self.amplitude.clone());
-        let slope = pad((0..n)
-            .map(|i| -self.amplitude[i] * self.wavenumber[i])
-            .collect());
-        let rc = pad(self.rotation.iter().map(|r| r.0).collect());
-        let rs = pad(self.rotation.iter().map(|r| r.1).collect());
         let mut nodes = Vec::with_capacity(BLOCK + 1);
         for _ in 0..=BLOCK {
+            // Partial sums per lane: the loop vectorises without reordering any one sum.
             let (mut z, mut dz) = ([0.0; 4], [0.0; 4]);
             for ((((c4, s4), w4), d4), (rc4, rs4)) in c
                 .chunks_exact_mut(4)
                 .zip(s.chunks_exact_mut(4))
-                .zip(weight.chunks_exact(4))
-                .zip(slope.chunks_exact(4))
-                .zip(rc.chunks_exact(4).zip(rs.chunks_exact(4)))
+                .zip(x.amplitude.chunks_exact(4))
+                .zip(x.slope.chunks_exact(4))
+                .zip(
+                    x.rotation_cos
+                        .chunks_exact(4)
+                        .zip(x.rotation_sin.chunks_exact(4)),
+                )
             {
                 for l in 0..4 {
                     z[l] += w4[l] * c4[l];
