@@ -15,8 +15,8 @@ use fmu_core::{
 use simulator::{ActuatorParams, Simulator};
 use std::path::Path;
 use vehicle::model::{
-    physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS, N_PHYSICAL_OUTPUTS,
-    N_ROAD, STATES,
+    physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, FORCE_PORTS, N_ACTUATORS,
+    N_PHYSICAL_OUTPUTS, N_ROAD, ROAD_PORTS, STATES,
 };
 use vehicle::params::PARAMETERS;
 use vehicle::VehicleParams;
@@ -162,10 +162,11 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
 
 /// Names of the 13 inputs in value-reference order.
 pub fn input_names() -> Vec<String> {
-    let mut names: Vec<String> = CORNERS.iter().map(|c| format!("road_z_{c}")).collect();
-    names.extend(CORNERS.iter().map(|c| format!("road_v_{c}")));
-    names.extend(ACTUATORS.iter().map(|a| format!("u_{a}")));
-    names
+    ROAD_PORTS
+        .iter()
+        .chain(&FORCE_PORTS)
+        .map(|s| s.to_string())
+        .collect()
 }
 
 const N_STATIC: usize = 13;

@@ -49,16 +49,7 @@ const INTEGERS: [(&str, i32, &str); 4] = [
     ("seed", 1, "Profile 2: seed of the random phases (the same seed gives the same road everywhere)"),
 ];
 
-const OUTPUT_NAMES: [&str; 8] = [
-    "road_z_fl",
-    "road_z_fr",
-    "road_z_rl",
-    "road_z_rr",
-    "road_v_fl",
-    "road_v_fr",
-    "road_v_rl",
-    "road_v_rr",
-];
+use vehicle::model::ROAD_PORTS as OUTPUT_NAMES;
 
 pub fn model_description() -> ModelDescription {
     let mut vars = Vec::new();

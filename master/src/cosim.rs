@@ -3,7 +3,8 @@
 //! **Order (Gauss–Seidel, fixed communication step `h`).** At each `t_k`: the road's outputs
 //! (at `t_k`) go to the plant's road inputs; the plant's outputs go to the controller's inputs
 //! (by name); the controller's commands go to the plant's force inputs, held over the step; then
-//! road, plant and controller step over `[t_k, t_k + h)`. The row recorded for `t_{k+1}` is read
+//! controller, plant and road step over `[t_k, t_k + h)`. The road is the road FMU or the same
+//! profile computed in process ([`RoadSource`]). The row recorded for `t_{k+1}` is read
 //! after the road's new outputs have reached the plant (tyre loads feed the road through) and the
 //! controller has been given the plant's new outputs (its residual and flag use them).
 
@@ -16,17 +17,7 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-pub const ROAD: [&str; 8] = [
-    "road_z_fl",
-    "road_z_fr",
-    "road_z_rl",
-    "road_z_rr",
-    "road_v_fl",
-    "road_v_fr",
-    "road_v_rl",
-    "road_v_rr",
-];
-pub const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
+pub use vehicle::model::{FORCE_PORTS as FORCES, ROAD_PORTS as ROAD};
 /// The plant outputs every run records.
 pub const RECORD: [&str; 18] = [
     "a_seat",
@@ -363,7 +354,38 @@ pub fn check_connections(plant: &Fmu, controller: &Fmu) -> Result<(), MasterErro
     Ok(())
 }
 
-/// Run `scenario` with `controller` (None: the passive car).
+/// Where the plant's road inputs come from.
+pub enum RoadSource<'a> {
+    /// A road FMU, started with its parameters and stepped with the loop.
+    Fmu(Participant<'a>),
+    /// The road computed in process: `[z_fl, z_fr, z_rl, z_rr, v_fl, v_fr, v_rl, v_rr]` at `t`
+    /// (e.g. `vehicle::road::Road::at`, the code the road FMU runs).
+    InProcess(&'a dyn Fn(f64) -> [f64; 8]),
+}
+
+/// An FMU of the loop with the parameters it is started with.
+#[derive(Clone, Copy)]
+pub struct Participant<'a> {
+    pub fmu: &'a Fmu,
+    pub params: &'a [(String, Typed)],
+}
+
+/// One co-simulation: who takes part, the communication step, how many steps, what is recorded.
+pub struct Setup<'a> {
+    pub road: RoadSource<'a>,
+    pub plant: Participant<'a>,
+    /// `None`: the passive car.
+    pub controller: Option<Participant<'a>>,
+    /// [s]
+    pub step: f64,
+    pub steps: usize,
+    /// Plant outputs, or, for a name the plant lacks, the controller's variable (Real, or
+    /// Boolean recorded as 0/1).
+    pub record: &'a [String],
+}
+
+/// Run `scenario` with `controller` (None: the passive car), recording [`RECORD`] and the
+/// [`CONTROLLER_RECORD`] variables the controller has.
 pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result<Run, MasterError> {
     let road = Fmu::load(dist, "road")?;
     let plant = Fmu::load(dist, "plant")?;
@@ -373,57 +395,90 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     }
     let [road_params, plant_params, ctrl_params] =
         scenario_parameters(scenario, &road, &plant, ctrl.as_ref())?;
-    let mut r = road.start(&road_params)?;
-    let mut p = plant.start(&plant_params)?;
-    let mut c = ctrl.as_ref().map(|c| c.start(&ctrl_params)).transpose()?;
+    let mut record: Vec<String> = RECORD.iter().map(|s| s.to_string()).collect();
+    if let Some(c) = &ctrl {
+        record.extend(
+            CONTROLLER_RECORD
+                .iter()
+                .filter(|n| c.has(n))
+                .map(|s| s.to_string()),
+        );
+    }
+    simulate(&Setup {
+        road: RoadSource::Fmu(Participant {
+            fmu: &road,
+            params: &road_params,
+        }),
+        plant: Participant {
+            fmu: &plant,
+            params: &plant_params,
+        },
+        controller: ctrl.as_ref().map(|fmu| Participant {
+            fmu,
+            params: &ctrl_params,
+        }),
+        step: scenario.step,
+        steps: scenario.steps(),
+        record: &record,
+    })
+}
+
+/// A recorded variable: on the controller?, Boolean?, value reference.
+type Recorded = (bool, bool, u32);
+
+/// The co-simulation loop of this module's order (see the module's documentation), the one
+/// every run and every closed-loop test goes through.
+pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
+    let plant = setup.plant.fmu;
+    let ctrl = setup.controller.map(|c| c.fmu);
+    if let Some(c) = ctrl {
+        check_connections(plant, c)?;
+    }
     let vrs = |f: &Fmu, names: &[&str]| {
         names
             .iter()
             .map(|n| f.vr(n))
             .collect::<Result<Vec<u32>, _>>()
     };
-    let road_out = vrs(&road, &ROAD)?;
-    let road_in = vrs(&plant, &ROAD)?;
-    let force_in = vrs(&plant, &FORCES)?;
-    let rec = vrs(&plant, &RECORD)?;
-    let (y_from, y_to, u_from, c_rec, c_bool) = match &ctrl {
+    let mut road = match &setup.road {
+        RoadSource::Fmu(r) => Some((r.fmu.start(r.params)?, vrs(r.fmu, &ROAD)?)),
+        RoadSource::InProcess(_) => None,
+    };
+    let mut p = plant.start(setup.plant.params)?;
+    let mut c = setup
+        .controller
+        .map(|c| c.fmu.start(c.params))
+        .transpose()?;
+    let road_in = vrs(plant, &ROAD)?;
+    let force_in = vrs(plant, &FORCES)?;
+    let recorded: Vec<Recorded> = setup
+        .record
+        .iter()
+        .map(|n| match (plant.has(n), ctrl) {
+            (true, _) => Ok((false, false, plant.vr(n)?)),
+            (false, Some(cf)) => {
+                let boolean = matches!(
+                    cf.variable(n).map(|v| v.1),
+                    Some(ScalarVariableElement::Boolean(_))
+                );
+                Ok((true, boolean, cf.vr(n)?))
+            }
+            (false, None) => Err(err(format!("plant has no variable '{n}' to record"))),
+        })
+        .collect::<Result<_, MasterError>>()?;
+    let (y_from, y_to, u_from) = match ctrl {
         Some(cf) => {
             let inputs = cf.names_with_causality("input");
             let names: Vec<&str> = inputs.iter().map(|s| s.as_str()).collect();
-            let extra: Vec<&str> = CONTROLLER_RECORD
-                .iter()
-                .copied()
-                .filter(|n| cf.has(n))
-                .collect();
-            let booleans: Vec<bool> = extra
-                .iter()
-                .map(|n| {
-                    matches!(
-                        cf.variable(n).map(|v| v.1),
-                        Some(ScalarVariableElement::Boolean(_))
-                    )
-                })
-                .collect();
-            (
-                vrs(&plant, &names)?,
-                vrs(cf, &names)?,
-                vrs(cf, &FORCES)?,
-                extra
-                    .iter()
-                    .map(|n| cf.vr(n))
-                    .collect::<Result<Vec<_>, _>>()?
-                    .into_iter()
-                    .zip(booleans)
-                    .collect::<Vec<_>>(),
-                extra,
-            )
+            (vrs(plant, &names)?, vrs(cf, &names)?, vrs(cf, &FORCES)?)
         }
-        None => (vec![], vec![], vec![], vec![], vec![]),
+        None => (vec![], vec![], vec![]),
     };
+    let on_controller = recorded.iter().any(|r| r.0);
     let mut static_tire_load = [0.0; 4];
     p.get_real(
         &vrs(
-            &plant,
+            plant,
             &[
                 "static_tire_load_fl",
                 "static_tire_load_fr",
@@ -435,23 +490,35 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     )
     .map_err(|e| err(format!("plant: {e}")))?;
     let fail = |who: &str, e: fmi::fmi2::Fmi2Error| err(format!("{who}: {e}"));
-    let h = scenario.step;
-    let steps = scenario.steps();
-    let mut columns: Vec<String> = RECORD.iter().map(|s| s.to_string()).collect();
-    columns.extend(c_bool.iter().map(|s| s.to_string()));
-    let mut time = Vec::with_capacity(steps);
-    let mut data = Vec::with_capacity(steps * columns.len());
-    let mut road_values = [0.0; 8];
-    let mut y = vec![0.0; y_from.len()];
-    let mut u = [0.0; 5];
-    let mut row = vec![0.0; rec.len()];
     let step_err = |who: &str, t: f64, e: fmi::fmi2::Fmi2Error| {
         err(format!("{who}: fmi2DoStep at t = {t}: {e}"))
     };
+    let (h, steps) = (setup.step, setup.steps);
+    let mut time = Vec::with_capacity(steps);
+    let mut data = Vec::with_capacity(steps * recorded.len());
+    let mut road_values = [0.0; 8];
+    let mut y = vec![0.0; y_from.len()];
+    let mut u = [0.0; 5];
+    let mut value = [0.0];
     let started = std::time::Instant::now();
+    // The road at t + h, the FMU stepped from t over h first (not for h = 0).
+    let mut road_at = |t: f64, h: f64, values: &mut [f64; 8]| match (&setup.road, road.as_mut()) {
+        (RoadSource::InProcess(f), _) => {
+            *values = f(t + h);
+            Ok(())
+        }
+        (RoadSource::Fmu(_), Some((r, out))) => {
+            if h > 0.0 {
+                r.do_step(t, h, true).map_err(|e| step_err("road", t, e))?;
+            }
+            r.get_real(out, values)
+                .map(|_| ())
+                .map_err(|e| fail("road", e))
+        }
+        (RoadSource::Fmu(_), None) => unreachable!("the road FMU is started above"),
+    };
     // The road at t_0; afterwards each iteration leaves the road at t_{k+1} in the plant.
-    r.get_real(&road_out, &mut road_values)
-        .map_err(|e| fail("road", e))?;
+    road_at(0.0, 0.0, &mut road_values)?;
     p.set_real(&road_in, &road_values)
         .map_err(|e| fail("plant", e))?;
     for k in 0..steps {
@@ -465,38 +532,40 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
             c.do_step(t, h, true)
                 .map_err(|e| step_err("controller", t, e))?;
         }
-        r.do_step(t, h, true).map_err(|e| step_err("road", t, e))?;
         p.do_step(t, h, true).map_err(|e| step_err("plant", t, e))?;
-        r.get_real(&road_out, &mut road_values)
-            .map_err(|e| fail("road", e))?;
+        road_at(t, h, &mut road_values)?;
         p.set_real(&road_in, &road_values)
             .map_err(|e| fail("plant", e))?;
-        p.get_real(&rec, &mut row).map_err(|e| fail("plant", e))?;
-        data.extend_from_slice(&row);
-        if let Some(c) = c.as_mut() {
-            if !c_rec.is_empty() {
-                p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
-                c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
-                for (vr, boolean) in &c_rec {
-                    let value = if *boolean {
-                        let mut b = [0];
-                        c.get_boolean(&[*vr], &mut b)
-                            .map_err(|e| fail("controller", e))?;
-                        b[0] as f64
-                    } else {
-                        let mut v = [0.0];
-                        c.get_real(&[*vr], &mut v)
-                            .map_err(|e| fail("controller", e))?;
-                        v[0]
-                    };
-                    data.push(value);
+        if let (Some(c), true) = (c.as_mut(), on_controller) {
+            p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
+            c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
+        }
+        for (controller_side, boolean, vr) in &recorded {
+            let v = match (controller_side, c.as_mut()) {
+                (false, _) => {
+                    p.get_real(&[*vr], &mut value)
+                        .map_err(|e| fail("plant", e))?;
+                    value[0]
                 }
-            }
+                (true, Some(c)) if *boolean => {
+                    let mut b = [0];
+                    c.get_boolean(&[*vr], &mut b)
+                        .map_err(|e| fail("controller", e))?;
+                    b[0] as f64
+                }
+                (true, Some(c)) => {
+                    c.get_real(&[*vr], &mut value)
+                        .map_err(|e| fail("controller", e))?;
+                    value[0]
+                }
+                (true, None) => unreachable!("resolved against the controller above"),
+            };
+            data.push(v);
         }
         time.push(t + h);
     }
     Ok(Run {
-        columns,
+        columns: setup.record.to_vec(),
         time,
         data,
         static_tire_load,

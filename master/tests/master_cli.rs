@@ -88,8 +88,10 @@ fn a_controller_reading_what_the_plant_lacks_is_refused() {
         .contains("initialisation failed"));
 }
 
+/// A scenario's run (its road parameters given to the road FMU) is the loop on the in-process
+/// road of the same profile: the scenario file means the road the tests use.
 #[test]
-fn a_run_is_the_test_helpers_loop_on_the_same_fmus() {
+fn a_scenario_run_is_the_loop_on_the_in_process_road_of_its_profile() {
     let s = scenario("iso_c");
     let r = run(&dist(), &Scenario { duration: 3.0, ..s }, Some("hinf_of")).unwrap();
     let plant = integration_tests::load("plant");
@@ -109,7 +111,10 @@ fn a_run_is_the_test_helpers_loop_on_the_same_fmus() {
         .zip(a.iter().zip(&f))
         .map(|(x, (a, f))| ((x[0] - a).abs() / 1.0).max((x[1] - f).abs() / 1000.0))
         .fold(0.0, f64::max);
-    assert!(worst < 1e-9, "master and test helper differ by {worst}");
+    assert!(
+        worst < 1e-9,
+        "scenario and in-process road differ by {worst}"
+    );
     assert_eq!(r.time.len(), 3000);
     assert!((r.time[2999] - 3.0).abs() < 1e-9);
 }

@@ -46,7 +46,7 @@ pub fn controller_json(
         "description": description,
         "guarantee": guarantee,
         "inputs": inputs.iter().map(|n| json!({"name": n, "unit": plant_output_unit(n)})).collect::<Vec<_>>(),
-        "outputs": vehicle::model::ACTUATORS.iter().map(|a| json!({"name": format!("u_{a}"), "unit": "N"})).collect::<Vec<_>>(),
+        "outputs": vehicle::model::FORCE_PORTS.iter().map(|u| json!({"name": u, "unit": "N"})).collect::<Vec<_>>(),
         "A": matrix_json(&k.a),
         "B": matrix_json(&k.b),
         "C": matrix_json(&k.c),

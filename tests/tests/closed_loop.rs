@@ -55,14 +55,19 @@ fn figures(log: &[Vec<f64>]) -> Figures {
     }
 }
 
-fn compare(label: &str, variant: &str, road: &dyn Road, seconds: f64) -> (Figures, Figures) {
+fn compare(
+    label: &str,
+    variant: &str,
+    road: &vehicle::road::Road,
+    seconds: f64,
+) -> (Figures, Figures) {
     compare_with(label, variant, road, seconds, &[])
 }
 
 fn compare_with(
     label: &str,
     variant: &str,
-    road: &dyn Road,
+    road: &vehicle::road::Road,
     seconds: f64,
     plant_params: &[(&str, f64)],
 ) -> (Figures, Figures) {
@@ -342,7 +347,7 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedb
     let params = [("u_max", 300.0), ("u_max_seat", 100.0)];
     let commands = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
     let record: Vec<&str> = RECORD.iter().chain(&commands).copied().collect();
-    let run = |variant: Option<&str>, road: &dyn Road, seconds: f64| {
+    let run = |variant: Option<&str>, road: &vehicle::road::Road, seconds: f64| {
         let c = variant.map(load);
         let log = run_loop_with(
             &plant,
@@ -538,11 +543,29 @@ fn ft_of_detects_a_half_lost_actuator_and_keeps_the_seat_quiet() {
 fn road_fmu_drives_the_loop_like_the_in_process_road() {
     let plant = load("plant");
     let ctrl = load("hinf_of");
-    let fmu_road = RoadFmu::new(
-        &[("profile", 2), ("iso_class", 3), ("seed", 7)],
-        &[("speed", 20.0), ("start_distance", -2.4)],
+    let road = load("road");
+    use master::cosim::{Participant, Typed};
+    let road_params: Vec<(String, Typed)> = [("profile", 2), ("iso_class", 3), ("seed", 7)]
+        .iter()
+        .map(|(n, v)| (n.to_string(), Typed::Integer(*v)))
+        .chain(
+            [("speed", 20.0), ("start_distance", -2.4)]
+                .iter()
+                .map(|(n, v)| (n.to_string(), Typed::Real(*v))),
+        )
+        .collect();
+    let with_fmu = run_on(
+        RoadSource::Fmu(Participant {
+            fmu: &road,
+            params: &road_params,
+        }),
+        &plant,
+        Some(&ctrl),
+        1e-3,
+        3000,
+        &RECORD,
+        &[],
     );
-    let with_fmu = run_loop(&plant, Some(&ctrl), &fmu_road, 1e-3, 3000, &RECORD);
     let in_process = run_loop(
         &plant,
         Some(&ctrl),

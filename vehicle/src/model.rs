@@ -42,6 +42,22 @@ pub const CORNERS: [&str; 4] = ["fl", "fr", "rl", "rr"];
 /// Suffixes of the actuators: the four corners, then the seat.
 pub const ACTUATORS: [&str; 5] = ["fl", "fr", "rl", "rr", "seat"];
 
+/// The names of the road signals between the road FMU's outputs and the plant's inputs, in the
+/// order of `r = [z_r; ż_r]`: heights `road_z_<corner>`, then velocities `road_v_<corner>`.
+pub const ROAD_PORTS: [&str; N_ROAD] = [
+    "road_z_fl",
+    "road_z_fr",
+    "road_z_rl",
+    "road_z_rr",
+    "road_v_fl",
+    "road_v_fr",
+    "road_v_rl",
+    "road_v_rr",
+];
+/// The names of the commanded forces between a controller's outputs and the plant's inputs
+/// [N], `u_<actuator>` in the order of [`ACTUATORS`].
+pub const FORCE_PORTS: [&str; N_ACTUATORS] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
+
 /// Name, unit and meaning of each state, in the order of `x`.
 pub const STATES: [(&str, &str, &str); N_STATES] = [
     ("z_s", "m", "body heave displacement"),
@@ -527,5 +543,21 @@ impl StaticEquilibrium {
             }
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn port_names_follow_the_corners_and_actuators() {
+        for (k, c) in CORNERS.iter().enumerate() {
+            assert_eq!(ROAD_PORTS[k], format!("road_z_{c}"));
+            assert_eq!(ROAD_PORTS[4 + k], format!("road_v_{c}"));
+        }
+        for (k, a) in ACTUATORS.iter().enumerate() {
+            assert_eq!(FORCE_PORTS[k], format!("u_{a}"));
+        }
     }
 }
