@@ -249,6 +249,25 @@ mod tests {
     use crate::prediction::Figures;
     use vehicle::VehicleParams;
 
+    /// The checked-in comfort design, the default car, `hinf_sf`'s gain and the seat's row.
+    fn nominal() -> (
+        ComfortDesign,
+        VehicleParams,
+        ComfortPlant,
+        StateFeedback,
+        DMatrix<f64>,
+    ) {
+        let d = ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap();
+        let p = VehicleParams::default();
+        let (g, sf) = nominal_gain(&Context {
+            params: &p,
+            design: &d,
+        })
+        .unwrap();
+        let seat = g.c_z.rows(0, 1).into_owned();
+        (d, p, g, sf, seat)
+    }
+
     /// The grid's recurrences give [`comfort_at`]'s figures: the worst over a grid equals the
     /// worst of the point-by-point formula, on a grid where `J(θ)` varies by a factor of
     /// several. To 1e-4: the two go through different Lyapunov equations of this stiff loop (the
@@ -257,14 +276,7 @@ mod tests {
     /// recurrences changes the figure by percents.
     #[test]
     fn the_delay_grid_is_the_closed_form_at_each_point() {
-        let d = ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap();
-        let p = VehicleParams::default();
-        let ctx = Context {
-            params: &p,
-            design: &d,
-        };
-        let (g, sf) = nominal_gain(&ctx).unwrap();
-        let seat = g.c_z.rows(0, 1).into_owned();
+        let (_, _, g, sf, seat) = nominal();
         for (theta_max, points) in [(0.05, 11), (0.02, 5), (0.05, 2)] {
             let direct = (0..points)
                 .map(|i| comfort_at(&g, &sf.k, &seat, theta_max * i as f64 / (points - 1) as f64))
@@ -289,14 +301,7 @@ mod tests {
     /// horizon), so the bound is 15 %, which a wrong sign or a missing term would break by far.
     #[test]
     fn the_predictor_loop_matches_the_closed_form_comfort_at_every_delay() {
-        let d = ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap();
-        let p = VehicleParams::default();
-        let ctx = Context {
-            params: &p,
-            design: &d,
-        };
-        let (g, sf) = nominal_gain(&ctx).unwrap();
-        let seat = g.c_z.rows(0, 1).into_owned();
+        let (d, p, g, sf, seat) = nominal();
         let ratio = |theta: f64| {
             let law = ControlLaw {
                 lti: realise_state_feedback(&g, &sf.k),
