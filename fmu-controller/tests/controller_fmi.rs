@@ -58,11 +58,18 @@ fn guid_of(spec: &str) -> String {
     description_for(&Spec::from_json(spec).unwrap()).guid
 }
 
-#[test]
-fn dynamic_controller_is_stepped_exactly_with_feedthrough() {
-    let log = LogCapture::default();
-    let dir = dir_with("good", Some(SPEC));
-    let (c, _cb) = instantiate(&log, &guid_of(SPEC), Some(&dir));
+/// The two outputs' value references of [`SPEC`]'s controller.
+const OUTPUTS: [u32; 2] = [vr::OUTPUT, vr::OUTPUT + 1];
+
+/// `spec` from the resource directory `name`, instantiated, initialised and its two inputs set
+/// to `[0.2, 4.0]`: ready to step.
+fn running(
+    log: &LogCapture,
+    name: &str,
+    spec: &str,
+) -> (Fmi2Component, Box<fmi_test_logger::Callbacks>) {
+    let dir = dir_with(name, Some(spec));
+    let (c, cb) = instantiate(log, &guid_of(spec), Some(&dir));
     assert!(!c.is_null(), "{:?}", log.messages());
     unsafe {
         fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
@@ -70,7 +77,16 @@ fn dynamic_controller_is_stepped_exactly_with_feedthrough() {
         fmi2ExitInitializationMode(c);
         let inputs = [vr::INPUT, vr::INPUT + 1];
         assert_eq!(fmi2SetReal(c, inputs.as_ptr(), 2, [0.2, 4.0].as_ptr()), 0);
-        let outs = [vr::OUTPUT, vr::OUTPUT + 1];
+    }
+    (c, cb)
+}
+
+#[test]
+fn dynamic_controller_is_stepped_exactly_with_feedthrough() {
+    let log = LogCapture::default();
+    let (c, _cb) = running(&log, "good", SPEC);
+    let outs = OUTPUTS;
+    unsafe {
         let mut u = [0.0; 2];
         fmi2GetReal(c, outs.as_ptr(), 2, u.as_mut_ptr());
         assert_eq!(u, [2.0, -0.2], "direct feed-through before any step");
@@ -466,16 +482,9 @@ fn an_absurd_controller_matrix_fails_the_step_and_returns() {
     let log = LogCapture::default();
     let spec = SPEC.replace(r#""A": [[-2.0]]"#, r#""A": [[-1e40]]"#);
     assert_ne!(spec, SPEC);
-    let dir = dir_with("absurd", Some(&spec));
-    let (c, _cb) = instantiate(&log, &guid_of(&spec), Some(&dir));
-    assert!(!c.is_null(), "{:?}", log.messages());
+    let (c, _cb) = running(&log, "absurd", &spec);
+    let outs = OUTPUTS;
     unsafe {
-        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
-        fmi2EnterInitializationMode(c);
-        fmi2ExitInitializationMode(c);
-        let inputs = [vr::INPUT, vr::INPUT + 1];
-        assert_eq!(fmi2SetReal(c, inputs.as_ptr(), 2, [0.2, 4.0].as_ptr()), 0);
-        let outs = [vr::OUTPUT, vr::OUTPUT + 1];
         let (mut before, mut after) = ([0.0; 2], [0.0; 2]);
         fmi2GetReal(c, outs.as_ptr(), 2, before.as_mut_ptr());
         assert_eq!(fmi2DoStep(c, 0.0, 1e-3, 1), 3, "fmi2Error");

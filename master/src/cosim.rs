@@ -390,9 +390,6 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     let road = Fmu::load(dist, "road")?;
     let plant = Fmu::load(dist, "plant")?;
     let ctrl = controller.map(|c| Fmu::load(dist, c)).transpose()?;
-    if let Some(c) = &ctrl {
-        check_connections(&plant, c)?;
-    }
     let [road_params, plant_params, ctrl_params] =
         scenario_parameters(scenario, &road, &plant, ctrl.as_ref())?;
     let mut record: Vec<String> = RECORD.iter().map(|s| s.to_string()).collect();
