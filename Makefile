@@ -27,14 +27,19 @@ FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
 RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
-.PHONY: all setup fmus validate compare constrained comfort test lint test-rust test-python bench descriptions readme clean
+.PHONY: all setup fmus validate compare sweep constrained comfort test lint test-rust test-python bench descriptions readme clean
 
-all: fmus validate compare
+all: fmus validate compare sweep
 	@echo
 	@echo "Built: $(FMU_FILES); report: results/report.md"
 
 # Every scenario of scenarios/ with the passive car and each controller (master, in parallel):
 # results/report.md with the tables, the plots and the synthesis summary.
+# The robustness sweep (README "Robustness sweeps"): sprung mass x actuator delay x road seed.
+sweep: $(FMU_FILES) $(STAMP)/release
+	./target/release/master sweep sweeps/mass_delay.json --out results/sweep
+	@sed -n '/^## Limits/,/^## Metrics/p' results/sweep/report.md | sed '$$d'
+
 compare: $(FMU_FILES) $(STAMP)/release
 	./target/release/master compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results --designs dist/synthesis.json
 
@@ -144,7 +149,7 @@ lint: | $(STAMP)/apt
 test-rust: $(FMU_FILES) $(STAMP)/comfort-fmus | $(STAMP)/apt
 	$(CARGO) test --workspace
 
-test-python: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/venv
+test-python: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/venv $(STAMP)/release
 	$(PY) -m pytest tests/python -q
 
 $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv

@@ -187,6 +187,14 @@ impl Fmu {
             .ok_or_else(|| err(format!("{} has no variable '{name}'", self.name)))
     }
 
+    /// The start value of Real variable `name`, if it has one.
+    pub fn start_real(&self, name: &str) -> Option<f64> {
+        match self.variable(name)?.1 {
+            ScalarVariableElement::Real(r) => r.start,
+            _ => None,
+        }
+    }
+
     pub fn has(&self, name: &str) -> bool {
         self.variable(name).is_some()
     }
@@ -390,10 +398,20 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     let road = Fmu::load(dist, "road")?;
     let plant = Fmu::load(dist, "plant")?;
     let ctrl = controller.map(|c| Fmu::load(dist, c)).transpose()?;
+    run_loaded(&road, &plant, ctrl.as_ref(), scenario)
+}
+
+/// [`run`] with the FMUs already loaded (a sweep loads each once for all its runs).
+pub fn run_loaded(
+    road: &Fmu,
+    plant: &Fmu,
+    ctrl: Option<&Fmu>,
+    scenario: &Scenario,
+) -> Result<Run, MasterError> {
     let [road_params, plant_params, ctrl_params] =
-        scenario_parameters(scenario, &road, &plant, ctrl.as_ref())?;
+        scenario_parameters(scenario, road, plant, ctrl)?;
     let mut record: Vec<String> = RECORD.iter().map(|s| s.to_string()).collect();
-    if let Some(c) = &ctrl {
+    if let Some(c) = ctrl {
         record.extend(
             CONTROLLER_RECORD
                 .iter()
@@ -403,14 +421,14 @@ pub fn run(dist: &Path, scenario: &Scenario, controller: Option<&str>) -> Result
     }
     simulate(&Setup {
         road: RoadSource::Fmu(Participant {
-            fmu: &road,
+            fmu: road,
             params: &road_params,
         }),
         plant: Participant {
-            fmu: &plant,
+            fmu: plant,
             params: &plant_params,
         },
-        controller: ctrl.as_ref().map(|fmu| Participant {
+        controller: ctrl.map(|fmu| Participant {
             fmu,
             params: &ctrl_params,
         }),

@@ -4,3 +4,5 @@ pub mod cosim;
 pub mod metrics;
 pub mod report;
 pub mod structure;
+pub mod sweep;
+pub mod sweep_out;

@@ -4,6 +4,9 @@
 //! * `master compare --scenarios scenarios --controllers hinf_sf,hinf_of --out results`:
 //!   every scenario with the passive car and each controller, in parallel, then a table per
 //!   scenario, a summary, plots and `results/report.md`.
+//! * `master sweep sweeps/mass_delay.json --out results/sweep`: a robustness sweep (README
+//!   "Robustness sweeps"): the run table in parallel, `runs.csv`, `runs.parquet`, `report.md`
+//!   and `cdf.svg`.
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -60,6 +63,36 @@ enum Command {
         #[arg(long)]
         designs: Option<PathBuf>,
     },
+    /// A robustness sweep: a base scenario with parameters swept over grids or seeded
+    /// distributions, every point with every controller, in parallel; one row per run in
+    /// runs.csv and runs.parquet, statistics and a worst-case map in report.md, CDFs in cdf.svg.
+    Sweep {
+        /// The sweep file (JSON; README "Robustness sweeps").
+        spec: PathBuf,
+        #[arg(long, default_value = "results/sweep")]
+        out: PathBuf,
+        /// Only the runs `START..END` of the run table (0-based, END excluded): a chunk of a
+        /// sweep shared across machines; the rows keep their run numbers.
+        #[arg(long, value_parser = parse_range)]
+        runs: Option<std::ops::Range<usize>>,
+        /// Print the run table's size and exit without running.
+        #[arg(long)]
+        dry_run: bool,
+    },
+}
+
+fn parse_range(s: &str) -> Result<std::ops::Range<usize>, String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("'{s}' is not START..END"))?;
+    let (a, b) = (
+        a.parse::<usize>().map_err(|e| format!("'{a}': {e}"))?,
+        b.parse::<usize>().map_err(|e| format!("'{b}': {e}"))?,
+    );
+    if a > b {
+        return Err(format!("{a}..{b}: START is after END"));
+    }
+    Ok(a..b)
 }
 
 /// One scenario with one controller, described for another tool.
@@ -173,6 +206,74 @@ fn compare(
     Ok(format!("W_k RMS seat acceleration [m/s²] (vs passive):\n\n{summary}\n{}{} runs in {wall:.1} s; report: {}\n", design_table.map(|t| format!("Designs:\n\n{t}\n")).unwrap_or_default(), runs.len(), out.join("report.md").display()))
 }
 
+fn sweep(
+    dist: &Path,
+    spec: &Path,
+    out: &Path,
+    runs: Option<std::ops::Range<usize>>,
+    dry_run: bool,
+) -> Result<String, MasterError> {
+    use master::sweep::{Fmus, Sweep};
+    use master::sweep_out::{csv, plot_cdf, report, write_parquet};
+    let sweep = Sweep::load(spec)?;
+    let all = sweep.jobs()?;
+    let total = all.len();
+    let jobs = match runs {
+        Some(r) if r.end > total => {
+            return Err(MasterError(format!(
+                "--runs {}..{}: the run table has {total} runs",
+                r.start, r.end
+            )))
+        }
+        Some(r) => all[r].to_vec(),
+        None => all,
+    };
+    if dry_run {
+        return Ok(format!(
+            "{}: {total} runs ({} points x {} controllers); would run {}\n",
+            sweep.spec.name,
+            total / sweep.spec.controllers.len(),
+            sweep.spec.controllers.len(),
+            jobs.len()
+        ));
+    }
+    let fmus = Fmus::load(dist, &sweep.spec.controllers)?;
+    let io = |e: std::io::Error| MasterError(format!("{}: {e}", out.display()));
+    std::fs::create_dir_all(out).map_err(io)?;
+    let bar = ProgressBar::new(jobs.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} ETA {eta} {msg}")
+            .expect("valid template"),
+    );
+    let t0 = std::time::Instant::now();
+    let rows: Vec<_> = jobs
+        .par_iter()
+        .with_max_len(1)
+        .map(|j| {
+            let r = fmus.run(j, sweep.spec.stroke_max);
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let wall = t0.elapsed().as_secs_f64();
+    let names = sweep.parameter_names();
+    std::fs::write(out.join("runs.csv"), csv(&names, &rows)).map_err(io)?;
+    write_parquet(&out.join("runs.parquet"), &names, &rows)?;
+    let text = report(&sweep, &rows, wall);
+    std::fs::write(out.join("report.md"), &text).map_err(io)?;
+    plot_cdf(&out.join("cdf.svg"), &sweep, &rows)?;
+    let failed = rows
+        .iter()
+        .filter(|r| matches!(r.outcome, master::sweep::Outcome::Failed(_)))
+        .count();
+    Ok(format!(
+        "{} runs ({failed} failed) in {wall:.1} s; {}\n",
+        rows.len(),
+        out.join("report.md").display()
+    ))
+}
+
 fn main() {
     let cli = Cli::parse();
     let result = match &cli.command {
@@ -217,6 +318,12 @@ fn main() {
             designs,
         } => scenarios_in(scenarios)
             .and_then(|s| compare(&cli.dist, &s, controllers, out, designs.as_deref())),
+        Command::Sweep {
+            spec,
+            out,
+            runs,
+            dry_run,
+        } => sweep(&cli.dist, spec, out, runs.clone(), *dry_run),
     };
     match result {
         Ok(msg) => print!("{msg}"),

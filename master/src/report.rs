@@ -174,6 +174,11 @@ const COLORS: [RGBColor; 9] = [
     RGBColor(23, 190, 207),
 ];
 
+/// The `k`-th colour of the plots (passive black first).
+pub fn color(k: usize) -> RGBColor {
+    COLORS[k % COLORS.len()]
+}
+
 /// Seat acceleration against time and its PSD (Welch), passive and each controller: one SVG.
 pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result<(), MasterError> {
     let e = |x: String| MasterError(format!("plot {}: {x}", path.display()));

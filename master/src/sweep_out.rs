@@ -1,0 +1,552 @@
+//! A sweep's results: the run table as CSV and Parquet, the report (statistics per controller,
+//! limit shares, worst-case map) and the plot of each controller's empirical CDF.
+
+use crate::cosim::{err, MasterError};
+use crate::sweep::{metric_values, Outcome, Row, Sweep, METRICS};
+use parquet::basic::{LogicalType, Repetition, Type as Physical};
+const OPTIONAL: Repetition = Repetition::OPTIONAL;
+const REQUIRED: Repetition = Repetition::REQUIRED;
+use parquet::data_type::{BoolType, ByteArray, ByteArrayType, DoubleType, Int64Type};
+use parquet::file::properties::WriterProperties;
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::Type;
+use plotters::prelude::*;
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::sync::Arc;
+
+/// A swept value as a number (Booleans as 0/1).
+fn number(v: &Value) -> f64 {
+    v.as_f64()
+        .or_else(|| v.as_bool().map(|b| b as u8 as f64))
+        .unwrap_or(f64::NAN)
+}
+
+/// The flag columns after the metrics.
+const FLAGS: [&str; 3] = ["stroke_exceeded", "tyre_lift_off", "saturated_share"];
+
+fn header(names: &[String]) -> Vec<String> {
+    let mut h: Vec<String> = ["run", "point", "controller"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    h.extend(names.iter().cloned());
+    h.extend(["status", "message"].map(String::from));
+    h.extend(METRICS.map(String::from));
+    h.extend(FLAGS.map(String::from));
+    h.push("loop_seconds".into());
+    h
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The rows as CSV: one line per run; a failed run's metrics are empty.
+pub fn csv(names: &[String], rows: &[Row]) -> String {
+    let mut s = header(names).join(",");
+    s.push('\n');
+    for r in rows {
+        let j = &r.job;
+        write!(s, "{},{},{}", j.run, j.point, j.controller_name()).unwrap();
+        for v in &j.values {
+            write!(s, ",{}", csv_field(&v.to_string())).unwrap();
+        }
+        match &r.outcome {
+            Outcome::Ok(f, flags) => {
+                s += ",ok,";
+                for v in metric_values(f) {
+                    write!(s, ",{v:e}").unwrap();
+                }
+                write!(
+                    s,
+                    ",{},{},{:e}",
+                    flags.stroke_exceeded, flags.tyre_lift_off, flags.saturated_share
+                )
+                .unwrap();
+            }
+            Outcome::Failed(m) => {
+                write!(s, ",failed,{}", csv_field(m)).unwrap();
+                s += &",".repeat(METRICS.len() + FLAGS.len());
+            }
+        }
+        writeln!(s, ",{:e}", r.loop_seconds).unwrap();
+    }
+    s
+}
+
+/// The rows as one Parquet row group: `run`, `point` INT64; `controller`, `status`, `message`
+/// UTF-8; the swept values and `loop_seconds` DOUBLE; the metrics and `saturated_share`
+/// optional DOUBLE and the two flags optional BOOLEAN (null for a failed run).
+pub fn write_parquet(path: &Path, names: &[String], rows: &[Row]) -> Result<(), MasterError> {
+    let e = |x: parquet::errors::ParquetError| err(format!("{}: {x}", path.display()));
+    let column = |name: &str, physical: Physical, repetition: Repetition| {
+        let mut b = Type::primitive_type_builder(name, physical).with_repetition(repetition);
+        if physical == Physical::BYTE_ARRAY {
+            b = b.with_logical_type(Some(LogicalType::String));
+        }
+        b.build().map(Arc::new)
+    };
+    use Physical::{BOOLEAN, BYTE_ARRAY, DOUBLE, INT64};
+    let mut fields = vec![
+        column("run", INT64, REQUIRED),
+        column("point", INT64, REQUIRED),
+        column("controller", BYTE_ARRAY, REQUIRED),
+    ];
+    fields.extend(names.iter().map(|n| column(n, DOUBLE, REQUIRED)));
+    fields.push(column("status", BYTE_ARRAY, REQUIRED));
+    fields.push(column("message", BYTE_ARRAY, REQUIRED));
+    fields.extend(METRICS.iter().map(|n| column(n, DOUBLE, OPTIONAL)));
+    fields.push(column(FLAGS[0], BOOLEAN, OPTIONAL));
+    fields.push(column(FLAGS[1], BOOLEAN, OPTIONAL));
+    fields.push(column(FLAGS[2], DOUBLE, OPTIONAL));
+    fields.push(column("loop_seconds", DOUBLE, REQUIRED));
+    let fields = fields
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(e)?;
+    let schema = Arc::new(
+        Type::group_type_builder("sweep")
+            .with_fields(fields)
+            .build()
+            .map_err(e)?,
+    );
+    let file = std::fs::File::create(path)
+        .map_err(|x| err(format!("cannot write {}: {x}", path.display())))?;
+    let mut writer =
+        SerializedFileWriter::new(file, schema, Arc::new(WriterProperties::builder().build()))
+            .map_err(e)?;
+    let mut group = writer.next_row_group().map_err(e)?;
+    let ok: Vec<Option<&crate::sweep::Flags>> = rows
+        .iter()
+        .map(|r| match &r.outcome {
+            Outcome::Ok(_, f) => Some(f),
+            Outcome::Failed(_) => None,
+        })
+        .collect();
+    let definition: Vec<i16> = ok.iter().map(|f| f.is_some() as i16).collect();
+    let strings = |f: &dyn Fn(&Row) -> String| -> Vec<ByteArray> {
+        rows.iter()
+            .map(|r| ByteArray::from(f(r).as_str()))
+            .collect()
+    };
+    let mut next = 0usize;
+    while let Some(mut col) = group.next_column().map_err(e)? {
+        let k = next;
+        next += 1;
+        let np = names.len();
+        match k {
+            0 | 1 => {
+                let v: Vec<i64> = rows
+                    .iter()
+                    .map(|r| if k == 0 { r.job.run } else { r.job.point } as i64)
+                    .collect();
+                col.typed::<Int64Type>().write_batch(&v, None, None)
+            }
+            2 => col.typed::<ByteArrayType>().write_batch(
+                &strings(&|r| r.job.controller_name().to_string()),
+                None,
+                None,
+            ),
+            k if k < 3 + np => {
+                let v: Vec<f64> = rows.iter().map(|r| number(&r.job.values[k - 3])).collect();
+                col.typed::<DoubleType>().write_batch(&v, None, None)
+            }
+            k if k == 3 + np || k == 4 + np => {
+                let status = k == 3 + np;
+                col.typed::<ByteArrayType>().write_batch(
+                    &strings(&|r| match (&r.outcome, status) {
+                        (Outcome::Ok(..), true) => "ok".into(),
+                        (Outcome::Failed(_), true) => "failed".into(),
+                        (Outcome::Ok(..), false) => String::new(),
+                        (Outcome::Failed(m), false) => m.clone(),
+                    }),
+                    None,
+                    None,
+                )
+            }
+            k if k < 5 + np + METRICS.len() => {
+                let m = k - 5 - np;
+                let v: Vec<f64> = rows
+                    .iter()
+                    .filter_map(|r| match &r.outcome {
+                        Outcome::Ok(f, _) => Some(metric_values(f)[m]),
+                        Outcome::Failed(_) => None,
+                    })
+                    .collect();
+                col.typed::<DoubleType>()
+                    .write_batch(&v, Some(&definition), None)
+            }
+            k if k < 7 + np + METRICS.len() => {
+                let first = k == 5 + np + METRICS.len();
+                let v: Vec<bool> = ok
+                    .iter()
+                    .flatten()
+                    .map(|f| {
+                        if first {
+                            f.stroke_exceeded
+                        } else {
+                            f.tyre_lift_off
+                        }
+                    })
+                    .collect();
+                col.typed::<BoolType>()
+                    .write_batch(&v, Some(&definition), None)
+            }
+            k if k == 7 + np + METRICS.len() => {
+                let v: Vec<f64> = ok.iter().flatten().map(|f| f.saturated_share).collect();
+                col.typed::<DoubleType>()
+                    .write_batch(&v, Some(&definition), None)
+            }
+            _ => {
+                let v: Vec<f64> = rows.iter().map(|r| r.loop_seconds).collect();
+                col.typed::<DoubleType>().write_batch(&v, None, None)
+            }
+        }
+        .map_err(e)?;
+        col.close().map_err(e)?;
+    }
+    group.close().map_err(e)?;
+    writer.close().map_err(e)?;
+    Ok(())
+}
+
+/// `(mean, median, p95, worst)` of values (p95 by nearest rank).
+pub fn statistics(values: &[f64]) -> Option<[f64; 4]> {
+    if values.is_empty() {
+        return None;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    let median = if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    };
+    let p95 = v[((0.95 * n as f64).ceil() as usize).clamp(1, n) - 1];
+    Some([v.iter().sum::<f64>() / n as f64, median, p95, v[n - 1]])
+}
+
+/// The cells of one map axis: each distinct value when there are at most 8, else 6 equal bins
+/// of the range. `(labels, cell of each value)`.
+fn axis(values: &[f64]) -> (Vec<String>, Vec<usize>) {
+    let mut distinct: Vec<f64> = values.to_vec();
+    distinct.sort_by(f64::total_cmp);
+    distinct.dedup();
+    if distinct.len() <= 8 {
+        let cell = values
+            .iter()
+            .map(|v| distinct.iter().position(|d| d == v).unwrap_or(0))
+            .collect();
+        return (distinct.iter().map(|d| format!("{d}")).collect(), cell);
+    }
+    let (lo, hi) = (distinct[0], distinct[distinct.len() - 1]);
+    let bins = 6;
+    let width = (hi - lo) / bins as f64;
+    let cell = values
+        .iter()
+        .map(|v| (((v - lo) / width) as usize).min(bins - 1))
+        .collect();
+    let labels = (0..bins)
+        .map(|b| {
+            format!(
+                "{:.4}–{:.4}",
+                lo + width * b as f64,
+                lo + width * (b + 1) as f64
+            )
+        })
+        .collect();
+    (labels, cell)
+}
+
+/// The report: the sweep, then per controller the share of failed and limit-breaking runs and
+/// each metric's mean, median, p95 and worst; the worst W_k seat over a map of two parameters.
+pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
+    let s = &sweep.spec;
+    let names = sweep.parameter_names();
+    let mut t = format!(
+        "# Sweep `{}`\n\n{}\n\nBase scenario `{}` ({}), {} runs: {} parameter points × {} controllers, in {:.1} s wall time (`master sweep`). Every point is run with every controller. Rows in `runs.csv` and `runs.parquet`.\n\n",
+        s.name,
+        s.description,
+        sweep.base.name,
+        sweep.base.description,
+        rows.len(),
+        rows.len() / s.controllers.len().max(1),
+        s.controllers.len(),
+        wall_seconds,
+    );
+    let draws = match (s.samples, s.latin_hypercube) {
+        (Some(n), true) => format!("{n} Latin-hypercube draws (seed {})", s.seed),
+        (Some(n), false) => format!("{n} random draws (seed {})", s.seed),
+        (None, _) => "grids only".into(),
+    };
+    writeln!(
+        t,
+        "Parameters ({draws}; the same draws at every grid point):\n"
+    )
+    .unwrap();
+    t += "| parameter | swept as |\n|---|---|\n";
+    for (n, d) in &s.parameters {
+        writeln!(t, "| `{n}` | {d} |").unwrap();
+    }
+    t += "\n## Limits and failures (share of runs)\n\n";
+    writeln!(
+        t,
+        "| controller | runs | failed | stroke > {} m | tyre lift-off | saturated at any time | mean time saturated |\n|---|---|---|---|---|---|---|",
+        s.stroke_max
+    )
+    .unwrap();
+    let share = |k: usize, n: usize| format!("{:.1} %", 100.0 * k as f64 / n.max(1) as f64);
+    for c in &s.controllers {
+        let mine: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.job.controller_name() == c)
+            .collect();
+        let n = mine.len();
+        let flags: Vec<_> = mine
+            .iter()
+            .filter_map(|r| match &r.outcome {
+                Outcome::Ok(_, f) => Some(*f),
+                Outcome::Failed(_) => None,
+            })
+            .collect();
+        let count =
+            |p: &dyn Fn(&crate::sweep::Flags) -> bool| flags.iter().filter(|f| p(f)).count();
+        let mean_sat =
+            flags.iter().map(|f| f.saturated_share).sum::<f64>() / flags.len().max(1) as f64;
+        writeln!(
+            t,
+            "| `{c}` | {n} | {} | {} | {} | {} | {:.2} % |",
+            share(n - flags.len(), n),
+            share(count(&|f| f.stroke_exceeded), n),
+            share(count(&|f| f.tyre_lift_off), n),
+            share(count(&|f| f.saturated_share > 0.0), n),
+            100.0 * mean_sat
+        )
+        .unwrap();
+    }
+    let failures: Vec<&Row> = rows
+        .iter()
+        .filter(|r| matches!(r.outcome, Outcome::Failed(_)))
+        .collect();
+    if !failures.is_empty() {
+        t += "\nFailed runs (first 10):\n\n";
+        for r in failures.iter().take(10) {
+            if let Outcome::Failed(m) = &r.outcome {
+                writeln!(
+                    t,
+                    "- run {} (`{}`): {m}",
+                    r.job.run,
+                    r.job.controller_name()
+                )
+                .unwrap();
+            }
+        }
+    }
+    t += "\n## Metrics over the runs that finished: mean / median / p95 / worst\n\n";
+    t += "| controller |";
+    for m in METRICS {
+        write!(t, " {m} |").unwrap();
+    }
+    t += "\n|---|";
+    t += &"---|".repeat(METRICS.len());
+    t.push('\n');
+    for c in &s.controllers {
+        write!(t, "| `{c}` |").unwrap();
+        let figs: Vec<[f64; 10]> = rows
+            .iter()
+            .filter(|r| r.job.controller_name() == c)
+            .filter_map(|r| match &r.outcome {
+                Outcome::Ok(f, _) => Some(metric_values(f)),
+                Outcome::Failed(_) => None,
+            })
+            .collect();
+        for m in 0..METRICS.len() {
+            let v: Vec<f64> = figs.iter().map(|f| f[m]).collect();
+            match statistics(&v) {
+                Some([mean, med, p95, worst]) => {
+                    write!(t, " {mean:.4} / {med:.4} / {p95:.4} / {worst:.4} |").unwrap()
+                }
+                None => t += " - |",
+            }
+        }
+        t.push('\n');
+    }
+    t += "\n![W_k RMS seat acceleration: empirical CDF per controller](cdf.svg)\n";
+    let map = s.map.clone().or_else(|| match names.as_slice() {
+        [a, b, ..] => Some([a.clone(), b.clone()]),
+        _ => None,
+    });
+    if let Some([a, b]) = map {
+        let (ia, ib) = (
+            names.iter().position(|n| *n == a).unwrap_or(0),
+            names.iter().position(|n| *n == b).unwrap_or(0),
+        );
+        let va: Vec<f64> = rows.iter().map(|r| number(&r.job.values[ia])).collect();
+        let vb: Vec<f64> = rows.iter().map(|r| number(&r.job.values[ib])).collect();
+        let ((la, ca), (lb, cb)) = (axis(&va), axis(&vb));
+        writeln!(
+            t,
+            "\n## Worst W_k RMS seat acceleration [m/s²] over `{a}` (rows) × `{b}` (columns)\n\n`failed` where a run of the cell failed (instability or FMU error).\n"
+        )
+        .unwrap();
+        for c in &s.controllers {
+            writeln!(t, "\n**`{c}`**\n").unwrap();
+            t += &format!("| {a} \\ {b} |");
+            for l in &lb {
+                write!(t, " {l} |").unwrap();
+            }
+            t += "\n|---|";
+            t += &"---|".repeat(lb.len());
+            t.push('\n');
+            for (i, l) in la.iter().enumerate() {
+                write!(t, "| {l} |").unwrap();
+                for j in 0..lb.len() {
+                    let cell: Vec<&Row> = rows
+                        .iter()
+                        .enumerate()
+                        .filter(|(k, r)| ca[*k] == i && cb[*k] == j && r.job.controller_name() == c)
+                        .map(|(_, r)| r)
+                        .collect();
+                    let failed = cell.iter().any(|r| matches!(r.outcome, Outcome::Failed(_)));
+                    let worst = cell
+                        .iter()
+                        .filter_map(|r| match &r.outcome {
+                            Outcome::Ok(f, _) => Some(f.wk_rms_seat),
+                            Outcome::Failed(_) => None,
+                        })
+                        .fold(f64::NAN, f64::max);
+                    t += &match (cell.is_empty(), failed) {
+                        (true, _) => " |".to_string(),
+                        (false, true) => " failed |".to_string(),
+                        (false, false) => format!(" {worst:.4} |"),
+                    };
+                }
+                t.push('\n');
+            }
+        }
+    }
+    t
+}
+
+/// `v` to two significant digits, without an exponent (axis labels).
+fn significant(v: f64) -> String {
+    let decimals = (1 - v.abs().log10().floor() as i32).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
+/// The empirical CDF of W_k RMS seat acceleration of each controller (log axis), failed runs
+/// left out (the report counts them).
+pub fn plot_cdf(path: &Path, sweep: &Sweep, rows: &[Row]) -> Result<(), MasterError> {
+    let e = |x: String| err(format!("plot {}: {x}", path.display()));
+    let curves: Vec<(String, Vec<f64>)> = sweep
+        .spec
+        .controllers
+        .iter()
+        .map(|c| {
+            let mut v: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.job.controller_name() == c)
+                .filter_map(|r| match &r.outcome {
+                    Outcome::Ok(f, _) if f.wk_rms_seat > 0.0 => Some(f.wk_rms_seat),
+                    _ => None,
+                })
+                .collect();
+            v.sort_by(f64::total_cmp);
+            (c.clone(), v)
+        })
+        .collect();
+    let all = curves.iter().flat_map(|c| c.1.iter().copied());
+    let (lo, hi) = all.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo / 1.2, hi * 1.2)
+    } else {
+        (1e-3, 1.0)
+    };
+    let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!(
+                "Sweep {}: W_k-weighted RMS seat acceleration, empirical CDF",
+                sweep.spec.name
+            ),
+            ("sans-serif", 20),
+        )
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(lo.log10()..hi.log10(), 0.0..1.0)
+        .map_err(|x| e(x.to_string()))?;
+    chart
+        .configure_mesh()
+        .x_desc("W_k RMS seat acceleration [m/s²] (log)")
+        .y_desc("share of runs ≤ x")
+        .x_labels(10)
+        .x_label_formatter(&|v| significant(10f64.powf(*v)))
+        .draw()
+        .map_err(|x| e(x.to_string()))?;
+    for (k, (name, v)) in curves.iter().enumerate() {
+        let color = crate::report::color(k);
+        let n = v.len().max(1) as f64;
+        let steps: Vec<(f64, f64)> = v
+            .iter()
+            .enumerate()
+            .flat_map(|(i, x)| [(x.log10(), i as f64 / n), (x.log10(), (i + 1) as f64 / n)])
+            .collect();
+        chart
+            .draw_series(LineSeries::new(steps, color.stroke_width(2)))
+            .map_err(|x| e(x.to_string()))?
+            .label(name.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|x| e(x.to_string()))?;
+    root.present().map_err(|x| e(x.to_string()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_labels_have_two_significant_digits() {
+        assert_eq!(significant(0.012345), "0.012");
+        assert_eq!(significant(0.25), "0.25");
+        assert_eq!(significant(3.7), "3.7");
+        assert_eq!(significant(42.0), "42");
+    }
+
+    #[test]
+    fn statistics_of_known_samples() {
+        let v: Vec<f64> = (1..=20).map(f64::from).collect();
+        assert_eq!(statistics(&v), Some([10.5, 10.5, 19.0, 20.0]));
+        assert_eq!(statistics(&[3.0, 1.0, 2.0]), Some([2.0, 2.0, 3.0, 3.0]));
+        assert_eq!(statistics(&[]), None);
+    }
+
+    #[test]
+    fn a_map_axis_keeps_few_values_and_bins_many() {
+        let (labels, cells) = axis(&[1800.0, 1200.0, 1500.0, 1200.0]);
+        assert_eq!(labels, ["1200", "1500", "1800"]);
+        assert_eq!(cells, [2, 0, 1, 0]);
+        let v: Vec<f64> = (0..=60).map(|k| k as f64 / 60.0).collect();
+        let (labels, cells) = axis(&v);
+        assert_eq!(labels.len(), 6);
+        assert_eq!((cells[0], cells[30], cells[60]), (0, 3, 5));
+    }
+}

@@ -1,0 +1,205 @@
+//! `master sweep` on the FMUs `make` built into dist/: every row is the run `master run` would
+//! make of its scenario (same figures to the last bit), a chunk of the run table gives the same
+//! rows as the whole sweep, a run that fails is recorded with its message and the sweep goes on,
+//! and the Parquet file holds what the CSV holds (read back with the parquet crate's reader;
+//! `tests/python/test_sweep.py` reads it with pyarrow).
+
+use master::cosim::{run, Scenario};
+use master::report::figures;
+use master::sweep::{metric_values, Sweep, METRICS};
+use parquet::file::reader::{FileReader, SerializedFileReader};
+use parquet::record::Field;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A small sweep beside a short bump scenario, in a fresh directory: masses on a grid (one that
+/// makes no car: the plant refuses it when it is set), delays drawn, two controllers.
+fn sweep_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("master-sweep-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("bump.json"),
+        r#"{"name": "short_bump", "duration": 1.5, "step": 0.001,
+            "road": {"profile": 1, "bump_height": 0.05, "bump_length": 5.0, "side": 0,
+                     "speed": 15.0, "start_distance": 1.5}}"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("sweep.json"),
+        r#"{"name": "t", "base": "bump.json", "controllers": ["passive", "hinf_sf"],
+            "seed": 5, "samples": 3, "latin_hypercube": true,
+            "parameters": {"plant.m_s": {"grid": [1200, -1.0, 1800]},
+                           "plant.tau": {"uniform": [0.0, 0.02]}},
+            "map": ["plant.m_s", "plant.tau"]}"#,
+    )
+    .unwrap();
+    dir
+}
+
+fn master(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_master"))
+        .arg("--dist")
+        .arg(root().join("dist"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "master {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn csv_rows(path: &Path) -> Vec<Vec<String>> {
+    // No field of these sweeps is quoted (messages have no commas here: checked below).
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect()
+}
+
+#[test]
+fn a_sweep_is_its_runs_row_by_row_and_a_chunk_is_the_same_rows() {
+    let dir = sweep_dir("whole");
+    let spec = dir.join("sweep.json");
+    let out = dir.join("out");
+    let msg = master(&[
+        "sweep",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    // 3 masses × 3 draws × 2 controllers; the 6 runs at m_s = −1 fail, are recorded, and the
+    // sweep goes on.
+    assert!(msg.starts_with("18 runs (6 failed)"), "{msg}");
+    let rows = csv_rows(&out.join("runs.csv"));
+    let header = &rows[0];
+    assert_eq!(
+        header[..5],
+        ["run", "point", "controller", "plant.m_s", "plant.tau"]
+    );
+    let col = |n: &str| header.iter().position(|h| h == n).unwrap();
+    let rows = &rows[1..];
+    assert_eq!(rows.len(), 18);
+    let sweep = Sweep::load(&spec).unwrap();
+    let jobs = sweep.jobs().unwrap();
+    for (r, job) in rows.iter().zip(&jobs) {
+        assert_eq!(r[col("run")], job.run.to_string());
+        assert_eq!(r[col("controller")], job.controller_name());
+        if job.values[0].as_f64() == Some(-1.0) {
+            assert_eq!(r[col("status")], "failed");
+            assert!(
+                r[col("message")].contains("plant: setting 'm_s' = Real(-1.0): Error"),
+                "{r:?}"
+            );
+            assert!(r[col(METRICS[0])].is_empty());
+            continue;
+        }
+        assert_eq!(r[col("status")], "ok", "{r:?}");
+        // The row is what `master run` of its scenario gives, to the last bit.
+        let scenario: &Scenario = &job.scenario;
+        let f = figures(
+            &run(&root().join("dist"), scenario, job.controller.as_deref()).unwrap(),
+            scenario,
+        );
+        for (m, v) in METRICS.iter().zip(metric_values(&f)) {
+            assert_eq!(
+                r[col(m)].parse::<f64>().unwrap(),
+                v,
+                "{m} of run {}",
+                job.run
+            );
+        }
+        assert_eq!(
+            r[col("tyre_lift_off")],
+            (f.max_tyre_ratio >= 1.0).to_string()
+        );
+    }
+    // The same draw of τ at every mass; the passive car does not feel τ.
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("| `hinf_sf` | 9 | 33.3 % |"), "{report}");
+    assert!(report.contains("over `plant.m_s` (rows) × `plant.tau` (columns)"));
+    assert!(std::fs::read_to_string(out.join("cdf.svg"))
+        .unwrap()
+        .contains("<svg"));
+
+    // A chunk: runs 7..12 only, the same rows with the same numbers (loop time aside).
+    let chunk = dir.join("chunk");
+    master(&[
+        "sweep",
+        spec.to_str().unwrap(),
+        "--out",
+        chunk.to_str().unwrap(),
+        "--runs",
+        "7..12",
+    ]);
+    let part = csv_rows(&chunk.join("runs.csv"));
+    assert_eq!(part.len(), 1 + 5);
+    let last = header.len() - 1;
+    for (p, whole) in part[1..].iter().zip(&rows[7..12]) {
+        assert_eq!(p[..last], whole[..last]);
+    }
+
+    // The Parquet file holds the CSV's rows: a null metric where the run failed.
+    let reader =
+        SerializedFileReader::new(std::fs::File::open(out.join("runs.parquet")).unwrap()).unwrap();
+    assert_eq!(reader.metadata().file_metadata().num_rows(), 18);
+    for (k, record) in reader.get_row_iter(None).unwrap().enumerate() {
+        let record = record.unwrap();
+        let fields: Vec<(&String, &Field)> = record.get_column_iter().collect();
+        assert_eq!(fields.len(), header.len());
+        for (((name, field), text), column) in fields.iter().zip(&rows[k]).zip(header) {
+            assert_eq!(*name, column);
+            match field {
+                Field::Null => assert!(text.is_empty(), "{name} of row {k}"),
+                Field::Double(v) if *name != "loop_seconds" => {
+                    assert_eq!(*v, text.parse::<f64>().unwrap(), "{name} of row {k}")
+                }
+                Field::Long(v) => assert_eq!(v.to_string(), *text),
+                Field::Bool(v) => assert_eq!(v.to_string(), *text),
+                Field::Str(v) => assert_eq!(v, text),
+                _ => {}
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_sweeps_and_chunks_are_refused_with_the_reason() {
+    let dir = sweep_dir("bad");
+    let spec = dir.join("sweep.json");
+    let e = Command::new(env!("CARGO_BIN_EXE_master"))
+        .args([
+            "sweep",
+            spec.to_str().unwrap(),
+            "--runs",
+            "10..40",
+            "--dry-run",
+        ])
+        .output()
+        .unwrap();
+    assert!(!e.status.success());
+    assert!(String::from_utf8_lossy(&e.stderr).contains("the run table has 18 runs"));
+    let dry = master(&["sweep", spec.to_str().unwrap(), "--dry-run"]);
+    assert!(dry.contains("18 runs (9 points x 2 controllers)"), "{dry}");
+    std::fs::write(
+        dir.join("sweep.json"),
+        r#"{"name": "t", "base": "missing.json", "controllers": ["hinf_sf"],
+            "parameters": {"plant.m_s": {"grid": [1200]}}}"#,
+    )
+    .unwrap();
+    let e = Sweep::load(&spec).unwrap_err().0;
+    assert!(
+        e.contains("cannot read scenario") && e.contains("missing.json"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
