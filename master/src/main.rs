@@ -125,6 +125,28 @@ fn scenarios_in(path: &Path) -> Result<Vec<Scenario>, MasterError> {
     files.iter().map(|f| Scenario::load(f)).collect()
 }
 
+/// `f` of every job in parallel (one job per task: runs differ in length), in order, with a
+/// progress bar and its ETA; and the wall time [s].
+fn in_parallel<T: Sync, R: Send>(jobs: &[T], f: impl Fn(&T) -> R + Sync) -> (Vec<R>, f64) {
+    let bar = ProgressBar::new(jobs.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} ETA {eta} {msg}")
+            .expect("valid template"),
+    );
+    let t0 = std::time::Instant::now();
+    let out = jobs
+        .par_iter()
+        .with_max_len(1)
+        .map(|j| {
+            let r = f(j);
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    (out, t0.elapsed().as_secs_f64())
+}
+
 fn compare(
     dist: &Path,
     scenarios: &[Scenario],
@@ -147,23 +169,11 @@ fn compare(
             )
         })
         .collect();
-    let bar = ProgressBar::new(jobs.len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} {msg}")
-            .expect("valid template"),
-    );
-    let t0 = std::time::Instant::now();
-    let runs: Vec<_> = jobs
-        .par_iter()
-        .with_max_len(1)
-        .map(|(i, c)| {
-            let r = run(dist, &scenarios[*i], c.as_deref());
-            bar.inc(1);
-            r.map(|r| (*i, c.clone().unwrap_or_else(|| "passive".into()), r))
-        })
-        .collect::<Result<_, _>>()?;
-    bar.finish_and_clear();
-    let wall = t0.elapsed().as_secs_f64();
+    let (runs, wall) = in_parallel(&jobs, |(i, c)| {
+        run(dist, &scenarios[*i], c.as_deref())
+            .map(|r| (*i, c.clone().unwrap_or_else(|| "passive".into()), r))
+    });
+    let runs: Vec<_> = runs.into_iter().collect::<Result<_, _>>()?;
     let mut tables = String::new();
     let mut all: Vec<Vec<(String, Figures)>> = Vec::new();
     for (i, s) in scenarios.iter().enumerate() {
@@ -240,23 +250,7 @@ fn sweep(
     let fmus = Fmus::load(dist, &sweep.spec.controllers)?;
     let io = |e: std::io::Error| MasterError(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(io)?;
-    let bar = ProgressBar::new(jobs.len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} ETA {eta} {msg}")
-            .expect("valid template"),
-    );
-    let t0 = std::time::Instant::now();
-    let rows: Vec<_> = jobs
-        .par_iter()
-        .with_max_len(1)
-        .map(|j| {
-            let r = fmus.run(j, sweep.spec.stroke_max);
-            bar.inc(1);
-            r
-        })
-        .collect();
-    bar.finish_and_clear();
-    let wall = t0.elapsed().as_secs_f64();
+    let (rows, wall) = in_parallel(&jobs, |j| fmus.run(j, sweep.spec.stroke_max));
     let names = sweep.parameter_names();
     std::fs::write(out.join("runs.csv"), csv(&names, &rows)).map_err(io)?;
     write_parquet(&out.join("runs.parquet"), &names, &rows)?;
