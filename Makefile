@@ -88,11 +88,12 @@ $(STAMP)/apt:
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq python3-venv; fi
 	@touch $@
 
-$(STAMP)/venv: tests/python/requirements.txt | $(STAMP)/apt
+$(STAMP)/venv: tests/python/requirements.txt python/pyproject.toml | $(STAMP)/apt
 	@mkdir -p $(STAMP)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -r tests/python/requirements.txt
+	$(PY) -m pip install -q -e python
 	@touch $@
 
 fmus: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp

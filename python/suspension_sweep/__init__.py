@@ -1,0 +1,1 @@
+"""`master sweep` on a Dask cluster (README "Robustness sweeps on a cluster")."""
