@@ -33,13 +33,13 @@ all: fmus validate compare sweep
 	@echo
 	@echo "Built: $(FMU_FILES); report: results/report.md"
 
-# Every scenario of scenarios/ with the passive car and each controller (master, in parallel):
-# results/report.md with the tables, the plots and the synthesis summary.
 # The robustness sweep (README "Robustness sweeps"): sprung mass x actuator delay x road seed.
 sweep: $(FMU_FILES) $(STAMP)/release
 	./target/release/master sweep sweeps/mass_delay.json --out results/sweep
 	@sed -n '/^## Limits/,/^## Metrics/p' results/sweep/report.md | sed '$$d'
 
+# Every scenario of scenarios/ with the passive car and each controller (master, in parallel):
+# results/report.md with the tables, the plots and the synthesis summary.
 compare: $(FMU_FILES) $(STAMP)/release
 	./target/release/master compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results --designs dist/synthesis.json
 

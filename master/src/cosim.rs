@@ -57,6 +57,21 @@ pub(crate) fn err(msg: impl Into<String>) -> MasterError {
     MasterError(msg.into())
 }
 
+/// A JSON file of `what` (a scenario, a sweep), parsed and validated; every error names the
+/// file.
+pub(crate) fn load_json<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    what: &str,
+    validate: impl Fn(&T) -> Result<(), String>,
+) -> Result<T, MasterError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| err(format!("cannot read {what} {}: {e}", path.display())))?;
+    let value: T =
+        serde_json::from_str(&text).map_err(|e| err(format!("{what} {}: {e}", path.display())))?;
+    validate(&value).map_err(|e| err(format!("{what} {}: {e}", path.display())))?;
+    Ok(value)
+}
+
 /// A scenario file (`scenarios/*.json`).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -88,13 +103,7 @@ pub struct Scenario {
 
 impl Scenario {
     pub fn load(path: &Path) -> Result<Scenario, MasterError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| err(format!("cannot read scenario {}: {e}", path.display())))?;
-        let s: Scenario = serde_json::from_str(&text)
-            .map_err(|e| err(format!("scenario {}: {e}", path.display())))?;
-        s.validate()
-            .map_err(|e| err(format!("scenario {}: {e}", path.display())))?;
-        Ok(s)
+        load_json(path, "scenario", Scenario::validate)
     }
 
     pub fn validate(&self) -> Result<(), String> {

@@ -259,7 +259,7 @@ fn sweep(
     plot_cdf(&out.join("cdf.svg"), &sweep, &rows)?;
     let failed = rows
         .iter()
-        .filter(|r| matches!(r.outcome, master::sweep::Outcome::Failed(_)))
+        .filter(|r| r.outcome.finished().is_none())
         .count();
     Ok(format!(
         "{} runs ({failed} failed) in {wall:.1} s; {}\n",

@@ -34,7 +34,7 @@
 //! * The run table is a function of the file alone; each run is deterministic, so a sweep
 //!   repeated, or split across machines, gives the same rows.
 
-use crate::cosim::{err, run_loaded, Fmu, MasterError, Run, Scenario};
+use crate::cosim::{err, load_json, run_loaded, Fmu, MasterError, Run, Scenario};
 use crate::report::{figures, Figures};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -166,6 +166,47 @@ fn default_stroke_max() -> f64 {
     0.08
 }
 
+impl SweepSpec {
+    pub fn validate(&self) -> Result<(), String> {
+        if self.controllers.is_empty() {
+            return Err("no controllers".into());
+        }
+        if self.parameters.is_empty() {
+            return Err("no parameters to sweep".into());
+        }
+        for (name, d) in &self.parameters {
+            match name.split_once('.') {
+                Some(("plant" | "road", p)) if !p.is_empty() => {}
+                _ => {
+                    return Err(format!(
+                        "parameter '{name}' must be plant.<name> or road.<name>"
+                    ))
+                }
+            }
+            d.validate(name)?;
+        }
+        let random = self.parameters.values().any(Distribution::is_random);
+        match (random, self.samples) {
+            (true, None | Some(0)) => {
+                return Err("random parameters need \"samples\" >= 1".into());
+            }
+            (false, Some(_)) => {
+                return Err("\"samples\" given but no parameter is random".into());
+            }
+            _ => {}
+        }
+        if let Some(m) = &self.map {
+            if let Some(bad) = m.iter().find(|n| !self.parameters.contains_key(*n)) {
+                return Err(format!("map parameter '{bad}' is not swept"));
+            }
+        }
+        if self.stroke_max.is_nan() || self.stroke_max <= 0.0 {
+            return Err("stroke_max must be > 0".into());
+        }
+        Ok(())
+    }
+}
+
 /// A sweep file with its base scenario.
 #[derive(Debug, Clone)]
 pub struct Sweep {
@@ -194,57 +235,9 @@ impl Job {
 
 impl Sweep {
     pub fn load(path: &Path) -> Result<Sweep, MasterError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| err(format!("cannot read sweep {}: {e}", path.display())))?;
-        let spec: SweepSpec = serde_json::from_str(&text)
-            .map_err(|e| err(format!("sweep {}: {e}", path.display())))?;
-        let base_path = path.parent().unwrap_or(Path::new(".")).join(&spec.base);
-        let base = Scenario::load(&base_path)?;
-        let sweep = Sweep { spec, base };
-        sweep
-            .validate()
-            .map_err(|e| err(format!("sweep {}: {e}", path.display())))?;
-        Ok(sweep)
-    }
-
-    pub fn validate(&self) -> Result<(), String> {
-        let s = &self.spec;
-        if s.controllers.is_empty() {
-            return Err("no controllers".into());
-        }
-        if s.parameters.is_empty() {
-            return Err("no parameters to sweep".into());
-        }
-        for (name, d) in &s.parameters {
-            match name.split_once('.') {
-                Some(("plant" | "road", p)) if !p.is_empty() => {}
-                _ => {
-                    return Err(format!(
-                        "parameter '{name}' must be plant.<name> or road.<name>"
-                    ))
-                }
-            }
-            d.validate(name)?;
-        }
-        let random = s.parameters.values().any(Distribution::is_random);
-        match (random, s.samples) {
-            (true, None | Some(0)) => {
-                return Err("random parameters need \"samples\" >= 1".into());
-            }
-            (false, Some(_)) => {
-                return Err("\"samples\" given but no parameter is random".into());
-            }
-            _ => {}
-        }
-        if let Some(m) = &s.map {
-            if let Some(bad) = m.iter().find(|n| !s.parameters.contains_key(*n)) {
-                return Err(format!("map parameter '{bad}' is not swept"));
-            }
-        }
-        if s.stroke_max.is_nan() || s.stroke_max <= 0.0 {
-            return Err("stroke_max must be > 0".into());
-        }
-        Ok(())
+        let spec: SweepSpec = load_json(path, "sweep", SweepSpec::validate)?;
+        let base = Scenario::load(&path.parent().unwrap_or(Path::new(".")).join(&spec.base))?;
+        Ok(Sweep { spec, base })
     }
 
     pub fn parameter_names(&self) -> Vec<String> {
@@ -372,6 +365,16 @@ pub struct Flags {
 pub enum Outcome {
     Ok(Figures, Flags),
     Failed(String),
+}
+
+impl Outcome {
+    /// The figures and flags of a run that finished; `None` if it failed.
+    pub fn finished(&self) -> Option<(&Figures, &Flags)> {
+        match self {
+            Outcome::Ok(f, g) => Some((f, g)),
+            Outcome::Failed(_) => None,
+        }
+    }
 }
 
 /// Figures and flags of a run that finished; a non-finite or exploding output (strokes beyond
@@ -532,7 +535,7 @@ mod tests {
                 "plant.tau": {"uniform": [0.0, 0.02]}}"#,
             r#", "samples": 4, "seed": 3"#,
         );
-        s.validate().unwrap();
+        s.spec.validate().unwrap();
         let p = s.points();
         assert_eq!(p.len(), 2 * 3 * 4);
         // Names in order: plant.m_s, plant.tau, road.speed.
@@ -705,7 +708,7 @@ mod tests {
             ),
         ];
         for (p, extra, why) in cases {
-            let e = sweep(p, extra).validate().unwrap_err();
+            let e = sweep(p, extra).spec.validate().unwrap_err();
             assert!(e.contains(why), "{p}: {e}");
         }
         let plant_string = sweep(r#"{"plant.m_s": {"grid": ["heavy"]}}"#, "");

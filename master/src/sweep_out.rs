@@ -23,20 +23,93 @@ fn number(v: &Value) -> f64 {
         .unwrap_or(f64::NAN)
 }
 
-/// The flag columns after the metrics.
-const FLAGS: [&str; 3] = ["stroke_exceeded", "tyre_lift_off", "saturated_share"];
+/// A column of the run table; [`columns`] gives their order, the one place it is written.
+#[derive(Debug, Clone, Copy)]
+enum Column {
+    Run,
+    Point,
+    Controller,
+    /// The `i`-th swept parameter.
+    Swept(usize),
+    Status,
+    Message,
+    /// The `m`-th of [`METRICS`].
+    Metric(usize),
+    StrokeExceeded,
+    TyreLiftOff,
+    SaturatedShare,
+    LoopSeconds,
+}
 
-fn header(names: &[String]) -> Vec<String> {
-    let mut h: Vec<String> = ["run", "point", "controller"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-    h.extend(names.iter().cloned());
-    h.extend(["status", "message"].map(String::from));
-    h.extend(METRICS.map(String::from));
-    h.extend(FLAGS.map(String::from));
-    h.push("loop_seconds".into());
-    h
+/// One cell: what CSV prints and Parquet stores. `None` is a failed run's missing figure.
+enum Cell<'a> {
+    Int(i64),
+    Text(String),
+    /// A swept value: its JSON text in CSV, a number in Parquet.
+    Swept(&'a Value),
+    Real(Option<f64>),
+    Bool(Option<bool>),
+}
+
+fn columns(parameters: usize) -> Vec<Column> {
+    use Column::*;
+    let mut c = vec![Run, Point, Controller];
+    c.extend((0..parameters).map(Swept));
+    c.extend([Status, Message]);
+    c.extend((0..METRICS.len()).map(Metric));
+    c.extend([StrokeExceeded, TyreLiftOff, SaturatedShare, LoopSeconds]);
+    c
+}
+
+impl Column {
+    fn name(self, names: &[String]) -> String {
+        match self {
+            Column::Run => "run".into(),
+            Column::Point => "point".into(),
+            Column::Controller => "controller".into(),
+            Column::Swept(i) => names[i].clone(),
+            Column::Status => "status".into(),
+            Column::Message => "message".into(),
+            Column::Metric(m) => METRICS[m].into(),
+            Column::StrokeExceeded => "stroke_exceeded".into(),
+            Column::TyreLiftOff => "tyre_lift_off".into(),
+            Column::SaturatedShare => "saturated_share".into(),
+            Column::LoopSeconds => "loop_seconds".into(),
+        }
+    }
+
+    fn cell(self, r: &Row) -> Cell<'_> {
+        let done = r.outcome.finished();
+        match self {
+            Column::Run => Cell::Int(r.job.run as i64),
+            Column::Point => Cell::Int(r.job.point as i64),
+            Column::Controller => Cell::Text(r.job.controller_name().into()),
+            Column::Swept(i) => Cell::Swept(&r.job.values[i]),
+            Column::Status => Cell::Text(if done.is_some() { "ok" } else { "failed" }.into()),
+            Column::Message => Cell::Text(match &r.outcome {
+                Outcome::Ok(..) => String::new(),
+                Outcome::Failed(m) => m.clone(),
+            }),
+            Column::Metric(m) => Cell::Real(done.map(|(f, _)| metric_values(f)[m])),
+            Column::StrokeExceeded => Cell::Bool(done.map(|(_, g)| g.stroke_exceeded)),
+            Column::TyreLiftOff => Cell::Bool(done.map(|(_, g)| g.tyre_lift_off)),
+            Column::SaturatedShare => Cell::Real(done.map(|(_, g)| g.saturated_share)),
+            Column::LoopSeconds => Cell::Real(Some(r.loop_seconds)),
+        }
+    }
+
+    /// The Parquet type: metrics and flags are null for a failed run.
+    fn parquet(self) -> (Physical, Repetition) {
+        match self {
+            Column::Run | Column::Point => (Physical::INT64, REQUIRED),
+            Column::Controller | Column::Status | Column::Message => {
+                (Physical::BYTE_ARRAY, REQUIRED)
+            }
+            Column::Swept(_) | Column::LoopSeconds => (Physical::DOUBLE, REQUIRED),
+            Column::Metric(_) | Column::SaturatedShare => (Physical::DOUBLE, OPTIONAL),
+            Column::StrokeExceeded | Column::TyreLiftOff => (Physical::BOOLEAN, OPTIONAL),
+        }
+    }
 }
 
 fn csv_field(s: &str) -> String {
@@ -47,67 +120,48 @@ fn csv_field(s: &str) -> String {
     }
 }
 
+impl Cell<'_> {
+    fn csv(&self) -> String {
+        match self {
+            Cell::Int(i) => i.to_string(),
+            Cell::Text(t) => csv_field(t),
+            Cell::Swept(v) => csv_field(&v.to_string()),
+            Cell::Real(Some(x)) => format!("{x:e}"),
+            Cell::Bool(Some(b)) => b.to_string(),
+            Cell::Real(None) | Cell::Bool(None) => String::new(),
+        }
+    }
+}
+
 /// The rows as CSV: one line per run; a failed run's metrics are empty.
 pub fn csv(names: &[String], rows: &[Row]) -> String {
-    let mut s = header(names).join(",");
-    s.push('\n');
+    let cols = columns(names.len());
+    let line = |cells: Vec<String>| cells.join(",") + "\n";
+    let mut s = line(cols.iter().map(|c| c.name(names)).collect());
     for r in rows {
-        let j = &r.job;
-        write!(s, "{},{},{}", j.run, j.point, j.controller_name()).unwrap();
-        for v in &j.values {
-            write!(s, ",{}", csv_field(&v.to_string())).unwrap();
-        }
-        match &r.outcome {
-            Outcome::Ok(f, flags) => {
-                s += ",ok,";
-                for v in metric_values(f) {
-                    write!(s, ",{v:e}").unwrap();
-                }
-                write!(
-                    s,
-                    ",{},{},{:e}",
-                    flags.stroke_exceeded, flags.tyre_lift_off, flags.saturated_share
-                )
-                .unwrap();
-            }
-            Outcome::Failed(m) => {
-                write!(s, ",failed,{}", csv_field(m)).unwrap();
-                s += &",".repeat(METRICS.len() + FLAGS.len());
-            }
-        }
-        writeln!(s, ",{:e}", r.loop_seconds).unwrap();
+        s += &line(cols.iter().map(|c| c.cell(r).csv()).collect());
     }
     s
 }
 
-/// The rows as one Parquet row group: `run`, `point` INT64; `controller`, `status`, `message`
-/// UTF-8; the swept values and `loop_seconds` DOUBLE; the metrics and `saturated_share`
-/// optional DOUBLE and the two flags optional BOOLEAN (null for a failed run).
+/// The rows as one Parquet row group, the columns of [`columns`] typed by [`Column::parquet`]:
+/// `run`, `point` INT64; `controller`, `status`, `message` UTF-8; the swept values and
+/// `loop_seconds` DOUBLE; the metrics and `saturated_share` optional DOUBLE and the two flags
+/// optional BOOLEAN (null for a failed run).
 pub fn write_parquet(path: &Path, names: &[String], rows: &[Row]) -> Result<(), MasterError> {
     let e = |x: parquet::errors::ParquetError| err(format!("{}: {x}", path.display()));
-    let column = |name: &str, physical: Physical, repetition: Repetition| {
-        let mut b = Type::primitive_type_builder(name, physical).with_repetition(repetition);
-        if physical == Physical::BYTE_ARRAY {
-            b = b.with_logical_type(Some(LogicalType::String));
-        }
-        b.build().map(Arc::new)
-    };
-    use Physical::{BOOLEAN, BYTE_ARRAY, DOUBLE, INT64};
-    let mut fields = vec![
-        column("run", INT64, REQUIRED),
-        column("point", INT64, REQUIRED),
-        column("controller", BYTE_ARRAY, REQUIRED),
-    ];
-    fields.extend(names.iter().map(|n| column(n, DOUBLE, REQUIRED)));
-    fields.push(column("status", BYTE_ARRAY, REQUIRED));
-    fields.push(column("message", BYTE_ARRAY, REQUIRED));
-    fields.extend(METRICS.iter().map(|n| column(n, DOUBLE, OPTIONAL)));
-    fields.push(column(FLAGS[0], BOOLEAN, OPTIONAL));
-    fields.push(column(FLAGS[1], BOOLEAN, OPTIONAL));
-    fields.push(column(FLAGS[2], DOUBLE, OPTIONAL));
-    fields.push(column("loop_seconds", DOUBLE, REQUIRED));
-    let fields = fields
-        .into_iter()
+    let cols = columns(names.len());
+    let fields = cols
+        .iter()
+        .map(|c| {
+            let (physical, repetition) = c.parquet();
+            let name = c.name(names);
+            let mut b = Type::primitive_type_builder(&name, physical).with_repetition(repetition);
+            if physical == Physical::BYTE_ARRAY {
+                b = b.with_logical_type(Some(LogicalType::String));
+            }
+            b.build().map(Arc::new)
+        })
         .collect::<Result<Vec<_>, _>>()
         .map_err(e)?;
     let schema = Arc::new(
@@ -122,90 +176,59 @@ pub fn write_parquet(path: &Path, names: &[String], rows: &[Row]) -> Result<(), 
         SerializedFileWriter::new(file, schema, Arc::new(WriterProperties::builder().build()))
             .map_err(e)?;
     let mut group = writer.next_row_group().map_err(e)?;
-    let ok: Vec<Option<&crate::sweep::Flags>> = rows
-        .iter()
-        .map(|r| match &r.outcome {
-            Outcome::Ok(_, f) => Some(f),
-            Outcome::Failed(_) => None,
-        })
-        .collect();
-    let definition: Vec<i16> = ok.iter().map(|f| f.is_some() as i16).collect();
-    let strings = |f: &dyn Fn(&Row) -> String| -> Vec<ByteArray> {
-        rows.iter()
-            .map(|r| ByteArray::from(f(r).as_str()))
-            .collect()
-    };
-    let mut next = 0usize;
-    while let Some(mut col) = group.next_column().map_err(e)? {
-        let k = next;
-        next += 1;
-        let np = names.len();
-        match k {
-            0 | 1 => {
-                let v: Vec<i64> = rows
+    for c in &cols {
+        let mut col = group
+            .next_column()
+            .map_err(e)?
+            .expect("one column writer per field of the schema");
+        let cells: Vec<Cell> = rows.iter().map(|r| c.cell(r)).collect();
+        let optional = c.parquet().1 == OPTIONAL;
+        let definition: Vec<i16> = cells
+            .iter()
+            .map(|x| !matches!(x, Cell::Real(None) | Cell::Bool(None)) as i16)
+            .collect();
+        let levels = optional.then_some(definition.as_slice());
+        match c.parquet().0 {
+            Physical::INT64 => {
+                let v: Vec<i64> = cells
                     .iter()
-                    .map(|r| if k == 0 { r.job.run } else { r.job.point } as i64)
-                    .collect();
-                col.typed::<Int64Type>().write_batch(&v, None, None)
-            }
-            2 => col.typed::<ByteArrayType>().write_batch(
-                &strings(&|r| r.job.controller_name().to_string()),
-                None,
-                None,
-            ),
-            k if k < 3 + np => {
-                let v: Vec<f64> = rows.iter().map(|r| number(&r.job.values[k - 3])).collect();
-                col.typed::<DoubleType>().write_batch(&v, None, None)
-            }
-            k if k == 3 + np || k == 4 + np => {
-                let status = k == 3 + np;
-                col.typed::<ByteArrayType>().write_batch(
-                    &strings(&|r| match (&r.outcome, status) {
-                        (Outcome::Ok(..), true) => "ok".into(),
-                        (Outcome::Failed(_), true) => "failed".into(),
-                        (Outcome::Ok(..), false) => String::new(),
-                        (Outcome::Failed(m), false) => m.clone(),
-                    }),
-                    None,
-                    None,
-                )
-            }
-            k if k < 5 + np + METRICS.len() => {
-                let m = k - 5 - np;
-                let v: Vec<f64> = rows
-                    .iter()
-                    .filter_map(|r| match &r.outcome {
-                        Outcome::Ok(f, _) => Some(metric_values(f)[m]),
-                        Outcome::Failed(_) => None,
+                    .filter_map(|x| match x {
+                        Cell::Int(i) => Some(*i),
+                        _ => None,
                     })
                     .collect();
-                col.typed::<DoubleType>()
-                    .write_batch(&v, Some(&definition), None)
+                col.typed::<Int64Type>().write_batch(&v, levels, None)
             }
-            k if k < 7 + np + METRICS.len() => {
-                let first = k == 5 + np + METRICS.len();
-                let v: Vec<bool> = ok
+            Physical::BYTE_ARRAY => {
+                let v: Vec<ByteArray> = cells
                     .iter()
-                    .flatten()
-                    .map(|f| {
-                        if first {
-                            f.stroke_exceeded
-                        } else {
-                            f.tyre_lift_off
-                        }
+                    .filter_map(|x| match x {
+                        Cell::Text(t) => Some(ByteArray::from(t.as_str())),
+                        _ => None,
                     })
                     .collect();
-                col.typed::<BoolType>()
-                    .write_batch(&v, Some(&definition), None)
+                col.typed::<ByteArrayType>().write_batch(&v, levels, None)
             }
-            k if k == 7 + np + METRICS.len() => {
-                let v: Vec<f64> = ok.iter().flatten().map(|f| f.saturated_share).collect();
-                col.typed::<DoubleType>()
-                    .write_batch(&v, Some(&definition), None)
+            Physical::BOOLEAN => {
+                let v: Vec<bool> = cells
+                    .iter()
+                    .filter_map(|x| match x {
+                        Cell::Bool(b) => *b,
+                        _ => None,
+                    })
+                    .collect();
+                col.typed::<BoolType>().write_batch(&v, levels, None)
             }
             _ => {
-                let v: Vec<f64> = rows.iter().map(|r| r.loop_seconds).collect();
-                col.typed::<DoubleType>().write_batch(&v, None, None)
+                let v: Vec<f64> = cells
+                    .iter()
+                    .filter_map(|x| match x {
+                        Cell::Swept(v) => Some(number(v)),
+                        Cell::Real(r) => *r,
+                        _ => None,
+                    })
+                    .collect();
+                col.typed::<DoubleType>().write_batch(&v, levels, None)
             }
         }
         .map_err(e)?;
@@ -311,10 +334,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
         let n = mine.len();
         let flags: Vec<_> = mine
             .iter()
-            .filter_map(|r| match &r.outcome {
-                Outcome::Ok(_, f) => Some(*f),
-                Outcome::Failed(_) => None,
-            })
+            .filter_map(|r| r.outcome.finished().map(|(_, g)| *g))
             .collect();
         let count =
             |p: &dyn Fn(&crate::sweep::Flags) -> bool| flags.iter().filter(|f| p(f)).count();
@@ -333,7 +353,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
     }
     let failures: Vec<&Row> = rows
         .iter()
-        .filter(|r| matches!(r.outcome, Outcome::Failed(_)))
+        .filter(|r| r.outcome.finished().is_none())
         .collect();
     if !failures.is_empty() {
         t += "\nFailed runs (first 10):\n\n";
@@ -362,10 +382,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
         let figs: Vec<[f64; 10]> = rows
             .iter()
             .filter(|r| r.job.controller_name() == c)
-            .filter_map(|r| match &r.outcome {
-                Outcome::Ok(f, _) => Some(metric_values(f)),
-                Outcome::Failed(_) => None,
-            })
+            .filter_map(|r| r.outcome.finished().map(|(f, _)| metric_values(f)))
             .collect();
         for m in 0..METRICS.len() {
             let v: Vec<f64> = figs.iter().map(|f| f[m]).collect();
@@ -414,13 +431,10 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
                         .filter(|(k, r)| ca[*k] == i && cb[*k] == j && r.job.controller_name() == c)
                         .map(|(_, r)| r)
                         .collect();
-                    let failed = cell.iter().any(|r| matches!(r.outcome, Outcome::Failed(_)));
+                    let failed = cell.iter().any(|r| r.outcome.finished().is_none());
                     let worst = cell
                         .iter()
-                        .filter_map(|r| match &r.outcome {
-                            Outcome::Ok(f, _) => Some(f.wk_rms_seat),
-                            Outcome::Failed(_) => None,
-                        })
+                        .filter_map(|r| r.outcome.finished().map(|(f, _)| f.wk_rms_seat))
                         .fold(f64::NAN, f64::max);
                     t += &match (cell.is_empty(), failed) {
                         (true, _) => " |".to_string(),
@@ -453,10 +467,8 @@ pub fn plot_cdf(path: &Path, sweep: &Sweep, rows: &[Row]) -> Result<(), MasterEr
             let mut v: Vec<f64> = rows
                 .iter()
                 .filter(|r| r.job.controller_name() == c)
-                .filter_map(|r| match &r.outcome {
-                    Outcome::Ok(f, _) if f.wk_rms_seat > 0.0 => Some(f.wk_rms_seat),
-                    _ => None,
-                })
+                .filter_map(|r| r.outcome.finished().map(|(f, _)| f.wk_rms_seat))
+                .filter(|v| *v > 0.0)
                 .collect();
             v.sort_by(f64::total_cmp);
             (c.clone(), v)
