@@ -57,6 +57,14 @@ pub(crate) fn err(msg: impl Into<String>) -> MasterError {
     MasterError(msg.into())
 }
 
+/// A failed call `what` to FMU instance `instance`, with what the FMU logged since.
+fn fmu_err(instance: &str, what: String) -> MasterError {
+    match crate::fmu_log::said(instance) {
+        Some(said) => err(format!("{what}; {instance} says: {said}")),
+        None => err(what),
+    }
+}
+
 /// A JSON file of `what` (a scenario, a sweep), parsed and validated; every error names the
 /// file.
 pub(crate) fn load_json<T: serde::de::DeserializeOwned>(
@@ -245,10 +253,12 @@ impl Fmu {
 
     /// Instantiate, set `params`, initialise.
     fn start(&self, params: &[(String, Typed)]) -> Result<Instance<CS>, MasterError> {
+        crate::fmu_log::install();
+        let fail = |what: String| fmu_err(&self.name, format!("{}: {what}", self.name));
         let mut i: Instance<CS> = self
             .import
             .instantiate_cs(&self.name, false, false)
-            .map_err(|e| err(format!("{}: instantiate: {e}", self.name)))?;
+            .map_err(|e| fail(format!("instantiate: {e}")))?;
         for (name, value) in params {
             let vr = self.vr(name)?;
             let status = match *value {
@@ -256,18 +266,13 @@ impl Fmu {
                 Typed::Integer(v) => i.set_integer(&[vr], &[v]),
                 Typed::Boolean(v) => i.set_boolean(&[vr], &[v as i32]),
             };
-            status.map_err(|e| err(format!("{}: setting '{name}' = {value:?}: {e}", self.name)))?;
+            status.map_err(|e| fail(format!("setting '{name}' = {value:?}: {e}")))?;
         }
         i.setup_experiment(None, 0.0, None)
-            .map_err(|e| err(format!("{}: {e}", self.name)))?;
-        Common::enter_initialization_mode(&mut i)
-            .map_err(|e| err(format!("{}: {e}", self.name)))?;
-        Common::exit_initialization_mode(&mut i).map_err(|e| {
-            err(format!(
-                "{}: initialisation failed ({e}); see its log",
-                self.name
-            ))
-        })?;
+            .map_err(|e| fail(e.to_string()))?;
+        Common::enter_initialization_mode(&mut i).map_err(|e| fail(e.to_string()))?;
+        Common::exit_initialization_mode(&mut i)
+            .map_err(|e| fail(format!("initialisation failed ({e})")))?;
         Ok(i)
     }
 }
@@ -453,6 +458,7 @@ type Recorded = (bool, bool, u32);
 /// The co-simulation loop of this module's order (see the module's documentation), the one
 /// every run and every closed-loop test goes through.
 pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
+    crate::fmu_log::clear();
     let plant = setup.plant.fmu;
     let ctrl = setup.controller.map(|c| c.fmu);
     if let Some(c) = ctrl {
@@ -512,10 +518,16 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         )?,
         &mut static_tire_load,
     )
-    .map_err(|e| err(format!("plant: {e}")))?;
-    let fail = |who: &str, e: fmi::fmi2::Fmi2Error| err(format!("{who}: {e}"));
+    .map_err(|e| fmu_err(&plant.name, format!("plant: {e}")))?;
+    // The instance names the FMUs log under, by role.
+    let instance = |who: &str| match (who, &setup.road, ctrl) {
+        ("road", RoadSource::Fmu(r), _) => r.fmu.name.clone(),
+        ("controller", _, Some(c)) => c.name.clone(),
+        _ => plant.name.clone(),
+    };
+    let fail = |who: &str, e: fmi::fmi2::Fmi2Error| fmu_err(&instance(who), format!("{who}: {e}"));
     let step_err = |who: &str, t: f64, e: fmi::fmi2::Fmi2Error| {
-        err(format!("{who}: fmi2DoStep at t = {t}: {e}"))
+        fmu_err(&instance(who), format!("{who}: fmi2DoStep at t = {t}: {e}"))
     };
     let (h, steps) = (setup.step, setup.steps);
     let mut time = Vec::with_capacity(steps);

@@ -1,6 +1,7 @@
 //! The co-simulation master: road, plant and controller FMUs through the `fmi` crate.
 
 pub mod cosim;
+pub mod fmu_log;
 pub mod metrics;
 pub mod report;
 pub mod structure;

@@ -78,14 +78,24 @@ fn a_controller_reading_what_the_plant_lacks_is_refused() {
         .unwrap()
         .0
         .contains("bump_heigth"));
-    // A bad road parameter value fails initialisation, not silently.
+    // A bad road parameter value fails initialisation, not silently, and the error quotes
+    // the road FMU's own explanation from its log.
     let mut s = scenario("bump");
-    s.road.insert("profile".into(), serde_json::json!(9));
-    assert!(run(&dist(), &s, None)
-        .err()
-        .unwrap()
-        .0
-        .contains("initialisation failed"));
+    s.road.insert("speed".into(), serde_json::json!(-3.0));
+    let e = run(&dist(), &s, None).err().unwrap().0;
+    assert!(
+        e.contains("road: initialisation failed")
+            && e.contains("road says: fmi2ExitInitializationMode: speed must be finite and > 0"),
+        "{e}"
+    );
+    // A value refused at the setter quotes the setter's message.
+    let mut s = scenario("bump");
+    s.plant.insert("m_s".into(), -1.0);
+    let e = run(&dist(), &s, None).err().unwrap().0;
+    assert!(
+        e.contains("plant: setting 'm_s' = Real(-1.0): Error; plant says: ") && e.contains("m_s"),
+        "{e}"
+    );
 }
 
 /// A scenario's run (its road parameters given to the road FMU) is the loop on the in-process
