@@ -298,9 +298,10 @@ pub fn output_feedback_design(
     let variant = "hinf_of";
     let (law, _, sensors) = observer_law(ctx, variant, gain, None)?;
     let notes = vec![format!(
-        "Observer-based: a Kalman filter of the design state (car, road, weightings) from {} \
-             with sensor noise of {} m/sqrt(Hz) (strokes) and {} (rates), the nominal \
-             guaranteed-cost gain on its estimate.",
+        "Observer-based: a Kalman filter of the design state (car, road with the rear wheels \
+             {:?}, weightings) from {} with sensor noise of {} m/sqrt(Hz) (strokes) and {} \
+             (rates), the nominal guaranteed-cost gain (on the same road model) on its estimate.",
+        ctx.design.road.rear_wheels,
         sensors.names.join(", "),
         ctx.design.sensor_noise.stroke,
         ctx.design.sensor_noise.rate

@@ -134,7 +134,17 @@ pub struct ComfortRoad {
     pub iso_class: IsoClass,
     /// Vehicle speed [m/s].
     pub speed: f64,
+    /// The rear wheels' road in the state-feedback designs, which measure each wheel's road
+    /// height and so can preview the front track's.
     pub rear_wheels: RearWheels,
+    /// The same in the output-feedback designs (`None`: as `rear_wheels`). Their Kalman filter
+    /// takes the model for exact: with a Padé rear track it predicts the rear road from the
+    /// front one and hardly corrects it from the sensors, so every error of the approximant
+    /// (large at wheel-hop frequencies) and of the design speed is estimation error.
+    /// `"independent"` makes the rear road an unknown the filter estimates (README "Comfort
+    /// designs" has the measurements).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_feedback_rear_wheels: Option<RearWheels>,
 }
 
 /// An ISO 8608 road class, written as its letter.
@@ -229,6 +239,16 @@ pub struct ComfortDesign {
 }
 
 impl ComfortDesign {
+    /// The design the output-feedback variants are synthesised on: this one with their rear-wheel
+    /// model ([`ComfortRoad::output_feedback_rear_wheels`]).
+    pub fn for_output_feedback(&self) -> ComfortDesign {
+        let mut d = self.clone();
+        if let Some(rear) = self.road.output_feedback_rear_wheels {
+            d.road.rear_wheels = rear;
+        }
+        d
+    }
+
     pub fn from_json(json: &str) -> Result<Self, DesignError> {
         let d: ComfortDesign =
             serde_json::from_str(json).map_err(|e| DesignError::Syntax(e.to_string()))?;
@@ -257,13 +277,21 @@ impl ComfortDesign {
             ("fault_threshold", self.fault_threshold),
         ];
         require_positive(&positive)?;
-        if let RearWheels::Pade { order } = self.road.rear_wheels {
-            if !(1..=8).contains(&order) {
-                return Err(DesignError::Value {
-                    name: "road.rear_wheels.pade.order",
-                    expected: "1 … 8",
-                    value: order as f64,
-                });
+        for (name, rear) in [
+            ("road.rear_wheels.pade.order", Some(self.road.rear_wheels)),
+            (
+                "road.output_feedback_rear_wheels.pade.order",
+                self.road.output_feedback_rear_wheels,
+            ),
+        ] {
+            if let Some(RearWheels::Pade { order }) = rear {
+                if !(1..=8).contains(&order) {
+                    return Err(DesignError::Value {
+                        name,
+                        expected: "1 … 8",
+                        value: order as f64,
+                    });
+                }
             }
         }
         require_mass_range(self.mass_min, self.mass_max)?;
@@ -482,6 +510,41 @@ impl Design {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn output_feedback_designs_get_their_own_rear_wheel_model() {
+        let text = include_str!("../designs/comfort.json");
+        let d = ComfortDesign::from_json(text).unwrap();
+        assert_eq!(d.road.rear_wheels, RearWheels::Pade { order: 2 });
+        let of = d.for_output_feedback();
+        assert_eq!(of.road.rear_wheels, RearWheels::Independent);
+        assert_eq!(
+            ComfortDesign {
+                road: d.road,
+                ..of.clone()
+            },
+            d,
+            "only the rear-wheel model changes"
+        );
+        // Absent: as the state-feedback designs.
+        let same = text.replace(r#", "output_feedback_rear_wheels": "independent""#, "");
+        assert_ne!(same, text);
+        let d = ComfortDesign::from_json(&same).unwrap();
+        assert_eq!(d.road.output_feedback_rear_wheels, None);
+        assert_eq!(d.for_output_feedback(), d);
+        // A Padé order out of range is refused by its name.
+        let bad = text.replace(
+            r#""output_feedback_rear_wheels": "independent""#,
+            r#""output_feedback_rear_wheels": {"pade": {"order": 9}}"#,
+        );
+        assert!(matches!(
+            ComfortDesign::from_json(&bad),
+            Err(DesignError::Value {
+                name: "road.output_feedback_rear_wheels.pade.order",
+                ..
+            })
+        ));
+    }
 
     #[test]
     fn default_design_parses_and_bad_values_are_rejected() {

@@ -73,6 +73,9 @@ pub struct Variant {
     /// The design it is compared with in its own uncertainty.
     pub nominal: Option<&'static str>,
     pub robust_to: Uncertainty,
+    /// Reads sensors, not the state: designed on the output-feedback road model
+    /// ([`ComfortDesign::for_output_feedback`]).
+    pub output_feedback: bool,
     /// What it is, in a line, with the thesis result it implements.
     pub summary: &'static str,
     pub comfort: ComfortSynthesis,
@@ -84,6 +87,7 @@ pub const VARIANTS: [Variant; 7] = [
         name: "hinf_sf",
         nominal: None,
         robust_to: Uncertainty::None,
+        output_feedback: false,
         summary: "state feedback (thesis Th. 5.1)",
         comfort: |ctx, s| {
             let notes = vec![state_feedback_note(ctx.design, "the unmodelled delay")];
@@ -94,6 +98,7 @@ pub const VARIANTS: [Variant; 7] = [
         name: "hinf_of",
         nominal: None,
         robust_to: Uncertainty::None,
+        output_feedback: true,
         summary: "dynamic output feedback from eight sensors (thesis Th. 5.2)",
         comfort: |ctx, s| s.hinf_of(ctx).cloned(),
     },
@@ -101,6 +106,7 @@ pub const VARIANTS: [Variant; 7] = [
         name: "hinf_of_aw",
         nominal: Some("hinf_of"),
         robust_to: Uncertainty::Saturation,
+        output_feedback: true,
         summary: "hinf_of with anti-windup for actuator saturation (thesis Th. 5.3)",
         comfort: |ctx, s| anti_windup_design(ctx, s.hinf_of(ctx)?),
     },
@@ -108,6 +114,7 @@ pub const VARIANTS: [Variant; 7] = [
         name: "robust_sf",
         nominal: Some("hinf_sf"),
         robust_to: Uncertainty::SprungMass,
+        output_feedback: false,
         summary: "state feedback robust to the sprung mass (thesis Th. 6.1)",
         comfort: |ctx, s| {
             let notes = vec![state_feedback_note(
@@ -130,6 +137,7 @@ pub const VARIANTS: [Variant; 7] = [
         name: "robust_of",
         nominal: Some("hinf_of"),
         robust_to: Uncertainty::SprungMass,
+        output_feedback: true,
         summary: "output feedback robust to the sprung mass (thesis Th. 6.2)",
         comfort: |ctx, s| robust_output_feedback_design(ctx, s.robust(ctx)?),
     },
@@ -137,6 +145,7 @@ pub const VARIANTS: [Variant; 7] = [
         name: "delay_sf",
         nominal: Some("hinf_sf"),
         robust_to: Uncertainty::InputDelay,
+        output_feedback: false,
         summary: "state feedback for a known actuator delay (thesis Prop. 7.1)",
         comfort: |ctx, s| crate::predictor::predictor_design(ctx, s.nominal(ctx)?),
     },
@@ -144,6 +153,7 @@ pub const VARIANTS: [Variant; 7] = [
         name: "ft_of",
         nominal: Some("hinf_of"),
         robust_to: Uncertainty::ActuatorFaults,
+        output_feedback: true,
         summary: "fault-tolerant output feedback with a fault detector (thesis Th. 8.1)",
         comfort: |ctx, _| fault_tolerant_design(ctx),
     },
@@ -345,8 +355,17 @@ fn comfort_all(
     design: &ComfortDesign,
 ) -> Result<Outcome, SynthError> {
     use rayon::prelude::*;
-    let ctx = Context { params, design };
-    let shared = Shared::default();
+    // The state-feedback designs and the output-feedback ones, each on its road model and with
+    // the designs they share.
+    let of_design = design.for_output_feedback();
+    let contexts = [
+        Context { params, design },
+        Context {
+            params,
+            design: &of_design,
+        },
+    ];
+    let shared = [Shared::default(), Shared::default()];
     let names: Vec<&str> = if names.is_empty() {
         self::names()
     } else {
@@ -359,7 +378,8 @@ fn comfort_all(
         .map(|name| {
             let v = variant(name).expect("checked above");
             let t = std::time::Instant::now();
-            let r = (v.comfort)(&ctx, &shared);
+            let k = usize::from(v.output_feedback);
+            let r = (v.comfort)(&contexts[k], &shared[k]);
             (name.to_string(), r, t.elapsed().as_secs_f64())
         })
         .collect();

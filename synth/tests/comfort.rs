@@ -68,10 +68,17 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         let guarantee = &s.controller_json["guarantee"];
         assert!(guarantee["value"].as_f64().unwrap() > 0.0, "{name}");
     }
-    // robust_of: better than hinf_of at both ends of the mass range, where hinf_of degrades,
-    // and less than half its worst case. Not (yet) within 5 % of it at the nominal mass: measured
-    // 0.0239 vs 0.0149 m/s², the price of its flat comfort (an open point of the comfort issue).
+    // robust_of: at most 5 % worse than hinf_of anywhere in its mass range (the issue's bound;
+    // predicted 1.7 % better at the nominal mass), better at both ends, where hinf_of degrades,
+    // and less than half its worst case. (With the Padé rear track in the Kalman filters it was
+    // 60 % worse at the nominal mass: README "Comfort designs".)
     let rows = beside_nominal(cert("robust_of"));
+    for (label, own, nominal) in &rows {
+        assert!(
+            *own <= 1.05 * nominal,
+            "robust_of at {label}: {own} vs hinf_of {nominal}"
+        );
+    }
     for (label, own, nominal) in [&rows[0], &rows[rows.len() - 1]] {
         assert!(
             own < nominal,
