@@ -57,6 +57,16 @@ pub(crate) fn err(msg: impl Into<String>) -> MasterError {
     MasterError(msg.into())
 }
 
+/// `"; did you mean 'x'?"` for the candidate closest to a mistyped `name` (if one is close),
+/// else `""`.
+pub(crate) fn did_you_mean<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> String {
+    candidates
+        .map(|c| (strsim::jaro_winkler(name, c), c))
+        .filter(|(score, _)| *score > 0.8)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or(String::new(), |(_, c)| format!("; did you mean '{c}'?"))
+}
+
 /// A failed call `what` to FMU instance `instance`, with what the FMU logged since.
 fn fmu_err(instance: &str, what: String) -> MasterError {
     match crate::fmu_log::said(instance) {
@@ -98,6 +108,11 @@ pub struct Scenario {
     /// too.
     #[serde(default)]
     pub plant: BTreeMap<String, f64>,
+    /// Controller parameters by name (numbers, or true/false for Boolean), e.g.
+    /// `{"fault_threshold": 10}`; every controller the scenario runs must have them (restrict
+    /// it with `controllers`). The passive car ignores them.
+    #[serde(default)]
+    pub controller: BTreeMap<String, serde_json::Value>,
     /// When present, the controllers this scenario is meant for (the others are skipped).
     #[serde(default)]
     pub controllers: Option<Vec<String>>,
@@ -166,20 +181,37 @@ pub struct Fmu {
 }
 
 impl Fmu {
+    /// `<dist>/<name>.fmu`, or the file `name` itself when it ends in `.fmu` (the FMU is then
+    /// named after the file, without the extension).
     pub fn load(dist: &Path, name: &str) -> Result<Fmu, MasterError> {
-        let path = dist.join(format!("{name}.fmu"));
+        let (path, name) = match name.strip_suffix(".fmu") {
+            Some(stem) => (
+                PathBuf::from(name),
+                Path::new(stem)
+                    .file_name()
+                    .map_or(stem.into(), |f| f.to_string_lossy().into_owned()),
+            ),
+            None => (dist.join(format!("{name}.fmu")), name.to_string()),
+        };
         if !path.exists() {
+            let in_dist: Vec<String> = std::fs::read_dir(dist)
+                .map(|d| {
+                    d.filter_map(|e| {
+                        let n = e.ok()?.file_name().to_string_lossy().into_owned();
+                        n.strip_suffix(".fmu").map(String::from)
+                    })
+                    .collect()
+                })
+                .unwrap_or_default();
             return Err(err(format!(
-                "{} not found (run `make` to build the FMUs)",
-                path.display()
+                "{} not found{} (run `make` to build the FMUs, or give a path to an .fmu)",
+                path.display(),
+                did_you_mean(&name, in_dist.iter().map(String::as_str))
             )));
         }
         let import = fmi::import::from_path(&path)
             .map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
-        Ok(Fmu {
-            name: name.into(),
-            import,
-        })
+        Ok(Fmu { name, import })
     }
 
     pub(crate) fn variable(&self, name: &str) -> Option<(u32, &ScalarVariableElement, String)> {
@@ -199,9 +231,22 @@ impl Fmu {
     }
 
     pub fn vr(&self, name: &str) -> Result<u32, MasterError> {
-        self.variable(name)
-            .map(|v| v.0)
-            .ok_or_else(|| err(format!("{} has no variable '{name}'", self.name)))
+        self.variable(name).map(|v| v.0).ok_or_else(|| {
+            err(format!(
+                "{} has no variable '{name}'{}",
+                self.name,
+                did_you_mean(name, self.variable_names())
+            ))
+        })
+    }
+
+    fn variable_names(&self) -> impl Iterator<Item = &str> {
+        self.import
+            .model_description()
+            .model_variables
+            .variables
+            .iter()
+            .map(|v| v.name.as_str())
     }
 
     /// The start value of Real variable `name`, if it has one.
@@ -229,9 +274,20 @@ impl Fmu {
 
     /// `value` as the type of parameter `name` (an Integer must fit an `fmi2Integer`).
     pub fn typed(&self, name: &str, value: &serde_json::Value) -> Result<Typed, MasterError> {
-        let (_, elem, _) = self
-            .variable(name)
-            .ok_or_else(|| err(format!("{} has no parameter '{name}'", self.name)))?;
+        let parameters = self.names_with_causality("parameter");
+        let (_, elem, causality) = self.variable(name).ok_or_else(|| {
+            err(format!(
+                "{} has no parameter '{name}'{}",
+                self.name,
+                did_you_mean(name, parameters.iter().map(String::as_str))
+            ))
+        })?;
+        if causality != "parameter" {
+            return Err(err(format!(
+                "{}: '{name}' is not a parameter (its causality is {causality})",
+                self.name
+            )));
+        }
         let bad = || {
             err(format!(
                 "{}: parameter '{name}' cannot take {value}",
@@ -307,11 +363,15 @@ pub fn scenario_parameters(
     let ctrl_values = match controller {
         Some(c) => {
             let inputs = c.names_with_causality("input");
-            scenario
+            let shared = scenario
                 .plant
                 .iter()
                 .filter(|(k, _)| c.has(k) && !inputs.contains(k))
-                .map(|(k, v)| Ok((k.clone(), c.typed(k, &serde_json::json!(v))?)))
+                .map(|(k, v)| (k, serde_json::json!(v)));
+            let own = scenario.controller.iter().map(|(k, v)| (k, v.clone()));
+            shared
+                .chain(own)
+                .map(|(k, v)| Ok((k.clone(), c.typed(k, &v)?)))
                 .collect::<Result<Vec<_>, MasterError>>()?
         }
         None => Vec::new(),

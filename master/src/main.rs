@@ -278,12 +278,23 @@ fn main() {
         } => Scenario::load(scenario).and_then(|s| {
             let r = run(&cli.dist, &s, controller.as_deref())?;
             r.write_csv(out)?;
+            let values = master::sweep::metric_values(&figures(&r, &s));
+            let metrics: String = master::sweep::METRICS
+                .iter()
+                .zip(values)
+                .map(|(name, v)| format!("  {name:<22} {v:.6}\n"))
+                .collect();
             Ok(format!(
-                "wrote {} ({} steps, loop {:.4} s, {:.0}x real time)\n",
+                "wrote {} ({} steps, loop {:.4} s, {:.0}x real time)\nmetrics{}:\n{metrics}",
                 out.display(),
                 r.time.len(),
                 r.loop_seconds,
-                s.duration / r.loop_seconds
+                s.duration / r.loop_seconds,
+                if s.metrics_from > 0.0 {
+                    format!(" over t > {} s", s.metrics_from)
+                } else {
+                    String::new()
+                }
             ))
         }),
         Command::Osp(LoopArgs {

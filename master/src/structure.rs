@@ -37,6 +37,12 @@ pub struct Loop {
 impl Loop {
     /// The loop of `scenario` with `controller`, checked against the FMUs in `dist`.
     pub fn new(dist: &Path, scenario: &Scenario, controller: &str) -> Result<Loop, MasterError> {
+        if controller.ends_with(".fmu") {
+            return Err(err(format!(
+                "a system structure names its FMUs beside it: give the controller by its name in \
+                 --dist, not as the path {controller}"
+            )));
+        }
         let road = Fmu::load(dist, "road")?;
         let plant = Fmu::load(dist, "plant")?;
         let ctrl = Fmu::load(dist, controller)?;

@@ -148,6 +148,13 @@ fn system_descriptions_carry_typed_parameters_and_refuse_bad_ones() {
     );
     // 8 road signals, the controller's measurements, 5 commands.
     assert_eq!(l.connections.len(), 8 + l.measured.len() + 5);
+    // The structure names FMUs beside it: a path is refused, with why.
+    let path = dist().join("hinf_of_aw.fmu");
+    let e = Loop::new(&dist(), &s, path.to_str().unwrap())
+        .err()
+        .unwrap()
+        .0;
+    assert!(e.contains("by its name in --dist"), "{e}");
     let ssd = l.ssd();
     assert!(
         ssd.contains(
@@ -174,4 +181,89 @@ fn system_descriptions_carry_typed_parameters_and_refuse_bad_ones() {
         .unwrap()
         .0;
     assert!(e.contains("no_such.fmu not found"), "{e}");
+}
+
+/// The master explains itself: a mistyped controller or parameter gets the closest name, a
+/// controller FMU can be given by path, a scenario sets controller parameters, and `master run`
+/// prints the metrics it measured.
+#[test]
+fn mistakes_get_suggestions_and_controllers_take_paths_and_parameters() {
+    let e = run(&dist(), &scenario("bump"), Some("hinf_sff"))
+        .err()
+        .unwrap()
+        .0;
+    assert!(e.contains("did you mean 'hinf_sf'?"), "{e}");
+    let mut s = scenario("bump");
+    s.road.insert("bump_heigth".into(), serde_json::json!(0.1));
+    let e = run(&dist(), &s, None).err().unwrap().0;
+    assert!(e.contains("did you mean 'bump_height'?"), "{e}");
+    // Nothing close: no suggestion.
+    let e = run(&dist(), &scenario("bump"), Some("zzz"))
+        .err()
+        .unwrap()
+        .0;
+    assert!(!e.contains("did you mean"), "{e}");
+
+    // A path to an .fmu is the same controller as its name in --dist.
+    let by_name = run(&dist(), &scenario("bump"), Some("hinf_of")).unwrap();
+    let path = dist().join("hinf_of.fmu");
+    let elsewhere = Path::new("/nonexistent");
+    let by_path = run(elsewhere, &scenario("bump"), Some(path.to_str().unwrap()));
+    let by_path = by_path.err().map(|e| e.0).unwrap_or_default();
+    assert!(
+        by_path.contains("road.fmu not found"),
+        "road and plant stay in --dist: {by_path}"
+    );
+    let by_path = run(&dist(), &scenario("bump"), Some(path.to_str().unwrap())).unwrap();
+    assert_eq!(by_name.columns, by_path.columns);
+    assert_eq!(by_name.data, by_path.data);
+
+    // Controller parameters: ft_of's detector with a threshold nothing reaches never fires.
+    let detected =
+        |r: &master::cosim::Run| r.column("fault_detected").unwrap().iter().any(|v| *v > 0.5);
+    let fault = scenario("fault");
+    assert!(detected(&run(&dist(), &fault, Some("ft_of")).unwrap()));
+    let mut s = fault.clone();
+    s.controller
+        .insert("fault_threshold".into(), serde_json::json!(1e9));
+    assert!(!detected(&run(&dist(), &s, Some("ft_of")).unwrap()));
+    // … a misspelt one is refused with the right name, an output is not a parameter, and a
+    // controller without the parameter refuses the scenario.
+    let mut s = fault.clone();
+    s.controller
+        .insert("fault_treshold".into(), serde_json::json!(10.0));
+    let e = run(&dist(), &s, Some("ft_of")).err().unwrap().0;
+    assert!(e.contains("did you mean 'fault_threshold'?"), "{e}");
+    let mut s = fault.clone();
+    s.controller.insert("u_fl".into(), serde_json::json!(1.0));
+    let e = run(&dist(), &s, Some("ft_of")).err().unwrap().0;
+    assert!(e.contains("'u_fl' is not a parameter"), "{e}");
+    let mut s = fault.clone();
+    s.controller
+        .insert("fault_threshold".into(), serde_json::json!(10.0));
+    assert!(run(&dist(), &s, Some("hinf_sf")).is_err());
+    // The passive car ignores them.
+    run(&dist(), &s, None).unwrap();
+
+    // `master run` prints what it measured.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_master"))
+        .args(["--dist", dist().to_str().unwrap(), "run", "--scenario"])
+        .arg(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenarios/bump.json"))
+        .args(["--controller", "hinf_sf", "--out"])
+        .arg(std::env::temp_dir().join(format!("master-run-{}.csv", std::process::id())))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let figures = master::report::figures(
+        &run(&dist(), &scenario("bump"), Some("hinf_sf")).unwrap(),
+        &scenario("bump"),
+    );
+    assert!(
+        text.contains(&format!(
+            "wk_rms_seat_m_s2       {:.6}",
+            figures.wk_rms_seat
+        )),
+        "{text}"
+    );
 }
