@@ -34,11 +34,13 @@ struct Cli {
 enum Command {
     /// One scenario with one controller (or the passive car), written as CSV.
     Run {
+        /// The scenario file (JSON; README "The master and the comparison").
         #[arg(long)]
         scenario: PathBuf,
-        /// A controller FMU name in --dist; omit for the passive car.
+        /// A controller FMU: its name in --dist, or a path to an .fmu; omit for the passive car.
         #[arg(long)]
         controller: Option<String>,
+        /// The CSV to write: time and every recorded variable at each communication point.
         #[arg(long)]
         out: PathBuf,
     },
@@ -56,6 +58,7 @@ enum Command {
         /// Comma-separated controller FMU names.
         #[arg(long, value_delimiter = ',')]
         controllers: Vec<String>,
+        /// Directory for report.md, one SVG per scenario and the CSV of every run.
         #[arg(long, default_value = "results")]
         out: PathBuf,
         /// `synth`'s dist/synthesis.json: adds the design table (γ, certificate, synthesis time,
@@ -69,6 +72,7 @@ enum Command {
     Sweep {
         /// The sweep file (JSON; README "Robustness sweeps").
         spec: PathBuf,
+        /// Directory for runs.csv, runs.parquet, report.md and cdf.svg.
         #[arg(long, default_value = "results/sweep")]
         out: PathBuf,
         /// Only the runs `START..END` of the run table (0-based, END excluded): a chunk of a
@@ -98,10 +102,13 @@ fn parse_range(s: &str) -> Result<std::ops::Range<usize>, String> {
 /// One scenario with one controller, described for another tool.
 #[derive(clap::Args)]
 struct LoopArgs {
+    /// The scenario file whose parameters, step and duration the structure carries.
     #[arg(long)]
     scenario: PathBuf,
+    /// The controller FMU's name in --dist.
     #[arg(long)]
     controller: String,
+    /// The file to write.
     #[arg(long)]
     out: PathBuf,
 }
@@ -336,5 +343,26 @@ fn main() {
             eprintln!("master: {e}");
             std::process::exit(1);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn every_option_of_every_command_says_what_it_is() {
+        let cli = Cli::command();
+        cli.clone().debug_assert();
+        let mut undocumented = Vec::new();
+        for command in std::iter::once(&cli).chain(cli.get_subcommands()) {
+            for arg in command.get_arguments() {
+                if arg.get_help().is_none() && arg.get_id() != "help" {
+                    undocumented.push(format!("{} --{}", command.get_name(), arg.get_id()));
+                }
+            }
+        }
+        assert!(undocumented.is_empty(), "no --help text: {undocumented:?}");
     }
 }
