@@ -13,8 +13,8 @@
 
 use crate::comfort_designs::{
     anti_windup_design, fault_tolerant_design, nominal_gain, output_feedback_design, robust_gain,
-    robust_output_feedback_design, state_feedback_design, Comfort, ComfortDesignResult,
-    ComfortError, Context, Uncertainty,
+    robust_output_feedback_design, robust_state_feedback_design, state_feedback_design, Comfort,
+    ComfortDesignResult, ComfortError, Context, Uncertainty,
 };
 use crate::controller_file::{controller_json, Guarantee};
 use crate::design::{ComfortDesign, Design, DesignError};
@@ -117,20 +117,15 @@ pub const VARIANTS: [Variant; 7] = [
         output_feedback: false,
         summary: "state feedback robust to the sprung mass (thesis Th. 6.1)",
         comfort: |ctx, s| {
-            let notes = vec![state_feedback_note(
+            let robust = state_feedback_note(
                 ctx.design,
                 &format!(
                     "every sprung mass in [{}, {}] kg (rank-one channel at the harmonic-mean mass) and the unmodelled delay",
                     ctx.design.mass_min, ctx.design.mass_max
                 ),
-            )];
-            state_feedback_design(
-                ctx,
-                "robust_sf",
-                Uncertainty::SprungMass,
-                s.robust(ctx)?,
-                notes,
-            )
+            );
+            let nominal = state_feedback_note(ctx.design, "the unmodelled delay");
+            robust_state_feedback_design(ctx, (s.robust(ctx)?, robust), (s.nominal(ctx)?, nominal))
         },
     },
     Variant {

@@ -92,11 +92,12 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
     };
     assert!(worst(&rows, 0) < 0.5 * worst(&rows, 1), "{rows:?}");
     // robust_sf: state feedback's comfort barely depends on the mass (hinf_sf is robust by
-    // physics), so the guaranteed-cost design can only pay: measured 5.4 % worse at 1200 kg, just
-    // over the 5 % (an open point); this fails if it grows.
+    // physics: 0.00848 to 0.00897 m/s² over the range), and the guaranteed-cost gain over the
+    // range was 3–5.4 % worse everywhere; robust_sf takes the better of the two certified gains
+    // over the range, so it is within the 5 % of hinf_sf at every mass.
     for (label, own, nominal) in beside_nominal(cert("robust_sf")) {
         assert!(
-            own <= 1.06 * nominal,
+            own <= 1.05 * nominal,
             "robust_sf at {label}: {own} vs hinf_sf {nominal}"
         );
     }
