@@ -440,8 +440,8 @@ impl ModelDescription {
         writeln!(x, "<!-- Generated from the variable table in Rust; do not edit. Regenerate with `make descriptions`. -->").unwrap();
         writeln!(
             x,
-            r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" version="{}" generationTool="suspension-fmus (fmu-core)" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
-            esc(&self.model_name), esc(&self.guid), esc(&self.description), esc(&self.version)
+            r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" version="{}" generationTool="suspension-fmus {} (fmu-core)" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
+            esc(&self.model_name), esc(&self.guid), esc(&self.description), esc(&self.version), env!("CARGO_PKG_VERSION")
         )
         .unwrap();
         writeln!(

@@ -1,0 +1,39 @@
+"""What a user or a packager reads about the project agrees with itself: the licence files the
+Cargo manifest names exist, CITATION.cff is valid CFF 1.2.0 and names the version every FMU
+reports (`version`, and `generationTool` with it), and the changelog has that version."""
+import re
+import subprocess
+import zipfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+VENV_BIN = Path(__file__).resolve().parents[2] / ".venv" / "bin"
+
+
+def crate_version(crate):
+    text = (ROOT / crate / "Cargo.toml").read_text()
+    return re.search(r'^version = "([^"]+)"', text, re.M).group(1)
+
+
+def test_licence_files_match_the_manifest():
+    manifest = (ROOT / "Cargo.toml").read_text()
+    assert 'license = "MIT OR Apache-2.0"' in manifest
+    assert "Permission is hereby granted, free of charge" in (ROOT / "LICENSE-MIT").read_text()
+    assert "Apache License" in (ROOT / "LICENSE-APACHE").read_text()
+
+
+def test_citation_is_valid_and_every_fmu_reports_its_version():
+    version = crate_version("fmu-core")
+    result = subprocess.run([str(VENV_BIN / "cffconvert"), "--validate", "-i", str(ROOT / "CITATION.cff")],
+                            capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert re.search(rf"^version: {re.escape(version)}$", (ROOT / "CITATION.cff").read_text(), re.M)
+    assert f"## [{version}]" in (ROOT / "CHANGELOG.md").read_text()
+    fmus = sorted((ROOT / "dist").glob("*.fmu"))
+    assert len(fmus) >= 9
+    for fmu in fmus:
+        with zipfile.ZipFile(fmu) as z:
+            root = ET.fromstring(z.read("modelDescription.xml"))
+        assert root.get("generationTool") == f"suspension-fmus {version} (fmu-core)", fmu.name
+        assert root.get("version").split("+")[0] == version, fmu.name
