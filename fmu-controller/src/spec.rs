@@ -3,67 +3,9 @@
 //! and outputs (plant inputs `u_*`).
 
 use nalgebra::DMatrix;
-use serde::Deserialize;
 
-pub const FORMAT: &str = "suspension-controller/2";
-
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Signal {
-    pub name: String,
-    pub unit: String,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Raw {
-    format: String,
-    variant: String,
-    description: String,
-    guarantee: Guarantee,
-    inputs: Vec<Signal>,
-    outputs: Vec<Signal>,
-    #[serde(rename = "A")]
-    a: Vec<Vec<f64>>,
-    #[serde(rename = "B")]
-    b: Vec<Vec<f64>>,
-    #[serde(rename = "C")]
-    c: Vec<Vec<f64>>,
-    #[serde(rename = "D")]
-    d: Vec<Vec<f64>>,
-    #[serde(default)]
-    anti_windup: Option<RawAntiWindup>,
-    #[serde(default)]
-    fault_detection: Option<RawFaultDetection>,
-    #[serde(default)]
-    predictor: Option<RawPredictor>,
-}
-
-/// What the synthesis guarantees, reported by the FMU as a calculated parameter of this name.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Guarantee {
-    pub name: String,
-    pub value: f64,
-    pub unit: String,
-    pub description: String,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawFaultDetection {
-    #[serde(rename = "A")]
-    a: Vec<Vec<f64>>,
-    #[serde(rename = "B")]
-    b: Vec<Vec<f64>>,
-    #[serde(rename = "B_u")]
-    b_u: Vec<Vec<f64>>,
-    #[serde(rename = "C")]
-    c: Vec<Vec<f64>>,
-    #[serde(rename = "D")]
-    d: Vec<Vec<f64>>,
-    threshold: f64,
-}
+use controller_file::{ControllerFile as Raw, Predictor as RawPredictor};
+pub use controller_file::{Guarantee, Signal, FORMAT};
 
 /// A fault detector (thesis ch. 8): `ξ̇ = A ξ + B y + B_u u` with `u` the command sent (N),
 /// the residual `r = C ξ + D y` (N, the estimated actuator force deficit); `fault_detected`
@@ -77,32 +19,6 @@ pub struct FaultDetection {
     pub d: DMatrix<f64>,
     /// Default threshold [N] (parameter `fault_threshold`).
     pub threshold: f64,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawPredictor {
-    #[serde(rename = "A")]
-    a: Vec<Vec<f64>>,
-    #[serde(rename = "B")]
-    b: Vec<Vec<f64>>,
-    #[serde(rename = "K")]
-    k: Vec<Vec<f64>>,
-    #[serde(rename = "S_y")]
-    s_y: Vec<Vec<f64>>,
-    #[serde(rename = "S_xi")]
-    s_xi: Vec<Vec<f64>>,
-    #[serde(rename = "A_xi")]
-    a_xi: Vec<Vec<f64>>,
-    #[serde(rename = "B_xi")]
-    b_xi: Vec<Vec<f64>>,
-    #[serde(rename = "B_xiu")]
-    b_xiu: Vec<Vec<f64>>,
-    delay_max: f64,
-    /// The synthesis's figures about it, for the reader (not used here).
-    #[serde(default)]
-    #[allow(dead_code)]
-    facts: serde_json::Value,
 }
 
 /// A state feedback behind a predictor over the actuators' known delay `θ` (synth's
@@ -122,20 +38,6 @@ pub struct Predictor {
     pub b_xiu: DMatrix<f64>,
     /// The largest delay it is certified for [s] (the parameter `tau`'s maximum).
     pub delay_max: f64,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawAntiWindup {
-    #[serde(rename = "A")]
-    a: Vec<Vec<f64>>,
-    #[serde(rename = "B")]
-    b: Vec<Vec<f64>>,
-    #[serde(rename = "C")]
-    c: Vec<Vec<f64>>,
-    #[serde(rename = "F")]
-    f: Vec<Vec<f64>>,
-    u_max: Vec<f64>,
 }
 
 /// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model `η̇ = A η + B (u − y_c)`
@@ -273,7 +175,7 @@ fn check_undelayed(spec: &Spec, p: &Predictor) -> Result<(), SpecError> {
 
 impl Spec {
     pub fn from_json(text: &str) -> Result<Spec, SpecError> {
-        let raw: Raw = serde_json::from_str(text).map_err(|e| SpecError::Syntax(e.to_string()))?;
+        let raw = Raw::from_json(text).map_err(|e| SpecError::Syntax(e.to_string()))?;
         if raw.format != FORMAT {
             return Err(SpecError::Format(raw.format));
         }

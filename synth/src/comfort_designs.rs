@@ -26,6 +26,7 @@ use crate::comfort_controllers::{
     realise_state_feedback, state_feedback_sensors, ObserverInput,
 };
 use crate::comfort_plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
+use crate::controller_file::{matrix_rows, AntiWindup, Extensions, FaultDetection};
 use crate::design::ComfortDesign;
 use crate::fault::FaultBox;
 use crate::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
@@ -202,7 +203,7 @@ pub struct ComfortCertificate {
 pub struct ComfortDesignResult {
     pub law: ControlLaw,
     /// Extra blocks of `controller.json` (anti-windup, fault detection, predictor).
-    pub extensions: serde_json::Map<String, serde_json::Value>,
+    pub extensions: Extensions,
     pub certificate: ComfortCertificate,
 }
 
@@ -265,7 +266,7 @@ pub fn state_feedback_design(
     let certificate = certify(ctx, variant, robust_to, &law, &state_feedback_wiring, notes)?;
     Ok(ComfortDesignResult {
         law,
-        extensions: serde_json::Map::new(),
+        extensions: Extensions::default(),
         certificate,
     })
 }
@@ -311,7 +312,7 @@ pub fn output_feedback_design(
     let certificate = certify(ctx, variant, Uncertainty::None, &law, &wiring, notes)?;
     Ok(ComfortDesignResult {
         law,
-        extensions: serde_json::Map::new(),
+        extensions: Extensions::default(),
         certificate,
     })
 }
@@ -424,7 +425,7 @@ pub fn robust_output_feedback_design(
     let certificate = certify(ctx, variant, Uncertainty::SprungMass, &law, &wiring, notes)?;
     Ok(ComfortDesignResult {
         law,
-        extensions: serde_json::Map::new(),
+        extensions: Extensions::default(),
         certificate,
     })
 }
@@ -519,18 +520,17 @@ pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, Comfo
         out.columns_mut(0, m.ncols()).copy_from(m);
         out
     };
-    let mut extensions = serde_json::Map::new();
-    extensions.insert(
-        "fault_detection".into(),
-        serde_json::json!({
-            "A": crate::certificate::matrix_json(&detector.a),
-            "B": crate::certificate::matrix_json(&pad(&detector.b)),
-            "B_u": crate::certificate::matrix_json(&detector.b_u),
-            "C": crate::certificate::matrix_json(&detector.c),
-            "D": crate::certificate::matrix_json(&pad(&detector.d)),
-            "threshold": d.fault_threshold,
+    let extensions = Extensions {
+        fault_detection: Some(FaultDetection {
+            a: matrix_rows(&detector.a),
+            b: matrix_rows(&pad(&detector.b)),
+            b_u: matrix_rows(&detector.b_u),
+            c: matrix_rows(&detector.c),
+            d: matrix_rows(&pad(&detector.d)),
+            threshold: d.fault_threshold,
         }),
-    );
+        ..Extensions::default()
+    };
     Ok(ComfortDesignResult {
         law,
         extensions,
@@ -625,17 +625,16 @@ pub fn anti_windup_design(
             aw.gamma, check.spectral_abscissa, check.frequencies, check.min_margin
         ),
     );
-    let mut extensions = of.extensions.clone();
-    extensions.insert(
-        "anti_windup".into(),
-        serde_json::json!({
-            "A": crate::certificate::matrix_json(&car.a),
-            "B": crate::certificate::matrix_json(&car.b_u),
-            "C": crate::certificate::matrix_json(&car.c_y),
-            "F": crate::certificate::matrix_json(&(&aw.f * ku)),
-            "u_max": force_limits(d),
+    let extensions = Extensions {
+        anti_windup: Some(AntiWindup {
+            a: matrix_rows(&car.a),
+            b: matrix_rows(&car.b_u),
+            c: matrix_rows(&car.c_y),
+            f: matrix_rows(&(&aw.f * ku)),
+            u_max: force_limits(d).to_vec(),
         }),
-    );
+        ..of.extensions.clone()
+    };
     Ok(ComfortDesignResult {
         law: of.law.clone(),
         extensions,

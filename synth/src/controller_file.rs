@@ -1,19 +1,16 @@
 //! `controller.json`, the resource every controller FMU reads: the controller in the plant's
 //! units, and the plant outputs it reads (its inputs) by name, with units.
 
-use crate::certificate::{matrix_json, Controller};
-use serde::Serialize;
-use serde_json::json;
+use crate::certificate::Controller;
+pub use controller_file::{
+    AntiWindup, ControllerFile, Extensions, FaultDetection, Guarantee, Predictor, Rows, Signal,
+    FORMAT,
+};
+use nalgebra::DMatrix;
 
-/// What a controller's synthesis guarantees; its FMU reports it as a calculated parameter of
-/// this name (`gamma` for the thesis's H∞ designs, `guaranteed_wk_rms_seat` for the comfort
-/// designs).
-#[derive(Debug, Clone, Serialize)]
-pub struct Guarantee {
-    pub name: &'static str,
-    pub value: f64,
-    pub unit: &'static str,
-    pub description: String,
+/// A matrix as the file's rows.
+pub fn matrix_rows(m: &DMatrix<f64>) -> Rows {
+    m.row_iter().map(|r| r.iter().copied().collect()).collect()
 }
 
 /// Unit of a plant output by name (states `x[k]`, physical outputs, applied forces).
@@ -39,17 +36,30 @@ pub fn controller_json(
     guarantee: &Guarantee,
     inputs: &[String],
     k: &Controller,
-) -> serde_json::Value {
-    json!({
-        "format": "suspension-controller/2",
-        "variant": variant,
-        "description": description,
-        "guarantee": guarantee,
-        "inputs": inputs.iter().map(|n| json!({"name": n, "unit": plant_output_unit(n)})).collect::<Vec<_>>(),
-        "outputs": vehicle::model::FORCE_PORTS.iter().map(|u| json!({"name": u, "unit": "N"})).collect::<Vec<_>>(),
-        "A": matrix_json(&k.a),
-        "B": matrix_json(&k.b),
-        "C": matrix_json(&k.c),
-        "D": matrix_json(&k.d),
-    })
+) -> ControllerFile {
+    let signal = |name: &str, unit: &str| Signal {
+        name: name.into(),
+        unit: unit.into(),
+    };
+    ControllerFile {
+        a: matrix_rows(&k.a),
+        b: matrix_rows(&k.b),
+        c: matrix_rows(&k.c),
+        d: matrix_rows(&k.d),
+        anti_windup: None,
+        description: description.into(),
+        fault_detection: None,
+        format: FORMAT.into(),
+        guarantee: guarantee.clone(),
+        inputs: inputs
+            .iter()
+            .map(|n| signal(n, plant_output_unit(n)))
+            .collect(),
+        outputs: vehicle::model::FORCE_PORTS
+            .iter()
+            .map(|u| signal(u, "N"))
+            .collect(),
+        predictor: None,
+        variant: variant.into(),
+    }
 }

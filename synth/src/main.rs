@@ -55,7 +55,9 @@ fn run(cli: Cli) -> Result<(), SynthError> {
         let mut cert = s.certificate.clone();
         cert["synthesis_seconds"] = serde_json::json!(s.seconds);
         write(out.join(format!("{name}.certificate.json")), &cert)?;
-        write(dir.join("controller.json"), &s.controller_json)?;
+        let path = dir.join("controller.json");
+        std::fs::write(&path, s.controller_json.to_json())
+            .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
         println!("{name:<10} {} ({:.2} s)", s.row.certified, s.seconds);
     }
     let wall = started.elapsed().as_secs_f64();

@@ -217,23 +217,22 @@ pub fn predictor_design(
         1e3 * lead
     ));
     let r = reconstruction(g);
-    let mut extensions = serde_json::Map::new();
-    let m = crate::certificate::matrix_json;
-    extensions.insert(
-        "predictor".into(),
-        serde_json::json!({
-            "A": m(&g.a),
-            "B": m(&g.b_u),
-            "K": m(&sf.k),
-            "S_y": m(&r.s_y),
-            "S_xi": m(&r.s_xi),
-            "A_xi": m(&r.a_xi),
-            "B_xi": m(&r.b_xi),
-            "B_xiu": m(&r.b_xiu),
-            "delay_max": d.delay_max,
-            "facts": facts,
+    let m = crate::controller_file::matrix_rows;
+    let extensions = crate::controller_file::Extensions {
+        predictor: Some(crate::controller_file::Predictor {
+            a: m(&g.a),
+            b: m(&g.b_u),
+            k: m(&sf.k),
+            s_y: m(&r.s_y),
+            s_xi: m(&r.s_xi),
+            a_xi: m(&r.a_xi),
+            b_xi: m(&r.b_xi),
+            b_xiu: m(&r.b_xiu),
+            delay_max: d.delay_max,
+            facts: serde_json::to_value(&facts).expect("serialisable"),
         }),
-    );
+        ..Default::default()
+    };
     Ok(ComfortDesignResult {
         law,
         extensions,

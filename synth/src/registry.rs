@@ -16,7 +16,7 @@ use crate::comfort_designs::{
     robust_output_feedback_design, robust_state_feedback_design, state_feedback_design, Comfort,
     ComfortDesignResult, ComfortError, Context, Uncertainty,
 };
-use crate::controller_file::{controller_json, Guarantee};
+use crate::controller_file::{controller_json, ControllerFile, Guarantee};
 use crate::design::{ComfortDesign, Design, DesignError};
 use crate::guaranteed::StateFeedback;
 use crate::prediction::{predict, ControlLaw};
@@ -206,7 +206,7 @@ impl DesignFile {
 pub struct Synthesised {
     pub law: ControlLaw,
     pub certificate: serde_json::Value,
-    pub controller_json: serde_json::Value,
+    pub controller_json: ControllerFile,
     pub row: SummaryRow,
     /// Wall time of this design alone [s].
     pub seconds: f64,
@@ -320,9 +320,9 @@ fn comfort_guarantee(d: &ComfortDesign, comfort: &Comfort, robust_to: Uncertaint
     );
     match comfort.guaranteed_wk_rms_seat_m_s2 {
         Some(value) => Guarantee {
-            name: "guaranteed_wk_rms_seat",
+            name: "guaranteed_wk_rms_seat".into(),
             value,
-            unit: "m/s2",
+            unit: "m/s2".into(),
             description: format!(
                 "W_k RMS seat acceleration the design guarantees {road}{} (see the certificate)",
                 match robust_to {
@@ -333,9 +333,9 @@ fn comfort_guarantee(d: &ComfortDesign, comfort: &Comfort, robust_to: Uncertaint
             ),
         },
         None => Guarantee {
-            name: "predicted_wk_rms_seat",
+            name: "predicted_wk_rms_seat".into(),
             value: comfort.predicted_wk_rms_seat_m_s2,
-            unit: "m/s2",
+            unit: "m/s2".into(),
             description: format!(
                 "W_k RMS seat acceleration predicted {road} at the nominal car; no bound over the \
                  design's uncertainty is certified (see the certificate)"
@@ -428,16 +428,14 @@ fn comfort_all(
             let c = &r.certificate;
             let comfort = &c.comfort;
             let guarantee = comfort_guarantee(design, comfort, c.robust_to);
-            let mut json = controller_json(
+            let json = controller_json(
                 name,
                 &format!("{} — comfort design: {}", name, v.summary),
                 &guarantee,
                 &r.law.inputs,
                 &r.law.lti,
-            );
-            for (k, value) in &r.extensions {
-                json[k] = value.clone();
-            }
+            )
+            .with(r.extensions.clone());
             let (certified, nominal_figure) = headline(c);
             let row = SummaryRow {
                 variant: name.to_string(),

@@ -7,7 +7,9 @@ use crate::anti_windup::{circle_check, mraw};
 use crate::certificate::{
     certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate, Controller,
 };
-use crate::controller_file::{controller_json, Guarantee};
+use crate::controller_file::{
+    controller_json, matrix_rows, AntiWindup, ControllerFile, FaultDetection, Guarantee,
+};
 use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
 use crate::design::{Design, RoadModel};
 use crate::fault::{
@@ -48,7 +50,7 @@ const LAMBDA_DECADES: f64 = 1.0;
 pub struct Synthesised {
     pub controller: Controller,
     pub certificate: Certificate,
-    pub controller_json: serde_json::Value,
+    pub controller_json: ControllerFile,
     /// What the design is robust to (for the summary table).
     pub robust_to: &'static str,
     /// Wall time of this design alone (its nominal counterpart excluded) [s].
@@ -71,9 +73,9 @@ fn sf_controller(g: &GeneralizedPlant, k: &DMatrix<f64>) -> Controller {
 /// The H∞ level a thesis design guarantees, as its FMU reports it.
 fn gamma_guarantee(gamma: f64) -> Guarantee {
     Guarantee {
-        name: "gamma",
+        name: "gamma".into(),
         value: gamma,
-        unit: "1",
+        unit: "1".into(),
         description:
             "H-infinity level the synthesis guarantees (scaled w to z, see the certificate)".into(),
     }
@@ -624,18 +626,26 @@ fn hinf_of_aw(
         "circle_criterion_min_margin": check.min_margin,
         "circle_criterion_frequencies": check.frequencies,
     });
-    let mut json = of.controller_json.clone();
-    json["variant"] = serde_json::json!(variant);
-    json["description"] = serde_json::json!(
-        "H-infinity output feedback with decoupled anti-windup (thesis Th. 5.3, corrected)"
-    );
-    json["anti_windup"] = serde_json::json!({
-        "A": matrix_json(&g.a),
-        "B": matrix_json(&(&g.b_u / FORCE_UNIT)),
-        "C": matrix_json(&g.c_y),
-        "F": matrix_json(&(&aw.f * FORCE_UNIT)),
-        "u_max": [design.u_max, design.u_max, design.u_max, design.u_max, design.u_max_seat],
-    });
+    let json = ControllerFile {
+        variant: variant.into(),
+        description:
+            "H-infinity output feedback with decoupled anti-windup (thesis Th. 5.3, corrected)"
+                .into(),
+        anti_windup: Some(AntiWindup {
+            a: matrix_rows(&g.a),
+            b: matrix_rows(&(&g.b_u / FORCE_UNIT)),
+            c: matrix_rows(&g.c_y),
+            f: matrix_rows(&(&aw.f * FORCE_UNIT)),
+            u_max: vec![
+                design.u_max,
+                design.u_max,
+                design.u_max,
+                design.u_max,
+                design.u_max_seat,
+            ],
+        }),
+        ..of.controller_json.clone()
+    };
     Ok(Synthesised {
         controller: of.controller.clone(),
         certificate,
@@ -749,7 +759,14 @@ fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthEr
     });
     let mut json = controller_json(variant, "Fault-tolerant H-infinity output feedback with observer and residual (thesis Th. 8.1, corrected)", &gamma_guarantee(ob.gamma), &of_inputs(), &control);
     let d = det.detector();
-    json["fault_detection"] = serde_json::json!({"A": matrix_json(&d.a), "B": matrix_json(&d.b), "B_u": matrix_json(&d.b_u), "C": matrix_json(&d.c), "D": matrix_json(&d.d), "threshold": design.fault_threshold});
+    json.fault_detection = Some(FaultDetection {
+        a: matrix_rows(&d.a),
+        b: matrix_rows(&d.b),
+        b_u: matrix_rows(&d.b_u),
+        c: matrix_rows(&d.c),
+        d: matrix_rows(&d.d),
+        threshold: design.fault_threshold,
+    });
     Ok(Synthesised {
         controller: k,
         certificate,

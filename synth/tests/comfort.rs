@@ -65,8 +65,7 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             );
         }
         // The controller file says what the FMU will report.
-        let guarantee = &s.controller_json["guarantee"];
-        assert!(guarantee["value"].as_f64().unwrap() > 0.0, "{name}");
+        assert!(s.controller_json.guarantee.value > 0.0, "{name}");
     }
     // robust_of: at most 5 % worse than hinf_of anywhere in its mass range (the bound;
     // predicted 1.7 % better at the nominal mass), better at both ends, where hinf_of degrades,

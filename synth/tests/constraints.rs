@@ -45,11 +45,11 @@ fn constrained_state_feedback_keeps_force_stroke_and_tyre_load_within_their_limi
     }
 
     // The controller reads x[1..16] and the four tyre deflections (its inputs, by name).
-    let inputs: Vec<String> = s.controller_json["inputs"]
-        .as_array()
-        .unwrap()
+    let inputs: Vec<String> = s
+        .controller_json
+        .inputs
         .iter()
-        .map(|i| i["name"].as_str().unwrap().to_string())
+        .map(|i| i.name.clone())
         .collect();
     assert_eq!(inputs.len(), N_STATES + 4);
     assert!(s.controller.a.nrows() == 0, "static gain");

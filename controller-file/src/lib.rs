@@ -1,0 +1,253 @@
+//! `resources/controller.json`: the controller `ẋc = A xc + B y`, `u = C xc + D y` in the
+//! plant's units, the plant outputs it reads (`inputs`) and the plant inputs it drives
+//! (`outputs`) by name and unit, what its synthesis guarantees, and the optional blocks of the
+//! runtime (anti-windup, fault detection, predictor). `synth` writes it and `fmu-controller`
+//! reads it through these types, so the two cannot drift apart.
+//!
+//! The fields are declared in alphabetical order (upper case first): the order the file has
+//! always had, from the sorted maps it was first written with, so files written through these
+//! types are byte-identical to the older ones. Shapes and values are checked by the reader
+//! (`fmu-controller`'s `Spec`), which knows what each block must match.
+
+use serde::{Deserialize, Serialize};
+
+/// The `format` every file carries.
+pub const FORMAT: &str = "suspension-controller/2";
+
+/// A matrix as its rows.
+pub type Rows = Vec<Vec<f64>>;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerFile {
+    #[serde(rename = "A")]
+    pub a: Rows,
+    #[serde(rename = "B")]
+    pub b: Rows,
+    #[serde(rename = "C")]
+    pub c: Rows,
+    #[serde(rename = "D")]
+    pub d: Rows,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anti_windup: Option<AntiWindup>,
+    pub description: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fault_detection: Option<FaultDetection>,
+    /// [`FORMAT`].
+    pub format: String,
+    pub guarantee: Guarantee,
+    /// The plant outputs the controller reads, in the order of `B`'s and `D`'s columns.
+    pub inputs: Vec<Signal>,
+    /// The plant inputs it drives (`u_*`), in the order of `C`'s and `D`'s rows.
+    pub outputs: Vec<Signal>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predictor: Option<Predictor>,
+    /// The FMU's model identifier.
+    pub variant: String,
+}
+
+/// A variable by name and unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Signal {
+    pub name: String,
+    pub unit: String,
+}
+
+/// What the synthesis guarantees, reported by the FMU as a calculated parameter of this name
+/// (`gamma` for the thesis's H∞ designs, `guaranteed_wk_rms_seat` or `predicted_wk_rms_seat`
+/// for the comfort designs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Guarantee {
+    pub description: String,
+    pub name: String,
+    pub unit: String,
+    pub value: f64,
+}
+
+/// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model
+/// `η̇ = A η + B (u − y_c)` with `u = sat(y_c + F η)`; the controller reads `y − C η`. Forces
+/// in N.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AntiWindup {
+    #[serde(rename = "A")]
+    pub a: Rows,
+    #[serde(rename = "B")]
+    pub b: Rows,
+    #[serde(rename = "C")]
+    pub c: Rows,
+    #[serde(rename = "F")]
+    pub f: Rows,
+    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`).
+    pub u_max: Vec<f64>,
+}
+
+/// A fault detector (thesis ch. 8): `ξ̇ = A ξ + B y + B_u u` with `u` the command sent (N), the
+/// residual `r = C ξ + D y` (N); `fault_detected` latches when `‖r‖` exceeds `threshold`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultDetection {
+    #[serde(rename = "A")]
+    pub a: Rows,
+    #[serde(rename = "B")]
+    pub b: Rows,
+    #[serde(rename = "B_u")]
+    pub b_u: Rows,
+    #[serde(rename = "C")]
+    pub c: Rows,
+    #[serde(rename = "D")]
+    pub d: Rows,
+    /// Default threshold [N] (parameter `fault_threshold`).
+    pub threshold: f64,
+}
+
+/// A state feedback behind a predictor over the actuators' known delay `θ`: the design state
+/// `x = S_y y + S_ξ ξ`, `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u(t − θ)`, and
+/// `u(t) = K [e^{Aθ} x(t) + ∫_{t−θ}^{t} e^{A(t−r)} B u(r) dr]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Predictor {
+    #[serde(rename = "A")]
+    pub a: Rows,
+    #[serde(rename = "A_xi")]
+    pub a_xi: Rows,
+    #[serde(rename = "B")]
+    pub b: Rows,
+    #[serde(rename = "B_xi")]
+    pub b_xi: Rows,
+    #[serde(rename = "B_xiu")]
+    pub b_xiu: Rows,
+    #[serde(rename = "K")]
+    pub k: Rows,
+    #[serde(rename = "S_xi")]
+    pub s_xi: Rows,
+    #[serde(rename = "S_y")]
+    pub s_y: Rows,
+    /// The largest delay it is certified for [s] (the parameter `tau`'s maximum).
+    pub delay_max: f64,
+    /// The synthesis's figures about it, for the reader (the runtime does not use them).
+    #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
+    pub facts: serde_json::Value,
+}
+
+/// The blocks a controller may carry beyond `A, B, C, D`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Extensions {
+    pub anti_windup: Option<AntiWindup>,
+    pub fault_detection: Option<FaultDetection>,
+    pub predictor: Option<Predictor>,
+}
+
+impl ControllerFile {
+    /// Parse a file (shapes and values are the reader's to check).
+    pub fn from_json(text: &str) -> Result<ControllerFile, serde_json::Error> {
+        serde_json::from_str(text)
+    }
+
+    /// The file's text, as `synth` writes it.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a controller file serialises")
+    }
+
+    /// This file with `extensions`' blocks set (those it lacks kept as they are).
+    pub fn with(mut self, extensions: Extensions) -> ControllerFile {
+        self.anti_windup = extensions.anti_windup.or(self.anti_windup);
+        self.fault_detection = extensions.fault_detection.or(self.fault_detection);
+        self.predictor = extensions.predictor.or(self.predictor);
+        self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file() -> ControllerFile {
+        ControllerFile {
+            a: vec![vec![-1.0]],
+            b: vec![vec![2.0, 0.5]],
+            c: vec![vec![3.0]],
+            d: vec![vec![0.25, -4.0]],
+            anti_windup: None,
+            description: "test".into(),
+            fault_detection: Some(FaultDetection {
+                a: vec![],
+                b: vec![],
+                b_u: vec![],
+                c: vec![],
+                d: vec![],
+                threshold: 50.0,
+            }),
+            format: FORMAT.into(),
+            guarantee: Guarantee {
+                description: "γ".into(),
+                name: "gamma".into(),
+                unit: "1".into(),
+                value: 1.5,
+            },
+            inputs: vec![
+                Signal {
+                    name: "stroke_fl".into(),
+                    unit: "m".into(),
+                },
+                Signal {
+                    name: "a_seat".into(),
+                    unit: "m/s2".into(),
+                },
+            ],
+            outputs: vec![Signal {
+                name: "u_fl".into(),
+                unit: "N".into(),
+            }],
+            predictor: None,
+            variant: "x".into(),
+        }
+    }
+
+    /// The typed file writes exactly what a JSON object with sorted keys (how the file was
+    /// written before these types) writes, and reads back to itself.
+    #[test]
+    fn the_typed_file_is_the_sorted_json_object_and_round_trips() {
+        let f = file();
+        let as_value = serde_json::to_value(&f).unwrap();
+        assert_eq!(
+            f.to_json(),
+            serde_json::to_string_pretty(&as_value).unwrap()
+        );
+        assert_eq!(ControllerFile::from_json(&f.to_json()).unwrap(), f);
+    }
+
+    #[test]
+    fn unknown_and_missing_fields_are_refused_by_name() {
+        let text = file().to_json();
+        let extra = text.replacen("\"variant\"", "\"varaint\": 1, \"variant\"", 1);
+        assert!(ControllerFile::from_json(&extra)
+            .unwrap_err()
+            .to_string()
+            .contains("varaint"));
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let mut m = v.as_object().unwrap().clone();
+        m.remove("guarantee");
+        let e = ControllerFile::from_json(&serde_json::Value::Object(m).to_string()).unwrap_err();
+        assert!(e.to_string().contains("guarantee"), "{e}");
+    }
+
+    #[test]
+    fn extensions_are_set_and_absent_ones_kept() {
+        let aw = AntiWindup {
+            a: vec![],
+            b: vec![],
+            c: vec![],
+            f: vec![],
+            u_max: vec![1.0],
+        };
+        let f = file().with(Extensions {
+            anti_windup: Some(aw.clone()),
+            ..Extensions::default()
+        });
+        assert_eq!(f.anti_windup, Some(aw));
+        assert!(f.fault_detection.is_some());
+    }
+}
