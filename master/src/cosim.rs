@@ -274,8 +274,8 @@ impl Fmu {
 
     /// `value` as the type of parameter `name` (an Integer must fit an `fmi2Integer`).
     pub fn typed(&self, name: &str, value: &serde_json::Value) -> Result<Typed, MasterError> {
-        let parameters = self.names_with_causality("parameter");
         let (_, elem, causality) = self.variable(name).ok_or_else(|| {
+            let parameters = self.names_with_causality("parameter");
             err(format!(
                 "{} has no parameter '{name}'{}",
                 self.name,
