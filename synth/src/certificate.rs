@@ -107,11 +107,7 @@ pub enum CertificateError {
 }
 
 pub fn matrix_json(m: &DMatrix<f64>) -> serde_json::Value {
-    serde_json::Value::Array(
-        (0..m.nrows())
-            .map(|i| serde_json::json!((0..m.ncols()).map(|j| m[(i, j)]).collect::<Vec<_>>()))
-            .collect(),
-    )
+    serde_json::json!(crate::controller_file::matrix_rows(m))
 }
 
 /// The mixed H2/H∞ designs' second claim: the closed loop's H2 norm on the rows `rows` of `z`

@@ -247,6 +247,16 @@ pub fn robust_gain(ctx: &Context) -> Result<(ComfortPlant, StateFeedback), Comfo
     Ok((g, sf))
 }
 
+/// A state-feedback gain as the controller that realises it, reading the car's states, tyre
+/// deflections and accelerations ([`realise_state_feedback`]).
+fn state_feedback_law((g, sf): &(ComfortPlant, StateFeedback)) -> ControlLaw {
+    ControlLaw {
+        inputs: state_feedback_sensors(g).names,
+        lti: realise_state_feedback(g, &sf.k),
+        predictor: None,
+    }
+}
+
 /// `hinf_sf`, `robust_sf`: the gain as a controller reading the car's states, tyre deflections
 /// and accelerations ([`realise_state_feedback`]).
 pub fn state_feedback_design(
@@ -256,13 +266,7 @@ pub fn state_feedback_design(
     gain: &(ComfortPlant, StateFeedback),
     notes: Vec<String>,
 ) -> Result<ComfortDesignResult, ComfortError> {
-    let (g, sf) = gain;
-    let k = realise_state_feedback(g, &sf.k);
-    let law = ControlLaw {
-        inputs: state_feedback_sensors(g).names,
-        lti: k,
-        predictor: None,
-    };
+    let law = state_feedback_law(gain);
     let certificate = certify(ctx, variant, robust_to, &law, &state_feedback_wiring, notes)?;
     Ok(ComfortDesignResult {
         law,
@@ -353,14 +357,9 @@ pub fn robust_state_feedback_design(
     (robust, robust_note): (&(ComfortPlant, StateFeedback), String),
     (nominal, nominal_note): (&(ComfortPlant, StateFeedback), String),
 ) -> Result<ComfortDesignResult, ComfortError> {
-    let law = |(g, sf): &(ComfortPlant, StateFeedback)| ControlLaw {
-        inputs: state_feedback_sensors(g).names,
-        lti: realise_state_feedback(g, &sf.k),
-        predictor: None,
-    };
     let (w_robust, w_nominal) = (
-        worst_over_masses(ctx, &law(robust)),
-        worst_over_masses(ctx, &law(nominal)),
+        worst_over_masses(ctx, &state_feedback_law(robust)),
+        worst_over_masses(ctx, &state_feedback_law(nominal)),
     );
     let (chosen, which, note) = if w_nominal < w_robust {
         (nominal, "the nominal (hinf_sf) gain", nominal_note)
@@ -396,14 +395,13 @@ pub fn robust_output_feedback_design(
     let n = plant_of(&gain.0).a.nrows();
     let h = mass.b_p.rows(0, n).into_owned();
     let masses = selection_masses(ctx);
-    let worst = |law: &ControlLaw| worst_over_masses(ctx, law);
     let mut best: Option<(f64, f64, ControlLaw)> = None;
     for zeta in [0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1] {
         let fictitious = &h * zeta;
         let Ok((law, _, _)) = observer_law(ctx, variant, gain, Some(&fictitious)) else {
             continue;
         };
-        let w = worst(&law);
+        let w = worst_over_masses(ctx, &law);
         if best.as_ref().is_none_or(|b| w < b.0) {
             best = Some((w, zeta, law));
         }
