@@ -76,9 +76,41 @@ pub fn platform_note(glibc: (u32, u32)) -> String {
     )
 }
 
+/// The body of the markdown section headed by the line `heading` (e.g. `## Summary`): the
+/// lines after it up to the next heading of the same or a higher level, blank lines at either
+/// end trimmed, ending in one newline. `None` if no line equals `heading`.
+pub fn markdown_section(text: &str, heading: &str) -> Option<String> {
+    let level = heading.chars().take_while(|c| *c == '#').count();
+    let mut lines = text
+        .lines()
+        .skip_while(|l| l.trim_end() != heading.trim_end());
+    lines.next()?;
+    let body: Vec<&str> = lines
+        .take_while(|l| {
+            let hashes = l.chars().take_while(|c| *c == '#').count();
+            !(hashes > 0 && hashes <= level && l[hashes..].starts_with(' '))
+        })
+        .collect();
+    let start = body.iter().position(|l| !l.trim().is_empty())?;
+    let end = body.iter().rposition(|l| !l.trim().is_empty())? + 1;
+    Some(body[start..end].join("\n") + "\n")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_markdown_section_ends_at_the_next_heading_of_its_level() {
+        let doc = "# T\n\n## Summary\n\n| a |\n|---|\n\n### Detail\nx\n\n## Next\ny\n";
+        assert_eq!(
+            markdown_section(doc, "## Summary").unwrap(),
+            "| a |\n|---|\n\n### Detail\nx\n"
+        );
+        assert_eq!(markdown_section(doc, "## Next").unwrap(), "y\n");
+        assert_eq!(markdown_section(doc, "## Missing"), None);
+        assert_eq!(markdown_section("## Empty\n\n## Next\n", "## Empty"), None);
+    }
 
     #[test]
     fn glibc_versions_parse_and_order_numerically() {

@@ -8,6 +8,7 @@
 //! fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/hinf_sf --out dist/hinf_sf.fmu
 //! fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
 //! fmu-pack glibc --lib target/release/libfmu_plant.so --lib … --readme README.md --tag platform
+//! fmu-pack splice --from results/report.md --section "## Summary" --readme README.md --tag comparison
 //! ```
 
 use clap::{Parser, Subcommand};
@@ -61,6 +62,22 @@ enum Command {
         /// Marker name in the README.
         #[arg(long, requires = "readme")]
         tag: Option<String>,
+    },
+    /// Splice a file a tool wrote (a table, a report section) into a README, so its figures are
+    /// the tool's and never typed by hand.
+    Splice {
+        /// The markdown file, e.g. dist/synthesis.md or results/report.md.
+        #[arg(long)]
+        from: PathBuf,
+        /// Only this section of it: from the line equal to the heading (e.g. `## Summary`) to
+        /// the next heading of the same or a higher level, both excluded.
+        #[arg(long)]
+        section: Option<String>,
+        #[arg(long)]
+        readme: PathBuf,
+        /// Marker name in the README: `<!-- TAG:begin -->` … `<!-- TAG:end -->`.
+        #[arg(long)]
+        tag: String,
     },
 }
 
@@ -195,6 +212,21 @@ fn run(cli: Cli) -> Result<(), String> {
                 splice_readme(&path, tag, &fmu_pack::platform_note(v))?;
             }
             Ok(())
+        }
+        Command::Splice {
+            from,
+            section,
+            readme,
+            tag,
+        } => {
+            let text = std::fs::read_to_string(&from)
+                .map_err(|e| format!("cannot read {}: {e}", from.display()))?;
+            let content = match section {
+                Some(heading) => fmu_pack::markdown_section(&text, &heading)
+                    .ok_or_else(|| format!("{}: no section '{heading}'", from.display()))?,
+                None => text,
+            };
+            splice_readme(&readme, Some(tag), &content)
         }
     }
 }
