@@ -1,10 +1,11 @@
-# `make`       synthesise and certify every controller, build every FMU into dist/, validate
-#              them, run the closed-loop comparison (results/report.md) and print its summary
+# `make`       synthesise and certify every controller (the comfort designs of
+#              synth/designs/comfort.json), build every FMU into dist/, validate them, run the
+#              closed-loop comparison (results/report.md) and print its summary
 # `make test`  every test: rustfmt and clippy, Rust (unit + integration, incl. the fmi crate loading
 #              dist/) and pytest
 # `make bench` benchmarks (criterion)
-# `make constrained` (opt-in) the designs with the thesis's limits imposed as LMIs
-# `make comfort` (work in progress) the comfort designs and their FMUs in dist/comfort/
+# `make thesis` (opt-in) the thesis's H-inf designs (synth/designs/thesis.json) in dist/thesis/
+# `make constrained` (opt-in) the thesis designs with their limits imposed as LMIs
 # Everything the commands need is installed here: Debian packages and a .venv with FMPy.
 
 SHELL := /bin/bash
@@ -22,12 +23,13 @@ commas = $(shell echo $(1) | tr ' ' ',')
 APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
+# The variants, as synth's registry lists them (`synth --list`).
 CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
 FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
 RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
-.PHONY: all setup fmus validate compare sweep constrained comfort test lint test-rust test-python bench descriptions readme clean
+.PHONY: all setup fmus validate compare sweep constrained thesis test lint test-rust test-python bench descriptions readme clean
 
 all: fmus validate compare sweep
 	@echo
@@ -43,25 +45,21 @@ sweep: $(FMU_FILES) $(STAMP)/release
 compare: $(FMU_FILES) $(STAMP)/release
 	./target/release/master compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results --designs dist/synthesis.json
 
-# Work in progress (README "Comfort designs"): every variant designed for ISO 2631 comfort on an
-# ISO 8608 road (synth/designs/comfort.json), certified against an exact frequency-domain
-# prediction: dist/comfort/<variant>.certificate.json, controller.json, synthesis.md and an FMU
-# of each design synthesis produced (a refused design is reported in synthesis.md and gets none),
-# beside copies of road.fmu and plant.fmu, and their comparison on scenarios/ with the predicted
-# figure beside the measured ones (results/comfort/report.md). About a minute. `make test` builds
-# the FMUs: their co-simulation is tested against their certificates' predictions.
-comfort: $(STAMP)/comfort-fmus
-	ctrls=$$(cd dist/comfort && ls *.fmu | grep -v -e '^road\.fmu' -e '^plant\.fmu' | sed 's/\.fmu$$//' | paste -sd, -); \
-	./target/release/master --dist dist/comfort compare --scenarios scenarios --controllers $$ctrls --out results/comfort --designs dist/comfort/synthesis.json
+# Opt-in (README "The thesis's H-inf designs"): the thesis's designs (synth/designs/thesis.json,
+# certified H-inf norm gamma) in dist/thesis/ beside copies of road.fmu and plant.fmu, compared
+# over scenarios/ into results/thesis/report.md. `make test` builds their FMUs: the tests of the
+# H-inf machinery (Riccati, SciPy and co-simulation references) check them.
+thesis: $(STAMP)/thesis-fmus
+	./target/release/master --dist dist/thesis compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results/thesis --designs dist/thesis/synthesis.json
 
-$(STAMP)/comfort: $(STAMP)/release synth/designs/comfort.json
-	./target/release/synth --design synth/designs/comfort.json --out dist/comfort
+$(STAMP)/thesis: $(STAMP)/release synth/designs/thesis.json
+	./target/release/synth --design synth/designs/thesis.json --out dist/thesis $(CONTROLLERS)
 	@touch $@
 
-$(STAMP)/comfort-fmus: $(STAMP)/comfort dist/road.fmu dist/plant.fmu
-	cp dist/road.fmu dist/plant.fmu dist/comfort/
-	for d in dist/comfort/*/controller.json; do v=$$(basename $$(dirname $$d)); \
-	  ./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/comfort/$$v --out dist/comfort/$$v.fmu || exit 1; done
+$(STAMP)/thesis-fmus: $(STAMP)/thesis dist/road.fmu dist/plant.fmu
+	cp dist/road.fmu dist/plant.fmu dist/thesis/
+	for v in $(CONTROLLERS); do \
+	  ./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/thesis/$$v --out dist/thesis/$$v.fmu || exit 1; done
 	@touch $@
 
 # Opt-in: thesis ch. 5 with its limits imposed as LMIs (synth/designs/constrained.json: shaped
@@ -110,9 +108,9 @@ dist/plant.fmu: $(STAMP)/release
 dist/road.fmu: $(STAMP)/release
 	./target/release/fmu-pack fmu --lib target/release/libfmu_road.so --out $@
 
-# Synthesise and certify every controller (a failed certificate stops here: no FMU).
-$(STAMP)/synth: $(STAMP)/release synth/designs/default.json
-	./target/release/synth --design synth/designs/default.json --out dist $(CONTROLLERS)
+# Synthesise and certify every controller (a refused design stops here: no FMU).
+$(STAMP)/synth: $(STAMP)/release synth/designs/comfort.json
+	./target/release/synth --design synth/designs/comfort.json --out dist $(CONTROLLERS)
 	@touch $@
 
 $(CONTROLLERS:%=dist/%.fmu): dist/%.fmu: $(STAMP)/synth
@@ -138,7 +136,12 @@ descriptions: $(STAMP)/release
 	./target/release/fmu-pack description --lib target/release/libfmu_road.so --xml modelDescription/road.xml --readme README.md --tag road-variables
 	./target/release/fmu-pack glibc --lib target/release/libfmu_plant.so --lib target/release/libfmu_road.so --lib target/release/libfmu_controller.so --readme README.md --tag platform
 
-readme: descriptions
+# The figures of the README from the tools that measure them: the synthesis table and the
+# comparison summary (tests/python/test_metadata.py fails while the comparison is stale).
+COMPARISON_SECTION := \#\# Summary: W_k RMS seat acceleration [m/s²]
+readme: descriptions $(STAMP)/synth compare
+	./target/release/fmu-pack splice --from dist/synthesis.md --readme README.md --tag synthesis
+	./target/release/fmu-pack splice --from results/report.md --section "$(COMPARISON_SECTION)" --readme README.md --tag comparison
 
 test: lint test-rust test-python
 
@@ -147,10 +150,10 @@ lint: | $(STAMP)/apt
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 
-test-rust: $(FMU_FILES) $(STAMP)/comfort-fmus | $(STAMP)/apt
+test-rust: $(FMU_FILES) $(STAMP)/thesis-fmus | $(STAMP)/apt
 	$(CARGO) test --workspace
 
-test-python: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/venv $(STAMP)/release
+test-python: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/thesis-fmus $(STAMP)/venv $(STAMP)/release compare
 	$(PY) -m pytest tests/python -q
 
 $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
@@ -164,7 +167,8 @@ bench: $(FMU_FILES) $(STAMP)/venv-bench
 	$(CARGO) bench -p fmu-plant --bench do_step
 	$(CARGO) bench -p vehicle --bench road
 	$(PY) bench/synth_vs_cvxpy.py
-	./target/release/synth --design synth/designs/default.json --out $(STAMP)/bench-synth
+	./target/release/synth --design synth/designs/comfort.json --out $(STAMP)/bench-synth
+	./target/release/synth --design synth/designs/thesis.json --out $(STAMP)/bench-synth-thesis
 	$(PY) bench/master_vs_fmpy.py
 
 clean:

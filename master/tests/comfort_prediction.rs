@@ -35,9 +35,9 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use vehicle::iso2631::Weighting;
 
-/// Where the comfort designs' FMUs and certificates are (`make comfort`).
+/// Where the shipped comfort designs' FMUs and certificates are (`make`).
 fn dist() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dist/comfort")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dist")
 }
 
 const DURATION: f64 = 60.0;
@@ -156,7 +156,7 @@ fn measure(cases: &[Case], road: &serde_json::Value) -> Vec<[f64; 3]> {
 #[test]
 fn cosimulated_comfort_is_the_certificates_prediction() {
     let mut certificates: Vec<(String, serde_json::Value)> = std::fs::read_dir(dist())
-        .unwrap_or_else(|e| panic!("{}: {e}: run `make comfort`", dist().display()))
+        .unwrap_or_else(|e| panic!("{}: {e}: run `make`", dist().display()))
         .filter_map(|e| {
             let path = e.ok()?.path();
             let variant = path

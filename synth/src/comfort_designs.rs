@@ -1,5 +1,5 @@
 //! The shipped designs: each minimises the ISO 2631-1 comfort norm on the design's ISO 8608
-//! road subject to its own guarantee (`synth/designs/default.json`), and is certified by
+//! road subject to its own guarantee (`synth/designs/comfort.json`), and is certified by
 //! computations independent of its synthesis.
 //!
 //! Every design tolerates the actuators' unmodelled delay up to `unmodelled_delay` (the
@@ -56,6 +56,19 @@ pub enum Uncertainty {
     InputDelay,
     ActuatorFaults,
     Saturation,
+}
+
+impl Uncertainty {
+    /// As the summary tables say it (the thesis designs' words).
+    pub fn label(self) -> &'static str {
+        match self {
+            Uncertainty::None => "-",
+            Uncertainty::SprungMass => "sprung mass",
+            Uncertainty::InputDelay => "input delay",
+            Uncertainty::ActuatorFaults => "actuator faults",
+            Uncertainty::Saturation => "actuator saturation",
+        }
+    }
 }
 
 /// The comfort figures of a certificate.

@@ -1,12 +1,14 @@
-//! The design file: every weight, scale and limit of a synthesis, JSON, defaults checked in at
-//! `synth/designs/default.json`; `synth/designs/constrained.json` is the same design with the
-//! thesis's limits imposed as LMIs (`make constrained`).
+//! The design files: every weight, scale and limit of a synthesis, JSON. The comfort designs
+//! `make` ships are `synth/designs/comfort.json` ([`ComfortDesign`]); the thesis's H∞ designs
+//! (`make thesis`) are `synth/designs/thesis.json` ([`Design`]), and
+//! `synth/designs/constrained.json` is the same with the thesis's limits imposed as LMIs
+//! (`make constrained`).
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use vehicle::VehicleParams;
 
-pub const DEFAULT_DESIGN_FILE: &str = include_str!("../designs/default.json");
+pub const THESIS_DESIGN_FILE: &str = include_str!("../designs/thesis.json");
 pub const CONSTRAINED_DESIGN_FILE: &str = include_str!("../designs/constrained.json");
 
 /// How the road enters the generalised plant's disturbance `w`.
@@ -199,8 +201,8 @@ pub struct SensorNoise {
     pub rate: f64,
 }
 
-/// The comfort designs (`synth/designs/default.json`): every variant minimises the ISO 2631-1
-/// comfort norm on one ISO 8608 road, subject to its own guarantee
+/// The comfort designs (`synth/designs/comfort.json`, what `make` ships): every variant
+/// minimises the ISO 2631-1 comfort norm on one ISO 8608 road, subject to its own guarantee
 /// ([`crate::comfort_designs`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -361,7 +363,7 @@ pub enum DesignError {
 
 impl Default for Design {
     fn default() -> Self {
-        Design::from_json(DEFAULT_DESIGN_FILE)
+        Design::from_json(THESIS_DESIGN_FILE)
             .expect("the checked-in default design is valid (tested)")
     }
 }
@@ -550,7 +552,7 @@ mod tests {
     fn default_design_parses_and_bad_values_are_rejected() {
         let d = Design::default();
         assert_eq!(d.u_max, 2500.0);
-        let bad = DEFAULT_DESIGN_FILE.replace("\"stroke_max\": 0.08", "\"stroke_max\": -0.08");
+        let bad = THESIS_DESIGN_FILE.replace("\"stroke_max\": 0.08", "\"stroke_max\": -0.08");
         assert!(matches!(
             Design::from_json(&bad),
             Err(DesignError::Value {
@@ -589,7 +591,7 @@ mod tests {
         }
         assert_eq!(d.with_overrides("no_such_variant_overridden").unwrap(), d);
         let parse = |o: &str| {
-            let mut v: serde_json::Value = serde_json::from_str(DEFAULT_DESIGN_FILE).unwrap();
+            let mut v: serde_json::Value = serde_json::from_str(THESIS_DESIGN_FILE).unwrap();
             v["overrides"] =
                 serde_json::json!({ "x": serde_json::from_str::<serde_json::Value>(o).unwrap() });
             Design::from_json(&v.to_string())
@@ -678,7 +680,7 @@ mod tests {
 
     #[test]
     fn constraints_need_the_shaped_road_and_a_valid_corner() {
-        let on = DEFAULT_DESIGN_FILE.replace("\"constraints\": false", "\"constraints\": true");
+        let on = THESIS_DESIGN_FILE.replace("\"constraints\": false", "\"constraints\": true");
         assert!(matches!(
             Design::from_json(&on),
             Err(DesignError::Inconsistent(_))

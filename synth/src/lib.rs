@@ -36,6 +36,9 @@ pub enum SynthError {
     Usage(String),
     #[error("{0}")]
     Io(String),
+    /// Comfort designs refused by their certificates (the others were written).
+    #[error("{0}")]
+    Refused(String),
     #[error(transparent)]
     Design(#[from] design::DesignError),
     #[error("{0}: {1}")]

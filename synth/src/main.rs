@@ -1,7 +1,8 @@
 //! `synth`: synthesise every controller, certify it, and write for each variant
 //! `dist/<variant>.certificate.json` and `dist/<variant>/controller.json` (the FMU's resource).
 //! A design that fails its certificate never gets a controller: a thesis design stops the run
-//! with an error (its FMUs are the default build), a comfort design is reported as refused.
+//! with an error; a refused comfort design is reported in `synthesis.md`, the others are
+//! written, and `synth` exits with failure (so `make` ships no partial set).
 
 use clap::Parser;
 use std::path::PathBuf;
@@ -13,9 +14,9 @@ use vehicle::VehicleParams;
 #[derive(Parser)]
 #[command(about = "Synthesise and certify the suspension controllers")]
 struct Cli {
-    /// Design file: the thesis's H∞ designs (the default, the FMUs `make` builds;
-    /// `constrained.json`) or the comfort designs (`"objective": "comfort"`, `comfort.json`).
-    #[arg(long, default_value = "synth/designs/default.json")]
+    /// Design file: the comfort designs (`"objective": "comfort"`, the default, the FMUs `make`
+    /// ships) or the thesis's H∞ designs (`thesis.json`, `constrained.json`).
+    #[arg(long, default_value = "synth/designs/comfort.json")]
     design: PathBuf,
     /// Output directory for the certificates and controller.json files.
     #[arg(long, default_value = "dist")]
@@ -79,7 +80,13 @@ fn run(cli: Cli) -> Result<(), SynthError> {
         }),
     )?;
     println!("\n{table}");
-    Ok(())
+    match outcome.refused.len() {
+        0 => Ok(()),
+        n => Err(SynthError::Refused(format!(
+            "{n} design(s) refused (see {}); the others are written",
+            path.display()
+        ))),
+    }
 }
 
 fn main() -> ExitCode {

@@ -4,8 +4,8 @@
 //! and the comparisons all derive from [`VARIANTS`].
 //!
 //! Two kinds of design file ([`DesignFile`]): the comfort designs ([`crate::comfort_designs`],
-//! `synth/designs/default.json`, what `make` ships) and the thesis's H∞ designs
-//! ([`crate::thesis`], `synth/designs/thesis_hinf.json`, `constrained.json`).
+//! `synth/designs/comfort.json`, what `make` ships) and the thesis's H∞ designs
+//! ([`crate::thesis`], `synth/designs/thesis.json`, `constrained.json`).
 //!
 //! To add a variant: one entry in [`VARIANTS`] with its comfort synthesis (a function of the
 //! [`Context`] and the [`Shared`] designs it builds on) and its thesis synthesis (the match of
@@ -440,7 +440,7 @@ fn comfort_all(
             let row = SummaryRow {
                 variant: name.to_string(),
                 objective: "comfort",
-                robust_to: format!("{:?}", c.robust_to),
+                robust_to: c.robust_to.label().to_string(),
                 predicted_wk_rms_seat: Some(comfort.predicted_wk_rms_seat_m_s2),
                 passive_wk_rms_seat: Some(comfort.passive_wk_rms_seat_m_s2),
                 guaranteed_wk_rms_seat: comfort.guaranteed_wk_rms_seat_m_s2,

@@ -1,9 +1,10 @@
-"""The fault-tolerant design's claims (thesis ch. 8) re-checked outside Rust.
+"""The fault-tolerant designs' claims (thesis ch. 8) re-checked outside Rust.
 
-* gamma at every vertex of the effectiveness box, from the certificate's matrices with each
+* the thesis ft_of's (dist/thesis/) gamma at every vertex of the effectiveness box, from the certificate's matrices with each
   actuator's column of B_u and D_zu scaled by its effectiveness, by a frequency sweep refined with
   SciPy (a different algorithm from the certificate's Hamiltonian bisection);
-* the fault detector of dist/ft_of/controller.json on the independent reference car
+* the fault detector of the shipped and the thesis ft_of (dist/ft_of/controller.json,
+  dist/thesis/ft_of/controller.json) on the independent reference car
   (tests/python/reference_car.py, not the Rust model it was derived from): blind to the road,
   and reporting the low-passed force deficit of a faulty actuator.
 """
@@ -12,6 +13,7 @@ import json
 import pathlib
 
 import numpy as np
+import pytest
 
 from reference_car import PARAMS, OUTPUTS, linear_maps
 from test_robust import arrays, certificate, closed_loop, sweep_norm
@@ -43,21 +45,26 @@ def test_ft_of_gamma_holds_at_every_fault_vertex_and_hinf_of_is_compared_fairly(
     print(f"ft_of: worst over 32 vertices {worst:.6f} (gamma {gamma:.6f})")
 
 
-def reference_measurements(p=PARAMS):
-    """C_y of the measurements the detector reads, from the reference car."""
+def reference_measurements(spec, p=PARAMS):
+    """C_y of the measurements the detector of `spec` (a controller.json) reads, from the
+    reference car, and the detector's B restricted to them. The shipped ft_of also reads the
+    applied forces (its estimator uses them); its detector must not."""
     A, B, C, D = linear_maps(p)
     rows = {n: C[i] for i, n in enumerate(OUTPUTS)}
-    names = json.loads((DIST / "ft_of" / "controller.json").read_text())["inputs"]
+    det = arrays(spec["fault_detection"])
+    names = [n["name"] for n in spec["inputs"]]
+    read = [i for i, n in enumerate(names) if np.abs(det["B"][:, i]).max() > 0]
+    assert all(names[i].startswith("f_") for i in range(len(names)) if i not in read), names
     velocity = {"v_body": 8, "omega_roll": 9, "omega_pitch": 10}
-    c_y = np.array([rows[n["name"]] if n["name"] in rows else np.eye(16)[velocity[n["name"]]] for n in names])
+    c_y = np.array([rows[names[i]] if names[i] in rows else np.eye(16)[velocity[names[i]]] for i in read])
     # The strokes have no feed-through from the road or the forces.
-    assert all(np.abs(D[OUTPUTS.index(n["name"])]).max() == 0 for n in names if n["name"] in rows)
-    return A, B, c_y
+    assert all(np.abs(D[OUTPUTS.index(names[i])]).max() == 0 for i in read if names[i] in rows)
+    return A, B, c_y, dict(det, B=det["B"][:, read], D=det["D"][:, read])
 
 
-def test_detector_is_blind_to_the_road_and_sees_a_faulty_actuator_on_the_reference_car():
-    det = arrays(json.loads((DIST / "ft_of" / "controller.json").read_text())["fault_detection"])
-    A, B, c_y = reference_measurements()
+@pytest.mark.parametrize("dist", [DIST, DIST / "thesis"], ids=["shipped", "thesis"])
+def test_detector_is_blind_to_the_road_and_sees_a_faulty_actuator_on_the_reference_car(dist):
+    A, B, c_y, det = reference_measurements(json.loads((dist / "ft_of" / "controller.json").read_text()))
     b_road, b_u = B[:, :8], B[:, 8:]
     n, m = A.shape[0], det["A"].shape[0]
     T = -1.0 / det["A"][0, 0]

@@ -1,4 +1,4 @@
-"""hinf_sf's second claim re-checked outside Rust: the shipped gain is the mixed H2/H-infinity
+"""The thesis hinf_sf's (dist/thesis/, `make thesis`) second claim re-checked outside Rust: the shipped gain is the mixed H2/H-infinity
 point, and its certificate states an H2 bound on the rows of z without road feed-through. Here
 the closed loop is rebuilt from the certificate's generalised plant and gain, and its H2 norm
 computed from SciPy's Lyapunov solver (Bartels-Stewart, not the Kronecker solve of the Rust
@@ -10,12 +10,12 @@ import pathlib
 import numpy as np
 from scipy.linalg import solve_continuous_lyapunov
 
-DIST = pathlib.Path(__file__).resolve().parents[2] / "dist"
+THESIS = pathlib.Path(__file__).resolve().parents[2] / "dist" / "thesis"
 FORCE_UNIT = 1000.0  # N per unit of the generalised plant's u (certificate "scaling")
 
 
 def test_hinf_sf_h2_norm_is_the_certified_one_and_below_its_bound():
-    cert = json.loads((DIST / "hinf_sf.certificate.json").read_text())
+    cert = json.loads((THESIS / "hinf_sf.certificate.json").read_text())
     g = {k: np.array(v, dtype=float) for k, v in cert["generalized_plant"].items()}
     k = np.array(cert["controller"]["D"], dtype=float) / FORCE_UNIT  # u = K x, state feedback
     a = g["A"] + g["B_u"] @ k

@@ -1,6 +1,7 @@
 """What a user or a packager reads about the project agrees with itself: the licence files the
 Cargo manifest names exist, CITATION.cff is valid CFF 1.2.0 and names the version every FMU
-reports (`version`, and `generationTool` with it), and the changelog has that version."""
+reports (`version`, and `generationTool` with it), the changelog has that version, the README's
+comparison is the one `make` measures, and the Makefile builds every variant synth knows."""
 import re
 import subprocess
 import zipfile
@@ -37,3 +38,28 @@ def test_citation_is_valid_and_every_fmu_reports_its_version():
             root = ET.fromstring(z.read("modelDescription.xml"))
         assert root.get("generationTool") == f"suspension-fmus {version} (fmu-core)", fmu.name
         assert root.get("version").split("+")[0] == version, fmu.name
+
+
+def block(text, tag):
+    return text.split(f"<!-- {tag}:begin -->\n")[1].split(f"<!-- {tag}:end -->")[0]
+
+
+def without_timing(table):
+    """The table without its wall-time line, which differs from run to run."""
+    return "\n".join(line for line in table.splitlines() if not re.match(r"^\d+ runs in [\d.]+ s", line))
+
+
+def test_the_readme_comparison_is_the_measured_one():
+    """`make test` runs `master compare` first (results/report.md); `make readme` splices its
+    summary into the README. The figures are deterministic to the digits printed."""
+    report = (ROOT / "results" / "report.md").read_text()
+    heading = "## Summary: W_k RMS seat acceleration [m/s²]\n"
+    summary = report.split(heading)[1].split("\n## ")[0]
+    readme = block((ROOT / "README.md").read_text(), "comparison")
+    assert without_timing(readme).strip() == without_timing(summary).strip(), "README comparison is stale: run `make readme`"
+
+
+def test_the_makefile_builds_every_variant_synth_lists():
+    listed = subprocess.run([str(ROOT / "target" / "release" / "synth"), "--list"], capture_output=True, text=True, check=True).stdout.split()
+    line = re.search(r"^CONTROLLERS := (.*)$", (ROOT / "Makefile").read_text(), re.M).group(1)
+    assert line.split() == listed

@@ -1,4 +1,4 @@
-"""hinf_of's optimal gamma against an independent Riccati solution (Doyle, Glover, Khargonekar &
+"""The thesis hinf_of's optimal gamma against an independent Riccati solution (Doyle, Glover, Khargonekar &
 Francis 1989, with the general D12/D21 cross terms of Glover & Doyle 1988): bisection on gamma
 with SciPy's solve_continuous_are, on the same regularised generalised plant the certificate
 stores. Nothing here comes from the LMI."""
@@ -17,9 +17,9 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 @pytest.fixture(scope="module")
 def certificate(tmp_path_factory):
     """hinf_of synthesised with the tyre-load rows of z switched off: they feed the road through
-    (D11 != 0), outside the DGKF formulas below; everything else is the shipped design."""
+    (D11 != 0), outside the DGKF formulas below; everything else is the thesis design (`make thesis`)."""
     out = tmp_path_factory.mktemp("riccati")
-    design = json.loads((ROOT / "synth" / "designs" / "default.json").read_text())
+    design = json.loads((ROOT / "synth" / "designs" / "thesis.json").read_text())
     design["weight_tyre_load"] = 0.0
     (out / "design.json").write_text(json.dumps(design))
     subprocess.run([str(ROOT / "target" / "release" / "synth"), "--design", str(out / "design.json"), "--out", str(out), "hinf_of"],

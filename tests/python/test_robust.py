@@ -1,4 +1,5 @@
-"""The robust designs' claims (thesis ch. 6) re-checked outside Rust.
+"""The thesis's robust H-inf designs' claims (thesis ch. 6; `make thesis`, dist/thesis/) re-checked
+outside Rust.
 
 The certificate stores the mass-dependent matrices at both vertices of the range. Here they are
 compared with the independent reference car (tests/python/reference_car.py) at those masses and
@@ -15,12 +16,12 @@ from scipy.optimize import minimize_scalar
 
 from reference_car import PARAMS, linear_maps
 
-DIST = pathlib.Path(__file__).resolve().parents[2] / "dist"
+THESIS = pathlib.Path(__file__).resolve().parents[2] / "dist" / "thesis"
 FORCE_UNIT = 1000.0  # N per unit of the generalised plant's u (certificate "scaling")
 
 
 def certificate(variant):
-    return json.loads((DIST / f"{variant}.certificate.json").read_text())
+    return json.loads((THESIS / f"{variant}.certificate.json").read_text())
 
 
 def arrays(d):

@@ -1,5 +1,6 @@
-//! Helpers for the integration tests: locate the FMUs `make` built into `dist/`, road profiles,
-//! and the master's co-simulation loop with the tests' parameters and records.
+//! Helpers for the integration tests: locate the FMUs `make` built into `dist/` (and the thesis's
+//! H∞ designs `make thesis` builds into `dist/thesis/`), road profiles, and the master's
+//! co-simulation loop with the tests' parameters and records.
 
 use master::cosim::{simulate, Participant, Setup, Typed};
 pub use master::cosim::{Fmu, RoadSource};
@@ -7,25 +8,40 @@ use std::path::PathBuf;
 
 /// `dist/<name>.fmu`, or a panic that says how to build it.
 pub fn dist_fmu(name: &str) -> PathBuf {
-    let path = dist().join(format!("{name}.fmu"));
+    fmu_in(&dist(), name)
+}
+
+fn fmu_in(dir: &std::path::Path, name: &str) -> PathBuf {
+    let path = dir.join(format!("{name}.fmu"));
     assert!(
         path.exists(),
-        "{} not found: run `make` (or `make test`, which builds it first)",
+        "{} not found: run `make` and `make thesis` (or `make test`, which builds both first)",
         path.display()
     );
     path
 }
 
+/// The shipped FMUs (`make`).
 pub fn dist() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("..")
         .join("dist")
 }
 
+/// The thesis's H∞ designs with copies of the road and plant FMUs (`make thesis`).
+pub fn thesis() -> PathBuf {
+    dist().join("thesis")
+}
+
 /// `dist/<name>.fmu`, loaded as the master loads it.
 pub fn load(name: &str) -> Fmu {
-    dist_fmu(name);
-    Fmu::load(&dist(), name).unwrap_or_else(|e| panic!("cannot load {name}.fmu: {e}"))
+    load_from(&dist(), name)
+}
+
+/// `<dir>/<name>.fmu`, loaded as the master loads it.
+pub fn load_from(dir: &std::path::Path, name: &str) -> Fmu {
+    fmu_in(dir, name);
+    Fmu::load(dir, name).unwrap_or_else(|e| panic!("cannot load {name}.fmu: {e}"))
 }
 
 /// A `height` m, 5 m long 1 − cos bump at 15 m/s on the left wheels, reached at t = 0.1 s (the
