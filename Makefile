@@ -45,7 +45,7 @@ sweep: $(FMU_FILES) $(STAMP)/release
 compare: $(FMU_FILES) $(STAMP)/release
 	./target/release/master compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results --designs dist/synthesis.json
 
-# Opt-in (README "The thesis's H-inf designs"): the thesis's designs (synth/designs/thesis.json,
+# Opt-in (docs/thesis-designs.md): the thesis's designs (synth/designs/thesis.json,
 # certified H-inf norm gamma) in dist/thesis/ beside copies of road.fmu and plant.fmu, compared
 # over scenarios/ into results/thesis/report.md. `make test` builds their FMUs: the tests of the
 # H-inf machinery (Riccati, SciPy and co-simulation references) check them.
