@@ -29,7 +29,7 @@ FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
 RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
-.PHONY: all setup fmus validate compare sweep constrained thesis test lint test-rust test-python bench descriptions readme clean
+.PHONY: all setup fmus validate compare sweep constrained thesis test lint test-rust test-python bench descriptions schemas readme clean
 
 all: fmus validate compare sweep
 	@echo
@@ -136,10 +136,16 @@ descriptions: $(STAMP)/release
 	./target/release/fmu-pack description --lib target/release/libfmu_road.so --xml modelDescription/road.xml --readme README.md --tag road-variables
 	./target/release/fmu-pack glibc --lib target/release/libfmu_plant.so --lib target/release/libfmu_road.so --lib target/release/libfmu_controller.so --readme README.md --tag platform
 
+# The JSON Schemas of scenario and sweep files, generated from the master's types (a test fails
+# while the checked-in ones are stale).
+schemas: $(STAMP)/release
+	./target/release/master schema scenario > schemas/scenario.schema.json
+	./target/release/master schema sweep > schemas/sweep.schema.json
+
 # The figures of the README from the tools that measure them: the synthesis table and the
 # comparison summary (tests/python/test_metadata.py fails while the comparison is stale).
 COMPARISON_SECTION := \#\# Summary: W_k RMS seat acceleration [m/s²]
-readme: descriptions $(STAMP)/synth compare
+readme: descriptions schemas $(STAMP)/synth compare
 	./target/release/fmu-pack splice --from dist/synthesis.md --readme README.md --tag synthesis
 	./target/release/fmu-pack splice --from results/report.md --section "$(COMPARISON_SECTION)" --readme README.md --tag comparison
 

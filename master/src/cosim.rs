@@ -90,11 +90,14 @@ pub(crate) fn load_json<T: serde::de::DeserializeOwned>(
     Ok(value)
 }
 
-/// A scenario file (`scenarios/*.json`).
-#[derive(Debug, Clone, Deserialize)]
+/// A scenario file (`scenarios/*.json`; its JSON Schema, `schemas/scenario.schema.json`, is
+/// generated from this type by `master schema scenario`).
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
+    /// The scenario's name: its section of the report, its directory of CSV files.
     pub name: String,
+    /// What it shows, one sentence for the report.
     #[serde(default)]
     pub description: String,
     /// [s]

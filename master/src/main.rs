@@ -83,6 +83,19 @@ enum Command {
         #[arg(long)]
         dry_run: bool,
     },
+    /// Print the JSON Schema of a scenario or a sweep file (checked in as
+    /// schemas/scenario.schema.json and schemas/sweep.schema.json).
+    Schema {
+        /// Which file format.
+        #[arg(value_enum)]
+        kind: SchemaKind,
+    },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum SchemaKind {
+    Scenario,
+    Sweep,
 }
 
 fn parse_range(s: &str) -> Result<std::ops::Range<usize>, String> {
@@ -336,6 +349,10 @@ fn main() {
             runs,
             dry_run,
         } => sweep(&cli.dist, spec, out, runs.clone(), *dry_run),
+        Command::Schema { kind } => Ok(match kind {
+            SchemaKind::Scenario => master::schema::scenario(),
+            SchemaKind::Sweep => master::schema::sweep(),
+        }),
     };
     match result {
         Ok(msg) => print!("{msg}"),

@@ -44,7 +44,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// How a parameter is swept.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Distribution {
     /// Every value, in the Cartesian product with the other grids.
@@ -53,10 +53,8 @@ pub enum Distribution {
     Uniform([f64; 2]),
     /// Uniform on the integers `lo..=hi` (seeds, classes).
     Integers([i64; 2]),
-    Normal {
-        mean: f64,
-        std: f64,
-    },
+    /// Normal with this mean and standard deviation.
+    Normal { mean: f64, std: f64 },
     /// One of the values, each equally likely.
     Choice(Vec<Value>),
 }
@@ -135,24 +133,30 @@ fn normal_quantile(u: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
-/// A sweep file.
-#[derive(Debug, Clone, Deserialize)]
+/// A sweep file (`sweeps/*.json`; its JSON Schema, `schemas/sweep.schema.json`, is generated
+/// from this type by `master schema sweep`).
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SweepSpec {
+    /// The sweep's name (the report's title).
     pub name: String,
+    /// What it studies, for the report.
     #[serde(default)]
     pub description: String,
     /// The base scenario file, relative to the sweep file.
     pub base: PathBuf,
     /// Controller FMU names; `passive` is the car without one.
     pub controllers: Vec<String>,
+    /// Seed of the random draws: the run table depends on the file alone.
     #[serde(default)]
     pub seed: u64,
     /// Draws of the random parameters (required when there is one).
     #[serde(default)]
     pub samples: Option<usize>,
+    /// Draw the random parameters as a Latin hypercube instead of independently.
     #[serde(default)]
     pub latin_hypercube: bool,
+    /// The swept parameters, `plant.<name>` or `road.<name>`, and how each is swept.
     pub parameters: BTreeMap<String, Distribution>,
     /// The two parameters of the worst-case map (default: the first two).
     #[serde(default)]
