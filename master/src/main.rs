@@ -226,7 +226,7 @@ fn compare(
     report += &summary;
     report += &format!("\n{} runs in {wall:.1} s wall time.\n\n", runs.len());
     if let Some(t) = &design_table {
-        report += "## The designs: certificates and comfort in their own scenario\n\nγ, certified norm and synthesis time from `synth` (`dist/synthesis.json`, certificates in `dist/<variant>.certificate.json`); W_k RMS seat acceleration from the runs below, against the passive car and against the design's nominal counterpart in the same scenario.\n\n";
+        report += "## The designs: certificates and comfort in their own scenario\n\nWhat each design claims (γ, or the W_k seat RMS its certificate predicts on its design road), what is certified over its uncertainty, and the synthesis time, from `synth` (`dist/synthesis.json`, certificates in `dist/<variant>.certificate.json`); W_k RMS seat acceleration from the runs below, against the passive car and against the design's nominal counterpart in the same scenario.\n\n";
         report += t;
         report += "\n";
     }
