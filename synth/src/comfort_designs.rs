@@ -26,7 +26,7 @@ use crate::comfort_controllers::{
     realise_state_feedback, state_feedback_sensors, ObserverInput,
 };
 use crate::comfort_plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
-use crate::controller_file::{matrix_rows, AntiWindup, Extensions, FaultDetection};
+use crate::controller_file::{matrix_rows, AntiWindup, Extensions};
 use crate::design::ComfortDesign;
 use crate::fault::FaultBox;
 use crate::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
@@ -523,23 +523,11 @@ pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, Comfo
         &wiring,
         notes,
     )?;
-    let detector = det.detector();
-    // The detector reads the output-feedback sensors, the first inputs of the law; not the
-    // applied forces after them.
-    let pad = |m: &DMatrix<f64>| {
-        let mut out = DMatrix::zeros(m.nrows(), law.inputs.len());
-        out.columns_mut(0, m.ncols()).copy_from(m);
-        out
-    };
     let extensions = Extensions {
-        fault_detection: Some(FaultDetection {
-            a: matrix_rows(&detector.a),
-            b: matrix_rows(&pad(&detector.b)),
-            b_u: matrix_rows(&detector.b_u),
-            c: matrix_rows(&detector.c),
-            d: matrix_rows(&pad(&detector.d)),
-            threshold: d.fault_threshold,
-        }),
+        fault_detection: Some(
+            det.detector()
+                .file_block(law.inputs.len(), d.fault_threshold),
+        ),
         ..Extensions::default()
     };
     Ok(ComfortDesignResult {

@@ -28,6 +28,7 @@
 //! recomputes the closed-loop H∞ norm at every vertex by Hamiltonian bisection.
 
 use crate::certificate::{closed_loop, CertificateError, Controller, NORM_TOLERANCE};
+use crate::controller_file::{matrix_rows, FaultDetection};
 use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
 use crate::hinf_norm::Lti;
 use crate::lmi::{Affine, LmiError, Problem};
@@ -347,6 +348,27 @@ pub struct Detector {
     pub b_u: DMatrix<f64>,
     pub c: DMatrix<f64>,
     pub d: DMatrix<f64>,
+}
+
+impl Detector {
+    /// The `fault_detection` block of `controller.json` for a controller with `inputs` inputs:
+    /// the detector reads the first of them (the output-feedback sensors), so `B` and `D` get
+    /// zero columns for any after them (e.g. the applied forces a comfort `ft_of` also reads).
+    pub fn file_block(&self, inputs: usize, threshold: f64) -> FaultDetection {
+        let pad = |m: &DMatrix<f64>| {
+            let mut out = DMatrix::zeros(m.nrows(), inputs);
+            out.columns_mut(0, m.ncols()).copy_from(m);
+            out
+        };
+        FaultDetection {
+            a: matrix_rows(&self.a),
+            b: matrix_rows(&pad(&self.b)),
+            b_u: matrix_rows(&self.b_u),
+            c: matrix_rows(&self.c),
+            d: matrix_rows(&pad(&self.d)),
+            threshold,
+        }
+    }
 }
 
 impl DetectionResidual {

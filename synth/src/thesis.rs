@@ -7,9 +7,7 @@ use crate::anti_windup::{circle_check, mraw};
 use crate::certificate::{
     certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate, Controller,
 };
-use crate::controller_file::{
-    controller_json, matrix_rows, AntiWindup, ControllerFile, FaultDetection, Guarantee,
-};
+use crate::controller_file::{controller_json, matrix_rows, AntiWindup, ControllerFile, Guarantee};
 use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
 use crate::design::{Design, RoadModel};
 use crate::fault::{
@@ -758,15 +756,10 @@ fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthEr
         "detection": {"time_constant_s": det.time_constant, "threshold_n": design.fault_threshold, "pi": matrix_json(&det.pi), "kappa": matrix_json(&det.kappa), "G_per_newton": matrix_json(&det.g)},
     });
     let mut json = controller_json(variant, "Fault-tolerant H-infinity output feedback with observer and residual (thesis Th. 8.1, corrected)", &gamma_guarantee(ob.gamma), &of_inputs(), &control);
-    let d = det.detector();
-    json.fault_detection = Some(FaultDetection {
-        a: matrix_rows(&d.a),
-        b: matrix_rows(&d.b),
-        b_u: matrix_rows(&d.b_u),
-        c: matrix_rows(&d.c),
-        d: matrix_rows(&d.d),
-        threshold: design.fault_threshold,
-    });
+    json.fault_detection = Some(
+        det.detector()
+            .file_block(json.inputs.len(), design.fault_threshold),
+    );
     Ok(Synthesised {
         controller: k,
         certificate,

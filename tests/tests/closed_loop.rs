@@ -172,13 +172,18 @@ fn hinf_sf_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
     assert_comfort_targets(&passive, &active, 0.5);
 }
 
+/// `<dir>/<variant>.certificate.json`.
+fn certificate(dir: &std::path::Path, variant: &str) -> serde_json::Value {
+    serde_json::from_str(
+        &std::fs::read_to_string(dir.join(format!("{variant}.certificate.json"))).unwrap(),
+    )
+    .unwrap()
+}
+
 /// `dist/thesis/<variant>.certificate.json`: the thesis design's generalised plant, controller
 /// and certified figures.
 fn thesis_certificate(variant: &str) -> serde_json::Value {
-    serde_json::from_str(
-        &std::fs::read_to_string(thesis().join(format!("{variant}.certificate.json"))).unwrap(),
-    )
-    .unwrap()
+    certificate(&thesis(), variant)
 }
 
 /// The continuous closed loop of the certificate's generalised plant and controller, in the
@@ -477,10 +482,7 @@ fn assert_delay_margin_holds(dir: &std::path::Path, variant: &str, m: f64, h: f6
 #[test]
 fn the_shipped_designs_certified_delay_margins_hold_in_cosimulation() {
     for variant in ["hinf_sf", "hinf_of", "robust_of", "ft_of"] {
-        let cert: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(dist().join(format!("{variant}.certificate.json"))).unwrap(),
-        )
-        .unwrap();
+        let cert = certificate(&dist(), variant);
         let delay = &cert["unmodelled_delay"];
         let m = delay["delay_margin_s"].as_f64().unwrap();
         assert!(m > delay["tolerated_delay_s"].as_f64().unwrap());
