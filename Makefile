@@ -4,6 +4,7 @@
 # `make test`  every test: rustfmt and clippy, Rust (unit + integration, incl. the fmi crate loading
 #              dist/) and pytest
 # `make bench` benchmarks (criterion)
+# `make CROSS=0 …` the fast path: this machine's linux64 libraries only (no win64, no ARM)
 # `make thesis` (opt-in) the thesis's H-inf designs (synth/designs/thesis.json) in dist/thesis/
 # `make constrained` (opt-in) the thesis designs with their limits imposed as LMIs
 # Everything the commands need is installed here: Debian packages and a .venv with FMPy.
@@ -23,13 +24,47 @@ commas = $(shell echo $(1) | tr ' ' ',')
 APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
+# Platforms (README "Platforms"). CROSS=1: every FMU of dist/ carries binaries/linux64 (x86-64,
+# linked by zig against glibc 2.17 with cargo-zigbuild) and binaries/win64 (MinGW-w64), and
+# dist/linux-aarch64/ holds the same FMUs for 64-bit ARM Linux (the AArch64 library in linux64,
+# where FMI 2 importers on ARM look). rustup here has no other target's std, so win64 and
+# aarch64 use Debian's rustc-web, building std from rust-web-src (-Zbuild-std, which needs
+# RUSTC_BOOTSTRAP on a stable compiler). The tests run each platform's libraries in a C harness
+# (tests/harness/) natively, under wine and under qemu-aarch64.
+CROSS ?= 1
+CROSS_APT := rustc-web cargo-web rust-web-src gcc-mingw-w64-x86-64 gcc-aarch64-linux-gnu libc6-dev-arm64-cross wine64 qemu-user
+CROSS_DIR := target/cross
+DEBIAN_RUST := RUSTC_BOOTSTRAP=1 RUSTC=/usr/bin/rustc CARGO=/usr/bin/cargo
+BUILD_STD := -Zbuild-std=std,panic_unwind
+# The FMU libraries and the panic probe (fmu-core/examples/panic_probe.rs) in one build per target.
+CROSS_CRATES := -p fmu-road -p fmu-plant -p fmu-controller -p fmu-core --lib --example panic_probe
+ZIG := PATH=$(CURDIR)/$(VENV)/bin:$$PATH cargo-zigbuild zigbuild --release --target-dir $(CROSS_DIR)
+HARNESS_CC := -std=gnu99 -O2 -Wall -Wextra -Werror
+
 # The variants, as synth's registry lists them (`synth --list`).
 CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
 FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
+ifeq ($(CROSS),1)
+# The linux64 library of each FMU, and the options that add the other platforms' libraries.
+linux64_lib = $(CROSS_DIR)/x86_64-unknown-linux-gnu/release/libfmu_$(1).so
+other_libs = --binary win64=$(CROSS_DIR)/x86_64-pc-windows-gnu/release/fmu_$(1).dll
+LIBS := $(STAMP)/cross
+ARM_FMU_FILES := $(FMUS:%=dist/linux-aarch64/%.fmu)
+HARNESSES := target/harness/linux64/fmu_harness target/harness/win64/fmu_harness.exe target/harness/win64/bcryptprimitives.dll target/harness/linux-aarch64/fmu_harness
+# One FMU per folder for the README's platform table.
+PLATFORM_FMUS := dist/plant.fmu dist/linux-aarch64/plant.fmu
+else
+linux64_lib = target/release/libfmu_$(1).so
+other_libs =
+LIBS := $(STAMP)/release
+ARM_FMU_FILES :=
+HARNESSES :=
+PLATFORM_FMUS := dist/plant.fmu
+endif
 RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
-.PHONY: all setup fmus validate compare sweep constrained thesis test lint test-rust test-python bench descriptions schemas readme clean
+.PHONY: all setup fmus harnesses validate compare sweep constrained thesis test lint test-rust test-python bench descriptions schemas readme clean
 
 all: fmus validate compare sweep
 	@echo
@@ -86,6 +121,19 @@ $(STAMP)/apt:
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq python3-venv; fi
 	@touch $@
 
+# The cross toolchains (CROSS=1): Debian packages, and cargo-zigbuild with zig from PyPI.
+$(STAMP)/apt-cross: | $(STAMP)/apt
+	@missing=$$(for p in $(CROSS_APT); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "Installing Debian packages: $$missing"; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
+	fi
+	@touch $@
+
+$(STAMP)/zig: tests/harness/requirements.txt | $(STAMP)/venv
+	$(PY) -m pip install -q -r tests/harness/requirements.txt
+	@touch $@
+
 $(STAMP)/venv: tests/python/requirements.txt python/pyproject.toml | $(STAMP)/apt
 	@mkdir -p $(STAMP)
 	$(PYTHON) -m venv $(VENV)
@@ -94,7 +142,7 @@ $(STAMP)/venv: tests/python/requirements.txt python/pyproject.toml | $(STAMP)/ap
 	$(PY) -m pip install -q -e python
 	@touch $@
 
-fmus: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp
+fmus: $(FMU_FILES) $(ARM_FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp
 
 # One cargo build for all FMU libraries and the packager; then one fmu-pack call per FMU.
 $(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
@@ -102,19 +150,47 @@ $(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
 	$(CARGO) build --release -p fmu-road -p fmu-plant -p fmu-controller -p fmu-pack -p synth -p master
 	@touch $@
 
-dist/plant.fmu: $(STAMP)/release
-	./target/release/fmu-pack fmu --lib target/release/libfmu_plant.so --out $@
+# The FMU libraries of every platform (CROSS=1), each with the panic probe.
+$(STAMP)/cross: $(RUST_SOURCES) | $(STAMP)/apt-cross $(STAMP)/zig
+	@mkdir -p $(STAMP)
+	$(ZIG) --target x86_64-unknown-linux-gnu.2.17 $(CROSS_CRATES)
+	$(DEBIAN_RUST) CARGO_TARGET_X86_64_PC_WINDOWS_GNU_LINKER=x86_64-w64-mingw32-gcc \
+	  /usr/bin/cargo build --release $(BUILD_STD) --target x86_64-pc-windows-gnu --target-dir $(CROSS_DIR) $(CROSS_CRATES)
+	$(DEBIAN_RUST) $(ZIG) $(BUILD_STD) --target aarch64-unknown-linux-gnu.2.17 $(CROSS_CRATES)
+	@touch $@
 
-dist/road.fmu: $(STAMP)/release
-	./target/release/fmu-pack fmu --lib target/release/libfmu_road.so --out $@
+dist/plant.fmu dist/road.fmu: dist/%.fmu: $(STAMP)/release $(LIBS)
+	./target/release/fmu-pack fmu --lib $(call linux64_lib,$*) $(call other_libs,$*) --out $@
+
+# The same FMUs for ARM: the AArch64 library in binaries/linux64 (README "Platforms").
+dist/linux-aarch64/plant.fmu dist/linux-aarch64/road.fmu: dist/linux-aarch64/%.fmu: $(STAMP)/release $(LIBS)
+	./target/release/fmu-pack fmu --lib $(call linux64_lib,$*) --binary linux64=$(CROSS_DIR)/aarch64-unknown-linux-gnu/release/libfmu_$*.so --out $@
+
+$(CONTROLLERS:%=dist/linux-aarch64/%.fmu): dist/linux-aarch64/%.fmu: $(STAMP)/synth $(LIBS)
+	./target/release/fmu-pack fmu --lib $(call linux64_lib,controller) --binary linux64=$(CROSS_DIR)/aarch64-unknown-linux-gnu/release/libfmu_controller.so --resources dist/$* --out $@
+
+# The C harness of tests/python/test_platforms.py, built with each platform's compiler.
+harnesses: $(HARNESSES)
+target/harness/linux64/fmu_harness: tests/harness/fmu_harness.c | $(STAMP)/apt-cross
+	@mkdir -p $(@D)
+	gcc $(HARNESS_CC) -o $@ $< -ldl
+target/harness/win64/fmu_harness.exe: tests/harness/fmu_harness.c | $(STAMP)/apt-cross
+	@mkdir -p $(@D)
+	x86_64-w64-mingw32-gcc $(HARNESS_CC) -o $@ $<
+target/harness/win64/bcryptprimitives.dll: tests/harness/bcryptprimitives.c | $(STAMP)/apt-cross
+	@mkdir -p $(@D)
+	x86_64-w64-mingw32-gcc $(HARNESS_CC) -shared -o $@ $< -ladvapi32
+target/harness/linux-aarch64/fmu_harness: tests/harness/fmu_harness.c | $(STAMP)/apt-cross
+	@mkdir -p $(@D)
+	aarch64-linux-gnu-gcc $(HARNESS_CC) -o $@ $< -ldl
 
 # Synthesise and certify every controller (a refused design stops here: no FMU).
 $(STAMP)/synth: $(STAMP)/release synth/designs/comfort.json
 	./target/release/synth --design synth/designs/comfort.json --out dist $(CONTROLLERS)
 	@touch $@
 
-$(CONTROLLERS:%=dist/%.fmu): dist/%.fmu: $(STAMP)/synth
-	./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/$* --out $@
+$(CONTROLLERS:%=dist/%.fmu): dist/%.fmu: $(STAMP)/synth $(LIBS)
+	./target/release/fmu-pack fmu --lib $(call linux64_lib,controller) $(call other_libs,controller) --resources dist/$* --out $@
 
 # The same loop as an OSP system structure beside the FMUs, for libcosim and OSP tools
 # (tests/python/test_libcosim.py runs it).
@@ -126,15 +202,15 @@ dist/OspSystemStructure.xml: $(FMU_FILES) $(STAMP)/release scenarios/bump.json
 dist/car.ssp: $(FMU_FILES) $(STAMP)/release scenarios/bump.json
 	./target/release/master ssp --scenario scenarios/bump.json --controller hinf_of --out $@
 
-validate: $(FMU_FILES) $(STAMP)/venv
-	@for f in $(FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
+validate: $(FMU_FILES) $(ARM_FMU_FILES) $(STAMP)/venv
+	@for f in $(FMU_FILES) $(ARM_FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
 
 # Regenerate the checked-in modelDescription/*.xml and the README's variable table after a
 # change of a variable table (a test fails until you do and commit them).
-descriptions: $(STAMP)/release
+descriptions: $(STAMP)/release $(PLATFORM_FMUS)
 	./target/release/fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
 	./target/release/fmu-pack description --lib target/release/libfmu_road.so --xml modelDescription/road.xml --readme README.md --tag road-variables
-	./target/release/fmu-pack glibc --lib target/release/libfmu_plant.so --lib target/release/libfmu_road.so --lib target/release/libfmu_controller.so --readme README.md --tag platform
+	./target/release/fmu-pack platforms $(PLATFORM_FMUS:%=--fmu %) --readme README.md --tag platform
 
 # The JSON Schemas of scenario and sweep files, generated from the master's types (a test fails
 # while the checked-in ones are stale).
@@ -159,8 +235,8 @@ lint: | $(STAMP)/apt
 test-rust: $(FMU_FILES) $(STAMP)/thesis-fmus | $(STAMP)/apt
 	$(CARGO) test --workspace
 
-test-python: $(FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/thesis-fmus $(STAMP)/venv $(STAMP)/release compare
-	$(PY) -m pytest tests/python -q
+test-python: $(FMU_FILES) $(ARM_FMU_FILES) $(HARNESSES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/thesis-fmus $(STAMP)/venv $(STAMP)/release compare
+	FMU_CROSS=$(CROSS) $(PY) -m pytest tests/python -q
 
 $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
 	$(PY) -m pip install -q -r bench/requirements.txt

@@ -16,7 +16,6 @@ pub mod fmu_state;
 pub mod instance;
 pub mod logger;
 pub mod model;
-pub mod package;
 pub mod state_machine;
 pub mod types;
 pub mod uri;

@@ -1,47 +1,16 @@
-//! What `fmu-pack` knows about a built FMU library beyond its description: the platform it
-//! needs.
+//! `fmu-pack`'s library: the FMU archive ([`package`]), what a built library is and needs
+//! ([`binary`]), the README's platform table, and markdown sections for splicing.
 
-use object::elf::{FileHeader64, SHT_GNU_VERNEED};
-use object::read::elf::{FileHeader, SectionHeader};
-use object::Endianness;
+pub mod binary;
+pub mod package;
 
-/// The newest `GLIBC_x.y` symbol version an x86-64 ELF shared library imports — so the oldest
-/// glibc that loads it — or `None` if it imports no versioned glibc symbol.
-pub fn glibc_needed(elf: &[u8]) -> Result<Option<(u32, u32)>, String> {
-    let bad = |e: object::Error| format!("not a 64-bit ELF library: {e}");
-    let header = FileHeader64::<Endianness>::parse(elf).map_err(bad)?;
-    let endian = header.endian().map_err(bad)?;
-    let sections = header.sections(endian, elf).map_err(bad)?;
-    let mut newest = None;
-    for section in sections.iter() {
-        if section.sh_type(endian) != SHT_GNU_VERNEED {
-            continue;
-        }
-        let Some((mut needs, link)) = section.gnu_verneed(endian, elf).map_err(bad)? else {
-            continue;
-        };
-        let strings = sections.strings(endian, elf, link).map_err(bad)?;
-        while let Some((_, mut aux)) = needs.next().map_err(bad)? {
-            while let Some(a) = aux.next().map_err(bad)? {
-                let name = a.name(endian, strings).map_err(bad)?;
-                if let Some(v) = parse_glibc(name) {
-                    newest = newest.max(Some(v));
-                }
-            }
-        }
-    }
-    Ok(newest)
-}
-
-/// `GLIBC_2.34` → `(2, 34)`; `GLIBC_2.2.5` → `(2, 2)`; anything else → `None`.
-fn parse_glibc(name: &[u8]) -> Option<(u32, u32)> {
-    let rest = std::str::from_utf8(name).ok()?.strip_prefix("GLIBC_")?;
-    let mut parts = rest.split('.').map(|p| p.parse::<u32>().ok());
-    Some((parts.next()??, parts.next()??))
-}
+use binary::Inspected;
+use object::BinaryFormat;
 
 /// The glibc of the distributions engineers run FMI tools on (their release notes).
-const DISTRIBUTIONS: [(&str, (u32, u32)); 7] = [
+const DISTRIBUTIONS: [(&str, (u32, u32)); 9] = [
+    ("RHEL/CentOS 7", (2, 17)),
+    ("Ubuntu 18.04", (2, 27)),
     ("RHEL/Rocky 8", (2, 28)),
     ("Debian 11", (2, 31)),
     ("Ubuntu 20.04", (2, 31)),
@@ -51,8 +20,8 @@ const DISTRIBUTIONS: [(&str, (u32, u32)); 7] = [
     ("Ubuntu 24.04", (2, 39)),
 ];
 
-/// The README's statement of the platform, for the newest glibc version the libraries need.
-pub fn platform_note(glibc: (u32, u32)) -> String {
+/// Where a library of `glibc` loads: `glibc ≥ 2.17: loads on …; not on …`.
+fn glibc_note(glibc: (u32, u32)) -> String {
     let names = |ok: bool| {
         DISTRIBUTIONS
             .iter()
@@ -67,13 +36,45 @@ pub fn platform_note(glibc: (u32, u32)) -> String {
     } else {
         format!("; not on {not_on}")
     };
-    format!(
-        "Every FMU carries one binary, `binaries/linux64` (x86-64 Linux), which needs \
-         **glibc ≥ {}.{}**: the newest `GLIBC_` symbol version the three libraries import. It \
-         loads on {on}{not_on}. Measured from the built libraries by `make descriptions` \
-         (`fmu-pack glibc`); a test fails while this sentence is stale.\n",
-        glibc.0, glibc.1
-    )
+    format!("glibc ≥ {}.{}: loads on {on}{not_on}", glibc.0, glibc.1)
+}
+
+/// What one library needs of the machine that loads it.
+fn runs_on(lib: &Inspected) -> String {
+    match lib.format {
+        BinaryFormat::Elf => match lib.glibc {
+            Some(v) => format!("Linux with {}", glibc_note(v)),
+            None => "Linux (imports no versioned glibc symbol)".into(),
+        },
+        BinaryFormat::Pe => format!(
+            "Windows 10 or later (the minimum of Rust's standard library); imports only {}",
+            lib.dlls.join(", ")
+        ),
+        other => format!("{other:?}"),
+    }
+}
+
+/// The README's table of platforms: one row per library of each FMU (`(path, [(folder,
+/// library)])`), the FMU standing for every `.fmu` of its folder.
+pub fn platform_note(fmus: &[(String, Vec<(String, Inspected)>)]) -> String {
+    let mut out =
+        String::from("| FMUs | `binaries/` folder | library | runs on |\n|---|---|---|---|\n");
+    for (path, libs) in fmus {
+        let dir = std::path::Path::new(path)
+            .parent()
+            .map(|d| d.display().to_string())
+            .unwrap_or_default();
+        for (folder, lib) in libs {
+            out += &format!(
+                "| `{dir}/*.fmu` | `{folder}` | {} | {} |\n",
+                lib.kind(),
+                runs_on(lib)
+            );
+        }
+    }
+    out += "\nRead from the packed libraries by `make descriptions` (`fmu-pack platforms`); a \
+            test fails while this table is stale.\n";
+    out
 }
 
 /// The body of the markdown section headed by the line `heading` (e.g. `## Summary`): the
@@ -113,35 +114,16 @@ mod tests {
     }
 
     #[test]
-    fn glibc_versions_parse_and_order_numerically() {
-        assert_eq!(parse_glibc(b"GLIBC_2.34"), Some((2, 34)));
-        assert_eq!(parse_glibc(b"GLIBC_2.2.5"), Some((2, 2)));
-        assert_eq!(parse_glibc(b"GCC_3.0"), None);
-        assert!(Some((2, 34)) > Some((2, 9)));
-    }
-
-    #[test]
-    fn this_test_binary_needs_a_glibc_and_garbage_is_refused() {
-        let me = std::fs::read(std::env::current_exe().unwrap()).unwrap();
-        let v = glibc_needed(&me)
-            .unwrap()
-            .expect("a Linux test binary imports glibc");
-        assert!(v >= (2, 2), "{v:?}");
-        assert!(glibc_needed(b"not an elf").is_err());
-    }
-
-    #[test]
-    fn the_note_names_the_distributions_on_each_side() {
-        let note = platform_note((2, 34));
-        assert!(note.contains("glibc ≥ 2.34"), "{note}");
+    fn the_glibc_note_names_the_distributions_on_each_side() {
+        let note = glibc_note((2, 34));
         assert!(
-            note.contains("loads on RHEL/Rocky 9, Ubuntu 22.04"),
+            note.starts_with("glibc ≥ 2.34: loads on RHEL/Rocky 9, Ubuntu 22.04"),
             "{note}"
         );
         assert!(
-            note.contains("not on RHEL/Rocky 8, Debian 11, Ubuntu 20.04."),
+            note.contains("not on RHEL/CentOS 7, Ubuntu 18.04, RHEL/Rocky 8"),
             "{note}"
         );
-        assert!(!platform_note((2, 17)).contains("not on"));
+        assert!(!glibc_note((2, 17)).contains("not on"));
     }
 }

@@ -6,14 +6,16 @@
 //! ```text
 //! fmu-pack fmu --lib target/release/libfmu_plant.so --out dist/plant.fmu
 //! fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/hinf_sf --out dist/hinf_sf.fmu
+//! fmu-pack fmu --lib target/release/libfmu_plant.so --binary win64=…/fmu_plant.dll --out dist/plant.fmu
 //! fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
-//! fmu-pack glibc --lib target/release/libfmu_plant.so --lib … --readme README.md --tag platform
+//! fmu-pack platforms --fmu dist/plant.fmu --fmu dist/linux-aarch64/plant.fmu --readme README.md --tag platform
 //! fmu-pack splice --from results/report.md --section "## Summary" --readme README.md --tag comparison
 //! ```
 
 use clap::{Parser, Subcommand};
 use fmu_core::ffi::EXPORTED_FUNCTIONS;
 use fmu_core::ModelDescription;
+use fmu_pack::package::{self, Binary};
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_int};
 use std::path::{Path, PathBuf};
@@ -30,9 +32,15 @@ struct Cli {
 enum Command {
     /// Build one .fmu from a compiled FMU library and (optionally) its resource directory.
     Fmu {
-        /// The cdylib cargo built (lib<crate>.so).
+        /// The cdylib cargo built for this machine (lib<crate>.so): it describes the FMU and goes
+        /// in this machine's platform folder unless a --binary names that folder.
         #[arg(long)]
         lib: PathBuf,
+        /// The same library built for another platform, as FOLDER=FILE (win64=fmu_plant.dll,
+        /// linux64=an AArch64 libfmu_plant.so for an ARM FMU). Checked without loading it: the
+        /// folder's format and architecture, and the 34 fmi2 exports.
+        #[arg(long = "binary", value_name = "FOLDER=FILE")]
+        binaries: Vec<String>,
         /// Directory whose files become resources/ (e.g. dist/hinf_sf with controller.json).
         #[arg(long)]
         resources: Option<PathBuf>,
@@ -53,10 +61,12 @@ enum Command {
         #[arg(long)]
         tag: Option<String>,
     },
-    /// Print the oldest glibc the libraries load with, and/or state it in a README.
-    Glibc {
+    /// Print the platforms the FMUs' libraries run on (format, architecture, the glibc or the
+    /// DLLs they need), and/or put that table in a README.
+    Platforms {
+        /// One .fmu standing for every FMU of its folder.
         #[arg(long, required = true)]
-        lib: Vec<PathBuf>,
+        fmu: Vec<PathBuf>,
         #[arg(long)]
         readme: Option<PathBuf>,
         /// Marker name in the README.
@@ -160,6 +170,7 @@ fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Fmu {
             lib,
+            binaries,
             resources,
             out,
         } => {
@@ -170,10 +181,23 @@ fn run(cli: Cli) -> Result<(), String> {
                 Some(dir) => read_dir_files(dir)?,
                 None => Vec::new(),
             };
-            fmu_core::package::write_fmu(&out, &xml, &id, &lib, &files)?;
+            let mut libs = Vec::new();
+            for spec in &binaries {
+                let (folder, path) = spec
+                    .split_once('=')
+                    .ok_or_else(|| format!("--binary {spec}: expected FOLDER=FILE"))?;
+                libs.push(Binary::read(folder, Path::new(path))?);
+            }
+            let host = package::host_platform()?;
+            if !libs.iter().any(|b| b.platform.folder == host.folder) {
+                libs.insert(0, Binary::read(host.folder, &lib)?);
+            }
+            package::write_fmu(&out, &xml, &id, &libs, &files)?;
+            let folders: Vec<&str> = libs.iter().map(|b| b.platform.folder).collect();
             println!(
-                "wrote {} (modelIdentifier {id}, {} resource file(s))",
+                "wrote {} (modelIdentifier {id}, binaries {}, {} resource file(s))",
                 out.display(),
+                folders.join(" "),
                 files.len()
             );
             Ok(())
@@ -197,19 +221,15 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
-        Command::Glibc { lib, readme, tag } => {
-            let mut newest = None;
-            for path in &lib {
-                let bytes = std::fs::read(path)
-                    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-                let v = fmu_pack::glibc_needed(&bytes)
-                    .map_err(|e| format!("{}: {e}", path.display()))?;
-                newest = newest.max(v);
+        Command::Platforms { fmu, readme, tag } => {
+            let mut fmus = Vec::new();
+            for path in &fmu {
+                fmus.push((path.display().to_string(), package::fmu_binaries(path)?));
             }
-            let v = newest.ok_or("the libraries import no versioned glibc symbol")?;
-            println!("glibc >= {}.{}", v.0, v.1);
+            let note = fmu_pack::platform_note(&fmus);
+            print!("{note}");
             if let Some(path) = readme {
-                splice_readme(&path, tag, &fmu_pack::platform_note(v))?;
+                splice_readme(&path, tag, &note)?;
             }
             Ok(())
         }
