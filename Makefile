@@ -205,8 +205,9 @@ dist/car.ssp: $(FMU_FILES) $(STAMP)/release scenarios/bump.json
 validate: $(FMU_FILES) $(ARM_FMU_FILES) $(STAMP)/venv
 	@for f in $(FMU_FILES) $(ARM_FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
 
-# Regenerate the checked-in modelDescription/*.xml and the README's variable table after a
-# change of a variable table (a test fails until you do and commit them).
+# Regenerate the checked-in modelDescription/*.xml and the README's variable and platform tables
+# after a change of a variable table or a platform (a test fails until you do and commit them;
+# the platform table is the shipped one only from a CROSS=1 build).
 descriptions: $(STAMP)/release $(PLATFORM_FMUS)
 	./target/release/fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
 	./target/release/fmu-pack description --lib target/release/libfmu_road.so --xml modelDescription/road.xml --readme README.md --tag road-variables
