@@ -13,7 +13,7 @@ pub struct Inspected {
     pub missing_exports: Vec<&'static str>,
     /// ELF: the newest `GLIBC_x.y` it imports, so the oldest glibc that loads it.
     pub glibc: Option<(u32, u32)>,
-    /// PE: the DLLs it imports, as named in its import table.
+    /// PE: the DLLs it imports, as named in its import table, sorted case-insensitively.
     pub dlls: Vec<String>,
 }
 
@@ -44,6 +44,8 @@ impl Inspected {
                         dlls.push(dll);
                     }
                 }
+                // Sorted: the linker's order of the import table varies between builds.
+                dlls.sort_by_key(|d| d.to_ascii_lowercase());
                 (None, dlls)
             }
         };

@@ -152,7 +152,7 @@ def test_each_platform_runs_the_closed_loop_like_linux64(work, platform, scenari
 
 @pytest.mark.parametrize("platform", list(PLATFORMS))
 def test_a_panic_in_the_fmu_is_fmi2error_on_every_platform(work, platform):
-    host_probe = ROOT / "target" / "release" / "examples" / "libpanic_probe.so"
+    host_probe = PROBE["linux64"]  # loads here: fmu-pack asks it for its description
     xml = work / "probe.xml"
     work.mkdir(parents=True, exist_ok=True)
     subprocess.run([str(ROOT / "target" / "release" / "fmu-pack"), "description", "--lib", str(host_probe), "--xml", str(xml)],
