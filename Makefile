@@ -23,6 +23,12 @@ commas = $(shell echo $(1) | tr ' ' ',')
 # clarabel's SDP support linked to Debian's OpenBLAS (synthesis).
 APT_PACKAGES := pkg-config libclang-dev clang libopenblas-dev gfortran
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+# Install those of the Debian packages $(1) that are missing.
+apt_install = missing=$$(for p in $(1); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "Installing Debian packages: $$missing"; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
+	fi
 
 # Platforms (README "Platforms"). CROSS=1: every FMU of dist/ carries binaries/linux64 (x86-64,
 # linked by zig against glibc 2.17 with cargo-zigbuild) and binaries/win64 (MinGW-w64), and
@@ -112,22 +118,14 @@ setup: $(STAMP)/apt $(STAMP)/venv
 
 $(STAMP)/apt:
 	@mkdir -p $(STAMP)
-	@missing=$$(for p in $(APT_PACKAGES); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || echo $$p; done); \
-	if [ -n "$$missing" ]; then \
-	  echo "Installing Debian packages: $$missing"; \
-	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
-	fi
+	@$(call apt_install,$(APT_PACKAGES))
 	@if ! $(PYTHON) -c 'import venv, ensurepip' 2>/dev/null; then \
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq python3-venv; fi
 	@touch $@
 
 # The cross toolchains (CROSS=1): Debian packages, and cargo-zigbuild with zig from PyPI.
 $(STAMP)/apt-cross: | $(STAMP)/apt
-	@missing=$$(for p in $(CROSS_APT); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || echo $$p; done); \
-	if [ -n "$$missing" ]; then \
-	  echo "Installing Debian packages: $$missing"; \
-	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
-	fi
+	@$(call apt_install,$(CROSS_APT))
 	@touch $@
 
 $(STAMP)/zig: tests/harness/requirements.txt | $(STAMP)/venv

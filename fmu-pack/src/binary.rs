@@ -6,6 +6,7 @@ use fmu_core::ffi::EXPORTED_FUNCTIONS;
 use object::elf::{FileHeader64, SHT_GNU_VERNEED};
 use object::read::elf::{FileHeader, SectionHeader};
 use object::{Architecture, BinaryFormat, Endianness, Object};
+use std::path::Path;
 
 pub struct Inspected {
     pub format: BinaryFormat,
@@ -58,6 +59,19 @@ impl Inspected {
         })
     }
 
+    /// Refuse the library at `path` (this one) unless it exports all 34 FMI 2.0 functions.
+    pub fn require_fmi2(&self, path: &Path) -> Result<(), String> {
+        if self.missing_exports.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "{} does not export {:?}",
+                path.display(),
+                self.missing_exports
+            ))
+        }
+    }
+
     /// `x86-64 ELF`, `AArch64 ELF`, `x86-64 PE`.
     pub fn kind(&self) -> String {
         let arch = match self.architecture {
@@ -72,6 +86,13 @@ impl Inspected {
         };
         format!("{arch} {format}")
     }
+}
+
+/// Read and inspect the library at `path`.
+pub fn read_library(path: &Path) -> Result<(Vec<u8>, Inspected), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let found = Inspected::parse(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok((bytes, found))
 }
 
 /// The newest `GLIBC_x.y` symbol version a 64-bit ELF shared library imports — so the oldest

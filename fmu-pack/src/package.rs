@@ -1,7 +1,7 @@
 //! Writing a `.fmu` archive (FMI 2.0.4 §2.3): `modelDescription.xml`, one shared library per
 //! platform as `binaries/<platform>/<modelIdentifier>.<so|dll>`, and `resources/`.
 
-use crate::binary::Inspected;
+use crate::binary::{read_library, Inspected};
 use object::{Architecture, BinaryFormat};
 use std::io::Write;
 use std::path::Path;
@@ -68,9 +68,7 @@ impl Binary {
     /// that exports the 34 FMI 2.0 functions.
     pub fn read(folder: &str, path: &Path) -> Result<Self, String> {
         let platform = platform(folder)?;
-        let bytes =
-            std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        let found = Inspected::parse(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+        let (bytes, found) = read_library(path)?;
         if found.format != platform.format || !platform.architectures.contains(&found.architecture)
         {
             return Err(format!(
@@ -79,13 +77,7 @@ impl Binary {
                 found.kind()
             ));
         }
-        if !found.missing_exports.is_empty() {
-            return Err(format!(
-                "{} does not export {:?}",
-                path.display(),
-                found.missing_exports
-            ));
-        }
+        found.require_fmi2(path)?;
         Ok(Binary { platform, bytes })
     }
 }

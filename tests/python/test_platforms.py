@@ -10,6 +10,7 @@ that a wrong GUID is refused and that a panic inside an FMU (fmu-core's panic pr
 as fmi2Error. `make CROSS=0` builds this machine's libraries only, and these tests are skipped.
 """
 
+import functools
 import os
 import pathlib
 import re
@@ -123,7 +124,9 @@ def run_harness(work, platform, *args):
     return done
 
 
+@functools.lru_cache(maxsize=None)
 def closed_loop(work, platform, scenario, controller, stop):
+    """The harness's log on `platform`; linux64's, the reference, is run once per scenario."""
     path, columns = plan(work, platform, scenario, controller, stop)
     out = work / f"{platform}-{scenario}-{controller}.csv"
     run_harness(work, platform, "run", PLATFORMS[platform][4](path), PLATFORMS[platform][4](out))
@@ -157,8 +160,9 @@ def test_a_panic_in_the_fmu_is_fmi2error_on_every_platform(work, platform):
     work.mkdir(parents=True, exist_ok=True)
     subprocess.run([str(ROOT / "target" / "release" / "fmu-pack"), "description", "--lib", str(host_probe), "--xml", str(xml)],
                    check=True, capture_output=True)
-    guid = ET.parse(xml).getroot().get("guid")
-    u = next(v for v in ET.parse(xml).getroot().iter("ScalarVariable") if v.get("name") == "u").get("valueReference")
+    description = ET.parse(xml).getroot()
+    guid = description.get("guid")
+    u = next(v for v in description.iter("ScalarVariable") if v.get("name") == "u").get("valueReference")
     library = PROBE[platform]
     assert library.exists(), f"{library}: `make` builds it (CROSS=1)"
     done = run_harness(work, platform, "panic", PLATFORMS[platform][4](library), guid, u)
