@@ -14,9 +14,11 @@ workers see the same paths as this machine (a shared file system).
 """
 
 import argparse
+import contextlib
 import hashlib
 import io
 import json
+import logging
 import os
 import pathlib
 import re
@@ -142,8 +144,15 @@ def main(argv=None):
 
     total = run_count(a.master, a.dist, a.spec)
     parts = chunks(total, a.chunk)
-    cluster = LocalCluster(n_workers=a.local, threads_per_worker=1) if a.local else None
-    with Client(cluster if cluster else a.scheduler) as client:
+    # The client closes before the cluster, and both before the interpreter finalises. A Dask
+    # daemon thread still writing to stderr at exit aborts Python ("_enter_buffered_busy",
+    # dask/distributed#7617); CI saw one unexplained SIGABRT of this command, so the
+    # cluster's shutdown warnings (a slow worker being killed) are silenced too.
+    with contextlib.ExitStack() as stack:
+        if a.local:
+            cluster = stack.enter_context(LocalCluster(
+                n_workers=a.local, threads_per_worker=1, silence_logs=logging.ERROR))
+        client = stack.enter_context(Client(cluster if a.local else a.scheduler))
         if a.shared:
             paths = (pathlib.Path(a.master).resolve(), pathlib.Path(a.dist).resolve(),
                      pathlib.Path(a.spec).resolve())
@@ -152,8 +161,6 @@ def main(argv=None):
             archive = client.scatter(bundle(a.master, a.dist, a.spec), broadcast=True)
             futures = [client.submit(run_chunk, s, e, archive=archive, pure=False) for s, e in parts]
         results = client.gather(futures)
-    if cluster:
-        cluster.close()
     table = gather(results, a.out)
     failed = sum(1 for s in table.column("status").to_pylist() if s != "ok")
     print(f"{table.num_rows} runs ({failed} failed) in {len(parts)} chunks; {pathlib.Path(a.out) / 'runs.parquet'}")
