@@ -1,7 +1,7 @@
 //! `resources/controller.json`: the controller `ẋc = A xc + B y`, `u = C xc + D y` in the
 //! plant's units, the plant outputs it reads (`inputs`) and the plant inputs it drives
 //! (`outputs`) by name and unit, what its synthesis guarantees, and the optional blocks of the
-//! runtime (anti-windup, fault detection, predictor). `synth` writes it and `fmu-controller`
+//! runtime (fault accommodation, anti-windup, fault detection, predictor). `synth` writes it and `fmu-controller`
 //! reads it through these types, so the two cannot drift apart.
 //!
 //! The fields are declared in alphabetical order (upper case first): the order the file has
@@ -28,6 +28,8 @@ pub struct ControllerFile {
     pub c: Rows,
     #[serde(rename = "D")]
     pub d: Rows,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accommodation: Option<Accommodation>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub anti_windup: Option<AntiWindup>,
     pub description: String,
@@ -64,6 +66,25 @@ pub struct Guarantee {
     pub name: String,
     pub unit: String,
     pub value: f64,
+}
+
+/// Fault accommodation from the actuators' measured applied forces: each actuator's
+/// effectiveness estimated as `ρ̂ᵢ = √(E fᵢ² / E uᵢ²)`, exponentially weighted means over
+/// `time_constant` of the applied force (the input named `forces[i]`) and of the command sent
+/// the step before (saturated at the actuator's limit), which that force answers; clamped to
+/// `[rho_min, 1]`. The command sent is the controller's `yᵢ / ρ̂ᵢ`, so the force applied is the
+/// one the controller asked for.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Accommodation {
+    /// Per output, the input that measures the force it applies.
+    pub forces: Vec<String>,
+    /// The least effectiveness compensated [1] (the design's effectiveness box).
+    pub rho_min: f64,
+    /// The estimator's averaging time [s].
+    pub time_constant: f64,
+    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`).
+    pub u_max: Vec<f64>,
 }
 
 /// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model
@@ -135,6 +156,7 @@ pub struct Predictor {
 /// The blocks a controller may carry beyond `A, B, C, D`.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Extensions {
+    pub accommodation: Option<Accommodation>,
     pub anti_windup: Option<AntiWindup>,
     pub fault_detection: Option<FaultDetection>,
     pub predictor: Option<Predictor>,
@@ -153,6 +175,7 @@ impl ControllerFile {
 
     /// This file with `extensions`' blocks set (those it lacks kept as they are).
     pub fn with(mut self, extensions: Extensions) -> ControllerFile {
+        self.accommodation = extensions.accommodation.or(self.accommodation);
         self.anti_windup = extensions.anti_windup.or(self.anti_windup);
         self.fault_detection = extensions.fault_detection.or(self.fault_detection);
         self.predictor = extensions.predictor.or(self.predictor);
@@ -170,6 +193,7 @@ mod tests {
             b: vec![vec![2.0, 0.5]],
             c: vec![vec![3.0]],
             d: vec![vec![0.25, -4.0]],
+            accommodation: None,
             anti_windup: None,
             description: "test".into(),
             fault_detection: Some(FaultDetection {

@@ -8,6 +8,7 @@
 //! A dynamic controller is stepped exactly (matrix exponential, measurements held over the
 //! communication step, which is what a sampled-data implementation does).
 
+pub mod accommodation;
 pub mod predictor;
 pub mod spec;
 
@@ -23,7 +24,7 @@ use vehicle::exact::{discretize, mat_vec_sum, Discretization};
 
 /// Value references: inputs from 0, outputs from 1000, the guarantee at 2000, force limits of an
 /// anti-windup controller from 3000, a fault detector's variables from 4000, a predictor's
-/// delay at 5000.
+/// delay at 5000, the effectiveness estimates of fault accommodation from 6000.
 pub mod vr {
     pub const INPUT: u32 = 0;
     pub const OUTPUT: u32 = 1000;
@@ -33,6 +34,7 @@ pub mod vr {
     pub const FAULT_DETECTED: u32 = 4001;
     pub const FAULT_THRESHOLD: u32 = 4002;
     pub const DELAY: u32 = 5000;
+    pub const RHO_HAT: u32 = 6000;
 }
 
 /// An anti-windup controller's force-limit parameters, named like the plant's (`u_max` for the
@@ -51,6 +53,16 @@ fn limit_groups(spec: &Spec) -> Vec<(&'static str, Vec<usize>)> {
         }
     }
     groups
+}
+
+/// The default force limits of a controller that has them as parameters (anti-windup, fault
+/// accommodation).
+fn default_limits(spec: &Spec) -> Option<&[f64]> {
+    match (&spec.anti_windup, &spec.accommodation) {
+        (Some(aw), _) => Some(&aw.u_max),
+        (None, Some(acc)) => Some(&acc.u_max),
+        (None, None) => None,
+    }
 }
 
 pub const RESOURCE_FILE: &str = "controller.json";
@@ -81,11 +93,12 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
     }
     // How a measurement enters a command: through the predictor's `K e^{Aθ} S_y` (θ the fixed
     // parameter `tau`), through the anti-windup saturation, or as the constant `D` of the
-    // resource file. In Initialization Mode the state is zero, so a command also reads its
-    // saturation limit or the delay, and nothing else.
+    // resource file (divided by the effectiveness estimate, a state, with accommodation). In
+    // Initialization Mode the state is zero, so a command also reads its saturation limit or the
+    // delay, and nothing else.
     let kind = if spec.predictor.is_some() {
         DependencyKind::Fixed
-    } else if spec.anti_windup.is_some() {
+    } else if spec.anti_windup.is_some() || spec.accommodation.is_some() {
         DependencyKind::Dependent
     } else {
         DependencyKind::Constant
@@ -131,14 +144,28 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         unit(&g.unit),
         g.description.clone(),
     ));
-    if let Some(aw) = &spec.anti_windup {
+    if let Some(u_max) = default_limits(spec) {
         for (k, (name, outputs)) in limit_groups(spec).into_iter().enumerate() {
             let what = outputs
                 .iter()
                 .map(|&i| spec.outputs[i].name.as_str())
                 .collect::<Vec<_>>()
                 .join(", ");
-            vars.push(Variable::real(name, vr::LIMIT + k as u32, Causality::Parameter, "N", format!("Force limit the anti-windup compensator saturates {what} at (set it equal to the plant's {name})")).with_start(aw.u_max[outputs[0]]));
+            let role = if spec.anti_windup.is_some() {
+                format!("the anti-windup compensator saturates {what} at")
+            } else {
+                format!("of the actuators {what} drives, which the effectiveness estimate reads their saturated command against")
+            };
+            vars.push(
+                Variable::real(
+                    name,
+                    vr::LIMIT + k as u32,
+                    Causality::Parameter,
+                    "N",
+                    format!("Force limit {role} (set it equal to the plant's {name})"),
+                )
+                .with_start(u_max[outputs[0]]),
+            );
         }
     }
     if let Some(fd) = &spec.fault_detection {
@@ -173,6 +200,26 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .with_min(0.0)
             .with_max(p.delay_max),
         );
+    }
+    if let Some(acc) = &spec.accommodation {
+        for (i, &k) in acc.force_inputs.iter().enumerate() {
+            let (out, force) = (&spec.outputs[i].name, &spec.inputs[k].name);
+            vars.push(
+                Variable::real(
+                    spec.rho_hat_name(i),
+                    vr::RHO_HAT + i as u32,
+                    Causality::Output,
+                    "1",
+                    format!(
+                        "Estimated effectiveness of the actuator {out} drives: sqrt of the mean \
+                         square of {force} over that of {out}, averaged over {} s, in [{}, 1]; \
+                         {out} is the controller's command divided by it",
+                        acc.time_constant, acc.rho_min
+                    ),
+                )
+                .depending_on(Vec::new(), DependencyKind::Dependent),
+            );
+        }
     }
     ModelDescription {
         model_name: spec.variant.clone(),
@@ -213,7 +260,8 @@ pub struct Controller {
     /// The state: the controller's, then the anti-windup compensator's `η`.
     x: DVector<f64>,
     y: DVector<f64>,
-    /// Force limit of each output (anti-windup only), and the parameters that set them.
+    /// Force limit of each output (anti-windup and accommodation only), and the parameters that
+    /// set them.
     limits: Vec<f64>,
     limit_groups: Vec<(&'static str, Vec<usize>)>,
     /// Fault detector: its threshold and the latched flag.
@@ -239,6 +287,8 @@ pub struct Controller {
     /// A predictor over the actuators' delay, with the delay set for the next run.
     predictor: Option<predictor::Runtime>,
     tau: f64,
+    /// Fault accommodation: the effectiveness estimator the commands are divided by.
+    estimator: Option<accommodation::Estimator>,
 }
 
 /// `(A, B)` of the stepped system: the controller alone; with the anti-windup compensator
@@ -306,7 +356,12 @@ impl Controller {
             ],
         );
         match &self.spec.anti_windup {
-            None => self.u.copy_from(&self.yc),
+            None => {
+                self.u.copy_from(&self.yc);
+                if let Some(e) = &self.estimator {
+                    e.compensate(self.u.as_mut_slice());
+                }
+            }
             Some(aw) => {
                 let eta = self.x.rows(n, aw.a.nrows());
                 self.u.copy_from(&self.yc);
@@ -317,6 +372,15 @@ impl Controller {
             }
         }
         self.valid = true;
+    }
+
+    /// The effectiveness estimator takes in the step that starts now (the inputs and the
+    /// commands sent, both as of its start); the commands are stale after it.
+    fn step_estimator(&mut self, step: f64) {
+        if let Some(e) = &mut self.estimator {
+            e.step(self.y.as_slice(), self.u.as_slice(), &self.limits, step);
+        }
+        self.valid = false;
     }
 
     /// `‖r‖` of the fault detector (0 without one).
@@ -351,15 +415,13 @@ impl Model for Controller {
     fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
         let spec = load_spec(resources)?;
         let (a, b) = stepped_system(&spec);
-        let limits = spec
-            .anti_windup
-            .as_ref()
-            .map(|aw| aw.u_max.clone())
+        let limits = default_limits(&spec)
+            .map(<[f64]>::to_vec)
             .unwrap_or_default();
-        let limit_groups = if spec.anti_windup.is_some() {
-            limit_groups(&spec)
-        } else {
+        let limit_groups = if limits.is_empty() {
             Vec::new()
+        } else {
+            limit_groups(&spec)
         };
         let threshold = spec
             .fault_detection
@@ -372,9 +434,14 @@ impl Model for Controller {
             .clone()
             .map(predictor::Runtime::new)
             .transpose()?;
+        let estimator = spec
+            .accommodation
+            .clone()
+            .map(accommodation::Estimator::new);
         Ok(Controller {
             predictor,
             tau: 0.0,
+            estimator,
             x: DVector::zeros(nx),
             y: DVector::zeros(ny),
             limits,
@@ -424,6 +491,10 @@ impl Model for Controller {
             vr::RESIDUAL_NORM => self.residual_norm(),
             vr::FAULT_THRESHOLD => self.threshold,
             vr::DELAY => self.tau,
+            v if v >= vr::RHO_HAT => self
+                .estimator
+                .as_ref()
+                .map_or(f64::NAN, |e| e.rho_hat((v - vr::RHO_HAT) as usize)),
             v if v >= vr::LIMIT => self
                 .limit_groups
                 .get((v - vr::LIMIT) as usize)
@@ -475,6 +546,9 @@ impl Model for Controller {
             p.reset(self.tau)?;
         }
         self.x.fill(0.0);
+        if let Some(e) = &mut self.estimator {
+            e.reset();
+        }
         self.detected = false;
         self.valid = false;
         Ok(())
@@ -489,6 +563,8 @@ impl Model for Controller {
             return Ok(());
         }
         if self.a.nrows() == 0 {
+            self.update_commands();
+            self.step_estimator(step);
             return Ok(());
         }
         if self.cache.as_ref().map(|d| d.step.to_bits()) != Some(step.to_bits()) {
@@ -529,7 +605,7 @@ impl Model for Controller {
             return Err("controller state became non-finite; the step was discarded".into());
         }
         std::mem::swap(&mut self.x, &mut self.next);
-        self.valid = false;
+        self.step_estimator(step);
         Ok(())
     }
 
@@ -542,6 +618,9 @@ impl Model for Controller {
         if let Some(p) = &self.predictor {
             out.f64(self.tau);
             out.f64s(&p.save());
+        }
+        if let Some(e) = &self.estimator {
+            e.save(out);
         }
     }
 
@@ -564,7 +643,14 @@ impl Model for Controller {
             }
             None => None,
         };
+        let estimator = match &self.estimator {
+            Some(e) => Some(e.restored(input)?),
+            None => None,
+        };
         input.finish()?;
+        if estimator.is_some() {
+            self.estimator = estimator;
+        }
         if let Some((tau, p)) = predictor {
             self.tau = tau;
             self.predictor = Some(p);

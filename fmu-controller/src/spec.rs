@@ -40,6 +40,18 @@ pub struct Predictor {
     pub delay_max: f64,
 }
 
+/// Fault accommodation (`controller_file::Accommodation`): the effectiveness of each actuator
+/// estimated from the input that measures its applied force, the command divided by it.
+#[derive(Debug, Clone)]
+pub struct Accommodation {
+    /// Per output, the index of the input measuring its applied force.
+    pub force_inputs: Vec<usize>,
+    pub rho_min: f64,
+    pub time_constant: f64,
+    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`).
+    pub u_max: Vec<f64>,
+}
+
 /// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model `η̇ = A η + B (u − y_c)`
 /// with `u = sat(y_c + F η)`; the controller reads `y − C η`. Forces in N.
 #[derive(Debug, Clone)]
@@ -64,6 +76,7 @@ pub struct Spec {
     pub b: DMatrix<f64>,
     pub c: DMatrix<f64>,
     pub d: DMatrix<f64>,
+    pub accommodation: Option<Accommodation>,
     pub anti_windup: Option<AntiWindup>,
     pub fault_detection: Option<FaultDetection>,
     pub predictor: Option<Predictor>,
@@ -137,6 +150,52 @@ fn predictor(p: &RawPredictor, ny: usize, nu: usize) -> Result<Predictor, SpecEr
         b_xi: matrix("predictor.B_xi", &p.b_xi, m, ny)?,
         b_xiu: matrix("predictor.B_xiu", &p.b_xiu, m, nu)?,
         delay_max: p.delay_max,
+    })
+}
+
+fn accommodation(
+    a: &controller_file::Accommodation,
+    inputs: &[Signal],
+    nu: usize,
+) -> Result<Accommodation, SpecError> {
+    if a.forces.len() != nu {
+        return Err(SpecError::Invalid(format!(
+            "accommodation.forces must name {nu} inputs, one per output, found {}",
+            a.forces.len()
+        )));
+    }
+    let force_inputs = a
+        .forces
+        .iter()
+        .map(|f| {
+            inputs.iter().position(|s| s.name == *f).ok_or_else(|| {
+                SpecError::Invalid(format!("accommodation.forces: '{f}' is not an input"))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if !(a.rho_min > 0.0 && a.rho_min <= 1.0) {
+        return Err(SpecError::Invalid(format!(
+            "accommodation.rho_min must be in (0, 1], found {}",
+            a.rho_min
+        )));
+    }
+    if !(a.time_constant > 0.0 && a.time_constant.is_finite()) {
+        return Err(SpecError::Invalid(format!(
+            "accommodation.time_constant must be finite and > 0, found {}",
+            a.time_constant
+        )));
+    }
+    if a.u_max.len() != nu || !a.u_max.iter().all(|u| *u > 0.0 && u.is_finite()) {
+        return Err(SpecError::Invalid(format!(
+            "accommodation.u_max must hold {nu} finite limits > 0, found {:?}",
+            a.u_max
+        )));
+    }
+    Ok(Accommodation {
+        force_inputs,
+        rho_min: a.rho_min,
+        time_constant: a.time_constant,
+        u_max: a.u_max.clone(),
     })
 }
 
@@ -269,7 +328,18 @@ impl Spec {
             .as_ref()
             .map(|p| predictor(p, ny, nu))
             .transpose()?;
+        if raw.accommodation.is_some() && (raw.anti_windup.is_some() || raw.predictor.is_some()) {
+            return Err(SpecError::Invalid(
+                "a controller with accommodation has neither anti_windup nor a predictor".into(),
+            ));
+        }
+        let accommodation = raw
+            .accommodation
+            .as_ref()
+            .map(|a| accommodation(a, &raw.inputs, nu))
+            .transpose()?;
         let spec = Spec {
+            accommodation,
             anti_windup,
             fault_detection,
             predictor,
@@ -304,7 +374,7 @@ impl Spec {
         }
         // The variables the runtime adds must not share a name with a signal.
         let generated = spec.generated_names();
-        if let Some(clash) = names.iter().find(|n| generated.contains(n)) {
+        if let Some(clash) = names.iter().find(|n| generated.iter().any(|g| g == *n)) {
             return Err(SpecError::Invalid(format!(
                 "signal name '{clash}' is also the name of a variable the controller FMU adds \
                  (reserved here: {generated:?})"
@@ -314,19 +384,29 @@ impl Spec {
     }
 
     /// The names of the variables the runtime adds beside the signals: the guarantee, the
-    /// anti-windup limits, the fault detector's, the predictor's delay.
-    pub fn generated_names(&self) -> Vec<&str> {
-        let mut names = vec![self.guarantee.name.as_str()];
-        if self.anti_windup.is_some() {
-            names.extend(["u_max", "u_max_seat"]);
+    /// anti-windup limits, the fault detector's, the predictor's delay, the effectiveness estimates.
+    pub fn generated_names(&self) -> Vec<String> {
+        let mut names = vec![self.guarantee.name.clone()];
+        let mut add = |more: &[&str]| names.extend(more.iter().map(|n| n.to_string()));
+        if self.anti_windup.is_some() || self.accommodation.is_some() {
+            add(&["u_max", "u_max_seat"]);
         }
         if self.fault_detection.is_some() {
-            names.extend(["residual_norm", "fault_detected", "fault_threshold"]);
+            add(&["residual_norm", "fault_detected", "fault_threshold"]);
         }
         if self.predictor.is_some() {
-            names.push("tau");
+            add(&["tau"]);
+        }
+        if self.accommodation.is_some() {
+            names.extend((0..self.outputs.len()).map(|i| self.rho_hat_name(i)));
         }
         names
+    }
+
+    /// The effectiveness estimate's variable name for output `i` (`u_fl` → `rho_hat_fl`).
+    pub fn rho_hat_name(&self, i: usize) -> String {
+        let o = &self.outputs[i].name;
+        format!("rho_hat_{}", o.strip_prefix("u_").unwrap_or(o))
     }
 
     pub fn order(&self) -> usize {

@@ -590,6 +590,7 @@ fn declared_dependencies_are_the_measured_ones() {
         ("aw", AW_SPEC),
         ("fd", FD_SPEC),
         ("pred", PRED_SPEC),
+        ("acc", ACC_SPEC),
     ] {
         let dir = dir_with(&format!("deps-{name}"), Some(text));
         let uri = format!("file://{}", dir.display());
@@ -616,5 +617,145 @@ fn declared_dependencies_are_the_measured_ones() {
             "{name}: declared, not seen {unexplained:?}"
         );
         eprintln!("{name}: {:?} / {:?}", measured.initial, m.unobserved);
+    }
+}
+
+/// Static controller `u = 2 y` with fault accommodation: the load cell `f_fl` measures what the
+/// actuator applies.
+const ACC_SPEC: &str = r#"{
+  "format": "suspension-controller/2", "variant": "test_acc", "description": "test", "guarantee": {"name": "gamma", "value": 1.0, "unit": "1", "description": "test"},
+  "inputs": [{"name": "stroke_fl", "unit": "m"}, {"name": "f_fl", "unit": "N"}],
+  "outputs": [{"name": "u_fl", "unit": "N"}],
+  "A": [], "B": [], "C": [[]], "D": [[2.0, 0.0]],
+  "accommodation": {"forces": ["f_fl"], "rho_min": 0.5, "time_constant": 0.1, "u_max": [100.0]}
+}"#;
+
+/// Through the C functions, against an actuator of effectiveness 0.6 saturating at `u_max`
+/// (simulated here: the force measured at a point is 0.6 sat(u) of the command read at the
+/// point before): `rho_hat_fl` settles on 0.6 from above, the command is `2 y / ρ̂`, so the
+/// force applied is the asked `2 y`; with the limit lowered (the parameter, as the plant's)
+/// saturation is not taken for a loss; a state restores bit-identically; a malformed block is
+/// refused by name.
+#[test]
+fn accommodation_estimates_the_effectiveness_and_compensates_it() {
+    let log = LogCapture::default();
+    let spec = Spec::from_json(ACC_SPEC).unwrap();
+    let names: Vec<String> = description_for(&spec)
+        .variables
+        .iter()
+        .map(|v| v.name.clone())
+        .collect();
+    for n in ["rho_hat_fl", "u_max"] {
+        assert!(names.iter().any(|v| v == n), "{n} missing from {names:?}");
+    }
+    let run = |limit: f64, steps: usize| -> (Vec<(f64, f64, f64)>, Vec<u8>) {
+        let dir = dir_with("acc", Some(ACC_SPEC));
+        let (c, _cb) = instantiate(&log, &guid_of(ACC_SPEC), Some(&dir));
+        assert!(!c.is_null(), "{:?}", log.messages());
+        let mut out = Vec::new();
+        let mut state = Vec::new();
+        unsafe {
+            assert_eq!(fmi2SetReal(c, &vr::LIMIT, 1, &limit), 0);
+            fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+            fmi2EnterInitializationMode(c);
+            assert_eq!(fmi2ExitInitializationMode(c), 0);
+            let h = 1e-3;
+            let mut sent: f64 = 0.0;
+            for k in 0..steps {
+                let y = 30.0 * (k as f64 * h * 25.0).sin();
+                let f = 0.6 * sent.clamp(-limit, limit);
+                let ins = [vr::INPUT, vr::INPUT + 1];
+                fmi2SetReal(c, ins.as_ptr(), 2, [y, f].as_ptr());
+                let (mut u, mut rho) = (0.0, 0.0);
+                fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+                fmi2GetReal(c, &vr::RHO_HAT, 1, &mut rho);
+                out.push((2.0 * y, u, rho));
+                if k == steps / 2 {
+                    let mut s: Fmi2FmuState = std::ptr::null_mut();
+                    let mut size = 0;
+                    fmi2GetFMUstate(c, &mut s);
+                    fmi2SerializedFMUstateSize(c, s, &mut size);
+                    let mut bytes = vec![0 as Fmi2Byte; size];
+                    fmi2SerializeFMUstate(c, s, bytes.as_mut_ptr(), size);
+                    fmi2FreeFMUstate(c, &mut s);
+                    state = bytes.into_iter().map(|b| b as u8).collect();
+                }
+                assert_eq!(fmi2DoStep(c, k as f64 * h, h, 1), 0);
+                sent = u;
+            }
+            fmi2FreeInstance(c);
+        }
+        (out, state)
+    };
+    let (free, _) = run(100.0, 2000);
+    let mut last = 1.0;
+    for (k, (asked, u, rho)) in free.iter().enumerate() {
+        assert!(
+            *rho >= 0.6 - 1e-12 && *rho <= last + 1e-12,
+            "step {k}: ρ̂ {rho} after {last}"
+        );
+        last = *rho;
+        assert!(
+            (u * rho - asked).abs() <= 1e-12 * asked.abs().max(1.0),
+            "step {k}"
+        );
+    }
+    let settled = free[1000..]
+        .iter()
+        .map(|r| (r.2 - 0.6).abs())
+        .fold(0.0, f64::max);
+    assert!(settled < 1e-9, "ρ̂ off by {settled} after 1 s");
+    // Saturating at 20 N (commands up to 100 N): the estimate reads sat(u), so still 0.6.
+    let (saturated, _) = run(20.0, 2000);
+    let off = saturated[1000..]
+        .iter()
+        .map(|r| (r.2 - 0.6).abs())
+        .fold(0.0, f64::max);
+    assert!(off < 1e-9, "saturation read as a loss: ρ̂ off by {off}");
+    // A state taken half way restores into a new instance, which continues identically.
+    let (_, state) = run(100.0, 1200);
+    let dir = dir_with("acc", Some(ACC_SPEC));
+    let (c, _cb) = instantiate(&log, &guid_of(ACC_SPEC), Some(&dir));
+    unsafe {
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        fmi2ExitInitializationMode(c);
+        let mut s: Fmi2FmuState = std::ptr::null_mut();
+        assert_eq!(
+            fmi2DeSerializeFMUstate(c, state.as_ptr() as *const Fmi2Byte, state.len(), &mut s),
+            0
+        );
+        assert_eq!(fmi2SetFMUstate(c, s), 0, "{:?}", log.messages());
+        fmi2FreeFMUstate(c, &mut s);
+        let mut rho = 0.0;
+        fmi2GetReal(c, &vr::RHO_HAT, 1, &mut rho);
+        assert_eq!(rho.to_bits(), free[600].2.to_bits());
+        fmi2FreeInstance(c);
+    }
+    for (bad, why) in [
+        (r#""forces": ["f_fr"]"#, "'f_fr' is not an input"),
+        (r#""forces": ["f_fl", "f_fl"]"#, "must name 1 inputs"),
+        (r#""rho_min": 0.0"#, "rho_min must be in (0, 1]"),
+        (r#""rho_min": 1.5"#, "rho_min must be in (0, 1]"),
+        (
+            r#""time_constant": -0.1"#,
+            "time_constant must be finite and > 0",
+        ),
+        (
+            r#""u_max": [100.0, 1.0]"#,
+            "u_max must hold 1 finite limits > 0",
+        ),
+    ] {
+        let key = &bad[..bad.find(':').unwrap()];
+        let start = ACC_SPEC.find(key).unwrap();
+        let end = start + ACC_SPEC[start..].find([',', '}']).unwrap();
+        let end = if ACC_SPEC[start..end].contains('[') {
+            start + ACC_SPEC[start..].find(']').unwrap() + 1
+        } else {
+            end
+        };
+        let text = format!("{}{bad}{}", &ACC_SPEC[..start], &ACC_SPEC[end..]);
+        let e = Spec::from_json(&text).unwrap_err().to_string();
+        assert!(e.contains(why), "{bad}: {e}");
     }
 }

@@ -39,8 +39,17 @@ pub const RECORD: [&str; 18] = [
     "f_rr",
     "f_seat",
 ];
-/// Controller outputs recorded when the controller has them.
-pub const CONTROLLER_RECORD: [&str; 2] = ["residual_norm", "fault_detected"];
+/// Controller outputs recorded when the controller has them: a fault detector's, and the
+/// effectiveness estimates of fault accommodation.
+pub const CONTROLLER_RECORD: [&str; 7] = [
+    "residual_norm",
+    "fault_detected",
+    "rho_hat_fl",
+    "rho_hat_fr",
+    "rho_hat_rl",
+    "rho_hat_rr",
+    "rho_hat_seat",
+];
 
 #[derive(Debug)]
 pub struct MasterError(pub String);

@@ -13,11 +13,13 @@
 //! frequency) beat with periods near a minute around the body modes, so one window of a
 //! lightly damped response is off by several per cent, at random with the phases. Measured: a
 //! controller's figures within 1.3 % of the prediction on one seed, the passive car's (narrow
-//! seat, roll and pitch resonances) up to 7 % off on one and 5 % on the mean of four; `ft_of`
-//! with every actuator at half effectiveness (its seat isolation half lost) spreads by 4.7 % per
-//! seed, and on the mean of 12 seeds it was still 5.5 % off (2.5 % on 32, like the passive
-//! car's 2.0 % on 16). So a controller gets 3 seeds, one whose predicted seat figure is over a
-//! fifth of the passive car's (a resonance left) 32, the passive car 16.
+//! seat, roll and pitch resonances) up to 7 % off on one and 5 % on the mean of four; a
+//! controlled car with a resonance left (`ft_of` with every actuator at half effectiveness,
+//! before it accommodated faults: its seat isolation half lost) spread by 4.7 % per seed, and on
+//! the mean of 12 seeds was still 5.5 % off (2.5 % on 32, like the passive car's 2.0 % on 16).
+//! So a controller gets 3 seeds, one whose predicted seat figure is over a fifth of the passive
+//! car's (a resonance left) 32, the passive car 16. `ft_of`'s faults start at t = 0, where its
+//! effectiveness estimate is exact from the first commanded step (no transient to drop).
 //!
 //! The controllers run at a 0.1 ms communication step: the certificate predicts the
 //! continuous-time loop, and a sample-and-hold acts on it like a delay of half a step. The

@@ -3,8 +3,8 @@
 
 use crate::certificate::Controller;
 pub use controller_file::{
-    AntiWindup, ControllerFile, Extensions, FaultDetection, Guarantee, Predictor, Rows, Signal,
-    FORMAT,
+    Accommodation, AntiWindup, ControllerFile, Extensions, FaultDetection, Guarantee, Predictor,
+    Rows, Signal, FORMAT,
 };
 use nalgebra::DMatrix;
 
@@ -46,6 +46,7 @@ pub fn controller_json(
         b: matrix_rows(&k.b),
         c: matrix_rows(&k.c),
         d: matrix_rows(&k.d),
+        accommodation: None,
         anti_windup: None,
         description: description.into(),
         fault_detection: None,

@@ -238,6 +238,9 @@ pub struct ComfortDesign {
     pub fault_time_constant: f64,
     /// `ft_of`: force deficit above which `fault_detected` is raised [N].
     pub fault_threshold: f64,
+    /// `ft_of`: averaging time of the effectiveness estimate its commands are divided by [s]
+    /// (fault accommodation).
+    pub accommodation_time_constant: f64,
 }
 
 impl ComfortDesign {
@@ -277,6 +280,10 @@ impl ComfortDesign {
             ("delay_max", self.delay_max),
             ("fault_time_constant", self.fault_time_constant),
             ("fault_threshold", self.fault_threshold),
+            (
+                "accommodation_time_constant",
+                self.accommodation_time_constant,
+            ),
         ];
         require_positive(&positive)?;
         for (name, rear) in [

@@ -43,6 +43,11 @@ pub struct ControlLaw {
     pub lti: Lti,
     pub inputs: Vec<String>,
     pub predictor: Option<PredictorLaw>,
+    /// Fault accommodation (`controller.json`'s `accommodation`): the least effectiveness the
+    /// controller estimates from its measured applied forces and divides its commands by. In
+    /// stationary operation (the estimate settled, which is what a prediction describes) an
+    /// actuator of effectiveness `ρ` then applies `ρ / max(ρ, rho_min)` of the asked force.
+    pub accommodation: Option<f64>,
 }
 
 /// A state feedback `u = K x̂` on the design state predicted over the actuators' known delay `θ`
@@ -353,6 +358,12 @@ struct Response {
 impl Loop {
     /// `law = None` is the passive car.
     pub fn new(law: Option<&ControlLaw>, conditions: Conditions) -> Result<Self, PredictionError> {
+        let mut conditions = conditions;
+        if let Some(rho_min) = law.and_then(|l| l.accommodation) {
+            for rho in conditions.effectiveness.iter_mut() {
+                *rho /= rho.clamp(rho_min, 1.0);
+            }
+        }
         let p = &conditions.params;
         let ss = StateSpace::new(p);
         let mut outputs = physical_outputs(p);

@@ -128,6 +128,7 @@ pub fn predictor_design(
     let law_at = |theta: f64| ControlLaw {
         lti: realise_state_feedback(g, &sf.k),
         inputs: state_feedback_sensors(g).names,
+        accommodation: None,
         predictor: Some(PredictorLaw {
             a: g.a.clone(),
             b: g.b_u.clone(),
@@ -305,6 +306,7 @@ mod tests {
             let law = ControlLaw {
                 lti: realise_state_feedback(&g, &sf.k),
                 inputs: state_feedback_sensors(&g).names,
+                accommodation: None,
                 predictor: Some(PredictorLaw {
                     a: g.a.clone(),
                     b: g.b_u.clone(),
@@ -323,6 +325,7 @@ mod tests {
         let plain = ControlLaw {
             lti: realise_state_feedback(&g, &sf.k),
             inputs: state_feedback_sensors(&g).names,
+            accommodation: None,
             predictor: None,
         };
         let f = Loop::new(Some(&plain), Conditions::nominal(p))

@@ -293,6 +293,7 @@ fn thesis_all(
             let law = ControlLaw {
                 lti: s.controller,
                 inputs: s.certificate.measurements.clone(),
+                accommodation: None,
                 predictor: None,
             };
             let certificate = serde_json::to_value(&s.certificate).expect("serialisable");
@@ -493,13 +494,23 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
             });
             (
                 format!(
-                    "worst W_k seat {:.4} over {} conditions; design-model {}",
+                    "worst W_k seat {:.4} over {} conditions; {}",
                     u.worst_predicted_wk_rms_seat_m_s2,
                     u.predictions.len(),
-                    match (&u.bound_wk_rms_seat, u.design_model_grid_worst_wk_rms_seat) {
-                        (Some(b), _) => format!("bound {:.4}", b.value),
-                        (None, Some(g)) => format!("grid worst {g:.4} (no bound)"),
-                        (None, None) => "-".into(),
+                    match (
+                        &u.bound_wk_rms_seat,
+                        u.design_model_grid_worst_wk_rms_seat,
+                        u.accommodated_down_to,
+                    ) {
+                        (Some(b), _, _) => format!("design-model bound {:.4}", b.value),
+                        (None, Some(g), Some(r)) => format!(
+                            "accommodated down to ρ = {r}: the nominal loop once the estimate \
+                             settles; the transient's frozen loops stable (design-model worst \
+                             {g:.4})"
+                        ),
+                        (None, Some(g), None) =>
+                            format!("design-model grid worst {g:.4} (no bound)"),
+                        (None, None, _) => "-".into(),
                     }
                 ),
                 nominal,
