@@ -154,7 +154,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             let role = if spec.anti_windup.is_some() {
                 format!("the anti-windup compensator saturates {what} at")
             } else {
-                format!("of the actuators {what} drives, which the effectiveness estimate reads their saturated command against")
+                format!("of the actuators {what} drive: the effectiveness estimate reads their commands saturated at it")
             };
             vars.push(
                 Variable::real(

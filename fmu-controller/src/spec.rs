@@ -269,6 +269,23 @@ impl Spec {
             ));
         }
         let (n, ny, nu) = (raw.a.len(), raw.inputs.len(), raw.outputs.len());
+        // The runtime's blocks each replace how a command is formed, except the detector, which
+        // only watches it: one block, or accommodation with fault detection.
+        let blocks: Vec<&str> = [
+            ("accommodation", raw.accommodation.is_some()),
+            ("anti_windup", raw.anti_windup.is_some()),
+            ("fault_detection", raw.fault_detection.is_some()),
+            ("predictor", raw.predictor.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(name, present)| present.then_some(name))
+        .collect();
+        if blocks.len() > 1 && blocks != ["accommodation", "fault_detection"] {
+            return Err(SpecError::Invalid(format!(
+                "a controller has one of accommodation, anti_windup, fault_detection and \
+                 predictor, or accommodation with fault_detection; this one has {blocks:?}"
+            )));
+        }
         let anti_windup = match &raw.anti_windup {
             None => None,
             Some(aw) => {
@@ -288,11 +305,6 @@ impl Spec {
                 })
             }
         };
-        if raw.anti_windup.is_some() && raw.fault_detection.is_some() {
-            return Err(SpecError::Invalid(
-                "a controller has either anti_windup or fault_detection, not both".into(),
-            ));
-        }
         let fault_detection = match &raw.fault_detection {
             None => None,
             Some(fd) => {
@@ -318,21 +330,11 @@ impl Spec {
                 })
             }
         };
-        if raw.predictor.is_some() && (raw.anti_windup.is_some() || raw.fault_detection.is_some()) {
-            return Err(SpecError::Invalid(
-                "a controller with a predictor has neither anti_windup nor fault_detection".into(),
-            ));
-        }
         let predictor = raw
             .predictor
             .as_ref()
             .map(|p| predictor(p, ny, nu))
             .transpose()?;
-        if raw.accommodation.is_some() && (raw.anti_windup.is_some() || raw.predictor.is_some()) {
-            return Err(SpecError::Invalid(
-                "a controller with accommodation has neither anti_windup nor a predictor".into(),
-            ));
-        }
         let accommodation = raw
             .accommodation
             .as_ref()

@@ -501,37 +501,40 @@ fn an_absurd_controller_matrix_fails_the_step_and_returns() {
     );
 }
 
+/// The instance's FMU state, serialised.
+fn serialized(c: Fmi2Component) -> Vec<u8> {
+    let mut s: Fmi2FmuState = std::ptr::null_mut();
+    let mut size = 0;
+    unsafe {
+        assert_eq!(fmi2GetFMUstate(c, &mut s), 0);
+        fmi2SerializedFMUstateSize(c, s, &mut size);
+        let mut bytes = vec![0 as Fmi2Byte; size];
+        fmi2SerializeFMUstate(c, s, bytes.as_mut_ptr(), size);
+        fmi2FreeFMUstate(c, &mut s);
+        bytes.into_iter().map(|b| b as u8).collect()
+    }
+}
+
+/// Deserialise `bytes` and set them as the instance's state: the first status that is not OK.
+fn restore(c: Fmi2Component, bytes: &[u8]) -> Fmi2Status {
+    let mut s: Fmi2FmuState = std::ptr::null_mut();
+    unsafe {
+        let st = fmi2DeSerializeFMUstate(c, bytes.as_ptr() as *const Fmi2Byte, bytes.len(), &mut s);
+        if st != 0 {
+            return st;
+        }
+        let st = fmi2SetFMUstate(c, s);
+        fmi2FreeFMUstate(c, &mut s);
+        st
+    }
+}
+
 /// A state whose checksum matches but whose force limit is forged (NaN, 0, negative) is refused
 /// with the reason and changes nothing; it once gave "internal error" on every later call.
 #[test]
 fn forged_limits_in_a_state_are_refused() {
     let log = LogCapture::default();
     let dir = dir_with("aw-forged", Some(AW_SPEC));
-    let serialize = |c: Fmi2Component| -> Vec<u8> {
-        let mut s: Fmi2FmuState = std::ptr::null_mut();
-        let mut size = 0;
-        unsafe {
-            assert_eq!(fmi2GetFMUstate(c, &mut s), 0);
-            fmi2SerializedFMUstateSize(c, s, &mut size);
-            let mut bytes = vec![0 as Fmi2Byte; size];
-            fmi2SerializeFMUstate(c, s, bytes.as_mut_ptr(), size);
-            fmi2FreeFMUstate(c, &mut s);
-            bytes.into_iter().map(|b| b as u8).collect()
-        }
-    };
-    let restore = |c: Fmi2Component, bytes: &[u8]| -> Fmi2Status {
-        let mut s: Fmi2FmuState = std::ptr::null_mut();
-        unsafe {
-            let st =
-                fmi2DeSerializeFMUstate(c, bytes.as_ptr() as *const Fmi2Byte, bytes.len(), &mut s);
-            if st != 0 {
-                return st;
-            }
-            let st = fmi2SetFMUstate(c, s);
-            fmi2FreeFMUstate(c, &mut s);
-            st
-        }
-    };
     let start = |limit: f64| {
         let (c, cb) = instantiate(&log, &guid_of(AW_SPEC), Some(&dir));
         assert!(!c.is_null(), "{:?}", log.messages());
@@ -546,7 +549,7 @@ fn forged_limits_in_a_state_are_refused() {
         (c, cb)
     };
     let (a, _cba) = start(4.25);
-    let good = serialize(a);
+    let good = serialized(a);
     let (b, _cbb) = start(3.5);
     let outs = [vr::OUTPUT, vr::OUTPUT + 1];
     let read = |c: Fmi2Component| {
@@ -634,7 +637,7 @@ const ACC_SPEC: &str = r#"{
 /// (simulated here: the force measured at a point is 0.6 sat(u) of the command read at the
 /// point before): `rho_hat_fl` settles on 0.6 from above, the command is `2 y / ρ̂`, so the
 /// force applied is the asked `2 y`; with the limit lowered (the parameter, as the plant's)
-/// saturation is not taken for a loss; a state restores bit-identically; a malformed block is
+/// saturation is not taken for a loss; a state restores the estimate; a malformed block is
 /// refused by name.
 #[test]
 fn accommodation_estimates_the_effectiveness_and_compensates_it() {
@@ -671,14 +674,7 @@ fn accommodation_estimates_the_effectiveness_and_compensates_it() {
                 fmi2GetReal(c, &vr::RHO_HAT, 1, &mut rho);
                 out.push((2.0 * y, u, rho));
                 if k == steps / 2 {
-                    let mut s: Fmi2FmuState = std::ptr::null_mut();
-                    let mut size = 0;
-                    fmi2GetFMUstate(c, &mut s);
-                    fmi2SerializedFMUstateSize(c, s, &mut size);
-                    let mut bytes = vec![0 as Fmi2Byte; size];
-                    fmi2SerializeFMUstate(c, s, bytes.as_mut_ptr(), size);
-                    fmi2FreeFMUstate(c, &mut s);
-                    state = bytes.into_iter().map(|b| b as u8).collect();
+                    state = serialized(c);
                 }
                 assert_eq!(fmi2DoStep(c, k as f64 * h, h, 1), 0);
                 sent = u;
@@ -712,7 +708,7 @@ fn accommodation_estimates_the_effectiveness_and_compensates_it() {
         .map(|r| (r.2 - 0.6).abs())
         .fold(0.0, f64::max);
     assert!(off < 1e-9, "saturation read as a loss: ρ̂ off by {off}");
-    // A state taken half way restores into a new instance, which continues identically.
+    // A state taken half way restores the estimate, bit for bit, into a new instance.
     let (_, state) = run(100.0, 1200);
     let dir = dir_with("acc", Some(ACC_SPEC));
     let (c, _cb) = instantiate(&log, &guid_of(ACC_SPEC), Some(&dir));
@@ -720,13 +716,7 @@ fn accommodation_estimates_the_effectiveness_and_compensates_it() {
         fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
         fmi2EnterInitializationMode(c);
         fmi2ExitInitializationMode(c);
-        let mut s: Fmi2FmuState = std::ptr::null_mut();
-        assert_eq!(
-            fmi2DeSerializeFMUstate(c, state.as_ptr() as *const Fmi2Byte, state.len(), &mut s),
-            0
-        );
-        assert_eq!(fmi2SetFMUstate(c, s), 0, "{:?}", log.messages());
-        fmi2FreeFMUstate(c, &mut s);
+        assert_eq!(restore(c, &state), 0, "{:?}", log.messages());
         let mut rho = 0.0;
         fmi2GetReal(c, &vr::RHO_HAT, 1, &mut rho);
         assert_eq!(rho.to_bits(), free[600].2.to_bits());
@@ -758,4 +748,15 @@ fn accommodation_estimates_the_effectiveness_and_compensates_it() {
         let e = Spec::from_json(&text).unwrap_err().to_string();
         assert!(e.contains(why), "{bad}: {e}");
     }
+    // With a detector it is one controller; with anti-windup it would be two ways of forming
+    // one command.
+    let with =
+        |block: &str| ACC_SPEC.replace("\"accommodation\"", &format!("{block}, \"accommodation\""));
+    assert!(Spec::from_json(&with(r#""fault_detection": {"A": [], "B": [], "B_u": [], "C": [[]], "D": [[0.0, 1.0]], "threshold": 1.0}"#)).is_ok());
+    let e = Spec::from_json(&with(
+        r#""anti_windup": {"A": [], "B": [], "C": [[], []], "F": [[]], "u_max": [4.0]}"#,
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains(r#"["accommodation", "anti_windup"]"#), "{e}");
 }
