@@ -696,18 +696,21 @@ fn accommodation_estimates_the_effectiveness_and_compensates_it() {
             "step {k}"
         );
     }
-    let settled = free[1000..]
-        .iter()
-        .map(|r| (r.2 - 0.6).abs())
-        .fold(0.0, f64::max);
-    assert!(settled < 1e-9, "ρ̂ off by {settled} after 1 s");
+    // How far the estimate is from 0.6 after 1 s.
+    let off = |rows: &[(f64, f64, f64)]| {
+        rows[1000..]
+            .iter()
+            .map(|r| (r.2 - 0.6).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(off(&free) < 1e-9, "ρ̂ off by {} after 1 s", off(&free));
     // Saturating at 20 N (commands up to 100 N): the estimate reads sat(u), so still 0.6.
     let (saturated, _) = run(20.0, 2000);
-    let off = saturated[1000..]
-        .iter()
-        .map(|r| (r.2 - 0.6).abs())
-        .fold(0.0, f64::max);
-    assert!(off < 1e-9, "saturation read as a loss: ρ̂ off by {off}");
+    assert!(
+        off(&saturated) < 1e-9,
+        "saturation read as a loss: ρ̂ off by {}",
+        off(&saturated)
+    );
     // A state taken half way restores the estimate, bit for bit, into a new instance.
     let (_, state) = run(100.0, 1200);
     let dir = dir_with("acc", Some(ACC_SPEC));
