@@ -114,7 +114,7 @@ def gather(results, out):
     rows are in run order."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    table = pa.concat_tables([pq.read_table(io.BytesIO(p)) for p, _ in results])
+    table = pa.concat_tables([pq.read_table(io.BytesIO(p), use_threads=False) for p, _ in results])
     pq.write_table(table, out / "runs.parquet")
     lines = []
     for k, (_, c) in enumerate(results):
@@ -144,10 +144,8 @@ def main(argv=None):
 
     total = run_count(a.master, a.dist, a.spec)
     parts = chunks(total, a.chunk)
-    # The client closes before the cluster, and both before the interpreter finalises. A Dask
-    # daemon thread still writing to stderr at exit aborts Python ("_enter_buffered_busy",
-    # dask/distributed#7617); CI saw one unexplained SIGABRT of this command, so the
-    # cluster's shutdown warnings (a slow worker being killed) are silenced too.
+    # The client closes before the cluster, both before the results are gathered; the cluster's
+    # shutdown warnings (a slow worker being killed) are silenced (see the end of this file).
     with contextlib.ExitStack() as stack:
         if a.local:
             cluster = stack.enter_context(LocalCluster(
@@ -167,4 +165,12 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    code = main()
+    # The work is done and every file closed. End here rather than through interpreter
+    # finalisation, where threads of the libraries still alive abort the process after the
+    # fact: a Dask daemon thread writing to stderr ("_enter_buffered_busy", dask/distributed#7617)
+    # or an Arrow thread pool torn down under a running thread ("terminate called without an
+    # active exception", apache/arrow#34314) — each seen once on a loaded machine, exit -6.
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code or 0)
