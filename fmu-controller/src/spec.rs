@@ -153,6 +153,16 @@ fn predictor(p: &RawPredictor, ny: usize, nu: usize) -> Result<Predictor, SpecEr
     })
 }
 
+/// A block's default force limits: one per output, finite and > 0.
+fn force_limits(name: &str, u_max: &[f64], nu: usize) -> Result<Vec<f64>, SpecError> {
+    if u_max.len() != nu || !u_max.iter().all(|u| *u > 0.0 && u.is_finite()) {
+        return Err(SpecError::Invalid(format!(
+            "{name} must hold {nu} finite limits > 0, found {u_max:?}"
+        )));
+    }
+    Ok(u_max.to_vec())
+}
+
 fn accommodation(
     a: &controller_file::Accommodation,
     inputs: &[Signal],
@@ -185,17 +195,11 @@ fn accommodation(
             a.time_constant
         )));
     }
-    if a.u_max.len() != nu || !a.u_max.iter().all(|u| *u > 0.0 && u.is_finite()) {
-        return Err(SpecError::Invalid(format!(
-            "accommodation.u_max must hold {nu} finite limits > 0, found {:?}",
-            a.u_max
-        )));
-    }
     Ok(Accommodation {
         force_inputs,
         rho_min: a.rho_min,
         time_constant: a.time_constant,
-        u_max: a.u_max.clone(),
+        u_max: force_limits("accommodation.u_max", &a.u_max, nu)?,
     })
 }
 
@@ -290,18 +294,12 @@ impl Spec {
             None => None,
             Some(aw) => {
                 let m = aw.a.len();
-                if aw.u_max.len() != nu || !aw.u_max.iter().all(|u| *u > 0.0 && u.is_finite()) {
-                    return Err(SpecError::Invalid(format!(
-                        "anti_windup.u_max must hold {nu} finite limits > 0, found {:?}",
-                        aw.u_max
-                    )));
-                }
                 Some(AntiWindup {
                     a: matrix("anti_windup.A", &aw.a, m, m)?,
                     b: matrix("anti_windup.B", &aw.b, m, nu)?,
                     c: matrix("anti_windup.C", &aw.c, ny, m)?,
                     f: matrix("anti_windup.F", &aw.f, nu, m)?,
-                    u_max: aw.u_max.clone(),
+                    u_max: force_limits("anti_windup.u_max", &aw.u_max, nu)?,
                 })
             }
         };

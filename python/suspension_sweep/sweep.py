@@ -144,8 +144,9 @@ def main(argv=None):
 
     total = run_count(a.master, a.dist, a.spec)
     parts = chunks(total, a.chunk)
-    # The client closes before the cluster, both before the results are gathered; the cluster's
-    # shutdown warnings (a slow worker being killed) are silenced (see the end of this file).
+    # The client closes before the cluster, and both before the results are written; the
+    # cluster's shutdown warnings (a slow worker being killed) are silenced (see the end of this
+    # file).
     with contextlib.ExitStack() as stack:
         if a.local:
             cluster = stack.enter_context(LocalCluster(
