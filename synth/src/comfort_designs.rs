@@ -130,6 +130,9 @@ pub struct OverUncertainty {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub accommodated_down_to: Option<f64>,
     pub design_model_grid_points: usize,
+    /// A delay interval's bound on the design model (`delay_sf`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub over_delays: Option<crate::predictor::OverDelays>,
     /// The nominal counterpart at the same conditions (filled by the registry; `None` where it
     /// is unstable).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -163,6 +166,7 @@ impl OverUncertainty {
             design_model_grid_worst_wk_rms_seat: None,
             accommodated_down_to: None,
             design_model_grid_points: 0,
+            over_delays: None,
             nominal_name: None,
             nominal_design: Vec::new(),
             plant_parameters: conditions

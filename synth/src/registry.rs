@@ -499,18 +499,24 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
                     u.predictions.len(),
                     match (
                         &u.bound_wk_rms_seat,
+                        u.over_delays,
                         u.design_model_grid_worst_wk_rms_seat,
                         u.accommodated_down_to,
                     ) {
-                        (Some(b), _, _) => format!("design-model bound {:.4}", b.value),
-                        (None, Some(g), Some(r)) => format!(
+                        (Some(b), _, _, _) => format!("design-model bound {:.4}", b.value),
+                        (None, Some(o), _, _) => format!(
+                            "design-model bound {:.4} over every delay of [0, {} ms]",
+                            o.bound,
+                            1e3 * o.delay_max_s
+                        ),
+                        (None, None, Some(g), Some(r)) => format!(
                             "accommodated down to ρ = {r}: the nominal loop once the estimate \
                              settles; the transient's frozen loops stable (design-model worst \
                              {g:.4})"
                         ),
-                        (None, Some(g), None) =>
+                        (None, None, Some(g), None) =>
                             format!("design-model grid worst {g:.4} (no bound)"),
-                        (None, None, _) => "-".into(),
+                        (None, None, None, _) => "-".into(),
                     }
                 ),
                 nominal,
