@@ -125,7 +125,7 @@ pub fn over_delays(
         grid_worst,
         bound: bound.max(grid_worst),
     };
-    (result.bound.is_finite()).then_some(result)
+    result.bound.is_finite().then_some(result)
 }
 
 /// Intervals of the design-model bound over `[0, delay_max]`: `h` = 10 µs at 50 ms, where the
