@@ -176,6 +176,21 @@ impl OverUncertainty {
             conditions,
         }
     }
+
+    /// The design model's `bound` as the guarantee for the car where it covers every prediction
+    /// on the car; otherwise none, and `bound_failure` says why (`over` says over what).
+    pub fn claim(&mut self, bound: f64, over: &str) -> Option<f64> {
+        let worst = self.worst_predicted_wk_rms_seat_m_s2;
+        if bound >= worst {
+            return Some(bound);
+        }
+        self.bound_failure = Some(format!(
+            "the design model's bound {bound:.5}{over} does not cover the exact car's worst \
+             prediction {worst:.5} (the design model's rear track is a Padé approximation): no \
+             guarantee claimed"
+        ));
+        None
+    }
 }
 
 /// Robust stability to the actuators' unmodelled delay.
@@ -872,19 +887,11 @@ pub fn certify(
             }
             Some(u.worst_predicted_wk_rms_seat_m_s2.max(seat))
         }
-        Some(u) => match u.bound_wk_rms_seat.as_ref().map(|b| b.value) {
-            Some(b) if b >= u.worst_predicted_wk_rms_seat_m_s2 => Some(b),
-            Some(b) => {
-                u.bound_failure = Some(format!(
-                    "the design model's bound {b:.5} does not cover the exact car's worst \
-                     prediction {:.5} (the design model's rear track is a Padé approximation): \
-                     no guarantee claimed",
-                    u.worst_predicted_wk_rms_seat_m_s2
-                ));
-                None
-            }
-            None => None,
-        },
+        Some(u) => u
+            .bound_wk_rms_seat
+            .as_ref()
+            .map(|b| b.value)
+            .and_then(|b| u.claim(b, "")),
         None => Some(predicted.wk_rms_seat_m_s2),
     };
     let road = &d.road;

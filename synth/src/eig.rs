@@ -39,6 +39,17 @@ pub fn spectral_abscissa(m: &DMatrix<f64>) -> f64 {
         })
 }
 
+/// The largest modulus of the eigenvalues (NaN if they could not be computed).
+pub fn spectral_radius(m: &DMatrix<f64>) -> f64 {
+    eigenvalues(m).iter().map(|l| l.norm()).fold(0.0, |a, b| {
+        if b.is_nan() || a.is_nan() {
+            f64::NAN
+        } else {
+            a.max(b)
+        }
+    })
+}
+
 /// The real Schur form of `m` with the eigenvalues of negative real part first, after balancing
 /// (`dgebal`, scaling only, then `dgees` with sorting, Laub's method as in SLICOT and SciPy):
 /// an orthonormal... basis of the stable invariant subspace of `m` as the first `k` columns of

@@ -55,8 +55,9 @@ def wine_env(tmp: pathlib.Path):
     """The environment of a fresh wine prefix for this test session, set up and served once.
 
     The prefix is created by `wineboot --init` before any harness runs, and one wineserver stays
-    up for the whole module (it ends itself 60 s after its last client) instead of each harness
-    starting its own and the next one connecting while that server is in its shutdown linger. A
+    up for the whole module (`work`'s teardown kills it; the prefix's device processes were seen
+    to keep it up past its 60 s linger) instead of each harness starting its own and the next
+    one connecting while that server is in its shutdown linger. A
     CI run once saw the second win64 harness exit 1 with no output at all, from the harness or
     from wine; that start-up race is the one cause we found that fits, though it never
     reproduced here. Wine prints its own errors (not its fixme/trace chatter) so that a failure
