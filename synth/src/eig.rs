@@ -56,28 +56,8 @@ pub fn spectral_radius(m: &DMatrix<f64>) -> f64 {
 /// `D U` (`D` the balancing scale; not orthonormal after it). Returns `(D U, k)`.
 pub fn stable_subspace(m: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
     let n = m.nrows();
-    if !m.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    let mut a = m.clone();
-    let (mut ilo, mut ihi, mut info) = (0, 0, 0);
-    let mut scale = vec![0.0; n];
-    // SAFETY: `a` is n×n column-major with leading dimension n, `scale` has n entries.
-    unsafe {
-        lapack::dgebal(
-            b'S',
-            n as i32,
-            a.as_mut_slice(),
-            n as i32,
-            &mut ilo,
-            &mut ihi,
-            &mut scale,
-            &mut info,
-        );
-    }
-    if info != 0 {
-        return None;
-    }
+    let (mut a, scale) = balance(m)?;
+    let mut info = 0;
     extern "C" fn stable(re: *const f64, _im: *const f64) -> i32 {
         // SAFETY: LAPACK passes pointers to the real and imaginary part of an eigenvalue.
         i32::from(unsafe { *re } < 0.0)
@@ -119,6 +99,32 @@ pub fn stable_subspace(m: &DMatrix<f64>) -> Option<(DMatrix<f64>, usize)> {
     }
     let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale));
     Some((d * vs, sdim as usize))
+}
+
+/// `m` balanced by LAPACK's `dgebal` (scaling only, by powers of 2, so exactly): `(D⁻¹ m D, d)`
+/// with `D = diag(d)`, rows and columns of comparable norm. `None` for a matrix with NaN or inf.
+pub fn balance(m: &DMatrix<f64>) -> Option<(DMatrix<f64>, Vec<f64>)> {
+    let n = m.nrows();
+    if !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let mut a = m.clone();
+    let (mut ilo, mut ihi, mut info) = (0, 0, 0);
+    let mut scale = vec![0.0; n];
+    // SAFETY: `a` is n×n column-major with leading dimension n, `scale` has n entries.
+    unsafe {
+        lapack::dgebal(
+            b'S',
+            n as i32,
+            a.as_mut_slice(),
+            n as i32,
+            &mut ilo,
+            &mut ihi,
+            &mut scale,
+            &mut info,
+        );
+    }
+    (info == 0).then_some((a, scale))
 }
 
 /// The real Schur form `m = U T Uᵀ`, `T` quasi upper triangular: `(U, T)`.
