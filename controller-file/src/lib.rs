@@ -10,6 +10,7 @@
 //! (`fmu-controller`'s `Spec`), which knows what each block must match.
 
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// The `format` every file carries.
 pub const FORMAT: &str = "suspension-controller/2";
@@ -33,6 +34,9 @@ pub struct ControllerFile {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub anti_windup: Option<AntiWindup>,
     pub description: String,
+    /// The car it was designed for (absent from files written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub designed_for: Option<DesignedFor>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fault_detection: Option<FaultDetection>,
     /// [`FORMAT`].
@@ -46,6 +50,47 @@ pub struct ControllerFile {
     pub predictor: Option<Predictor>,
     /// The FMU's model identifier.
     pub variant: String,
+}
+
+/// The car a controller was designed for: every vehicle parameter by the plant FMU's name (SI
+/// units, as the plant declares them) and, for a design robust to the sprung mass, the range
+/// of `m_s` it covers. A master compares them with the plant it runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DesignedFor {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_range_kg: Option<[f64; 2]>,
+    pub vehicle: BTreeMap<String, f64>,
+}
+
+impl DesignedFor {
+    /// Why a plant with these parameters is not the car designed for, one line per parameter
+    /// (empty when it is): a sprung mass outside the robust range (or, without a range, other
+    /// than the design's), or any other parameter more than 1e-9 relative away. A parameter the
+    /// plant does not give is not compared.
+    pub fn differences(&self, plant: &BTreeMap<String, f64>) -> Vec<String> {
+        let mut out = Vec::new();
+        for (name, designed) in &self.vehicle {
+            let Some(actual) = plant.get(name) else {
+                continue;
+            };
+            match (name.as_str(), self.mass_range_kg) {
+                ("m_s", Some([lo, hi])) => {
+                    if !(lo..=hi).contains(actual) {
+                        out.push(format!(
+                            "m_s = {actual} outside the sprung-mass range [{lo}, {hi}] it is robust to"
+                        ));
+                    }
+                }
+                _ => {
+                    if (actual - designed).abs() > 1e-9 * designed.abs().max(1e-300) {
+                        out.push(format!("{name} = {actual}, designed for {designed}"));
+                    }
+                }
+            }
+        }
+        out
+    }
 }
 
 /// A variable by name and unit.
@@ -196,6 +241,12 @@ mod tests {
             accommodation: None,
             anti_windup: None,
             description: "test".into(),
+            designed_for: Some(DesignedFor {
+                mass_range_kg: Some([1200.0, 1800.0]),
+                vehicle: [("m_s", 1500.0), ("k_t", 190000.0)]
+                    .map(|(n, v)| (n.to_string(), v))
+                    .into(),
+            }),
             fault_detection: Some(FaultDetection {
                 a: vec![],
                 b: vec![],
@@ -256,6 +307,41 @@ mod tests {
         m.remove("guarantee");
         let e = ControllerFile::from_json(&serde_json::Value::Object(m).to_string()).unwrap_err();
         assert!(e.to_string().contains("guarantee"), "{e}");
+    }
+
+    #[test]
+    fn a_plant_differs_from_the_design_outside_the_mass_range_or_in_another_parameter() {
+        let mut designed = file().designed_for.unwrap();
+        let plant = |m_s: f64, k_t: f64| -> BTreeMap<String, f64> {
+            [("m_s", m_s), ("k_t", k_t), ("c_t", 7.0)]
+                .map(|(n, v)| (n.to_string(), v))
+                .into()
+        };
+        assert!(designed.differences(&plant(1800.0, 190000.0)).is_empty());
+        assert_eq!(
+            designed.differences(&plant(1900.0, 190000.0)),
+            ["m_s = 1900 outside the sprung-mass range [1200, 1800] it is robust to"]
+        );
+        assert_eq!(
+            designed.differences(&plant(1500.0, 200000.0)),
+            ["k_t = 200000, designed for 190000"]
+        );
+        // Without a range, the mass is a parameter like the others.
+        designed.mass_range_kg = None;
+        assert_eq!(
+            designed.differences(&plant(1800.0, 190000.0)),
+            ["m_s = 1800, designed for 1500"]
+        );
+        assert!(designed.differences(&plant(1500.0, 190000.0)).is_empty());
+    }
+
+    /// A file written before the design's car was recorded still reads.
+    #[test]
+    fn a_file_without_the_designed_car_reads() {
+        let mut f = file();
+        f.designed_for = None;
+        assert!(!f.to_json().contains("designed_for"));
+        assert_eq!(ControllerFile::from_json(&f.to_json()).unwrap(), f);
     }
 
     #[test]

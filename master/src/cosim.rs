@@ -190,6 +190,8 @@ impl Scenario {
 pub struct Fmu {
     pub name: String,
     pub import: Fmi2Import,
+    /// The `.fmu` file.
+    pub path: PathBuf,
 }
 
 impl Fmu {
@@ -223,7 +225,27 @@ impl Fmu {
         }
         let import = fmi::import::from_path(&path)
             .map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
-        Ok(Fmu { name, import })
+        Ok(Fmu { name, import, path })
+    }
+
+    /// The car a controller FMU was designed for (`designed_for` of its
+    /// `resources/controller.json`); None for another FMU or a controller that does not say.
+    pub fn designed_for(&self) -> Result<Option<controller_file::DesignedFor>, MasterError> {
+        use std::io::Read;
+        let fail = |e: String| err(format!("{}: {e}", self.path.display()));
+        let file = std::fs::File::open(&self.path).map_err(|e| fail(e.to_string()))?;
+        let mut archive = zip::ZipArchive::new(file).map_err(|e| fail(e.to_string()))?;
+        let mut text = String::new();
+        match archive.by_name("resources/controller.json") {
+            Ok(mut entry) => entry
+                .read_to_string(&mut text)
+                .map_err(|e| fail(e.to_string()))?,
+            Err(zip::result::ZipError::FileNotFound) => return Ok(None),
+            Err(e) => return Err(fail(e.to_string())),
+        };
+        controller_file::ControllerFile::from_json(&text)
+            .map(|f| f.designed_for)
+            .map_err(|e| fail(format!("resources/controller.json: {e}")))
     }
 
     pub(crate) fn variable(&self, name: &str) -> Option<(u32, &ScalarVariableElement, String)> {
@@ -389,6 +411,32 @@ pub fn scenario_parameters(
         None => Vec::new(),
     };
     Ok([road_values, plant_values, ctrl_values])
+}
+
+/// Why `controller` runs off its design in `scenario`: one line per vehicle parameter of the
+/// plant (the scenario's override, else the plant FMU's start value) that differs from the car
+/// the controller was designed for (see [`controller_file::DesignedFor::differences`]).
+pub fn off_design(
+    scenario: &Scenario,
+    plant: &Fmu,
+    controller: &Fmu,
+) -> Result<Vec<String>, MasterError> {
+    let Some(designed) = controller.designed_for()? else {
+        return Ok(Vec::new());
+    };
+    let actual: BTreeMap<String, f64> = designed
+        .vehicle
+        .keys()
+        .filter_map(|name| {
+            let value = scenario
+                .plant
+                .get(name)
+                .copied()
+                .or_else(|| plant.start_real(name))?;
+            Some((name.clone(), value))
+        })
+        .collect();
+    Ok(designed.differences(&actual))
 }
 
 /// A run's log: one row per communication point `t_1 … t_N`.

@@ -167,6 +167,32 @@ fn in_parallel<T: Sync, R: Send>(jobs: &[T], f: impl Fn(&T) -> R + Sync) -> (Vec
     (out, t0.elapsed().as_secs_f64())
 }
 
+/// Each run of a controller in a scenario whose plant is not the car it was designed for:
+/// `(scenario, controller, why)`, warned about on stderr.
+fn off_design_runs(
+    dist: &Path,
+    scenarios: &[Scenario],
+    controllers: &[String],
+) -> Result<Vec<(String, String, Vec<String>)>, MasterError> {
+    let plant = master::cosim::Fmu::load(dist, "plant")?;
+    let mut out = Vec::new();
+    for c in controllers {
+        let fmu = master::cosim::Fmu::load(dist, c)?;
+        for s in scenarios.iter().filter(|s| s.wants(c)) {
+            let why = master::cosim::off_design(s, &plant, &fmu)?;
+            if !why.is_empty() {
+                eprintln!(
+                    "warning: {c} runs off the car it was designed for in {}: {}",
+                    s.name,
+                    why.join("; ")
+                );
+                out.push((s.name.clone(), c.clone(), why));
+            }
+        }
+    }
+    Ok(out)
+}
+
 fn compare(
     dist: &Path,
     scenarios: &[Scenario],
@@ -175,6 +201,7 @@ fn compare(
     designs: Option<&Path>,
 ) -> Result<String, MasterError> {
     let designs = designs.map(load_designs).transpose()?;
+    let off_design = off_design_runs(dist, scenarios, controllers)?;
     let io = |e: std::io::Error| MasterError(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(io)?;
     let jobs: Vec<(usize, Option<String>)> = scenarios
@@ -228,6 +255,13 @@ fn compare(
     if let Some(t) = &design_table {
         report += "## The designs: certificates and comfort in their own scenario\n\nWhat each design claims (γ, or the W_k seat RMS its certificate predicts on its design road), what is certified over its uncertainty, and the synthesis time, from `synth` (`dist/synthesis.json`, certificates in `dist/<variant>.certificate.json`); W_k RMS seat acceleration from the runs below, against the passive car and against the design's nominal counterpart in the same scenario.\n\n";
         report += t;
+        report += "\n";
+    }
+    if !off_design.is_empty() {
+        report += "## Runs off the car a controller was designed for\n\nThe plant of these runs differs from the car recorded in the controller's `resources/controller.json` (`designed_for`, from `synth --vehicle`): a sprung mass outside the range a robust design covers, or any other vehicle parameter. Scenarios do this on purpose to test robustness; outside them it means the controller was designed for another car.\n\n| scenario | controller | plant differs |\n|---|---|---|\n";
+        for (s, c, why) in &off_design {
+            report += &format!("| {s} | `{c}` | {} |\n", why.join("; "));
+        }
         report += "\n";
     }
     report += "## Scenarios\n\n";
@@ -296,6 +330,9 @@ fn main() {
             controller,
             out,
         } => Scenario::load(scenario).and_then(|s| {
+            if let Some(c) = controller {
+                off_design_runs(&cli.dist, std::slice::from_ref(&s), std::slice::from_ref(c))?;
+            }
             let r = run(&cli.dist, &s, controller.as_deref())?;
             r.write_csv(out)?;
             let values = master::sweep::metric_values(&figures(&r, &s));

@@ -3,8 +3,8 @@
 
 use crate::certificate::Controller;
 pub use controller_file::{
-    Accommodation, AntiWindup, ControllerFile, Extensions, FaultDetection, Guarantee, Predictor,
-    Rows, Signal, FORMAT,
+    Accommodation, AntiWindup, ControllerFile, DesignedFor, Extensions, FaultDetection, Guarantee,
+    Predictor, Rows, Signal, FORMAT,
 };
 use nalgebra::DMatrix;
 
@@ -49,6 +49,7 @@ pub fn controller_json(
         accommodation: None,
         anti_windup: None,
         description: description.into(),
+        designed_for: None,
         fault_detection: None,
         format: FORMAT.into(),
         guarantee: guarantee.clone(),

@@ -18,6 +18,12 @@ struct Cli {
     /// ships) or the thesis's H∞ designs (`thesis.json`, `constrained.json`).
     #[arg(long, default_value = "synth/designs/comfort.json")]
     design: PathBuf,
+    /// The car to design for: a vehicle parameter file of the schema of
+    /// `vehicle/params/default.json` (every parameter, with its unit). Default: that file.
+    /// Each controller.json records the car (`designed_for`), and the master warns when a
+    /// scenario's plant differs from it.
+    #[arg(long)]
+    vehicle: Option<PathBuf>,
     /// Output directory for the certificates and controller.json files.
     #[arg(long, default_value = "dist")]
     out: PathBuf,
@@ -38,7 +44,24 @@ fn run(cli: Cli) -> Result<(), SynthError> {
     let text = std::fs::read_to_string(&cli.design)
         .map_err(|e| SynthError::Io(format!("{}: {e}", cli.design.display())))?;
     let file = DesignFile::from_json(&text)?;
-    let params = VehicleParams::default();
+    let params = match &cli.vehicle {
+        None => VehicleParams::default(),
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+            VehicleParams::from_parameter_file(&text)
+                .map_err(|e| SynthError::Usage(format!("{}: {e}", path.display())))?
+        }
+    };
+    let (mass_min, mass_max) = file.mass_range();
+    if !(mass_min..=mass_max).contains(&params.m_s) {
+        return Err(SynthError::Usage(format!(
+            "the car's sprung mass m_s = {} kg is outside the design file's range [{mass_min}, \
+             {mass_max}] kg that the robust designs cover and are designed around: give a \
+             design file (--design) whose mass_min and mass_max bracket it",
+            params.m_s
+        )));
+    }
     let started = std::time::Instant::now();
     let names: Vec<&str> = cli.variants.iter().map(|s| s.as_str()).collect();
     let outcome = registry::synthesise_all(&names, &params, &file)?;
@@ -57,7 +80,19 @@ fn run(cli: Cli) -> Result<(), SynthError> {
         cert["synthesis_seconds"] = serde_json::json!(s.seconds);
         write(out.join(format!("{name}.certificate.json")), &cert)?;
         let path = dir.join("controller.json");
-        std::fs::write(&path, s.controller_json.to_json())
+        let robust_to_mass = registry::variant(name)
+            .is_some_and(|v| v.robust_to == synth::comfort_designs::Uncertainty::SprungMass);
+        let file = synth::controller_file::ControllerFile {
+            designed_for: Some(synth::controller_file::DesignedFor {
+                mass_range_kg: robust_to_mass.then_some([mass_min, mass_max]),
+                vehicle: vehicle::params::PARAMETERS
+                    .iter()
+                    .map(|p| (p.name.to_string(), (p.get)(&params)))
+                    .collect(),
+            }),
+            ..s.controller_json.clone()
+        };
+        std::fs::write(&path, file.to_json())
             .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
         println!("{name:<10} {} ({:.2} s)", s.row.certified, s.seconds);
     }

@@ -184,6 +184,14 @@ pub enum DesignFile {
 }
 
 impl DesignFile {
+    /// The sprung-mass range `[mass_min, mass_max]` the robust designs cover [kg].
+    pub fn mass_range(&self) -> (f64, f64) {
+        match self {
+            DesignFile::Comfort(d) => (d.mass_min, d.mass_max),
+            DesignFile::Thesis(d) => (d.mass_min, d.mass_max),
+        }
+    }
+
     pub fn from_json(text: &str) -> Result<Self, DesignError> {
         let mut value: serde_json::Value =
             serde_json::from_str(text).map_err(|e| DesignError::Syntax(e.to_string()))?;
