@@ -55,16 +55,6 @@ fn limit_groups(spec: &Spec) -> Vec<(&'static str, Vec<usize>)> {
     groups
 }
 
-/// The default force limits of a controller that has them as parameters (anti-windup, fault
-/// accommodation).
-fn default_limits(spec: &Spec) -> Option<&[f64]> {
-    match (&spec.anti_windup, &spec.accommodation) {
-        (Some(aw), _) => Some(&aw.u_max),
-        (None, Some(acc)) => Some(&acc.u_max),
-        (None, None) => None,
-    }
-}
-
 pub const RESOURCE_FILE: &str = "controller.json";
 
 /// Read and check `resources/controller.json`.
@@ -144,7 +134,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         unit(&g.unit),
         g.description.clone(),
     ));
-    if let Some(u_max) = default_limits(spec) {
+    if let Some(u_max) = spec.default_limits() {
         for (k, (name, outputs)) in limit_groups(spec).into_iter().enumerate() {
             let what = outputs
                 .iter()
@@ -415,7 +405,8 @@ impl Model for Controller {
     fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
         let spec = load_spec(resources)?;
         let (a, b) = stepped_system(&spec);
-        let limits = default_limits(&spec)
+        let limits = spec
+            .default_limits()
             .map(<[f64]>::to_vec)
             .unwrap_or_default();
         let limit_groups = if limits.is_empty() {

@@ -388,7 +388,7 @@ impl Spec {
     pub fn generated_names(&self) -> Vec<String> {
         let mut names = vec![self.guarantee.name.clone()];
         let mut add = |more: &[&str]| names.extend(more.iter().map(|n| n.to_string()));
-        if self.anti_windup.is_some() || self.accommodation.is_some() {
+        if self.default_limits().is_some() {
             add(&["u_max", "u_max_seat"]);
         }
         if self.fault_detection.is_some() {
@@ -401,6 +401,16 @@ impl Spec {
             names.extend((0..self.outputs.len()).map(|i| self.rho_hat_name(i)));
         }
         names
+    }
+
+    /// The default force limits of a controller that has them as parameters (`u_max`,
+    /// `u_max_seat`): anti-windup and fault accommodation.
+    pub fn default_limits(&self) -> Option<&[f64]> {
+        match (&self.anti_windup, &self.accommodation) {
+            (Some(aw), _) => Some(&aw.u_max),
+            (None, Some(acc)) => Some(&acc.u_max),
+            (None, None) => None,
+        }
     }
 
     /// The effectiveness estimate's variable name for output `i` (`u_fl` → `rho_hat_fl`).

@@ -190,8 +190,6 @@ impl Scenario {
 pub struct Fmu {
     pub name: String,
     pub import: Fmi2Import,
-    /// The `.fmu` file.
-    pub path: PathBuf,
 }
 
 impl Fmu {
@@ -225,27 +223,22 @@ impl Fmu {
         }
         let import = fmi::import::from_path(&path)
             .map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
-        Ok(Fmu { name, import, path })
+        Ok(Fmu { name, import })
     }
 
     /// The car a controller FMU was designed for (`designed_for` of its
     /// `resources/controller.json`); None for another FMU or a controller that does not say.
     pub fn designed_for(&self) -> Result<Option<controller_file::DesignedFor>, MasterError> {
-        use std::io::Read;
-        let fail = |e: String| err(format!("{}: {e}", self.path.display()));
-        let file = std::fs::File::open(&self.path).map_err(|e| fail(e.to_string()))?;
-        let mut archive = zip::ZipArchive::new(file).map_err(|e| fail(e.to_string()))?;
-        let mut text = String::new();
-        match archive.by_name("resources/controller.json") {
-            Ok(mut entry) => entry
-                .read_to_string(&mut text)
-                .map_err(|e| fail(e.to_string()))?,
-            Err(zip::result::ZipError::FileNotFound) => return Ok(None),
-            Err(e) => return Err(fail(e.to_string())),
+        // The import has the archive extracted already.
+        let path = self.import.resource_path().join("controller.json");
+        let text = match std::fs::read_to_string(&path) {
+            Ok(text) => text,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(err(format!("{}: {}: {e}", self.name, path.display()))),
         };
         controller_file::ControllerFile::from_json(&text)
             .map(|f| f.designed_for)
-            .map_err(|e| fail(format!("resources/controller.json: {e}")))
+            .map_err(|e| err(format!("{}: resources/controller.json: {e}", self.name)))
     }
 
     pub(crate) fn variable(&self, name: &str) -> Option<(u32, &ScalarVariableElement, String)> {

@@ -53,15 +53,6 @@ fn run(cli: Cli) -> Result<(), SynthError> {
                 .map_err(|e| SynthError::Usage(format!("{}: {e}", path.display())))?
         }
     };
-    let (mass_min, mass_max) = file.mass_range();
-    if !(mass_min..=mass_max).contains(&params.m_s) {
-        return Err(SynthError::Usage(format!(
-            "the car's sprung mass m_s = {} kg is outside the design file's range [{mass_min}, \
-             {mass_max}] kg that the robust designs cover and are designed around: give a \
-             design file (--design) whose mass_min and mass_max bracket it",
-            params.m_s
-        )));
-    }
     let started = std::time::Instant::now();
     let names: Vec<&str> = cli.variants.iter().map(|s| s.as_str()).collect();
     let outcome = registry::synthesise_all(&names, &params, &file)?;
@@ -80,19 +71,7 @@ fn run(cli: Cli) -> Result<(), SynthError> {
         cert["synthesis_seconds"] = serde_json::json!(s.seconds);
         write(out.join(format!("{name}.certificate.json")), &cert)?;
         let path = dir.join("controller.json");
-        let robust_to_mass = registry::variant(name)
-            .is_some_and(|v| v.robust_to == synth::comfort_designs::Uncertainty::SprungMass);
-        let file = synth::controller_file::ControllerFile {
-            designed_for: Some(synth::controller_file::DesignedFor {
-                mass_range_kg: robust_to_mass.then_some([mass_min, mass_max]),
-                vehicle: vehicle::params::PARAMETERS
-                    .iter()
-                    .map(|p| (p.name.to_string(), (p.get)(&params)))
-                    .collect(),
-            }),
-            ..s.controller_json.clone()
-        };
-        std::fs::write(&path, file.to_json())
+        std::fs::write(&path, s.controller_json.to_json())
             .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
         println!("{name:<10} {} ({:.2} s)", s.row.certified, s.seconds);
     }

@@ -263,15 +263,36 @@ pub fn synthesise_all(
             )));
         }
     }
+    let (mass_min, mass_max) = file.mass_range();
+    if !(mass_min..=mass_max).contains(&params.m_s) {
+        return Err(SynthError::Usage(format!(
+            "the car's sprung mass m_s = {} kg is outside the design file's range [{mass_min}, \
+             {mass_max}] kg that the robust designs cover and are designed around: give a \
+             design file (--design) whose mass_min and mass_max bracket it",
+            params.m_s
+        )));
+    }
     let all = self::names();
     let names = if names.is_empty() { &all[..] } else { names };
-    match file {
-        DesignFile::Thesis(design) => Ok(Outcome {
+    let mut outcome = match file {
+        DesignFile::Thesis(design) => Outcome {
             designs: thesis_all(names, params, design)?,
             refused: Vec::new(),
-        }),
-        DesignFile::Comfort(design) => comfort_all(names, params, design),
+        },
+        DesignFile::Comfort(design) => comfort_all(names, params, design)?,
+    };
+    // Every controller file records the car it is for, and a mass-robust design its range.
+    for (name, s) in &mut outcome.designs {
+        let robust_to_mass = variant(name).is_some_and(|v| v.robust_to == Uncertainty::SprungMass);
+        s.controller_json.designed_for = Some(crate::controller_file::DesignedFor {
+            mass_range_kg: robust_to_mass.then_some([mass_min, mass_max]),
+            vehicle: vehicle::params::PARAMETERS
+                .iter()
+                .map(|p| (p.name.to_string(), (p.get)(params)))
+                .collect(),
+        });
     }
+    Ok(outcome)
 }
 
 fn thesis_all(
