@@ -217,12 +217,15 @@ schemas: $(STAMP)/release
 	./target/release/master schema scenario > schemas/scenario.schema.json
 	./target/release/master schema sweep > schemas/sweep.schema.json
 
-# The figures of the README from the tools that measure them: the synthesis table and the
-# comparison summary (tests/python/test_metadata.py fails while the comparison is stale).
+# The figures of the README from the tools that measure them: the synthesis table, the
+# comparison summary and the runs it flags (tests/python/test_metadata.py fails while the
+# comparison is stale).
 COMPARISON_SECTION := \#\# Summary: W_k RMS seat acceleration [m/s²]
+LIMITS_SECTION := \#\# Limits and model validity
 readme: descriptions schemas $(STAMP)/synth compare
 	./target/release/fmu-pack splice --from dist/synthesis.md --readme README.md --tag synthesis
 	./target/release/fmu-pack splice --from results/report.md --section "$(COMPARISON_SECTION)" --readme README.md --tag comparison
+	./target/release/fmu-pack splice --from results/report.md --section "$(LIMITS_SECTION)" --readme README.md --tag limits
 
 test: lint test-rust test-python
 

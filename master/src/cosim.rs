@@ -134,6 +134,17 @@ pub struct Scenario {
     /// The designs whose own scenario this is (the design table of the report).
     #[serde(default)]
     pub showcases: Vec<String>,
+    /// Suspension stroke limit [m]: a run whose stroke goes beyond it is flagged.
+    #[serde(default = "default_stroke_max")]
+    pub stroke_max: f64,
+}
+
+/// The stroke limit of the flags when a scenario does not give one [m] (the comfort designs'
+/// `stroke_max`, synth/designs/comfort.json).
+pub const DEFAULT_STROKE_MAX: f64 = 0.08;
+
+fn default_stroke_max() -> f64 {
+    DEFAULT_STROKE_MAX
 }
 
 impl Scenario {
@@ -150,6 +161,12 @@ impl Scenario {
             return Err(format!(
                 "duration and step must be finite and > 0 (got {} and {})",
                 self.duration, self.step
+            ));
+        }
+        if !(self.stroke_max > 0.0 && self.stroke_max.is_finite()) {
+            return Err(format!(
+                "stroke_max must be finite and > 0, got {}",
+                self.stroke_max
             ));
         }
         if self.duration / self.step > 1e8 {
@@ -190,6 +207,8 @@ impl Scenario {
 pub struct Fmu {
     pub name: String,
     pub import: Fmi2Import,
+    /// The unit of each Real variable that declares one, by name.
+    units: BTreeMap<String, String>,
 }
 
 impl Fmu {
@@ -221,9 +240,24 @@ impl Fmu {
                 did_you_mean(&name, in_dist.iter().map(String::as_str))
             )));
         }
-        let import = fmi::import::from_path(&path)
+        let import: Fmi2Import = fmi::import::from_path(&path)
             .map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
-        Ok(Fmu { name, import })
+        let xml = import.archive_path().join("modelDescription.xml");
+        let units = std::fs::read_to_string(&xml)
+            .map_err(|e| err(format!("{}: {e}", xml.display())))
+            .and_then(|text| {
+                real_units(&text).map_err(|e| err(format!("{}: {e}", xml.display())))
+            })?;
+        Ok(Fmu {
+            name,
+            import,
+            units,
+        })
+    }
+
+    /// The unit variable `name` declares ("" for none).
+    pub fn unit(&self, name: &str) -> &str {
+        self.units.get(name).map_or("", String::as_str)
     }
 
     /// The car a controller FMU was designed for (`designed_for` of its
@@ -360,6 +394,35 @@ impl Fmu {
     }
 }
 
+/// The `unit` of each `ScalarVariable` whose `<Real>` declares one, by variable name. The `fmi`
+/// crate's model description does not read a variable's unit, so the XML is read here with the
+/// tokenizer that crate's parser is built on.
+fn real_units(xml: &str) -> Result<BTreeMap<String, String>, String> {
+    use xmlparser::{ElementEnd, Token, Tokenizer};
+    let mut units = BTreeMap::new();
+    let (mut element, mut variable) = (String::new(), None::<String>);
+    for token in Tokenizer::from(xml) {
+        match token.map_err(|e| e.to_string())? {
+            Token::ElementStart { local, .. } => element = local.to_string(),
+            Token::Attribute { local, value, .. } => match (element.as_str(), local.as_str()) {
+                ("ScalarVariable", "name") => variable = Some(value.to_string()),
+                ("Real", "unit") => {
+                    if let Some(v) = &variable {
+                        units.insert(v.clone(), value.to_string());
+                    }
+                }
+                _ => {}
+            },
+            Token::ElementEnd {
+                end: ElementEnd::Close(_, local),
+                ..
+            } if local.as_str() == "ScalarVariable" => variable = None,
+            _ => {}
+        }
+    }
+    Ok(units)
+}
+
 /// A parameter value with its variable's type.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Typed {
@@ -435,11 +498,19 @@ pub fn off_design(
 /// A run's log: one row per communication point `t_1 … t_N`.
 pub struct Run {
     pub columns: Vec<String>,
+    /// The unit of each column as its FMU declares it (empty for none).
+    pub units: Vec<String>,
     pub time: Vec<f64>,
     /// The rows, one after the other (`columns.len()` values each).
     pub data: Vec<f64>,
     /// Static tyre loads of the plant, FL … RR [N].
     pub static_tire_load: [f64; 4],
+    /// The plant's force limits, FL … RR and seat (`u_max`, `u_max_seat`) [N].
+    pub force_limits: [f64; 5],
+    /// The plant's actuator delay `tau` [s].
+    pub delay: f64,
+    /// The force commands the plant was given, one per step, held over it (FL … RR, seat) [N].
+    pub commands: Vec<[f64; 5]>,
     /// Wall time of the stepping loop alone (FMUs loaded and initialised) [s].
     pub loop_seconds: f64,
 }
@@ -456,7 +527,17 @@ impl Run {
 
     pub fn write_csv(&self, path: &Path) -> Result<(), MasterError> {
         use std::fmt::Write;
-        let mut s = format!("time,{}\n", self.columns.join(","));
+        // `name [unit]`, the unit as the FMU declares it.
+        let header: Vec<String> = self
+            .columns
+            .iter()
+            .zip(&self.units)
+            .map(|(c, u)| match u.as_str() {
+                "" => c.clone(),
+                u => format!("{c} [{u}]"),
+            })
+            .collect();
+        let mut s = format!("time [s],{}\n", header.join(","));
         for (t, r) in self.time.iter().zip(self.rows()) {
             write!(s, "{t}").unwrap();
             for v in r {
@@ -618,20 +699,36 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         None => (vec![], vec![], vec![]),
     };
     let on_controller = recorded.iter().any(|r| r.0);
+    let units = setup
+        .record
+        .iter()
+        .zip(&recorded)
+        .map(
+            |(n, (on_controller_side, ..))| match (on_controller_side, ctrl) {
+                (true, Some(c)) => c.unit(n).to_string(),
+                _ => plant.unit(n).to_string(),
+            },
+        )
+        .collect();
+    // The plant's values after initialisation: its own, or the scenario's overrides.
+    let mut plant_reals = |names: &[&str], values: &mut [f64]| {
+        p.get_real(&vrs(plant, names)?, values)
+            .map(|_| ())
+            .map_err(|e| fmu_err(&plant.name, format!("plant: {e}")))
+    };
     let mut static_tire_load = [0.0; 4];
-    p.get_real(
-        &vrs(
-            plant,
-            &[
-                "static_tire_load_fl",
-                "static_tire_load_fr",
-                "static_tire_load_rl",
-                "static_tire_load_rr",
-            ],
-        )?,
+    plant_reals(
+        &[
+            "static_tire_load_fl",
+            "static_tire_load_fr",
+            "static_tire_load_rl",
+            "static_tire_load_rr",
+        ],
         &mut static_tire_load,
-    )
-    .map_err(|e| fmu_err(&plant.name, format!("plant: {e}")))?;
+    )?;
+    let mut actuator = [0.0; 3];
+    plant_reals(&["u_max", "u_max_seat", "tau"], &mut actuator)?;
+    let [u_max, u_max_seat, delay] = actuator;
     // The instance names the FMUs log under, by role.
     let instance = |who: &str| match (who, &setup.road, ctrl) {
         ("road", RoadSource::Fmu(r), _) => r.fmu.name.clone(),
@@ -645,6 +742,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     let (h, steps) = (setup.step, setup.steps);
     let mut time = Vec::with_capacity(steps);
     let mut data = Vec::with_capacity(steps * recorded.len());
+    let mut commands = Vec::with_capacity(steps);
     let mut road_values = [0.0; 8];
     let mut y = vec![0.0; y_from.len()];
     let mut u = [0.0; 5];
@@ -681,6 +779,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
             c.do_step(t, h, true)
                 .map_err(|e| step_err("controller", t, e))?;
         }
+        commands.push(u);
         p.do_step(t, h, true).map_err(|e| step_err("plant", t, e))?;
         road_at(t, h, &mut road_values)?;
         p.set_real(&road_in, &road_values)
@@ -715,9 +814,13 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     }
     Ok(Run {
         columns: setup.record.to_vec(),
+        units,
         time,
         data,
         static_tire_load,
+        force_limits: [u_max, u_max, u_max, u_max, u_max_seat],
+        delay,
+        commands,
         loop_seconds: started.elapsed().as_secs_f64(),
     })
 }

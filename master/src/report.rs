@@ -28,6 +28,67 @@ pub struct Figures {
     pub peak_force: f64,
     /// First time `fault_detected` is true [s], for a controller with a detector.
     pub detection_time: Option<f64>,
+    /// Where the run leaves the model's validity or breaks a limit.
+    pub flags: Flags,
+}
+
+/// Where a run leaves the linear model's validity or breaks a limit, over the metrics window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Flags {
+    /// A suspension stroke beyond the scenario's `stroke_max` (into the bump stops, which the
+    /// model does not have).
+    pub stroke_exceeded: bool,
+    /// A tyre's load reaches zero (dynamic load down to minus the static one): the wheel leaves
+    /// the road, and the linear tyre model, which would pull it back, no longer holds.
+    pub tyre_lift_off: bool,
+    /// Share of the time an actuator is at its force limit: its delayed command at or beyond
+    /// `u_max` (`u_max_seat` for the seat).
+    pub saturated_share: f64,
+}
+
+impl Flags {
+    /// What the flags say, in words (empty when nothing is flagged).
+    pub fn describe(&self, stroke_max: f64) -> Vec<String> {
+        let mut said = Vec::new();
+        if self.tyre_lift_off {
+            said.push("wheel lift-off".to_string());
+        }
+        if self.stroke_exceeded {
+            said.push(format!("stroke > {:.1} cm", 100.0 * stroke_max));
+        }
+        match 100.0 * self.saturated_share {
+            p if p <= 0.0 => {}
+            p if p < 0.1 => said.push("saturated < 0.1 % of the time".into()),
+            p => said.push(format!("saturated {p:.1} % of the time")),
+        }
+        said
+    }
+}
+
+/// The share of `[from, end]` during which an actuator is at its force limit: the plant applies
+/// the command of step `j`, held over `[t_j, t_j + h)`, over `[t_j + tau, t_j + h + tau)`, at
+/// the limit where the command is at or beyond it (an anti-windup controller commands the limit
+/// itself). Exact: the delay is not rounded to steps.
+fn saturated_share(run: &Run, h: f64, from: f64) -> f64 {
+    let end = run.time.last().copied().unwrap_or(0.0);
+    if end <= from {
+        return 0.0;
+    }
+    let clamped: f64 = run
+        .commands
+        .iter()
+        .enumerate()
+        .filter(|(_, u)| {
+            u.iter()
+                .zip(run.force_limits)
+                .any(|(u, l)| u.abs() >= l * (1.0 - 1e-9))
+        })
+        .map(|(j, _)| {
+            let t = j as f64 * h + run.delay;
+            ((t + h).min(end) - t.max(from)).max(0.0)
+        })
+        .sum();
+    clamped / (end - from)
 }
 
 pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
@@ -47,7 +108,8 @@ pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
         .map(|n| peak(&window(col(n))))
         .into_iter()
         .fold(0.0, f64::max);
-    let tyre = [
+    // Each tyre's dynamic load over its static one.
+    let tyres: Vec<Vec<f64>> = [
         "tire_load_fl",
         "tire_load_fr",
         "tire_load_rl",
@@ -55,8 +117,9 @@ pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
     ]
     .iter()
     .zip(run.static_tire_load)
-    .map(|(n, s)| peak(&window(col(n))) / s)
-    .fold(0.0, f64::max);
+    .map(|(n, s)| window(col(n)).iter().map(|f| f / s).collect())
+    .collect();
+    let tyre = tyres.iter().map(|r| peak(r)).fold(0.0, f64::max);
     let force = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"]
         .map(|n| peak(&window(col(n))))
         .into_iter()
@@ -76,6 +139,11 @@ pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
         max_tyre_ratio: tyre,
         peak_force: force,
         detection_time,
+        flags: Flags {
+            stroke_exceeded: strokes > scenario.stroke_max,
+            tyre_lift_off: tyres.iter().flatten().any(|r| *r <= -1.0),
+            saturated_share: saturated_share(run, scenario.step, scenario.metrics_from),
+        },
     }
 }
 
@@ -94,14 +162,14 @@ pub fn scenario_table(scenario: &Scenario, results: &[(String, Figures)]) -> Str
     if scenario.metrics_from > 0.0 {
         t += &format!("Figures over t > {} s.\n\n", scenario.metrics_from);
     }
-    t += "| controller | W_k RMS seat [m/s²] | VDV seat [m/s^1.75] | peak seat [m/s²] | RMS roll [rad/s²] | RMS pitch [rad/s²] | W_e RMS roll [rad/s²] | W_e RMS pitch [rad/s²] | max stroke [cm] | max dyn./static tyre load | peak force [N] | fault detected |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    t += "| controller | W_k RMS seat [m/s²] | VDV seat [m/s^1.75] | peak seat [m/s²] | RMS roll [rad/s²] | RMS pitch [rad/s²] | W_e RMS roll [rad/s²] | W_e RMS pitch [rad/s²] | max stroke [cm] | max dyn./static tyre load | peak force [N] | fault detected | limits |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (name, f) in results {
         let rel = |a: f64, p: fn(&Figures) -> f64| match passive {
             Some(ps) if name != "passive" => format!("{a:.4} ({})", pct(a, p(&ps))),
             _ => format!("{a:.4}"),
         };
         t += &format!(
-            "| `{name}` | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} | {} |\n",
+            "| `{name}` | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} | {} | {} |\n",
             rel(f.wk_rms_seat, |p| p.wk_rms_seat),
             rel(f.vdv_seat, |p| p.vdv_seat),
             rel(f.peak_seat, |p| p.peak_seat),
@@ -121,9 +189,43 @@ pub fn scenario_table(scenario: &Scenario, results: &[(String, Figures)]) -> Str
             f.peak_force,
             f.detection_time
                 .map_or("-".into(), |t| format!("at {t:.3} s")),
+            limits(f, scenario),
         );
     }
     t
+}
+
+/// ` ⚠` after a summary figure whose run breaks a limit (listed in the limits table).
+fn mark(f: &Figures, scenario: &Scenario) -> &'static str {
+    if f.flags.describe(scenario.stroke_max).is_empty() {
+        ""
+    } else {
+        " ⚠"
+    }
+}
+
+/// A run's flags for a table cell: what it breaks, or `-`.
+fn limits(f: &Figures, scenario: &Scenario) -> String {
+    let said = f.flags.describe(scenario.stroke_max);
+    if said.is_empty() {
+        "-".into()
+    } else {
+        format!("⚠ {}", said.join(", "))
+    }
+}
+
+/// The runs that break a limit or leave the model's validity, one row each (None when none do).
+pub fn limits_table(scenarios: &[Scenario], results: &[Vec<(String, Figures)>]) -> Option<String> {
+    let rows: String = scenarios
+        .iter()
+        .zip(results)
+        .flat_map(|(s, r)| {
+            r.iter()
+                .filter(|(_, f)| !f.flags.describe(s.stroke_max).is_empty())
+                .map(move |(n, f)| format!("| {} | `{n}` | {} |\n", s.name, limits(f, s)))
+        })
+        .collect();
+    (!rows.is_empty()).then(|| format!("| scenario | controller | limits |\n|---|---|---|\n{rows}"))
 }
 
 /// One summary table: W_k RMS seat acceleration of each controller in each scenario, as % of
@@ -144,16 +246,19 @@ pub fn summary_table(
     names.extend(controllers.iter().cloned());
     for name in &names {
         t += &format!("| `{name}` |");
-        for r in results {
+        for (s, r) in scenarios.iter().zip(results) {
             let passive = r
                 .iter()
                 .find(|(n, _)| n == "passive")
                 .map(|x| x.1.wk_rms_seat);
             t += &match (r.iter().find(|(n, _)| n == name), passive) {
-                (Some((_, f)), Some(p)) if name != "passive" => {
-                    format!(" {:.4} ({}) |", f.wk_rms_seat, pct(f.wk_rms_seat, p))
-                }
-                (Some((_, f)), _) => format!(" {:.4} |", f.wk_rms_seat),
+                (Some((_, f)), Some(p)) if name != "passive" => format!(
+                    " {:.4} ({}){} |",
+                    f.wk_rms_seat,
+                    pct(f.wk_rms_seat, p),
+                    mark(f, s)
+                ),
+                (Some((_, f)), _) => format!(" {:.4}{} |", f.wk_rms_seat, mark(f, s)),
                 (None, _) => " |".to_string(),
             };
         }

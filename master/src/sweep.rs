@@ -161,13 +161,9 @@ pub struct SweepSpec {
     /// The two parameters of the worst-case map (default: the first two).
     #[serde(default)]
     pub map: Option<[String; 2]>,
-    /// Stroke limit of the limit flags [m].
-    #[serde(default = "default_stroke_max")]
-    pub stroke_max: f64,
-}
-
-fn default_stroke_max() -> f64 {
-    0.08
+    /// Stroke limit of the limit flags [m], instead of the base scenario's `stroke_max`.
+    #[serde(default)]
+    pub stroke_max: Option<f64>,
 }
 
 impl SweepSpec {
@@ -204,8 +200,8 @@ impl SweepSpec {
                 return Err(format!("map parameter '{bad}' is not swept"));
             }
         }
-        if self.stroke_max.is_nan() || self.stroke_max <= 0.0 {
-            return Err("stroke_max must be > 0".into());
+        if let Some(m) = self.stroke_max.filter(|m| !(*m > 0.0 && m.is_finite())) {
+            return Err(format!("stroke_max must be finite and > 0, got {m}"));
         }
         Ok(())
     }
@@ -240,7 +236,10 @@ impl Job {
 impl Sweep {
     pub fn load(path: &Path) -> Result<Sweep, MasterError> {
         let spec: SweepSpec = load_json(path, "sweep", SweepSpec::validate)?;
-        let base = Scenario::load(&path.parent().unwrap_or(Path::new(".")).join(&spec.base))?;
+        let mut base = Scenario::load(&path.parent().unwrap_or(Path::new(".")).join(&spec.base))?;
+        if let Some(m) = spec.stroke_max {
+            base.stroke_max = m;
+        }
         Ok(Sweep { spec, base })
     }
 
@@ -352,38 +351,26 @@ impl Sweep {
     }
 }
 
-/// The limit flags of a run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Flags {
-    /// A suspension stroke beyond the sweep's `stroke_max`.
-    pub stroke_exceeded: bool,
-    /// A dynamic tyre load at least the static one: the wheel leaves the road (the linear tyre
-    /// model no longer holds).
-    pub tyre_lift_off: bool,
-    /// Share of communication points with an actuator at its force limit.
-    pub saturated_share: f64,
-}
-
-/// What a run gave: its figures and flags, or why it failed.
+/// What a run gave: its figures (with the limit flags), or why it failed.
 #[derive(Debug, Clone)]
 pub enum Outcome {
-    Ok(Figures, Flags),
+    Ok(Figures),
     Failed(String),
 }
 
 impl Outcome {
-    /// The figures and flags of a run that finished; `None` if it failed.
-    pub fn finished(&self) -> Option<(&Figures, &Flags)> {
+    /// The figures of a run that finished; `None` if it failed.
+    pub fn finished(&self) -> Option<&Figures> {
         match self {
-            Outcome::Ok(f, g) => Some((f, g)),
+            Outcome::Ok(f) => Some(f),
             Outcome::Failed(_) => None,
         }
     }
 }
 
-/// Figures and flags of a run that finished; a non-finite or exploding output (strokes beyond
-/// 1 m, which no suspension has) is a failure (instability).
-pub fn outcome(run: &Run, scenario: &Scenario, limits: [f64; 5], stroke_max: f64) -> Outcome {
+/// Figures of a run that finished; a non-finite or exploding output (strokes beyond 1 m, which
+/// no suspension has) is a failure (instability).
+pub fn outcome(run: &Run, scenario: &Scenario) -> Outcome {
     if let Some(k) = run.data.iter().position(|v| !v.is_finite()) {
         let row = k / run.columns.len();
         return Outcome::Failed(format!(
@@ -399,26 +386,7 @@ pub fn outcome(run: &Run, scenario: &Scenario, limits: [f64; 5], stroke_max: f64
             f.max_stroke
         ));
     }
-    let forces: Vec<Vec<f64>> = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"]
-        .iter()
-        .map(|n| run.column(n).unwrap_or_default())
-        .collect();
-    let saturated = (0..run.time.len())
-        .filter(|&k| {
-            forces
-                .iter()
-                .zip(limits)
-                .any(|(f, l)| l > 0.0 && f[k].abs() >= l * (1.0 - 1e-9))
-        })
-        .count();
-    Outcome::Ok(
-        f,
-        Flags {
-            stroke_exceeded: f.max_stroke > stroke_max,
-            tyre_lift_off: f.max_tyre_ratio >= 1.0,
-            saturated_share: saturated as f64 / run.time.len().max(1) as f64,
-        },
-    )
+    Outcome::Ok(f)
 }
 
 /// One row of the result table.
@@ -449,31 +417,12 @@ impl Fmus {
         })
     }
 
-    /// The force limits of a scenario: its plant overrides, else the plant's start values
-    /// (`u_max` for the four corners, `u_max_seat`).
-    fn force_limits(&self, s: &Scenario) -> [f64; 5] {
-        let get = |n: &str| {
-            s.plant
-                .get(n)
-                .copied()
-                .or_else(|| self.plant.start_real(n))
-                .unwrap_or(0.0)
-        };
-        let (c, seat) = (get("u_max"), get("u_max_seat"));
-        [c, c, c, c, seat]
-    }
-
     /// Run one job; an FMU error or an instability is the row's outcome, not an error.
-    pub fn run(&self, job: &Job, stroke_max: f64) -> Row {
+    pub fn run(&self, job: &Job) -> Row {
         let ctrl = job.controller.as_ref().map(|c| &self.controllers[c]);
         match run_loaded(&self.road, &self.plant, ctrl, &job.scenario) {
             Ok(r) => Row {
-                outcome: outcome(
-                    &r,
-                    &job.scenario,
-                    self.force_limits(&job.scenario),
-                    stroke_max,
-                ),
+                outcome: outcome(&r, &job.scenario),
                 loop_seconds: r.loop_seconds,
                 job: job.clone(),
             },
@@ -605,7 +554,8 @@ mod tests {
         assert_eq!(z, (0..10).collect::<Vec<_>>());
     }
 
-    /// A run of `n` rows of zeros over the recorded columns, with `set(column, row)` changed.
+    /// A run of `n` steps of 1 ms, zeros over the recorded columns with `set(column, row)`
+    /// changed, the default car's limits, no delay and no command.
     fn run_with(n: usize, set: &[(&str, usize, f64)]) -> Run {
         let columns: Vec<String> = crate::cosim::RECORD.iter().map(|s| s.to_string()).collect();
         let mut data = vec![0.0; n * columns.len()];
@@ -614,10 +564,14 @@ mod tests {
             data[k * columns.len() + j] = *v;
         }
         Run {
+            units: vec![String::new(); columns.len()],
             columns,
             time: (1..=n).map(|k| k as f64 * 1e-3).collect(),
             data,
             static_tire_load: [4000.0; 4],
+            force_limits: [2500.0, 2500.0, 2500.0, 2500.0, 1000.0],
+            delay: 0.0,
+            commands: vec![[0.0; 5]; n],
             loop_seconds: 0.0,
         }
     }
@@ -625,52 +579,64 @@ mod tests {
     #[test]
     fn non_finite_or_exploding_runs_fail_and_limits_are_flagged() {
         let s = sweep(r#"{"plant.m_s": {"grid": [1500]}}"#, "").base;
-        let limits = [2500.0, 2500.0, 2500.0, 2500.0, 1000.0];
         let failed = |o: Outcome| match o {
             Outcome::Failed(m) => m,
             Outcome::Ok(..) => panic!("not failed"),
         };
-        let m = failed(outcome(
-            &run_with(10, &[("a_seat", 4, f64::NAN)]),
-            &s,
-            limits,
-            0.08,
-        ));
+        let m = failed(outcome(&run_with(10, &[("a_seat", 4, f64::NAN)]), &s));
         assert!(m.contains("a_seat is not finite at t = 0.005 s"), "{m}");
-        let m = failed(outcome(
-            &run_with(10, &[("stroke_rl", 2, 3.0)]),
-            &s,
-            limits,
-            0.08,
-        ));
+        let m = failed(outcome(&run_with(10, &[("stroke_rl", 2, 3.0)]), &s));
         assert!(m.contains("a stroke of 3.000 m"), "{m}");
-        let r = run_with(
-            10,
-            &[
-                ("stroke_fl", 1, -0.09),
-                ("f_seat", 3, -1000.0),
-                ("f_fr", 4, 2500.0),
-                ("f_fr", 5, 2499.0),
-                ("tire_load_rr", 6, 3999.0),
-            ],
-        );
-        let Outcome::Ok(f, flags) = outcome(&r, &s, limits, 0.08) else {
+        let mut r = run_with(10, &[("stroke_fl", 1, -0.09), ("tire_load_rr", 6, -3999.0)]);
+        // Two steps at or beyond a limit (the seat's, and a corner's); one just under it.
+        r.commands[3][4] = -1000.0;
+        r.commands[4][1] = 2600.0;
+        r.commands[5][1] = 2499.0;
+        let Outcome::Ok(f) = outcome(&r, &s) else {
             panic!("failed")
         };
         assert_eq!(f.max_stroke, 0.09);
-        assert_eq!(
-            flags,
-            Flags {
-                stroke_exceeded: true,
-                tyre_lift_off: false,
-                saturated_share: 0.2
-            }
+        assert!(f.flags.stroke_exceeded && !f.flags.tyre_lift_off);
+        assert!(
+            (f.flags.saturated_share - 0.2).abs() < 1e-12,
+            "{:?}",
+            f.flags
         );
+        // A load up to the static one is a lift-off; a compression as large is not.
         let r = run_with(10, &[("tire_load_rr", 6, -4000.0)]);
-        let Outcome::Ok(_, flags) = outcome(&r, &s, limits, 0.08) else {
+        let Outcome::Ok(f) = outcome(&r, &s) else {
             panic!("failed")
         };
-        assert!(flags.tyre_lift_off && !flags.stroke_exceeded);
+        assert!(f.flags.tyre_lift_off && !f.flags.stroke_exceeded);
+        let r = run_with(10, &[("tire_load_rr", 6, 4000.0)]);
+        assert!(!outcome(&r, &s).finished().unwrap().flags.tyre_lift_off);
+        // The sweep's stroke limit replaces the base scenario's.
+        let mut s = s;
+        s.stroke_max = 0.1;
+        let r = run_with(10, &[("stroke_fl", 1, -0.09)]);
+        assert!(!outcome(&r, &s).finished().unwrap().flags.stroke_exceeded);
+    }
+
+    #[test]
+    fn clamped_time_follows_the_commands_through_the_delay() {
+        let mut s = sweep(r#"{"plant.m_s": {"grid": [1500]}}"#, "").base;
+        // Steps 0 and 1 commanded beyond the limit, applied 1.5 steps later: [1.5, 3.5] ms of
+        // the 10 ms run.
+        let mut r = run_with(10, &[]);
+        r.delay = 1.5e-3;
+        r.commands[0][0] = 3000.0;
+        r.commands[1][2] = -3000.0;
+        let share = |r: &Run, s: &Scenario| outcome(r, s).finished().unwrap().flags.saturated_share;
+        assert!((share(&r, &s) - 0.2).abs() < 1e-12);
+        // Over a window from 2.5 ms: 1 ms of 7.5.
+        s.metrics_from = 2.5e-3;
+        assert!((share(&r, &s) - 1.0 / 7.5).abs() < 1e-12);
+        // A command still in flight at the end is not applied within the run.
+        let mut r = run_with(10, &[]);
+        r.delay = 1.5e-3;
+        r.commands[9][4] = 2000.0;
+        s.metrics_from = 0.0;
+        assert_eq!(share(&r, &s), 0.0);
     }
 
     #[test]

@@ -90,10 +90,10 @@ impl Column {
                 Outcome::Ok(..) => String::new(),
                 Outcome::Failed(m) => m.clone(),
             }),
-            Column::Metric(m) => Cell::Real(done.map(|(f, _)| metric_values(f)[m])),
-            Column::StrokeExceeded => Cell::Bool(done.map(|(_, g)| g.stroke_exceeded)),
-            Column::TyreLiftOff => Cell::Bool(done.map(|(_, g)| g.tyre_lift_off)),
-            Column::SaturatedShare => Cell::Real(done.map(|(_, g)| g.saturated_share)),
+            Column::Metric(m) => Cell::Real(done.map(|f| metric_values(f)[m])),
+            Column::StrokeExceeded => Cell::Bool(done.map(|f| f.flags.stroke_exceeded)),
+            Column::TyreLiftOff => Cell::Bool(done.map(|f| f.flags.tyre_lift_off)),
+            Column::SaturatedShare => Cell::Real(done.map(|f| f.flags.saturated_share)),
             Column::LoopSeconds => Cell::Real(Some(r.loop_seconds)),
         }
     }
@@ -322,7 +322,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
     writeln!(
         t,
         "| controller | runs | failed | stroke > {} m | tyre lift-off | saturated at any time | mean time saturated |\n|---|---|---|---|---|---|---|",
-        s.stroke_max
+        sweep.base.stroke_max
     )
     .unwrap();
     let share = |k: usize, n: usize| format!("{:.1} %", 100.0 * k as f64 / n.max(1) as f64);
@@ -334,10 +334,10 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
         let n = mine.len();
         let flags: Vec<_> = mine
             .iter()
-            .filter_map(|r| r.outcome.finished().map(|(_, g)| *g))
+            .filter_map(|r| r.outcome.finished().map(|f| f.flags))
             .collect();
         let count =
-            |p: &dyn Fn(&crate::sweep::Flags) -> bool| flags.iter().filter(|f| p(f)).count();
+            |p: &dyn Fn(&crate::report::Flags) -> bool| flags.iter().filter(|f| p(f)).count();
         let mean_sat =
             flags.iter().map(|f| f.saturated_share).sum::<f64>() / flags.len().max(1) as f64;
         writeln!(
@@ -382,7 +382,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
         let figs: Vec<[f64; 10]> = rows
             .iter()
             .filter(|r| r.job.controller_name() == c)
-            .filter_map(|r| r.outcome.finished().map(|(f, _)| metric_values(f)))
+            .filter_map(|r| r.outcome.finished().map(metric_values))
             .collect();
         for m in 0..METRICS.len() {
             let v: Vec<f64> = figs.iter().map(|f| f[m]).collect();
@@ -434,7 +434,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
                     let failed = cell.iter().any(|r| r.outcome.finished().is_none());
                     let worst = cell
                         .iter()
-                        .filter_map(|r| r.outcome.finished().map(|(f, _)| f.wk_rms_seat))
+                        .filter_map(|r| r.outcome.finished().map(|f| f.wk_rms_seat))
                         .fold(f64::NAN, f64::max);
                     t += &match (cell.is_empty(), failed) {
                         (true, _) => " |".to_string(),
@@ -467,7 +467,7 @@ pub fn plot_cdf(path: &Path, sweep: &Sweep, rows: &[Row]) -> Result<(), MasterEr
             let mut v: Vec<f64> = rows
                 .iter()
                 .filter(|r| r.job.controller_name() == c)
-                .filter_map(|r| r.outcome.finished().map(|(f, _)| f.wk_rms_seat))
+                .filter_map(|r| r.outcome.finished().map(|f| f.wk_rms_seat))
                 .filter(|v| *v > 0.0)
                 .collect();
             v.sort_by(f64::total_cmp);

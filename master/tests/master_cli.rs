@@ -38,6 +38,8 @@ fn bad_scenario_files_are_refused_with_the_reason() {
     );
     assert!(scenario_error(&good.replace("\"x\"", "\"a b\"")).contains("letters, digits"));
     assert!(scenario_error("{\"name\": ").contains("EOF"));
+    let no_limit = good.replace("}}", "}, \"stroke_max\": 0}");
+    assert!(scenario_error(&no_limit).contains("stroke_max must be finite and > 0, got 0"));
     assert!(Scenario::load(Path::new("/nonexistent/s.json"))
         .unwrap_err()
         .0
@@ -127,6 +129,51 @@ fn a_scenario_run_is_the_loop_on_the_in_process_road_of_its_profile() {
     );
     assert_eq!(r.time.len(), 3000);
     assert!((r.time[2999] - 3.0).abs() < 1e-9);
+}
+
+/// The saturation flag against a second reading of the same run: with no delay, lag or fault
+/// the plant applies exactly the clamped command, so the recorded forces sit at the limit at the
+/// same communication points as the commands. And the CSV header carries the FMUs' units.
+#[test]
+fn the_time_at_the_force_limits_is_the_time_the_applied_forces_sit_there() {
+    use master::report::figures;
+    let mut s = scenario("saturation");
+    s.duration = 2.0;
+    for c in ["hinf_of", "hinf_of_aw"] {
+        let r = run(&dist(), &s, Some(c)).unwrap();
+        assert_eq!(r.delay, 0.0);
+        let limits = r.force_limits;
+        assert_eq!(limits, [300.0, 300.0, 300.0, 300.0, 100.0]);
+        let forces: Vec<Vec<f64>> = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"]
+            .iter()
+            .map(|n| r.column(n).unwrap())
+            .collect();
+        let at_limit = (0..r.time.len())
+            .filter(|&k| {
+                forces
+                    .iter()
+                    .zip(limits)
+                    .any(|(f, l)| f[k].abs() >= l * (1.0 - 1e-9))
+            })
+            .count() as f64
+            / r.time.len() as f64;
+        let share = figures(&r, &s).flags.saturated_share;
+        assert!(share > 0.5, "{c}: {share}");
+        assert!(
+            (share - at_limit).abs() < 1e-9,
+            "{c}: {share} vs {at_limit}"
+        );
+        let path =
+            std::env::temp_dir().join(format!("master-units-{}-{c}.csv", std::process::id()));
+        r.write_csv(&path).unwrap();
+        let header = std::fs::read_to_string(&path).unwrap();
+        let header = header.lines().next().unwrap().to_string();
+        assert!(
+            header.starts_with("time [s],a_seat [m/s2],alpha_roll [rad/s2],"),
+            "{header}"
+        );
+        assert!(header.contains(",f_seat [N]"), "{header}");
+    }
 }
 
 #[test]

@@ -15,6 +15,8 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
+import master_csv
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 ROAD = [f"road_{q}_{c}" for q in "zv" for c in ("fl", "fr", "rl", "rr")]
 FORCES = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"]
@@ -284,7 +286,12 @@ def test_rust_master_and_this_python_master_give_the_same_trajectories(tmp_path)
     out = tmp_path / "bump_hinf_of.csv"
     subprocess.run([str(binary), "--dist", str(ROOT / "dist"), "run", "--scenario", str(ROOT / "scenarios" / "bump.json"),
                     "--controller", "hinf_of", "--out", str(out)], check=True)
-    rust = np.genfromtxt(out, delimiter=",", names=True)
+    rust = master_csv.read(out)
+    # The header carries each column's unit, the one the plant declares.
+    declared = {v.name: v.unit or "" for v in read_model_description(str(ROOT / "dist" / "plant.fmu")).modelVariables}
+    columns = master_csv.header(out)
+    assert columns[0] == ("time", "s") and dict(columns)["a_seat"] == "m/s2"
+    assert [u for n, u in columns[1:]] == [declared[n] for n, _ in columns[1:]]
     scenario = json.loads((ROOT / "scenarios" / "bump.json").read_text())
     road = scenario["road"]
     ints = {k: v for k, v in road.items() if k in ("profile", "side", "iso_class", "seed")}

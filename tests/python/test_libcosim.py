@@ -14,6 +14,8 @@ from libcosimpy.CosimExecution import CosimExecution
 from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 from libcosimpy.CosimObserver import CosimObserver
 
+import master_csv
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
@@ -37,7 +39,7 @@ def test_libcosim_runs_the_osp_system_structure_like_the_rust_master(tmp_path):
     out = tmp_path / "bump.csv"
     subprocess.run([str(ROOT / "target" / "release" / "master"), "--dist", str(ROOT / "dist"), "run", "--scenario",
                     str(ROOT / "scenarios" / "bump.json"), "--controller", "hinf_of", "--out", str(out)], check=True)
-    rust = np.genfromtxt(out, delimiter=",", names=True)
+    rust = master_csv.read(out)
     for name in ("a_seat", "stroke_fl"):
         a, b = cosim[name], rust[name][: len(cosim[name])]
         rms_a, rms_b = np.sqrt(np.mean(a ** 2)), np.sqrt(np.mean(b ** 2))

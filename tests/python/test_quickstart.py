@@ -10,6 +10,8 @@ import subprocess
 
 import numpy as np
 
+import master_csv
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
@@ -35,7 +37,7 @@ def test_the_readme_quick_start_moves_the_car_like_the_master(tmp_path):
     spec.write_text(json.dumps(scenario))
     subprocess.run([str(ROOT / "target" / "release" / "master"), "--dist", str(ROOT / "dist"), "run", "--scenario", str(spec),
                     "--controller", "hinf_of", "--out", str(out)], check=True, capture_output=True)
-    master = np.genfromtxt(out, delimiter=",", names=True)["a_seat"]
+    master = master_csv.read(out)["a_seat"]
     assert len(master) == len(a_seat)
     assert np.sqrt(np.mean(a_seat**2)) > 0.005, "the car moved"
     assert np.max(np.abs(a_seat - master)) <= 1e-9 * np.max(np.abs(master))

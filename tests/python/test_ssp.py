@@ -16,6 +16,8 @@ import pytest
 from fmpy.ssp.simulation import simulate_ssp
 from fmpy.ssp.ssd import ParameterSet, read_ssd
 
+import master_csv
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 MASTER = ROOT / "target" / "release" / "master"
 
@@ -74,7 +76,7 @@ def test_fmpy_simulates_the_ssp_like_the_rust_master(tmp_path, scenario, control
 
     out = tmp_path / "master.csv"
     subprocess.run([str(MASTER), "--dist", str(ROOT / "dist"), "run", "--scenario", str(spec), "--controller", controller, "--out", str(out)], check=True)
-    rust = np.genfromtxt(out, delimiter=",", names=True)
+    rust = master_csv.read(out)
     for name in ("a_seat", "stroke_fl", "f_fl"):
         # Row k of each is the state at t_{k+1} (FMPy labels it t_k); FMPy may add a last row
         # where its accumulated time falls just short of the stop time.
