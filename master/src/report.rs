@@ -285,12 +285,50 @@ pub fn color(k: usize) -> RGBColor {
 }
 
 /// Seat acceleration against time and its PSD (Welch), passive and each controller: one SVG.
+/// `v` to two significant digits, without an exponent (axis labels).
+pub(crate) fn significant(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let decimals = (1 - v.abs().log10().floor() as i32).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
+/// The labels of a linear axis over `[-max, max]`: as many decimals as its ticks' spacing needs
+/// (about `max / 4`), the same for every label, and no `-0.0` or `6.9e-11` for zero.
+fn fixed_decimals(max: f64) -> impl Fn(&f64) -> String {
+    let decimals = (-(max / 4.0).log10().floor()).max(0.0) as usize;
+    move |v| {
+        let v = if v.abs() < 0.5 * 10f64.powi(-(decimals as i32)) {
+            0.0
+        } else {
+            *v
+        };
+        format!("{v:.decimals$}")
+    }
+}
+
+/// A key point of a logarithmic axis as a label: `1e-5`, not the `9.999999999e-6` the axis
+/// computes it as.
+fn power_of_ten(v: f64) -> String {
+    format!("{v:.0e}")
+}
+
+/// One scenario's figure: the seat acceleration of every car over time, the controlled cars
+/// again on their own scale (on the passive car's they are one band), and its PSD; the legend
+/// beside the panels, the fault time marked. Unweighted, as the titles say: the tables are W_k-
+/// weighted.
 pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result<(), MasterError> {
     let e = |x: String| MasterError(format!("plot {}: {x}", path.display()));
-    let root = SVGBackend::new(path, (1100, 900)).into_drawing_area();
+    let (width, legend_width) = (1100, 190);
+    let root = SVGBackend::new(path, (width + legend_width, 1300)).into_drawing_area();
     root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-    let (top, bottom) = root.split_vertically(450);
-    let series: Vec<(String, Vec<f64>, Vec<f64>)> = runs
+    let (panels, legend) = root.split_horizontally(width);
+    let (time_panels, psd_panel) = panels.split_vertically(820);
+    let (all_panel, zoom_panel) = time_panels.split_vertically(410);
+    // Name, time and seat acceleration of each run.
+    type Trace = (String, Vec<f64>, Vec<f64>);
+    let series: Vec<Trace> = runs
         .iter()
         .map(|(n, r)| {
             (
@@ -300,93 +338,180 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
             )
         })
         .collect();
-    let amax = series.iter().map(|s| peak(&s.2)).fold(1e-6, f64::max) * 1.05;
-    let mut chart = ChartBuilder::on(&top)
-        .caption(
-            format!("{}: seat acceleration", scenario.name),
-            ("sans-serif", 20),
-        )
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..scenario.duration, -amax..amax)
-        .map_err(|x| e(x.to_string()))?;
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .y_desc("a_seat [m/s²]")
-        .draw()
-        .map_err(|x| e(x.to_string()))?;
-    for (k, (name, t, a)) in series.iter().enumerate() {
-        let color = COLORS[k % COLORS.len()];
-        // At most ~4000 points per line (the SVG stays small; the PSD below uses every sample).
-        let stride = (t.len() / 4000).max(1);
+    let color_of = |k: usize| COLORS[k % COLORS.len()];
+    let fault_time = scenario
+        .plant
+        .get("fault_time")
+        .copied()
+        .filter(|t| *t > 0.0 && *t < scenario.duration);
+    let window = if scenario.metrics_from > 0.0 {
+        format!("; the tables count t > {} s", scenario.metrics_from)
+    } else {
+        String::new()
+    };
+    // One time panel: the runs `keep` selects, on a scale that fits them.
+    let time_panel = |area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+                      title: String,
+                      keep: &dyn Fn(&str) -> bool|
+     -> Result<(), MasterError> {
+        let shown: Vec<(usize, &Trace)> = series
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| keep(&s.0))
+            .collect();
+        let amax = shown.iter().map(|(_, s)| peak(&s.2)).fold(1e-6, f64::max) * 1.05;
+        let mut chart = ChartBuilder::on(area)
+            .caption(title, ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..scenario.duration, -amax..amax)
+            .map_err(|x| e(x.to_string()))?;
         chart
-            .draw_series(LineSeries::new(
-                t.iter().copied().zip(a.iter().copied()).step_by(stride),
-                color.stroke_width(1),
-            ))
-            .map_err(|x| e(x.to_string()))?
-            .label(name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+            .configure_mesh()
+            .x_desc("t [s]")
+            .y_desc("a_seat [m/s²]")
+            .y_label_formatter(&fixed_decimals(amax))
+            .draw()
+            .map_err(|x| e(x.to_string()))?;
+        for (k, (_, t, a)) in &shown {
+            // At most ~4000 points per line (the SVG stays small; the PSD uses every sample).
+            let stride = (t.len() / 4000).max(1);
+            chart
+                .draw_series(LineSeries::new(
+                    t.iter().copied().zip(a.iter().copied()).step_by(stride),
+                    color_of(*k).stroke_width(1),
+                ))
+                .map_err(|x| e(x.to_string()))?;
+        }
+        if let Some(tf) = fault_time {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(tf, -amax), (tf, amax)],
+                    6,
+                    4,
+                    RED.stroke_width(2),
+                ))
+                .map_err(|x| e(x.to_string()))?;
+            chart
+                .draw_series([Text::new(
+                    format!(" fault at {tf} s"),
+                    (tf, amax * 0.97),
+                    ("sans-serif", 14).into_font().color(&RED),
+                )])
+                .map_err(|x| e(x.to_string()))?;
+        }
+        Ok(())
+    };
+    time_panel(
+        &all_panel,
+        format!(
+            "{}: seat acceleration, unweighted (the tables are W_k-weighted){window}",
+            scenario.name
+        ),
+        &|_| true,
+    )?;
+    // The zoom: the controlled cars whose seat peaks below the passive car's (any that do not
+    // would set the scale; the title names them).
+    let passive_peak = series
+        .iter()
+        .find(|s| s.0 == "passive")
+        .map_or(f64::INFINITY, |s| peak(&s.2));
+    let (calm, wild): (Vec<_>, Vec<_>) = series
+        .iter()
+        .filter(|s| s.0 != "passive")
+        .partition(|s| peak(&s.2) <= passive_peak);
+    let calm: Vec<&str> = calm.iter().map(|s| s.0.as_str()).collect();
+    let wild: Vec<&str> = wild.iter().map(|s| s.0.as_str()).collect();
+    if !calm.is_empty() {
+        let left_out = if wild.is_empty() {
+            String::new()
+        } else {
+            format!("; not shown, above the passive car: {}", wild.join(", "))
+        };
+        time_panel(
+            &zoom_panel,
+            format!("The controlled cars on their own scale (unweighted){left_out}"),
+            &|n| calm.contains(&n),
+        )?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|x| e(x.to_string()))?;
     let segment = ((4.0 / scenario.step) as usize)
         .next_power_of_two()
         .min(series.first().map_or(8, |s| s.2.len()).next_power_of_two() / 2)
         .max(64);
-    let psds: Vec<(String, Vec<f64>, Vec<f64>)> = series
+    let psds: Vec<(Vec<f64>, Vec<f64>)> = series
         .iter()
-        .map(|(n, _, a)| {
-            let (f, p) = welch_psd(a, scenario.step, segment);
-            (n.clone(), f, p)
-        })
+        .map(|(_, _, a)| welch_psd(a, scenario.step, segment))
         .collect();
     let (fmin, fmax) = (0.2f64, 50.0f64);
     let pmax = psds
         .iter()
-        .flat_map(|s| {
-            s.1.iter()
-                .zip(&s.2)
+        .flat_map(|(f, p)| {
+            f.iter()
+                .zip(p)
                 .filter(|(f, _)| **f >= fmin && **f <= fmax)
                 .map(|(_, p)| *p)
         })
         .fold(1e-12, f64::max)
         * 2.0;
     let pmin = pmax * 1e-7;
-    let mut chart = ChartBuilder::on(&bottom)
+    let mut chart = ChartBuilder::on(&psd_panel)
         .caption(
-            "PSD of the seat acceleration (Welch, Hann)",
-            ("sans-serif", 20),
+            format!(
+                "PSD of the seat acceleration, unweighted (Welch, Hann, {} s segments)",
+                significant(segment as f64 * scenario.step)
+            ),
+            ("sans-serif", 18),
         )
         .margin(10)
         .x_label_area_size(35)
-        .y_label_area_size(60)
-        .build_cartesian_2d((fmin..fmax).log_scale(), (pmin..pmax).log_scale())
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (fmin..fmax)
+                .log_scale()
+                .with_key_points(vec![0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0]),
+            (pmin..pmax).log_scale(),
+        )
         .map_err(|x| e(x.to_string()))?;
     chart
         .configure_mesh()
         .x_desc("f [Hz]")
-        .y_desc("(m/s²)²/Hz")
+        .y_desc("PSD [(m/s²)²/Hz]")
+        .x_label_formatter(&|v| format!("{v}"))
+        .y_label_formatter(&|v| power_of_ten(*v))
         .draw()
         .map_err(|x| e(x.to_string()))?;
-    for (k, (name, f, p)) in psds.iter().enumerate() {
-        let color = COLORS[k % COLORS.len()];
+    for (k, (f, p)) in psds.iter().enumerate() {
         let points = f
             .iter()
             .zip(p)
             .filter(|(f, p)| **f >= fmin && **f <= fmax && **p > pmin)
             .map(|(f, p)| (*f, *p));
         chart
-            .draw_series(LineSeries::new(points, color.stroke_width(1)))
-            .map_err(|x| e(x.to_string()))?
-            .label(name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+            .draw_series(LineSeries::new(points, color_of(k).stroke_width(1)))
+            .map_err(|x| e(x.to_string()))?;
+    }
+    // The legend, outside the panels; a run identical to an earlier one is drawn over it, and
+    // says so.
+    for (k, (name, _, a)) in series.iter().enumerate() {
+        let y = 60 + 24 * k as i32;
+        let name = match series[..k].iter().find(|s| s.2 == *a) {
+            Some(same) => format!("{name} = {}", same.0),
+            None => name.clone(),
+        };
+        legend
+            .draw(&PathElement::new(
+                vec![(10, y), (40, y)],
+                color_of(k).stroke_width(3),
+            ))
+            .map_err(|x| e(x.to_string()))?;
+        legend
+            .draw(&Text::new(
+                name,
+                (48, y - 8),
+                ("sans-serif", 15).into_font(),
+            ))
+            .map_err(|x| e(x.to_string()))?;
     }
     root.present().map_err(|x| e(x.to_string()))?;
     Ok(())
@@ -483,4 +608,28 @@ pub fn design_table(
         );
     }
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_labels_read_as_numbers() {
+        assert_eq!(significant(0.012345), "0.012");
+        assert_eq!(significant(0.25), "0.25");
+        assert_eq!(significant(3.7), "3.7");
+        assert_eq!(significant(42.0), "42");
+        assert_eq!(significant(0.0), "0");
+        // Log-axis key points as the axis computes them.
+        assert_eq!(power_of_ten(9.999999999e-6), "1e-5");
+        assert_eq!(power_of_ten(1e-7), "1e-7");
+        let a = fixed_decimals(2.1);
+        assert_eq!([a(&-1.5), a(&0.5), a(&2.0)], ["-1.5", "0.5", "2.0"]);
+        let a = fixed_decimals(0.052);
+        assert_eq!(
+            [a(&6.9e-11), a(&-1e-12), a(&0.04)],
+            ["0.00", "0.00", "0.04"]
+        );
+    }
 }

@@ -2,6 +2,7 @@
 //! limit shares, worst-case map) and the plot of each controller's empirical CDF.
 
 use crate::cosim::{err, MasterError};
+use crate::report::significant;
 use crate::sweep::{metric_values, Outcome, Row, Sweep, METRICS};
 use parquet::basic::{LogicalType, Repetition, Type as Physical};
 const OPTIONAL: Repetition = Repetition::OPTIONAL;
@@ -449,12 +450,6 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
     t
 }
 
-/// `v` to two significant digits, without an exponent (axis labels).
-fn significant(v: f64) -> String {
-    let decimals = (1 - v.abs().log10().floor() as i32).max(0) as usize;
-    format!("{v:.decimals$}")
-}
-
 /// The empirical CDF of W_k RMS seat acceleration of each controller (log axis), failed runs
 /// left out (the report counts them).
 pub fn plot_cdf(path: &Path, sweep: &Sweep, rows: &[Row]) -> Result<(), MasterError> {
@@ -515,7 +510,11 @@ pub fn plot_cdf(path: &Path, sweep: &Sweep, rows: &[Row]) -> Result<(), MasterEr
         chart
             .draw_series(LineSeries::new(steps, color.stroke_width(2)))
             .map_err(|x| e(x.to_string()))?
-            .label(name.clone())
+            // A controller whose runs all equal an earlier one's is drawn over it, and says so.
+            .label(match curves[..k].iter().find(|c| c.1 == *v) {
+                Some(same) => format!("{name} = {}", same.0),
+                None => name.clone(),
+            })
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
             });
@@ -534,14 +533,6 @@ pub fn plot_cdf(path: &Path, sweep: &Sweep, rows: &[Row]) -> Result<(), MasterEr
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn axis_labels_have_two_significant_digits() {
-        assert_eq!(significant(0.012345), "0.012");
-        assert_eq!(significant(0.25), "0.25");
-        assert_eq!(significant(3.7), "3.7");
-        assert_eq!(significant(42.0), "42");
-    }
 
     #[test]
     fn statistics_of_known_samples() {

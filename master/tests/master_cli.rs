@@ -176,6 +176,58 @@ fn the_time_at_the_force_limits_is_the_time_the_applied_forces_sit_there() {
     }
 }
 
+/// The comparison's figure says what it shows: unweighted, the fault time marked, the
+/// controlled cars on their own scale, a run identical to another named so, and axis labels
+/// that read as numbers (not `9.999999999e-5` or `6.9e-11` for zero).
+#[test]
+fn the_scenario_figure_labels_what_it_shows() {
+    let mut s = scenario("fault");
+    s.duration = 3.0;
+    let runs: Vec<(String, master::cosim::Run)> = [None, Some("hinf_of"), Some("hinf_of_aw")]
+        .into_iter()
+        .map(|c| {
+            (
+                c.unwrap_or("passive").to_string(),
+                run(&dist(), &s, c).unwrap(),
+            )
+        })
+        .collect();
+    let path = std::env::temp_dir().join(format!("master-plot-{}.svg", std::process::id()));
+    master::report::plot(
+        &path,
+        &s,
+        &runs.iter().map(|(n, r)| (n.clone(), r)).collect::<Vec<_>>(),
+    )
+    .unwrap();
+    let svg = std::fs::read_to_string(&path).unwrap();
+    for text in [
+        "fault: seat acceleration, unweighted (the tables are W_k-weighted)",
+        "fault at 2 s",
+        "The controlled cars on their own scale (unweighted)",
+        "PSD of the seat acceleration, unweighted",
+        "hinf_of_aw = hinf_of",
+    ] {
+        assert!(svg.contains(text), "the figure lacks '{text}'");
+    }
+    // The SVG writes each label on a line of its own, between its tags.
+    let labels: Vec<&str> = svg
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.starts_with('<'))
+        .collect();
+    for label in [
+        "1e-1", "1e-5", "0.5", "2", "20", "0.0", "-1.0", "0.05", "-0.10",
+    ] {
+        assert!(labels.contains(&label), "no axis label '{label}'");
+    }
+    assert!(
+        !labels
+            .iter()
+            .any(|l| l.contains("99999") || l.contains("00000")),
+        "a label in floating-point noise"
+    );
+}
+
 #[test]
 fn system_descriptions_carry_typed_parameters_and_refuse_bad_ones() {
     use master::cosim::Typed;
