@@ -257,9 +257,7 @@ fn compare(
         report += t;
         report += "\n";
     }
-    if let Some(t) = limits_table(scenarios, &all) {
-        report += &format!("## Limits and model validity\n\nRuns marked ⚠ above: a wheel that leaves the road (its tyre load down to zero, where the linear tyre model no longer holds), a suspension stroke beyond the scenario's `stroke_max` ({} cm unless it says otherwise), or actuators at their force limits (the share of the time any one is: its command, delayed by the plant's `tau`, at or beyond `u_max` or `u_max_seat`). Over each scenario's metrics window.\n\n{t}\n", 100.0 * master::cosim::DEFAULT_STROKE_MAX);
-    }
+    report += &format!("## Limits and model validity\n\nRuns marked ⚠ above: a wheel that leaves the road (its tyre load down to zero, where the linear tyre model no longer holds), a suspension stroke beyond the scenario's `stroke_max` ({} cm unless it says otherwise), or actuators at their force limits (the share of the time any one is: its command, delayed by the plant's `tau`, at or beyond `u_max` or `u_max_seat`). Over each scenario's metrics window.\n\n{}\n", 100.0 * master::cosim::DEFAULT_STROKE_MAX, limits_table(scenarios, &all));
     if !off_design.is_empty() {
         report += "## Runs off the car a controller was designed for\n\nThe plant of these runs differs from the car recorded in the controller's `resources/controller.json` (`designed_for`, from `synth --vehicle`): a sprung mass outside the range a robust design covers, or any other vehicle parameter. Scenarios do this on purpose to test robustness; outside them it means the controller was designed for another car.\n\n| scenario | controller | plant differs |\n|---|---|---|\n";
         for (s, c, why) in &off_design {
