@@ -74,7 +74,7 @@ fn saturated_share(run: &Run, h: f64, from: f64) -> f64 {
     if end <= from {
         return 0.0;
     }
-    let clamped: f64 = run
+    let clamped = run
         .commands
         .iter()
         .enumerate()
@@ -87,7 +87,8 @@ fn saturated_share(run: &Run, h: f64, from: f64) -> f64 {
             let t = j as f64 * h + run.delay;
             ((t + h).min(end) - t.max(from)).max(0.0)
         })
-        .sum();
+        // Not `sum`: an empty float sum is -0.0, which prints as "-0.00 %".
+        .fold(0.0, |a, x| a + x);
     clamped / (end - from)
 }
 

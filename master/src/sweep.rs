@@ -609,7 +609,10 @@ mod tests {
         };
         assert!(f.flags.tyre_lift_off && !f.flags.stroke_exceeded);
         let r = run_with(10, &[("tire_load_rr", 6, 4000.0)]);
-        assert!(!outcome(&r, &s).finished().unwrap().flags.tyre_lift_off);
+        let f = outcome(&r, &s).finished().unwrap().flags;
+        assert!(!f.tyre_lift_off);
+        // Never at a limit is +0 (the report prints no "-0.00 %").
+        assert!(f.saturated_share == 0.0 && f.saturated_share.is_sign_positive());
         // The sweep's stroke limit replaces the base scenario's.
         let mut s = s;
         s.stroke_max = 0.1;

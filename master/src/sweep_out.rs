@@ -340,7 +340,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
         let count =
             |p: &dyn Fn(&crate::report::Flags) -> bool| flags.iter().filter(|f| p(f)).count();
         let mean_sat =
-            flags.iter().map(|f| f.saturated_share).sum::<f64>() / flags.len().max(1) as f64;
+            flags.iter().fold(0.0, |a, f| a + f.saturated_share) / flags.len().max(1) as f64;
         writeln!(
             t,
             "| `{c}` | {n} | {} | {} | {} | {} | {:.2} % |",
