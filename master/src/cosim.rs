@@ -469,17 +469,14 @@ pub fn scenario_parameters(
     Ok([road_values, plant_values, ctrl_values])
 }
 
-/// Why `controller` runs off its design in `scenario`: one line per vehicle parameter of the
-/// plant (the scenario's override, else the plant FMU's start value) that differs from the car
-/// the controller was designed for (see [`controller_file::DesignedFor::differences`]).
+/// Why a controller designed for `designed` runs off its design in `scenario`: one line per
+/// vehicle parameter of the plant (the scenario's override, else the plant FMU's start value)
+/// that differs from that car (see [`controller_file::DesignedFor::differences`]).
 pub fn off_design(
     scenario: &Scenario,
     plant: &Fmu,
-    controller: &Fmu,
-) -> Result<Vec<String>, MasterError> {
-    let Some(designed) = controller.designed_for()? else {
-        return Ok(Vec::new());
-    };
+    designed: &controller_file::DesignedFor,
+) -> Vec<String> {
     let actual: BTreeMap<String, f64> = designed
         .vehicle
         .keys()
@@ -492,7 +489,7 @@ pub fn off_design(
             Some((name.clone(), value))
         })
         .collect();
-    Ok(designed.differences(&actual))
+    designed.differences(&actual)
 }
 
 /// A run's log: one row per communication point `t_1 … t_N`.

@@ -177,9 +177,12 @@ fn off_design_runs(
     let plant = master::cosim::Fmu::load(dist, "plant")?;
     let mut out = Vec::new();
     for c in controllers {
-        let fmu = master::cosim::Fmu::load(dist, c)?;
+        // Read once per controller, not once per scenario.
+        let Some(designed) = master::cosim::Fmu::load(dist, c)?.designed_for()? else {
+            continue;
+        };
         for s in scenarios.iter().filter(|s| s.wants(c)) {
-            let why = master::cosim::off_design(s, &plant, &fmu)?;
+            let why = master::cosim::off_design(s, &plant, &designed);
             if !why.is_empty() {
                 eprintln!(
                     "warning: {c} runs off the car it was designed for in {}: {}",

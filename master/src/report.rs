@@ -344,7 +344,6 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
             )
         })
         .collect();
-    let color_of = |k: usize| COLORS[k % COLORS.len()];
     let fault_time = scenario
         .plant
         .get("fault_time")
@@ -386,7 +385,7 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
             chart
                 .draw_series(LineSeries::new(
                     t.iter().copied().zip(a.iter().copied()).step_by(stride),
-                    color_of(*k).stroke_width(1),
+                    color(*k).stroke_width(1),
                 ))
                 .map_err(|x| e(x.to_string()))?;
         }
@@ -494,7 +493,7 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
             .filter(|(f, p)| **f >= fmin && **f <= fmax && **p > pmin)
             .map(|(f, p)| (*f, *p));
         chart
-            .draw_series(LineSeries::new(points, color_of(k).stroke_width(1)))
+            .draw_series(LineSeries::new(points, color(k).stroke_width(1)))
             .map_err(|x| e(x.to_string()))?;
     }
     // The legend, outside the panels; a run identical to an earlier one is drawn over it, and
@@ -508,7 +507,7 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
         legend
             .draw(&PathElement::new(
                 vec![(10, y), (40, y)],
-                color_of(k).stroke_width(3),
+                color(k).stroke_width(3),
             ))
             .map_err(|x| e(x.to_string()))?;
         legend
