@@ -327,7 +327,14 @@ impl Simulator {
                 slope: [0.0; N_ACTUATORS],
             }
         } else {
-            self.segment_at(now - self.actuator.tau)
+            // A delayed command takes over at its start + τ. With the delay a whole number of
+            // communication steps (the common case) `now − τ` lands on a command's start up to
+            // rounding (the master's `k h`, our `(k − 1) h + h`): within 64 ulps the start
+            // counts as reached, so an output reads the same command at every step instead of
+            // the new one at some and the previous one at others.
+            let tau = self.actuator.tau;
+            let s = now - tau;
+            self.segment_at(s + 64.0 * f64::EPSILON * now.abs().max(tau))
         };
         std::array::from_fn(|i| self.actuator_output(&seg, i, now, now))
     }
@@ -547,5 +554,40 @@ impl Simulator {
         self.xi = DVector::from_vec(xi);
         self.history = history;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With the delay a whole number of steps, the force applied at each communication point
+    /// is the command sent exactly that many steps earlier, at every step: the times `k h` the
+    /// master passes and the plant's own `t + h` differ by rounding, and before the tolerance
+    /// the output read the previous command at some steps (found by the sampled-data
+    /// prediction, `tests/tests/sampled_loop.rs`, 20 % off with `delay_sf` at 20 ms).
+    #[test]
+    fn a_whole_step_delay_applies_the_command_of_that_many_steps_ago_at_every_step() {
+        for (tau, h) in [(0.02, 1e-3), (0.01, 1e-4), (0.03, 1e-3)] {
+            let actuator = ActuatorParams {
+                tau,
+                ..ActuatorParams::default()
+            };
+            let mut sim = Simulator::new(VehicleParams::default(), actuator);
+            sim.start(0.0);
+            let lag = (tau / h).round() as usize;
+            let command = |k: usize| (k % 7) as f64 + 1.0;
+            for k in 0..3000 {
+                let expected = if k >= lag { command(k - lag) } else { 0.0 };
+                assert_eq!(
+                    sim.applied_force()[4],
+                    expected,
+                    "τ = {tau}, h = {h}: at step {k} the seat force is not the command of step {}",
+                    k as i64 - lag as i64
+                );
+                sim.command = [command(k); N_ACTUATORS];
+                sim.step(k as f64 * h, h).unwrap();
+            }
+        }
     }
 }
