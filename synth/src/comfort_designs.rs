@@ -93,6 +93,24 @@ pub struct Comfort {
     /// Over the design's uncertainty, when it has one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub uncertainty: Option<OverUncertainty>,
+    /// At the nominal car as a master runs the loop: sampled and held at a communication step.
+    pub held: Held,
+}
+
+/// The nominal prediction for the sampled-data loop of a co-simulation ([`crate::sampled`]):
+/// road and commands held over each step, the controller stepped exactly.
+#[derive(Debug, Clone, Serialize)]
+pub struct Held {
+    pub step_s: f64,
+    /// `W_k` seat RMS of the car, time-averaged (what the occupant feels).
+    pub predicted_wk_rms_seat_m_s2: f64,
+    /// The same as a master measures it from the values recorded at the communication points
+    /// (`master compare`'s figure): the seat force held over a step makes the seat
+    /// acceleration jump at each point, and the samples see one side of each jump.
+    pub recorded_wk_rms_seat_m_s2: f64,
+    pub recorded_we_rms_roll_rad_s2: f64,
+    pub recorded_we_rms_pitch_rad_s2: f64,
+    pub predicted: Figures,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -753,6 +771,33 @@ pub fn state_feedback_wiring(g: &ComfortPlant) -> (Plant, Sensors) {
     (plant_of(g), state_feedback_sensors(g))
 }
 
+/// The nominal loop as a master runs it at the design file's communication step; unstable
+/// there is a refusal.
+fn held_prediction(
+    law: &ControlLaw,
+    nominal: Conditions,
+    d: &ComfortDesign,
+) -> Result<Held, String> {
+    let lp = crate::sampled::SampledLoop::new(Some(law), nominal, d.communication_step).map_err(
+        |e| {
+            format!(
+                "run by a master at a step of {} s: {e}",
+                d.communication_step
+            )
+        },
+    )?;
+    let predicted = lp.figures(&d.road, &nominal.params);
+    let [seat, roll, pitch] = lp.recorded_weighted(&d.road, &nominal.params);
+    Ok(Held {
+        step_s: d.communication_step,
+        predicted_wk_rms_seat_m_s2: predicted.wk_rms_seat_m_s2,
+        recorded_wk_rms_seat_m_s2: seat,
+        recorded_we_rms_roll_rad_s2: roll,
+        recorded_we_rms_pitch_rad_s2: pitch,
+        predicted,
+    })
+}
+
 /// Certify a comfort design; an error is never an FMU.
 pub fn certify(
     ctx: &Context,
@@ -811,6 +856,7 @@ pub fn certify(
     }
     // Predictions, design and passive.
     let predicted = lp.figures(&d.road);
+    let held = held_prediction(law, nominal, d).map_err(&fail)?;
     let passive = predict(None, nominal, &d.road).map_err(|e| fail(e.to_string()))?;
     let seat = predicted.wk_rms_seat_m_s2;
     if seat.is_nan() || seat >= 0.5 * passive.wk_rms_seat_m_s2 {
@@ -920,6 +966,7 @@ pub fn certify(
             design_model_wk_rms_seat_m_s2: dm_seat,
             design_model_vibration_total_m_s2: dm_total,
             uncertainty,
+            held,
         },
         unmodelled_delay: UnmodelledDelay {
             tolerated_delay_s: d.unmodelled_delay,

@@ -241,6 +241,15 @@ pub struct ComfortDesign {
     /// `ft_of`: averaging time of the effectiveness estimate its commands are divided by [s]
     /// (fault accommodation).
     pub accommodation_time_constant: f64,
+    /// The communication step a master runs the controllers at [s]; the certificates predict
+    /// the co-simulation at it too (`comfort.held`, [`crate::sampled`]). Default: the
+    /// scenarios' 1 ms.
+    #[serde(default = "default_communication_step")]
+    pub communication_step: f64,
+}
+
+fn default_communication_step() -> f64 {
+    1e-3
 }
 
 impl ComfortDesign {
@@ -278,6 +287,7 @@ impl ComfortDesign {
             ("sensor_noise.stroke", self.sensor_noise.stroke),
             ("sensor_noise.rate", self.sensor_noise.rate),
             ("delay_max", self.delay_max),
+            ("communication_step", self.communication_step),
             ("fault_time_constant", self.fault_time_constant),
             ("fault_threshold", self.fault_threshold),
             (

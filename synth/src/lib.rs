@@ -26,6 +26,7 @@ pub mod predictor;
 pub mod registry;
 pub mod riccati;
 pub mod robust;
+pub mod sampled;
 pub mod state_feedback;
 pub mod thesis;
 

@@ -50,6 +50,44 @@ pub struct ControlLaw {
     pub accommodation: Option<f64>,
 }
 
+impl ControlLaw {
+    /// The controller a `controller.json` describes, as its FMU runs it with the parameter
+    /// `tau` (the delay a predictor compensates). The fault-detection and anti-windup blocks
+    /// do not act on the commands of a loop in its linear range without a fault, and are left
+    /// out.
+    pub fn from_file(file: &crate::controller_file::ControllerFile, tau: f64) -> ControlLaw {
+        let m = |rows: &crate::controller_file::Rows| {
+            let (r, c) = (rows.len(), rows.first().map_or(0, |r| r.len()));
+            DMatrix::from_fn(r, c, |i, j| rows[i][j])
+        };
+        // An empty `A` still has as many (zero) columns in `B` as the file has inputs.
+        let lti = Lti::new(
+            m(&file.a),
+            DMatrix::from_fn(file.a.len(), file.inputs.len(), |i, j| file.b[i][j]),
+            DMatrix::from_fn(file.outputs.len(), file.a.len(), |i, j| file.c[i][j]),
+            m(&file.d),
+        );
+        ControlLaw {
+            lti,
+            inputs: file.inputs.iter().map(|s| s.name.clone()).collect(),
+            predictor: file.predictor.as_ref().map(|p| PredictorLaw {
+                a: m(&p.a),
+                b: m(&p.b),
+                k: m(&p.k),
+                reconstruction: crate::comfort_controllers::Reconstruction {
+                    s_y: m(&p.s_y),
+                    s_xi: m(&p.s_xi),
+                    a_xi: m(&p.a_xi),
+                    b_xi: m(&p.b_xi),
+                    b_xiu: m(&p.b_xiu),
+                },
+                delay: tau,
+            }),
+            accommodation: file.accommodation.as_ref().map(|a| a.rho_min),
+        }
+    }
+}
+
 /// A state feedback `u = K x̂` on the design state predicted over the actuators' known delay `θ`
 /// ([`crate::predictor`]): `x̂ = e^{Aθ} x + ∫_{t−θ}^{t} e^{A(t−s)} B u(s) ds`, `x = S_y y + S_ξ ξ`,
 /// `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u(t − θ)`.
@@ -173,6 +211,35 @@ fn output_row(rows: &[OutputRow], name: &str) -> Result<OutputRow, PredictionErr
         .ok_or_else(|| PredictionError::UnknownInput(name.into()))
 }
 
+/// The rows `y = C x + D_r r + D_u f` of the plant outputs a controller reads (`f` the applied
+/// forces).
+pub(crate) struct SensorRows {
+    pub c: DMatrix<f64>,
+    pub d_r: DMatrix<f64>,
+    pub d_u: DMatrix<f64>,
+}
+
+/// [`SensorRows`] of the named plant outputs (`x[k]` for the states) of the car `p`.
+pub(crate) fn sensor_rows(
+    p: &VehicleParams,
+    names: &[&str],
+) -> Result<SensorRows, PredictionError> {
+    let mut outputs = physical_outputs(p);
+    outputs.extend(vehicle::model::applied_force_rows());
+    let rows = names
+        .iter()
+        .map(|n| output_row(&outputs, n))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mat = |f: &dyn Fn(&OutputRow) -> Vec<f64>, cols: usize| {
+        DMatrix::from_fn(rows.len(), cols, |i, j| f(&rows[i])[j])
+    };
+    Ok(SensorRows {
+        c: mat(&|r| r.c.to_vec(), N_STATES),
+        d_r: mat(&|r| r.d_r.to_vec(), N_ROAD),
+        d_u: mat(&|r| r.d_u.to_vec(), N_ACTUATORS),
+    })
+}
+
 /// The eigenvalues of a complex matrix: the diagonal of its complex Schur form.
 fn eigenvalues(m: DMatrix<C64>) -> Vec<C64> {
     nalgebra::Schur::new(m)
@@ -189,7 +256,7 @@ fn eigenvalues(m: DMatrix<C64>) -> Vec<C64> {
 /// inputs is evaluated as its dual `(Bᵀ (jωI − Aᵀ)⁻¹ Cᵀ + Dᵀ)ᵀ`: the solve costs `O(n²)` per
 /// column, and the predictor's blocks have 4 outputs for dozens of inputs.
 #[derive(Clone)]
-struct HessenbergResponse {
+pub(crate) struct HessenbergResponse {
     h: DMatrix<f64>,
     qt_b: DMatrix<f64>,
     c_q: DMatrix<f64>,
@@ -199,7 +266,7 @@ struct HessenbergResponse {
 }
 
 impl HessenbergResponse {
-    fn new(sys: &Lti) -> Self {
+    pub(crate) fn new(sys: &Lti) -> Self {
         if sys.c.nrows() < sys.b.ncols() {
             let dual = Lti::new(
                 sys.a.transpose(),
@@ -242,9 +309,14 @@ impl HessenbergResponse {
     }
 
     fn at(&self, omega: f64) -> DMatrix<C64> {
+        self.at_s(C64::new(0.0, omega))
+    }
+
+    /// `C (sI − A)⁻¹ B + D` at any complex `s` (`e^{jωh}` for a discrete-time system).
+    pub(crate) fn at_s(&self, s: C64) -> DMatrix<C64> {
         let mut out = self.d.map(|v| C64::new(v, 0.0));
         if self.h.nrows() > 0 {
-            let x = solve_hessenberg(&self.h, omega, &self.qt_b);
+            let x = solve_hessenberg(&self.h, s, &self.qt_b);
             out += self.c_q.map(|v| C64::new(v, 0.0)) * x;
         }
         match self.dual {
@@ -254,13 +326,13 @@ impl HessenbergResponse {
     }
 }
 
-/// `(jωI − H)⁻¹ B` for upper Hessenberg `H`: Gaussian elimination with partial pivoting between
+/// `(sI − H)⁻¹ B` for upper Hessenberg `H`: Gaussian elimination with partial pivoting between
 /// neighbouring rows (the only ones with a sub-diagonal entry), `O(n²)` per column of `B`.
-fn solve_hessenberg(h: &DMatrix<f64>, omega: f64, b: &DMatrix<f64>) -> DMatrix<C64> {
+fn solve_hessenberg(h: &DMatrix<f64>, s: C64, b: &DMatrix<f64>) -> DMatrix<C64> {
     let n = h.nrows();
     let mut m: DMatrix<C64> = h.map(|v| C64::new(-v, 0.0));
     for i in 0..n {
-        m[(i, i)] += C64::new(0.0, omega);
+        m[(i, i)] += s;
     }
     let mut x: DMatrix<C64> = b.map(|v| C64::new(v, 0.0));
     for k in 0..n.saturating_sub(1) {
@@ -398,21 +470,17 @@ impl Loop {
         }
         let p = &conditions.params;
         let ss = StateSpace::new(p);
+        let names: Vec<&str> = law.map_or(Vec::new(), |l| {
+            l.inputs.iter().map(|s| s.as_str()).collect()
+        });
+        let sensors = sensor_rows(p, &names)?;
         let mut outputs = physical_outputs(p);
         outputs.extend(vehicle::model::applied_force_rows());
-        let names: &[String] = law.map_or(&[], |l| &l.inputs);
-        let rows = names
-            .iter()
-            .map(|n| output_row(&outputs, n))
-            .collect::<Result<Vec<_>, _>>()?;
-        let mat = |f: &dyn Fn(&OutputRow) -> Vec<f64>, cols: usize| {
-            DMatrix::from_fn(rows.len(), cols, |i, j| f(&rows[i])[j])
-        };
         let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
         let lp = Loop {
-            c_y: mat(&|r| r.c.to_vec(), N_STATES),
-            d_yr: mat(&|r| r.d_r.to_vec(), N_ROAD),
-            d_yu: mat(&|r| r.d_u.to_vec(), N_ACTUATORS),
+            c_y: sensors.c,
+            d_yr: sensors.d_r,
+            d_yu: sensors.d_u,
             controller: law.map(|l| HessenbergResponse::new(&l.lti)),
             predictor: law
                 .and_then(|l| l.predictor.as_ref())
@@ -689,21 +757,12 @@ impl Loop {
 
     /// The predicted figures on `road`.
     pub fn figures(&self, road: &ComfortRoad) -> Figures {
-        let (f_lo, f_hi) = road.band_hz();
-        let psd = vehicle::road::iso_velocity_psd(road.iso_class.0, road.speed);
         let delay = (self.conditions.params.l1 + self.conditions.params.l2) / road.speed;
         let (wk, we) = (Weighting::wk(), Weighting::we());
-        // Mean squares, accumulated by the trapezoid rule in ln f.
-        const N_OUT: usize = 3 + 3 + 4 + 4 + 5;
-        let mut acc = [0.0f64; N_OUT];
-        let mut prev: Option<[f64; N_OUT]> = None;
-        let step = (f_hi / f_lo).ln() / (FREQUENCIES - 1) as f64;
         let names_w = ["a_seat", "alpha_roll", "alpha_pitch"];
         let names_plain = ["a_body", "alpha_roll", "alpha_pitch"];
-        for i in 0..FREQUENCIES {
-            let f = f_lo * (step * i as f64).exp();
-            let omega = 2.0 * PI * f;
-            let mut density = [0.0f64; N_OUT];
+        let mean_squares = road_integral(road, |omega, f| {
+            let mut density = [0.0f64; N_CHANNELS];
             for track in 0..2 {
                 let r = track_input(track, omega, delay);
                 let resp = self.respond(omega, &r);
@@ -737,16 +796,20 @@ impl Loop {
                     k += 1;
                 }
             }
-            // ∫ S |H|² df = ∫ S |H|² f d(ln f).
-            let value = density.map(|d| d * psd * f);
-            if let Some(p) = prev {
-                for k in 0..N_OUT {
-                    acc[k] += 0.5 * (p[k] + value[k]) * step;
-                }
-            }
-            prev = Some(value);
-        }
-        let rms = acc.map(|v| v.max(0.0).sqrt());
+            density
+        });
+        Figures::from_mean_squares(mean_squares)
+    }
+}
+
+/// The number of figures: `W_k` seat, `W_e` roll and pitch, unweighted body heave, roll and
+/// pitch, four strokes, four tyre-load ratios, five forces ([`Figures`]' order).
+pub(crate) const N_CHANNELS: usize = 3 + 3 + 4 + 4 + 5;
+
+impl Figures {
+    /// The figures from their mean squares, in [`N_CHANNELS`]' order.
+    pub(crate) fn from_mean_squares(mean_squares: [f64; N_CHANNELS]) -> Figures {
+        let rms = mean_squares.map(|v| v.max(0.0).sqrt());
         Figures {
             wk_rms_seat_m_s2: rms[0],
             we_rms_roll_rad_s2: rms[1],
@@ -765,6 +828,32 @@ impl Loop {
     }
 }
 
+/// `∫ S Σ_track |H|² df` over the road FMU's band: `density(ω, f)` is `Σ_track |H|²` per
+/// figure at a unit road velocity, accumulated by the trapezoid rule in `ln f` on
+/// [`FREQUENCIES`] points and weighted by the road's velocity PSD `S`.
+pub(crate) fn road_integral(
+    road: &ComfortRoad,
+    mut density: impl FnMut(f64, f64) -> [f64; N_CHANNELS],
+) -> [f64; N_CHANNELS] {
+    let (f_lo, f_hi) = road.band_hz();
+    let psd = vehicle::road::iso_velocity_psd(road.iso_class.0, road.speed);
+    let mut acc = [0.0f64; N_CHANNELS];
+    let mut prev: Option<[f64; N_CHANNELS]> = None;
+    let step = (f_hi / f_lo).ln() / (FREQUENCIES - 1) as f64;
+    for i in 0..FREQUENCIES {
+        let f = f_lo * (step * i as f64).exp();
+        // ∫ S |H|² df = ∫ S |H|² f d(ln f).
+        let value = density(2.0 * PI * f, f).map(|d| d * psd * f);
+        if let Some(p) = prev {
+            for k in 0..N_CHANNELS {
+                acc[k] += 0.5 * (p[k] + value[k]) * step;
+            }
+        }
+        prev = Some(value);
+    }
+    acc
+}
+
 /// The predicted figures of `law` (`None`: the passive car) at `conditions` on `road`.
 pub fn predict(
     law: Option<&ControlLaw>,
@@ -776,7 +865,7 @@ pub fn predict(
 
 /// The road input `[z_r; ż_r]` of a unit road velocity on `track`'s front wheel at `ω`: the
 /// heights its integral, the rear wheel the same `delay` later (exactly, `e^{−jω delay}`).
-fn track_input(track: usize, omega: f64, delay: f64) -> DVector<C64> {
+pub(crate) fn track_input(track: usize, omega: f64, delay: f64) -> DVector<C64> {
     let s = C64::new(0.0, omega);
     let rear = C64::from_polar(1.0, -omega * delay);
     let mut r = DVector::<C64>::zeros(N_ROAD);
