@@ -140,16 +140,23 @@ impl WeightedCar {
         self.a.nrows()
     }
 
-    /// `Q_c = (1/h) ∫₀^τ e^{Fᵀs} m_cᵀ m_c e^{Fs} ds` per figure `c`, with
-    /// `F = [[A, B], [0, 0]]`: Van Loan's `exp([[−Fᵀ, mᵀm], [0, F]] τ) = [[·, E₁₂], [0, E₂₂]]`,
-    /// `∫ = E₂₂ᵀ E₁₂`.
-    fn power_forms(&self, tau: f64, h: f64) -> Result<Vec<DMatrix<f64>>, PredictionError> {
+    /// `F = [[A, B], [0, 0]]`: the car with its held inputs as constant states.
+    fn held_generator(&self) -> DMatrix<f64> {
         let n = self.order() + N_HELD;
         let mut f = DMatrix::zeros(n, n);
         f.view_mut((0, 0), (self.order(), self.order()))
             .copy_from(&self.a);
         f.view_mut((0, self.order()), (self.order(), N_HELD))
             .copy_from(&self.b);
+        f
+    }
+
+    /// `Q_c = (1/h) ∫₀^τ e^{Fᵀs} m_cᵀ m_c e^{Fs} ds` per figure `c`, `F` the
+    /// [`WeightedCar::held_generator`]: Van Loan's `exp([[−Fᵀ, mᵀm], [0, F]] τ) =
+    /// [[·, E₁₂], [0, E₂₂]]`, `∫ = E₂₂ᵀ E₁₂`.
+    fn power_forms(&self, tau: f64, h: f64) -> Result<Vec<DMatrix<f64>>, PredictionError> {
+        let n = self.order() + N_HELD;
+        let f = self.held_generator();
         (0..N_CHANNELS)
             .map(|c| {
                 let row = self.m.row(c);
@@ -635,11 +642,7 @@ mod tests {
         let (h, tau) = (1e-3, 0.7e-3);
         let forms = car.power_forms(tau, h).unwrap();
         let n = car.order() + N_HELD;
-        let mut f = DMatrix::zeros(n, n);
-        f.view_mut((0, 0), (car.order(), car.order()))
-            .copy_from(&car.a);
-        f.view_mut((0, car.order()), (car.order(), N_HELD))
-            .copy_from(&car.b);
+        let f = car.held_generator();
         let q = DVector::from_fn(n, |i, _| ((i * 37 % 11) as f64 - 5.0) * 0.1);
         // Simpson's rule on 2000 intervals.
         let m = 2000;
