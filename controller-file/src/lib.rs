@@ -18,6 +18,21 @@ pub const FORMAT: &str = "suspension-controller/2";
 /// A matrix as its rows.
 pub type Rows = Vec<Vec<f64>>;
 
+/// Whether `rows` is an `r × c` matrix, an empty dimension written as no rows or as rows of
+/// none; if not, what was found instead (for the reader's error message).
+pub fn shape_mismatch(rows: &[Vec<f64>], r: usize, c: usize) -> Option<String> {
+    let shaped = rows.len() == r && rows.iter().all(|row| row.len() == c)
+        || (r == 0 && rows.is_empty())
+        || (c == 0 && rows.len() == r && rows.iter().all(|row| row.is_empty()));
+    (!shaped).then(|| {
+        format!(
+            "{} rows of lengths {:?}",
+            rows.len(),
+            rows.iter().map(|x| x.len()).collect::<Vec<_>>()
+        )
+    })
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerFile {
@@ -231,6 +246,24 @@ impl ControllerFile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shape rule both readers share: `r × c`, an empty dimension as no rows or rows of
+    /// none; anything else named by what was found.
+    #[test]
+    fn shapes_are_checked_with_empty_dimensions_written_either_way() {
+        assert_eq!(
+            shape_mismatch(&[vec![1.0, 2.0], vec![3.0, 4.0]], 2, 2),
+            None
+        );
+        assert_eq!(shape_mismatch(&[], 0, 3), None);
+        assert_eq!(shape_mismatch(&[vec![], vec![]], 2, 0), None);
+        assert_eq!(
+            shape_mismatch(&[vec![1.0, 2.0], vec![3.0]], 2, 2).as_deref(),
+            Some("2 rows of lengths [2, 1]")
+        );
+        assert!(shape_mismatch(&[], 2, 0).is_some());
+        assert!(shape_mismatch(&[vec![1.0]], 2, 1).is_some());
+    }
 
     fn file() -> ControllerFile {
         ControllerFile {

@@ -109,16 +109,7 @@ fn matrix(
     r: usize,
     c: usize,
 ) -> Result<DMatrix<f64>, SpecError> {
-    // An empty dimension may be written as [] (no rows) or as rows of [] (no columns).
-    let ok = rows.len() == r && rows.iter().all(|row| row.len() == c)
-        || (r == 0 && rows.is_empty())
-        || (c == 0 && rows.iter().all(|row| row.is_empty()) && rows.len() == r);
-    if !ok {
-        let found = format!(
-            "{} rows of lengths {:?}",
-            rows.len(),
-            rows.iter().map(|x| x.len()).collect::<Vec<_>>()
-        );
+    if let Some(found) = controller_file::shape_mismatch(rows, r, c) {
         return Err(SpecError::Shape {
             name,
             rows: r,

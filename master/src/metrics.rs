@@ -6,7 +6,7 @@
 //! discretised exactly for the sample step with the signal linear between samples (first-order
 //! hold).
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 use num_complex::Complex64;
 use std::f64::consts::PI;
 use vehicle::iso2631::Weighting;
@@ -15,19 +15,12 @@ use vehicle::iso2631::Weighting;
 pub fn weighted(signal: &[f64], h: f64, weighting: &Weighting) -> Vec<f64> {
     let mut out = signal.to_vec();
     for sec in &weighting.sections {
-        // Controllable canonical form: x' = [[0, 1], [−a₀, −a₁]] x + [0; 1] u,
-        // y = [b₀ − b₂a₀, b₁ − b₂a₁] x + b₂ u.
-        let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -sec.a[0], -sec.a[1]]);
-        let b = DMatrix::from_column_slice(2, 1, &[0.0, 1.0]);
-        let c = [
-            sec.b[0] - sec.b[2] * sec.a[0],
-            sec.b[1] - sec.b[2] * sec.a[1],
-        ];
+        let (a, b, c, b2) = sec.canonical();
         let d = vehicle::exact::discretize(&a, &b, h).expect("a fixed ISO 2631 filter section");
         let mut x = DVector::zeros(2);
         let input = out.clone();
         for k in 0..input.len() {
-            out[k] = c[0] * x[0] + c[1] * x[1] + sec.b[2] * input[k];
+            out[k] = c[0] * x[0] + c[1] * x[1] + b2 * input[k];
             let next = input.get(k + 1).copied().unwrap_or(input[k]);
             x = &d.phi * &x + &d.gamma_hold * input[k] + &d.gamma_ramp * (next - input[k]);
         }

@@ -786,8 +786,8 @@ fn held_prediction(
             )
         },
     )?;
-    let predicted = lp.figures(&d.road, &nominal.params);
-    let [seat, roll, pitch] = lp.recorded_weighted(&d.road, &nominal.params);
+    let held = lp.figures(&d.road);
+    let (predicted, [seat, roll, pitch]) = (held.time_averaged, held.recorded_weighted);
     Ok(Held {
         step_s: d.communication_step,
         predicted_wk_rms_seat_m_s2: predicted.wk_rms_seat_m_s2,

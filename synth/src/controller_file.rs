@@ -13,6 +13,23 @@ pub fn matrix_rows(m: &DMatrix<f64>) -> Rows {
     m.row_iter().map(|r| r.iter().copied().collect()).collect()
 }
 
+/// A matrix of `r × c` from the file's rows, the inverse of [`matrix_rows`] (the shape rule
+/// is the controller FMU's, [`controller_file::shape_mismatch`]). Another shape or a
+/// non-finite number is refused by the matrix's `name`.
+pub fn matrix(name: &str, rows: &Rows, r: usize, c: usize) -> Result<DMatrix<f64>, String> {
+    if let Some(found) = controller_file::shape_mismatch(rows, r, c) {
+        return Err(format!(
+            "controller.json: {name} must be {r}×{c}, found {found}"
+        ));
+    }
+    if rows.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(format!(
+            "controller.json: {name} contains a non-finite number"
+        ));
+    }
+    Ok(DMatrix::from_fn(r, c, |i, j| rows[i][j]))
+}
+
 /// Unit of a plant output by name (states `x[k]`, physical outputs, applied forces).
 pub fn plant_output_unit(name: &str) -> &'static str {
     if let Some(k) = name

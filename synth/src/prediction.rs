@@ -54,37 +54,44 @@ impl ControlLaw {
     /// The controller a `controller.json` describes, as its FMU runs it with the parameter
     /// `tau` (the delay a predictor compensates). The fault-detection and anti-windup blocks
     /// do not act on the commands of a loop in its linear range without a fault, and are left
-    /// out.
-    pub fn from_file(file: &crate::controller_file::ControllerFile, tau: f64) -> ControlLaw {
-        let m = |rows: &crate::controller_file::Rows| {
-            let (r, c) = (rows.len(), rows.first().map_or(0, |r| r.len()));
-            DMatrix::from_fn(r, c, |i, j| rows[i][j])
-        };
-        // An empty `A` still has as many (zero) columns in `B` as the file has inputs.
+    /// out. A matrix of the wrong shape is refused by name.
+    pub fn from_file(
+        file: &crate::controller_file::ControllerFile,
+        tau: f64,
+    ) -> Result<ControlLaw, String> {
+        use crate::controller_file::matrix;
+        let (n, ny, nu) = (file.a.len(), file.inputs.len(), file.outputs.len());
         let lti = Lti::new(
-            m(&file.a),
-            DMatrix::from_fn(file.a.len(), file.inputs.len(), |i, j| file.b[i][j]),
-            DMatrix::from_fn(file.outputs.len(), file.a.len(), |i, j| file.c[i][j]),
-            m(&file.d),
+            matrix("A", &file.a, n, n)?,
+            matrix("B", &file.b, n, ny)?,
+            matrix("C", &file.c, nu, n)?,
+            matrix("D", &file.d, nu, ny)?,
         );
-        ControlLaw {
+        let predictor = match &file.predictor {
+            None => None,
+            Some(p) => {
+                let (np, m) = (p.a.len(), p.a_xi.len());
+                Some(PredictorLaw {
+                    a: matrix("predictor.A", &p.a, np, np)?,
+                    b: matrix("predictor.B", &p.b, np, nu)?,
+                    k: matrix("predictor.K", &p.k, nu, np)?,
+                    reconstruction: crate::comfort_controllers::Reconstruction {
+                        s_y: matrix("predictor.S_y", &p.s_y, np, ny)?,
+                        s_xi: matrix("predictor.S_xi", &p.s_xi, np, m)?,
+                        a_xi: matrix("predictor.A_xi", &p.a_xi, m, m)?,
+                        b_xi: matrix("predictor.B_xi", &p.b_xi, m, ny)?,
+                        b_xiu: matrix("predictor.B_xiu", &p.b_xiu, m, nu)?,
+                    },
+                    delay: tau,
+                })
+            }
+        };
+        Ok(ControlLaw {
             lti,
             inputs: file.inputs.iter().map(|s| s.name.clone()).collect(),
-            predictor: file.predictor.as_ref().map(|p| PredictorLaw {
-                a: m(&p.a),
-                b: m(&p.b),
-                k: m(&p.k),
-                reconstruction: crate::comfort_controllers::Reconstruction {
-                    s_y: m(&p.s_y),
-                    s_xi: m(&p.s_xi),
-                    a_xi: m(&p.a_xi),
-                    b_xi: m(&p.b_xi),
-                    b_xiu: m(&p.b_xiu),
-                },
-                delay: tau,
-            }),
+            predictor,
             accommodation: file.accommodation.as_ref().map(|a| a.rho_min),
-        }
+        })
     }
 }
 
@@ -219,16 +226,22 @@ pub(crate) struct SensorRows {
     pub d_u: DMatrix<f64>,
 }
 
-/// [`SensorRows`] of the named plant outputs (`x[k]` for the states) of the car `p`.
-pub(crate) fn sensor_rows(
-    p: &VehicleParams,
-    names: &[&str],
-) -> Result<SensorRows, PredictionError> {
+/// The plant's outputs a controller may read: the physical outputs of the car `p` and the
+/// applied forces (load cells).
+pub(crate) fn plant_outputs(p: &VehicleParams) -> Vec<OutputRow> {
     let mut outputs = physical_outputs(p);
     outputs.extend(vehicle::model::applied_force_rows());
+    outputs
+}
+
+/// [`SensorRows`] of the named `outputs` (`x[k]` for the states).
+pub(crate) fn sensor_rows(
+    outputs: &[OutputRow],
+    names: &[&str],
+) -> Result<SensorRows, PredictionError> {
     let rows = names
         .iter()
-        .map(|n| output_row(&outputs, n))
+        .map(|n| output_row(outputs, n))
         .collect::<Result<Vec<_>, _>>()?;
     let mat = |f: &dyn Fn(&OutputRow) -> Vec<f64>, cols: usize| {
         DMatrix::from_fn(rows.len(), cols, |i, j| f(&rows[i])[j])
@@ -238,6 +251,28 @@ pub(crate) fn sensor_rows(
         d_r: mat(&|r| r.d_r.to_vec(), N_ROAD),
         d_u: mat(&|r| r.d_u.to_vec(), N_ACTUATORS),
     })
+}
+
+/// The plant outputs the figures weight by ISO 2631-1: `W_k` on the seat, `W_e` on roll and
+/// pitch ([`Figures`]' first three).
+pub(crate) const WEIGHTED_SIGNALS: [&str; 3] = ["a_seat", "alpha_roll", "alpha_pitch"];
+
+/// The plant outputs of the unweighted figures, in [`Figures`]' order after the weighted ones
+/// and before the forces, each with what it is divided by (a tyre's static load for its load
+/// ratio).
+pub(crate) fn plain_signals(static_load: &[f64; 4]) -> Vec<(String, f64)> {
+    let mut out: Vec<(String, f64)> = ["a_body", "alpha_roll", "alpha_pitch"]
+        .iter()
+        .map(|s| (s.to_string(), 1.0))
+        .collect();
+    out.extend(CORNERS.iter().map(|c| (format!("stroke_{c}"), 1.0)));
+    out.extend(
+        CORNERS
+            .iter()
+            .zip(static_load)
+            .map(|(c, load)| (format!("tire_load_{c}"), *load)),
+    );
+    out
 }
 
 /// The eigenvalues of a complex matrix: the diagonal of its complex Schur form.
@@ -473,9 +508,8 @@ impl Loop {
         let names: Vec<&str> = law.map_or(Vec::new(), |l| {
             l.inputs.iter().map(|s| s.as_str()).collect()
         });
-        let sensors = sensor_rows(p, &names)?;
-        let mut outputs = physical_outputs(p);
-        outputs.extend(vehicle::model::applied_force_rows());
+        let outputs = plant_outputs(p);
+        let sensors = sensor_rows(&outputs, &names)?;
         let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
         let lp = Loop {
             c_y: sensors.c,
@@ -759,36 +793,28 @@ impl Loop {
     pub fn figures(&self, road: &ComfortRoad) -> Figures {
         let delay = (self.conditions.params.l1 + self.conditions.params.l2) / road.speed;
         let (wk, we) = (Weighting::wk(), Weighting::we());
-        let names_w = ["a_seat", "alpha_roll", "alpha_pitch"];
-        let names_plain = ["a_body", "alpha_roll", "alpha_pitch"];
+        let weighted: Vec<&OutputRow> = WEIGHTED_SIGNALS.iter().map(|n| self.row(n)).collect();
+        let plain: Vec<(&OutputRow, f64)> = plain_signals(&self.static_load)
+            .iter()
+            .map(|(n, divisor)| (self.row(n), *divisor))
+            .collect();
         let mean_squares = road_integral(road, |omega, f| {
             let mut density = [0.0f64; N_CHANNELS];
             for track in 0..2 {
                 let r = track_input(track, omega, delay);
                 let resp = self.respond(omega, &r);
                 let mut k = 0;
-                for (j, name) in names_w.iter().enumerate() {
+                for (j, row) in weighted.iter().enumerate() {
                     let w = if j == 0 {
                         wk.response(f)
                     } else {
                         we.response(f)
                     };
-                    density[k] += (w * self.output(self.row(name), &r, &resp)).norm_sqr();
+                    density[k] += (w * self.output(row, &r, &resp)).norm_sqr();
                     k += 1;
                 }
-                for name in names_plain {
-                    density[k] += self.output(self.row(name), &r, &resp).norm_sqr();
-                    k += 1;
-                }
-                for c in CORNERS {
-                    density[k] += self
-                        .output(self.row(&format!("stroke_{c}")), &r, &resp)
-                        .norm_sqr();
-                    k += 1;
-                }
-                for (i, c) in CORNERS.iter().enumerate() {
-                    let v = self.output(self.row(&format!("tire_load_{c}")), &r, &resp);
-                    density[k] += (v / self.static_load[i]).norm_sqr();
+                for (row, divisor) in &plain {
+                    density[k] += (self.output(row, &r, &resp) / *divisor).norm_sqr();
                     k += 1;
                 }
                 for a in 0..N_ACTUATORS {
@@ -831,21 +857,21 @@ impl Figures {
 /// `∫ S Σ_track |H|² df` over the road FMU's band: `density(ω, f)` is `Σ_track |H|²` per
 /// figure at a unit road velocity, accumulated by the trapezoid rule in `ln f` on
 /// [`FREQUENCIES`] points and weighted by the road's velocity PSD `S`.
-pub(crate) fn road_integral(
+pub(crate) fn road_integral<const N: usize>(
     road: &ComfortRoad,
-    mut density: impl FnMut(f64, f64) -> [f64; N_CHANNELS],
-) -> [f64; N_CHANNELS] {
+    mut density: impl FnMut(f64, f64) -> [f64; N],
+) -> [f64; N] {
     let (f_lo, f_hi) = road.band_hz();
     let psd = vehicle::road::iso_velocity_psd(road.iso_class.0, road.speed);
-    let mut acc = [0.0f64; N_CHANNELS];
-    let mut prev: Option<[f64; N_CHANNELS]> = None;
+    let mut acc = [0.0f64; N];
+    let mut prev: Option<[f64; N]> = None;
     let step = (f_hi / f_lo).ln() / (FREQUENCIES - 1) as f64;
     for i in 0..FREQUENCIES {
         let f = f_lo * (step * i as f64).exp();
         // ∫ S |H|² df = ∫ S |H|² f d(ln f).
         let value = density(2.0 * PI * f, f).map(|d| d * psd * f);
         if let Some(p) = prev {
-            for k in 0..N_CHANNELS {
+            for k in 0..N {
                 acc[k] += 0.5 * (p[k] + value[k]) * step;
             }
         }
@@ -865,7 +891,7 @@ pub fn predict(
 
 /// The road input `[z_r; ż_r]` of a unit road velocity on `track`'s front wheel at `ω`: the
 /// heights its integral, the rear wheel the same `delay` later (exactly, `e^{−jω delay}`).
-pub(crate) fn track_input(track: usize, omega: f64, delay: f64) -> DVector<C64> {
+pub fn track_input(track: usize, omega: f64, delay: f64) -> DVector<C64> {
     let s = C64::new(0.0, omega);
     let rear = C64::from_polar(1.0, -omega * delay);
     let mut r = DVector::<C64>::zeros(N_ROAD);

@@ -34,13 +34,14 @@
 use crate::design::ComfortRoad;
 use crate::hinf_norm::Lti;
 use crate::prediction::{
-    road_integral, track_input, Conditions, ControlLaw, Figures, HessenbergResponse,
-    PredictionError, PredictorLaw, N_CHANNELS,
+    plain_signals, plant_outputs, road_integral, sensor_rows, track_input, Conditions, ControlLaw,
+    Figures, HessenbergResponse, PredictionError, PredictorLaw, SensorRows, N_CHANNELS,
+    WEIGHTED_SIGNALS,
 };
 use nalgebra::{Complex, DMatrix, DVector};
 use vehicle::exact::{discretize, expm};
 use vehicle::iso2631::Weighting;
-use vehicle::model::{physical_outputs, StateSpace, CORNERS, N_ACTUATORS, N_ROAD, N_STATES};
+use vehicle::model::{OutputRow, StateSpace, N_ACTUATORS, N_ROAD, N_STATES};
 
 type C64 = Complex<f64>;
 
@@ -58,38 +59,27 @@ struct WeightedCar {
 }
 
 impl WeightedCar {
-    fn new(conditions: &Conditions) -> Self {
-        let p = &conditions.params;
+    fn new(p: &vehicle::VehicleParams, outputs: &[OutputRow]) -> Self {
         let ss = StateSpace::new(p);
-        let rows = physical_outputs(p);
-        let row = |name: &str| {
-            rows.iter()
-                .find(|r| r.name == name)
-                .expect("a physical output")
-        };
-        // `[c | d_r d_u]` of a physical output.
-        let held_row = |name: &str| {
-            let r = row(name);
-            let mut c = DMatrix::zeros(1, N_STATES);
+        // The figures' signals `c x + [d_r d_u] [r; f]`: the weighted ones, then the plain
+        // ones divided by their divisors.
+        let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
+        let plain = plain_signals(&static_load);
+        let names: Vec<&str> = WEIGHTED_SIGNALS
+            .iter()
+            .copied()
+            .chain(plain.iter().map(|(n, _)| n.as_str()))
+            .collect();
+        let rows = sensor_rows(outputs, &names).expect("physical outputs");
+        let signal = |k: usize| {
             let mut d = DMatrix::zeros(1, N_HELD);
-            for j in 0..N_STATES {
-                c[(0, j)] = r.c[j];
-            }
-            for j in 0..N_ROAD {
-                d[(0, j)] = r.d_r[j];
-            }
-            for j in 0..N_ACTUATORS {
-                d[(0, N_ROAD + j)] = r.d_u[j];
-            }
-            (c, d)
+            d.view_mut((0, 0), (1, N_ROAD)).copy_from(&rows.d_r.row(k));
+            d.view_mut((0, N_ROAD), (1, N_ACTUATORS))
+                .copy_from(&rows.d_u.row(k));
+            (rows.c.row(k).into_owned(), d)
         };
-        let weighted = [
-            ("a_seat", Weighting::wk()),
-            ("alpha_roll", Weighting::we()),
-            ("alpha_pitch", Weighting::we()),
-        ];
-        let filters: Vec<[DMatrix<f64>; 4]> =
-            weighted.iter().map(|(_, w)| w.state_space()).collect();
+        let weightings = [Weighting::wk(), Weighting::we(), Weighting::we()];
+        let filters = weightings.map(|w| w.state_space());
         let n = N_STATES + filters.iter().map(|f| f[0].nrows()).sum::<usize>();
         let mut a = DMatrix::zeros(n, n);
         let mut b = DMatrix::zeros(n, N_HELD);
@@ -98,10 +88,10 @@ impl WeightedCar {
         b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&ss.b_r);
         b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
             .copy_from(&ss.b_u);
-        // A weighting filter `(A_w, B_w, C_w, D_w)` driven by the output `c x + d v`.
+        // A weighting filter `(A_w, B_w, C_w, D_w)` driven by the signal `c x + d v`.
         let mut at = N_STATES;
-        for (k, ((name, _), [a_w, b_w, c_w, d_w])) in weighted.iter().zip(&filters).enumerate() {
-            let (c, d) = held_row(name);
+        for (k, [a_w, b_w, c_w, d_w]) in filters.iter().enumerate() {
+            let (c, d) = signal(k);
             let nw = a_w.nrows();
             a.view_mut((at, at), (nw, nw)).copy_from(a_w);
             a.view_mut((at, 0), (nw, N_STATES)).copy_from(&(b_w * &c));
@@ -112,26 +102,16 @@ impl WeightedCar {
             m.view_mut((k, n), (1, N_HELD)).copy_from(&(&d * dw));
             at += nw;
         }
-        let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
-        let mut plain: Vec<(String, f64)> = ["a_body", "alpha_roll", "alpha_pitch"]
-            .iter()
-            .map(|s| (s.to_string(), 1.0))
-            .collect();
-        plain.extend(CORNERS.iter().map(|c| (format!("stroke_{c}"), 1.0)));
-        plain.extend(
-            CORNERS
-                .iter()
-                .enumerate()
-                .map(|(i, c)| (format!("tire_load_{c}"), 1.0 / static_load[i])),
-        );
-        for (k, (name, scale)) in plain.iter().enumerate() {
-            let (c, d) = held_row(name);
-            m.view_mut((3 + k, 0), (1, N_STATES))
-                .copy_from(&(c * *scale));
-            m.view_mut((3 + k, n), (1, N_HELD)).copy_from(&(d * *scale));
+        let first = WEIGHTED_SIGNALS.len();
+        for (k, (_, divisor)) in plain.iter().enumerate() {
+            let (c, d) = signal(first + k);
+            m.view_mut((first + k, 0), (1, N_STATES))
+                .copy_from(&(c / *divisor));
+            m.view_mut((first + k, n), (1, N_HELD))
+                .copy_from(&(d / *divisor));
         }
         for i in 0..N_ACTUATORS {
-            m[(3 + plain.len() + i, n + N_ROAD + i)] = 1.0;
+            m[(first + plain.len() + i, n + N_ROAD + i)] = 1.0;
         }
         WeightedCar { a, b, m }
     }
@@ -258,6 +238,8 @@ fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<Lti, PredictionError> 
 pub struct SampledLoop {
     car: WeightedCar,
     step: f64,
+    /// `l1 + l2` [m]: the rear wheels see the front track `wheelbase / V` later.
+    wheelbase: f64,
     /// `θ − h ⌊θ / h⌋`: where in a step the delayed command changes.
     eps: f64,
     /// The closed loop at the sampling instants, road samples in, `[x_k; v_a; v_b; recorded]`
@@ -288,7 +270,9 @@ impl SampledLoop {
                 *rho /= rho.clamp(rho_min, 1.0);
             }
         }
-        let car = WeightedCar::new(&conditions);
+        let p = &conditions.params;
+        let outputs = plant_outputs(p);
+        let car = WeightedCar::new(p, &outputs);
         let h = step;
         let theta = conditions.delay;
         let d = (theta / h + 1e-9).floor().max(0.0) as usize;
@@ -307,17 +291,15 @@ impl SampledLoop {
         let rho = DMatrix::from_diagonal(&DVector::from_column_slice(&conditions.effectiveness));
 
         let controller = law.map(|l| discrete_controller(l, h)).transpose()?;
-        let (nc, ny) = controller
-            .as_ref()
-            .map_or((0, 0), |k| (k.order(), k.b.ncols()));
+        let nc = controller.as_ref().map_or(0, |k| k.order());
         // The plant's outputs read at `t_k` carry the force of the command `lag_read` back.
         let lag_read = if theta == 0.0 {
             1
         } else {
             d + usize::from(eps > 0.0)
         };
-        // Commands kept: `u_{k−1} … u_{k−depth}`.
-        let depth = (d + 1).max(lag_read);
+        // Commands kept: `u_{k−1} … u_{k−depth}` (`lag_read ≤ d + 1`).
+        let depth = d + 1;
         let nu = N_ACTUATORS;
         let n = na + nc + depth * nu;
         let (xi0, hist0) = (na, na + nc);
@@ -330,17 +312,21 @@ impl SampledLoop {
                 .fill_with_identity();
             f
         };
+        // What the plant outputs at `t_k`: `C x + D_r r + D_u ρ u_{k−lag_read}`.
+        let read = |rows: &SensorRows| {
+            let (mut on_s, _) = zero(rows.c.nrows());
+            on_s.view_mut((0, 0), (rows.c.nrows(), N_STATES))
+                .copy_from(&rows.c);
+            on_s += &rows.d_u * &rho * past(lag_read).0;
+            (on_s, rows.d_r.clone())
+        };
         let mut a_cl = DMatrix::zeros(n, n);
         let mut b_cl = DMatrix::zeros(n, N_ROAD);
         let u_now = match (&controller, law) {
             (Some(k), Some(law)) => {
-                // y_k = C_y x + D_yr r + D_yu ρ u_{k−lag_read}; u_k = C ξ + D y_k.
+                // y_k as read; u_k = C ξ + D y_k.
                 let names: Vec<&str> = law.inputs.iter().map(|s| s.as_str()).collect();
-                let sensors = crate::prediction::sensor_rows(&conditions.params, &names)?;
-                let (mut y_s, y_r) = zero(ny);
-                y_s.view_mut((0, 0), (ny, N_STATES)).copy_from(&sensors.c);
-                let y_r = y_r + &sensors.d_r;
-                y_s += &sensors.d_u * &rho * past(lag_read).0;
+                let (y_s, y_r) = read(&sensor_rows(&outputs, &names)?);
                 let mut u_s = &k.d * &y_s;
                 let mut on_xi = u_s.view_mut((0, xi0), (nu, nc));
                 on_xi += &k.c;
@@ -381,15 +367,10 @@ impl SampledLoop {
         // weighted figures' signals as the plant outputs them at `t_k` (what a master records).
         let mut c_out = DMatrix::zeros(na + 2 * N_HELD + 3, n);
         let mut d_out = DMatrix::zeros(na + 2 * N_HELD + 3, N_ROAD);
-        let read = crate::prediction::sensor_rows(
-            &conditions.params,
-            &["a_seat", "alpha_roll", "alpha_pitch"],
-        )?;
+        let (recorded_s, recorded_r) = read(&sensor_rows(&outputs, &WEIGHTED_SIGNALS)?);
         let at = na + 2 * N_HELD;
-        c_out.view_mut((at, 0), (3, N_STATES)).copy_from(&read.c);
-        let mut rows = c_out.rows_mut(at, 3);
-        rows += &read.d_u * &rho * past(lag_read).0;
-        d_out.rows_mut(at, 3).copy_from(&read.d_r);
+        c_out.rows_mut(at, 3).copy_from(&recorded_s);
+        d_out.rows_mut(at, 3).copy_from(&recorded_r);
         c_out.view_mut((0, 0), (na, na)).fill_with_identity();
         for (k, part) in [&early, &late].iter().enumerate() {
             let at = na + k * N_HELD;
@@ -409,6 +390,7 @@ impl SampledLoop {
             car.power_forms(h - eps, h)?,
         );
         Ok(SampledLoop {
+            wheelbase: p.l1 + p.l2,
             car,
             step: h,
             eps,
@@ -418,10 +400,10 @@ impl SampledLoop {
         })
     }
 
-    /// Time-averaged power of each figure per unit road velocity on `track` at `ω`.
-    fn power(&self, at_z: &DMatrix<C64>, road: &DVector<C64>, out: &mut [f64; N_CHANNELS]) {
+    /// Adds the time-averaged power of each figure over a step, from `q`: the loop's response
+    /// at the sampling instants (`instants`' outputs) to a road vector.
+    fn power(&self, q: &DVector<C64>, out: &mut [f64; N_CHANNELS]) {
         let na = self.car.order();
-        let q = at_z * road;
         let x0 = q.rows(0, na);
         let (va, vb) = (q.rows(na, N_HELD), q.rows(na + N_HELD, N_HELD));
         let quad = |forms: &[DMatrix<f64>], x: &DVector<C64>, out: &mut [f64; N_CHANNELS]| {
@@ -448,69 +430,60 @@ impl SampledLoop {
 
     /// The values of `a_seat`, `alpha_roll` and `alpha_pitch` the plant outputs at the
     /// communication points, as complex amplitudes: a road `r e^{jωt}` (unit road velocity
-    /// on a track: [`track_input`]) gives samples `Re(A e^{jω t_k})` once settled.
+    /// on a track: [`crate::prediction::track_input`]) gives samples `Re(A e^{jω t_k})` once
+    /// settled.
     pub fn recorded(&self, omega: f64, road: &DVector<C64>) -> [C64; 3] {
         let q = self.instants.at_s(C64::from_polar(1.0, omega * self.step)) * road;
-        let at = self.car.order() + 2 * N_HELD;
+        let at = self.recorded_row();
         [q[at], q[at + 1], q[at + 2]]
     }
 
-    /// `W_k` seat, `W_e` roll and pitch RMS as a master measures them from the values recorded
-    /// at the communication points (`master::metrics::weighted`: the samples joined by straight
-    /// lines, each section of the weighting discretised exactly for that).
-    pub fn recorded_weighted(
-        &self,
-        road: &ComfortRoad,
-        params: &vehicle::VehicleParams,
-    ) -> [f64; 3] {
-        let delay = (params.l1 + params.l2) / road.speed;
+    /// Where the recorded signals start among `instants`' outputs.
+    fn recorded_row(&self) -> usize {
+        self.car.order() + 2 * N_HELD
+    }
+
+    /// The figures on `road`: time-averaged over the steps, and the weighted ones as a master
+    /// records them. One pass over the frequencies for both (a solve at the sampling instants
+    /// per frequency and track).
+    pub fn figures(&self, road: &ComfortRoad) -> HeldFigures {
+        let delay = self.wheelbase / road.speed;
         let h = self.step;
         let weightings = [Weighting::wk(), Weighting::we(), Weighting::we()]
             .map(|w| SampledWeighting::new(&w, h));
+        let at = self.recorded_row();
         let mean_squares = road_integral(road, |omega, _| {
             let z = C64::from_polar(1.0, omega * h);
-            let mut out = [0.0; N_CHANNELS];
+            let at_z = self.instants.at_s(z);
+            let mut out = [0.0; N_CHANNELS + 3];
             for track in 0..2 {
-                let samples = self.recorded(omega, &track_input(track, omega, delay));
-                for ((o, w), a) in out.iter_mut().zip(&weightings).zip(samples) {
-                    *o += (w.at(z) * a).norm_sqr();
+                let q = &at_z * track_input(track, omega, delay);
+                let (power, recorded) = out.split_at_mut(N_CHANNELS);
+                self.power(&q, power.try_into().expect("N_CHANNELS figures"));
+                for (k, (o, w)) in recorded.iter_mut().zip(&weightings).enumerate() {
+                    *o += (w.at(z) * q[at + k]).norm_sqr();
                 }
             }
             out
         });
-        [0, 1, 2].map(|k| mean_squares[k].sqrt())
-    }
-
-    /// The predicted figures on `road`, time-averaged over the steps.
-    pub fn figures(&self, road: &ComfortRoad, params: &vehicle::VehicleParams) -> Figures {
-        let delay = (params.l1 + params.l2) / road.speed;
-        let mean_squares = road_integral(road, |omega, _| {
-            let at_z = self.instants.at_s(C64::from_polar(1.0, omega * self.step));
-            let mut power = [0.0; N_CHANNELS];
-            for track in 0..2 {
-                self.power(&at_z, &track_input(track, omega, delay), &mut power);
-            }
-            power
-        });
-        Figures::from_mean_squares(mean_squares)
+        let mut time_averaged = [0.0; N_CHANNELS];
+        time_averaged.copy_from_slice(&mean_squares[..N_CHANNELS]);
+        HeldFigures {
+            time_averaged: Figures::from_mean_squares(time_averaged),
+            recorded_weighted: [0, 1, 2].map(|k| mean_squares[N_CHANNELS + k].sqrt()),
+        }
     }
 }
 
-/// The road `[z_r; ż_r]` of a unit road velocity `e^{jωt}` on `track`'s front wheel (0: left),
-/// the rear wheel `lag` later.
-pub fn unit_track_input(track: usize, omega: f64, lag: f64) -> DVector<C64> {
-    track_input(track, omega, lag)
-}
-
-/// The predicted figures of `law` (`None`: the passive car) at `conditions` on `road`, run by a
-/// master at a communication step `step`.
-pub fn predict_sampled(
-    law: Option<&ControlLaw>,
-    conditions: Conditions,
-    road: &ComfortRoad,
-    step: f64,
-) -> Result<Figures, PredictionError> {
-    Ok(SampledLoop::new(law, conditions, step)?.figures(road, &conditions.params))
+/// The predicted figures of a held loop ([`SampledLoop::figures`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldFigures {
+    /// Time-averaged over the steps: what the occupant feels.
+    pub time_averaged: Figures,
+    /// `W_k` seat, `W_e` roll and pitch RMS as a master measures them from the values recorded
+    /// at the communication points (`master::metrics::weighted`: the samples joined by
+    /// straight lines, each section of the weighting discretised exactly for that).
+    pub recorded_weighted: [f64; 3],
 }
 
 /// A weighting run on samples every `h` joined by straight lines, as
@@ -530,19 +503,14 @@ impl SampledWeighting {
             .sections
             .iter()
             .map(|sec| {
-                let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -sec.a[0], -sec.a[1]]);
-                let b = DMatrix::from_column_slice(2, 1, &[0.0, 1.0]);
+                let (a, b, out, b2) = sec.canonical();
                 let d = discretize(&a, &b, h).expect("a fixed ISO 2631-1 section");
-                let out = [
-                    sec.b[0] - sec.b[2] * sec.a[0],
-                    sec.b[1] - sec.b[2] * sec.a[1],
-                ];
                 (
                     c(&d.phi),
                     c(&(&d.gamma_hold - &d.gamma_ramp)),
                     c(&d.gamma_ramp),
                     out,
-                    sec.b[2],
+                    b2,
                 )
             })
             .collect();
@@ -613,10 +581,9 @@ mod tests {
         let passive = predict(None, c, &road).unwrap();
         assert!(continuous.wk_rms_seat_m_s2 < 0.8 * passive.wk_rms_seat_m_s2);
         let gap = |h: f64| {
-            let lp = SampledLoop::new(Some(&law), c, h).unwrap();
-            let f = lp.figures(&road, &c.params);
+            let held = SampledLoop::new(Some(&law), c, h).unwrap().figures(&road);
+            let (f, recorded) = (held.time_averaged, held.recorded_weighted);
             let rel = |a: f64, b: f64| (a / b - 1.0).abs();
-            let recorded = lp.recorded_weighted(&road, &c.params);
             (
                 rel(f.wk_rms_seat_m_s2, continuous.wk_rms_seat_m_s2)
                     .max(rel(f.we_rms_roll_rad_s2, continuous.we_rms_roll_rad_s2))
@@ -638,7 +605,8 @@ mod tests {
     /// The power forms (Van Loan) against a quadrature of `|m e^{Fs} q|²` over the hold.
     #[test]
     fn power_forms_are_the_time_average_of_the_held_response() {
-        let car = WeightedCar::new(&Conditions::nominal(vehicle::VehicleParams::default()));
+        let p = vehicle::VehicleParams::default();
+        let car = WeightedCar::new(&p, &plant_outputs(&p));
         let (h, tau) = (1e-3, 0.7e-3);
         let forms = car.power_forms(tau, h).unwrap();
         let n = car.order() + N_HELD;

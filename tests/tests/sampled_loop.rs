@@ -11,7 +11,7 @@
 use integration_tests::*;
 use master::cosim::RoadSource;
 use nalgebra::Complex;
-use synth::prediction::{Conditions, ControlLaw};
+use synth::prediction::{track_input, Conditions, ControlLaw};
 use synth::sampled::SampledLoop;
 
 const STEP: f64 = 1e-3;
@@ -23,33 +23,36 @@ fn law(variant: &str) -> ControlLaw {
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("{}: {e} (run `make`)", path.display()));
     let file: synth::controller_file::ControllerFile = serde_json::from_str(&text).unwrap();
-    ControlLaw::from_file(&file, 0.0)
+    ControlLaw::from_file(&file, 0.0).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// One case: a controller (None: the passive car) and the plant FMU's parameters.
+/// One case: a controller (None: the passive car) at conditions of the car.
 struct Case {
     variant: Option<&'static str>,
-    params: &'static [(&'static str, f64)],
+    conditions: Conditions,
 }
 
 impl Case {
-    fn conditions(&self) -> Conditions {
-        let mut c = Conditions::nominal(vehicle::VehicleParams::default());
-        for (name, value) in self.params {
-            match *name {
-                "tau" => c.delay = *value,
-                "fault_time" => {}
-                n => {
-                    let corner = n.strip_prefix("fault_loss_").expect("a fault loss");
-                    let i = ["fl", "fr", "rl", "rr", "seat"]
-                        .iter()
-                        .position(|c| *c == corner)
-                        .expect("an actuator");
-                    c.effectiveness[i] = 1.0 - value;
-                }
-            }
+    /// `variant` with the actuators delayed by `delay` and of effectiveness `effectiveness`.
+    fn new(variant: Option<&'static str>, delay: f64, effectiveness: [f64; 5]) -> Self {
+        let nominal = Conditions::nominal(vehicle::VehicleParams::default());
+        Case {
+            variant,
+            conditions: Conditions {
+                delay,
+                effectiveness,
+                ..nominal
+            },
         }
-        c
+    }
+
+    /// The plant FMU's parameters that realise the conditions (`tau` also reaches a
+    /// predictor, by the same name).
+    fn parameters(&self) -> Vec<(String, f64)> {
+        self.conditions
+            .plant_parameters(&vehicle::VehicleParams::default())
+            .into_iter()
+            .collect()
     }
 }
 
@@ -78,6 +81,8 @@ fn cosimulated(case: &Case, f: f64, duration: f64, fit: f64) -> [Complex<f64>; 3
     let plant = load("plant");
     let controller = case.variant.map(load);
     let steps = (duration / STEP).round() as usize;
+    let parameters = case.parameters();
+    let parameters: Vec<(&str, f64)> = parameters.iter().map(|(n, v)| (n.as_str(), *v)).collect();
     let record = ["a_seat", "alpha_roll", "alpha_pitch"];
     let log = run_on(
         RoadSource::InProcess(&road),
@@ -86,7 +91,7 @@ fn cosimulated(case: &Case, f: f64, duration: f64, fit: f64) -> [Complex<f64>; 3
         STEP,
         steps,
         &record,
-        case.params,
+        &parameters,
     );
     // Row k is recorded at t_{k+1}; least squares on cos, sin over the window.
     let first = steps - (fit / STEP).round() as usize;
@@ -111,7 +116,7 @@ fn cosimulated(case: &Case, f: f64, duration: f64, fit: f64) -> [Complex<f64>; 3
 }
 
 fn predicted(case: &Case, f: f64) -> [Complex<f64>; 3] {
-    let conditions = case.conditions();
+    let conditions = case.conditions;
     let law = case.variant.map(|v| {
         let mut law = law(v);
         if let Some(p) = law.predictor.as_mut() {
@@ -122,10 +127,7 @@ fn predicted(case: &Case, f: f64) -> [Complex<f64>; 3] {
     let lp = SampledLoop::new(law.as_ref(), conditions, STEP).unwrap();
     let omega = 2.0 * std::f64::consts::PI * f;
     let p = &conditions.params;
-    lp.recorded(
-        omega,
-        &synth::sampled::unit_track_input(0, omega, (p.l1 + p.l2) / 20.0),
-    )
+    lp.recorded(omega, &track_input(0, omega, (p.l1 + p.l2) / 20.0))
 }
 
 /// Every kind of controller runtime (state feedback, observer, predictor, accommodation) and
@@ -135,35 +137,15 @@ fn predicted(case: &Case, f: f64) -> [Complex<f64>; 3] {
 /// slowest observer modes' remaining transient after 50 s).
 #[test]
 fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
+    let healthy = [1.0; 5];
     let cases = [
-        Case {
-            variant: None,
-            params: &[],
-        },
-        Case {
-            variant: Some("hinf_sf"),
-            params: &[],
-        },
-        Case {
-            variant: Some("hinf_of"),
-            params: &[],
-        },
-        Case {
-            variant: Some("hinf_of"),
-            params: &[("tau", 0.0155)],
-        },
-        Case {
-            variant: Some("delay_sf"),
-            params: &[],
-        },
-        Case {
-            variant: Some("delay_sf"),
-            params: &[("tau", 0.02)],
-        },
-        Case {
-            variant: Some("ft_of"),
-            params: &[("fault_time", 0.0), ("fault_loss_rl", 0.5)],
-        },
+        Case::new(None, 0.0, healthy),
+        Case::new(Some("hinf_sf"), 0.0, healthy),
+        Case::new(Some("hinf_of"), 0.0, healthy),
+        Case::new(Some("hinf_of"), 0.0155, healthy),
+        Case::new(Some("delay_sf"), 0.0, healthy),
+        Case::new(Some("delay_sf"), 0.02, healthy),
+        Case::new(Some("ft_of"), 0.0, [1.0, 1.0, 0.5, 1.0, 1.0]),
     ];
     let mut worst = 0.0f64;
     for case in &cases {
@@ -176,7 +158,7 @@ fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
                     "{:?} {:?} {f} Hz, output {k}: |A| predicted {:.6e}, co-simulated {:.6e}, \
                      relative difference {err:.1e}",
                     case.variant,
-                    case.params,
+                    case.parameters(),
                     p.norm(),
                     m.norm()
                 );
@@ -184,7 +166,7 @@ fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
                     err < 1e-6,
                     "{:?} {:?} at {f} Hz, output {k}: predicted {p}, co-simulated {m}",
                     case.variant,
-                    case.params
+                    case.parameters()
                 );
                 worst = worst.max(err);
             }

@@ -30,6 +30,20 @@ impl Section {
     fn response(&self, s: Complex<f64>) -> Complex<f64> {
         (s * s * self.b[2] + s * self.b[1] + self.b[0]) / (s * s + s * self.a[1] + self.a[0])
     }
+
+    /// Controllable canonical form `x' = A x + b v`, `y = c x + d v`: `A = [[0, 1], [−a₀, −a₁]]`,
+    /// `b = [0; 1]`, `c = [b₀ − b₂a₀, b₁ − b₂a₁]`, `d = b₂`.
+    pub fn canonical(&self) -> (DMatrix<f64>, DMatrix<f64>, [f64; 2], f64) {
+        (
+            DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -self.a[0], -self.a[1]]),
+            DMatrix::from_column_slice(2, 1, &[0.0, 1.0]),
+            [
+                self.b[0] - self.b[2] * self.a[0],
+                self.b[1] - self.b[2] * self.a[1],
+            ],
+            self.b[2],
+        )
+    }
 }
 
 /// A frequency weighting: the product of its sections.
