@@ -15,7 +15,7 @@ pub mod spec;
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
-    ValueReference, Variable,
+    ModelError, ValueReference, Variable,
 };
 use nalgebra::DVector;
 use spec::Spec;
@@ -398,11 +398,11 @@ impl Controller {
 }
 
 impl Model for Controller {
-    fn description(resources: Option<&Path>) -> Result<ModelDescription, String> {
+    fn description(resources: Option<&Path>) -> Result<ModelDescription, ModelError> {
         Ok(description_for(&load_spec(resources)?))
     }
 
-    fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
+    fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
         let spec = load_spec(resources)?;
         let (a, b) = stepped_system(&spec);
         let limits = spec
@@ -453,9 +453,9 @@ impl Model for Controller {
         })
     }
 
-    fn check_real(&self, vr: ValueReference, value: f64) -> Result<(), String> {
+    fn check_real(&self, vr: ValueReference, value: f64) -> Result<(), ModelError> {
         match (&self.predictor, vr) {
-            (Some(p), vr::DELAY) => p.check(value),
+            (Some(p), vr::DELAY) => p.check(value).map_err(ModelError::from),
             _ => Ok(()),
         }
     }
@@ -500,9 +500,9 @@ impl Model for Controller {
         vr == vr::FAULT_DETECTED && self.fault_detected()
     }
 
-    fn check_parameters(&self) -> Result<(), String> {
+    fn check_parameters(&self) -> Result<(), ModelError> {
         if let Some(bad) = self.limits.iter().find(|l| !(**l > 0.0 && l.is_finite())) {
-            return Err(format!("force limits must be finite and > 0, got {bad}"));
+            return Err(format!("force limits must be finite and > 0, got {bad}").into());
         }
         if self.spec.fault_detection.is_some()
             && !(self.threshold > 0.0 && self.threshold.is_finite())
@@ -510,28 +510,29 @@ impl Model for Controller {
             return Err(format!(
                 "fault_threshold must be finite and > 0, got {}",
                 self.threshold
-            ));
+            )
+            .into());
         }
         match &self.predictor {
-            Some(p) => p.check(self.tau),
+            Some(p) => p.check(self.tau).map_err(ModelError::from),
             None => Ok(()),
         }
     }
 
     /// The commands read in Initialization Mode are those of the first step: predicted over the
     /// delay set.
-    fn prepare_initial_outputs(&mut self, _start_time: f64) -> Result<(), String> {
+    fn prepare_initial_outputs(&mut self, _start_time: f64) -> Result<(), ModelError> {
         self.check_parameters()?;
         match &mut self.predictor {
             Some(p) if p.theta().to_bits() != self.tau.to_bits() => {
                 self.valid = false;
-                p.reset(self.tau)
+                p.reset(self.tau).map_err(ModelError::from)
             }
             _ => Ok(()),
         }
     }
 
-    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), ModelError> {
         self.check_parameters()?;
         if let Some(p) = &mut self.predictor {
             p.reset(self.tau)?;
@@ -545,7 +546,7 @@ impl Model for Controller {
         Ok(())
     }
 
-    fn do_step(&mut self, _time: f64, step: f64) -> Result<(), String> {
+    fn do_step(&mut self, _time: f64, step: f64) -> Result<(), ModelError> {
         if self.predictor.is_some() {
             self.update_commands();
             let p = self.predictor.as_mut().expect("checked above");
@@ -615,7 +616,7 @@ impl Model for Controller {
         }
     }
 
-    fn restore(&mut self, input: &mut StateReader) -> Result<(), String> {
+    fn restore(&mut self, input: &mut StateReader) -> Result<(), ModelError> {
         let hash = input.u64()?;
         if hash != self.spec.content_hash {
             return Err("FMU state was saved with a different controller.json".into());

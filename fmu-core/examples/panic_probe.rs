@@ -14,7 +14,7 @@ struct Probe {
 }
 
 impl Model for Probe {
-    fn description(_resources: Option<&Path>) -> Result<ModelDescription, String> {
+    fn description(_resources: Option<&Path>) -> Result<ModelDescription, ModelError> {
         Ok(ModelDescription {
             model_name: "panic_probe".into(),
             model_identifier: "panic_probe".into(),
@@ -35,7 +35,7 @@ impl Model for Probe {
         }
         .with_derived_guid())
     }
-    fn instantiate(_resources: Option<&Path>) -> Result<Self, String> {
+    fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {
         Ok(Probe { u: 0.0, y: 0.0 })
     }
     fn set_real(&mut self, _vr: u32, value: f64) {
@@ -48,10 +48,10 @@ impl Model for Probe {
             self.y
         }
     }
-    fn exit_initialization(&mut self, _t: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, _t: f64) -> Result<(), ModelError> {
         Ok(())
     }
-    fn do_step(&mut self, _t: f64, _h: f64) -> Result<(), String> {
+    fn do_step(&mut self, _t: f64, _h: f64) -> Result<(), ModelError> {
         if self.u == 666.0 {
             panic!("the probe panics on u = 666");
         }
@@ -61,7 +61,7 @@ impl Model for Probe {
     fn save(&self, w: &mut StateWriter) {
         w.f64s(&[self.u, self.y]);
     }
-    fn restore(&mut self, r: &mut StateReader) -> Result<(), String> {
+    fn restore(&mut self, r: &mut StateReader) -> Result<(), ModelError> {
         let v = r.f64s_exact(2, "probe state")?;
         r.finish()?;
         (self.u, self.y) = (v[0], v[1]);

@@ -10,8 +10,8 @@
 //! (`nvr` value references and values, one output slot). NULL is answered with `fmi2Error`.
 
 use crate::instance::{FmuStateBox, Instance, INSTANCE_MAGIC};
-use crate::logger::Logger;
-use crate::model::Model;
+use crate::logger::{Category, Logger};
+use crate::model::{Model, ModelError};
 use crate::state_machine::{self as sm, FmiState, Mask};
 use crate::types::*;
 use std::cell::{Cell, RefCell};
@@ -101,12 +101,14 @@ unsafe fn instance<'a, M: Model>(c: Fmi2Component) -> Option<&'a mut Instance<M>
 }
 
 /// Run `body` on the instance if the call is legal in its state; log and enter `Error`
-/// otherwise. A panic becomes `fmi2Error` (the instance can still be reset or freed).
-unsafe fn call<M: Model>(
+/// otherwise. A panic becomes `fmi2Error` (the instance can still be reset or freed). The
+/// runtime's own refusals are messages (`E = String`, `fmi2Error`); a call that forwards a
+/// model's failure (`E = ModelError`) answers with the status the model chose.
+unsafe fn call<M: Model, E: Into<ModelError>>(
     c: Fmi2Component,
     func: &str,
     mask: Mask,
-    body: impl FnOnce(&mut Instance<M>) -> Result<Status, String>,
+    body: impl FnOnce(&mut Instance<M>) -> Result<Status, E>,
 ) -> Fmi2Status {
     let Some(inst) = instance::<M>(c) else {
         return Status::Error as Fmi2Status;
@@ -119,12 +121,26 @@ unsafe fn call<M: Model>(
         }
         return Status::Error as Fmi2Status;
     }
-    match catch_quietly(|| body(inst)) {
+    match catch_quietly(|| body(inst).map_err(Into::into)) {
         Ok(Ok(status)) => status as Fmi2Status,
-        Ok(Err(msg)) => {
-            inst.logger.error(&format!("{func}: {msg}"));
-            inst.state = FmiState::Error;
-            Status::Error as Fmi2Status
+        // The call changed nothing; the instance says where it is (`StepFailed` after a
+        // discarded step).
+        Ok(Err(e)) if e.status == Status::Discard => {
+            inst.logger.log(
+                Status::Discard,
+                Category::StatusDiscard,
+                &format!("{func}: {}", e.message),
+            );
+            Status::Discard as Fmi2Status
+        }
+        Ok(Err(e)) => {
+            inst.logger.error(&format!("{func}: {}", e.message));
+            let (state, status) = match e.status {
+                Status::Fatal => (FmiState::Fatal, Status::Fatal),
+                _ => (FmiState::Error, Status::Error),
+            };
+            inst.state = state;
+            status as Fmi2Status
         }
         Err(panic) => {
             // The instance may be half-updated: only reset, free or a saved state can help.
@@ -237,7 +253,7 @@ pub unsafe fn set_debug_logging<M: Model>(
     n: usize,
     categories: *const Fmi2String,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2SetDebugLogging", sm::SET_DEBUG_LOGGING, |inst| {
+    call::<M, String>(c, "fmi2SetDebugLogging", sm::SET_DEBUG_LOGGING, |inst| {
         let ptrs = slice(categories, n, "categories")?;
         let mut names = Vec::with_capacity(n);
         for p in ptrs {
@@ -259,7 +275,7 @@ pub unsafe fn setup_experiment<M: Model>(
     stop_defined: Fmi2Boolean,
     stop: f64,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2SetupExperiment", sm::SETUP_EXPERIMENT, |inst| {
+    call::<M, String>(c, "fmi2SetupExperiment", sm::SETUP_EXPERIMENT, |inst| {
         inst.setup_experiment(
             (tol_defined != FMI2_FALSE).then_some(tol),
             start,
@@ -273,7 +289,7 @@ pub unsafe fn setup_experiment<M: Model>(
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn enter_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(
+    call::<M, String>(
         c,
         "fmi2EnterInitializationMode",
         sm::ENTER_INITIALIZATION_MODE,
@@ -286,7 +302,7 @@ pub unsafe fn enter_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Statu
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn exit_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(
+    call::<M, ModelError>(
         c,
         "fmi2ExitInitializationMode",
         sm::EXIT_INITIALIZATION_MODE,
@@ -299,7 +315,7 @@ pub unsafe fn exit_initialization_mode<M: Model>(c: Fmi2Component) -> Fmi2Status
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn terminate<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(c, "fmi2Terminate", sm::TERMINATE, |inst| inst.terminate())
+    call::<M, String>(c, "fmi2Terminate", sm::TERMINATE, |inst| inst.terminate())
 }
 
 /// `fmi2Reset`.
@@ -307,7 +323,7 @@ pub unsafe fn terminate<M: Model>(c: Fmi2Component) -> Fmi2Status {
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn reset<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(c, "fmi2Reset", sm::RESET, |inst| inst.reset())
+    call::<M, ModelError>(c, "fmi2Reset", sm::RESET, |inst| inst.reset())
 }
 
 /// `fmi2GetReal`.
@@ -320,7 +336,7 @@ pub unsafe fn get_real<M: Model>(
     n: usize,
     value: *mut f64,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetReal", sm::GET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2GetReal", sm::GET_VALUES, |inst| {
         inst.get_real(slice(vr, n, "vr")?, slice_mut(value, n, "value")?)
     })
 }
@@ -335,7 +351,7 @@ pub unsafe fn set_real<M: Model>(
     n: usize,
     value: *const f64,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2SetReal", sm::SET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2SetReal", sm::SET_VALUES, |inst| {
         inst.set_real(slice(vr, n, "vr")?, slice(value, n, "value")?)
     })
 }
@@ -350,7 +366,7 @@ pub unsafe fn get_integer<M: Model>(
     n: usize,
     value: *mut Fmi2Integer,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetInteger", sm::GET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2GetInteger", sm::GET_VALUES, |inst| {
         inst.get_integer(slice(vr, n, "vr")?, slice_mut(value, n, "value")?)
     })
 }
@@ -365,7 +381,7 @@ pub unsafe fn set_integer<M: Model>(
     n: usize,
     value: *const Fmi2Integer,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2SetInteger", sm::SET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2SetInteger", sm::SET_VALUES, |inst| {
         inst.set_integer(slice(vr, n, "vr")?, slice(value, n, "value")?)
     })
 }
@@ -380,7 +396,7 @@ pub unsafe fn get_boolean<M: Model>(
     n: usize,
     value: *mut Fmi2Boolean,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetBoolean", sm::GET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2GetBoolean", sm::GET_VALUES, |inst| {
         let vrs = slice(vr, n, "vr")?;
         let out = slice_mut(value, n, "value")?;
         let mut tmp = vec![false; n];
@@ -402,7 +418,7 @@ pub unsafe fn set_boolean<M: Model>(
     n: usize,
     value: *const Fmi2Boolean,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2SetBoolean", sm::SET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2SetBoolean", sm::SET_VALUES, |inst| {
         let values: Vec<bool> = slice(value, n, "value")?
             .iter()
             .map(|v| *v != FMI2_FALSE)
@@ -421,7 +437,7 @@ pub unsafe fn get_string<M: Model>(
     n: usize,
     value: *mut Fmi2String,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetString", sm::GET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2GetString", sm::GET_VALUES, |inst| {
         slice_mut(value, n, "value")?;
         inst.check_string_refs(slice(vr, n, "vr")?)
     })
@@ -437,7 +453,7 @@ pub unsafe fn set_string<M: Model>(
     n: usize,
     value: *const Fmi2String,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2SetString", sm::SET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2SetString", sm::SET_VALUES, |inst| {
         slice(value, n, "value")?;
         inst.check_string_refs(slice(vr, n, "vr")?)
     })
@@ -469,7 +485,7 @@ fn new_state<M: Model>(inst: &mut Instance<M>, bytes: Vec<u8>) -> Fmi2FmuState {
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
-    call::<M>(c, "fmi2GetFMUstate", sm::FMU_STATE, |inst| {
+    call::<M, String>(c, "fmi2GetFMUstate", sm::FMU_STATE, |inst| {
         let out = out_ptr(state, "FMUstate")?;
         let bytes = inst.save_state();
         if out.is_null() {
@@ -487,7 +503,7 @@ pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
-    call::<M>(c, "fmi2SetFMUstate", sm::FMU_STATE, |inst| {
+    call::<M, ModelError>(c, "fmi2SetFMUstate", sm::FMU_STATE, |inst| {
         let bytes = owned_state(inst, state)?.bytes.clone();
         inst.restore_state(&bytes)
     })
@@ -498,7 +514,7 @@ pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> 
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
-    call::<M>(c, "fmi2FreeFMUstate", sm::FMU_STATE, |inst| {
+    call::<M, String>(c, "fmi2FreeFMUstate", sm::FMU_STATE, |inst| {
         // A NULL pointer, like a NULL state, frees nothing (as free(NULL) does).
         if state.is_null() {
             return Ok(Status::Ok);
@@ -524,7 +540,7 @@ pub unsafe fn serialized_fmu_state_size<M: Model>(
     state: Fmi2FmuState,
     size: *mut usize,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2SerializedFMUstateSize", sm::FMU_STATE, |inst| {
+    call::<M, String>(c, "fmi2SerializedFMUstateSize", sm::FMU_STATE, |inst| {
         *out_ptr(size, "size")? = owned_state(inst, state)?.bytes.len();
         Ok(Status::Ok)
     })
@@ -540,7 +556,7 @@ pub unsafe fn serialize_fmu_state<M: Model>(
     bytes: *mut Fmi2Byte,
     size: usize,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2SerializeFMUstate", sm::FMU_STATE, |inst| {
+    call::<M, String>(c, "fmi2SerializeFMUstate", sm::FMU_STATE, |inst| {
         let src = &owned_state(inst, state)?.bytes;
         if size < src.len() {
             return Err(format!(
@@ -564,7 +580,7 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
     size: usize,
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2DeSerializeFMUstate", sm::FMU_STATE, |inst| {
+    call::<M, String>(c, "fmi2DeSerializeFMUstate", sm::FMU_STATE, |inst| {
         let out = out_ptr(state, "FMUstate")?;
         let data = slice(bytes as *const u8, size, "serializedState")?.to_vec();
         inst.check_state(&data)?;
@@ -582,7 +598,7 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_directional_derivative<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(
+    call::<M, String>(
         c,
         "fmi2GetDirectionalDerivative",
         sm::DIRECTIONAL_DERIVATIVE,
@@ -601,7 +617,7 @@ pub unsafe fn set_real_input_derivatives<M: Model>(
     order: *const Fmi2Integer,
     value: *const f64,
 ) -> Fmi2Status {
-    call::<M>(
+    call::<M, String>(
         c,
         "fmi2SetRealInputDerivatives",
         sm::SET_REAL_INPUT_DERIVATIVES,
@@ -620,7 +636,7 @@ pub unsafe fn set_real_input_derivatives<M: Model>(
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_real_output_derivatives<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(
+    call::<M, String>(
         c,
         "fmi2GetRealOutputDerivatives",
         sm::GET_REAL_OUTPUT_DERIVATIVES,
@@ -638,7 +654,7 @@ pub unsafe fn do_step<M: Model>(
     step: f64,
     _no_prior: Fmi2Boolean,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2DoStep", sm::DO_STEP, |inst| {
+    call::<M, ModelError>(c, "fmi2DoStep", sm::DO_STEP, |inst| {
         inst.do_step(current, step)
     })
 }
@@ -648,7 +664,7 @@ pub unsafe fn do_step<M: Model>(
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn cancel_step<M: Model>(c: Fmi2Component) -> Fmi2Status {
-    call::<M>(c, "fmi2CancelStep", sm::CANCEL_STEP, |_| Ok(Status::Ok))
+    call::<M, String>(c, "fmi2CancelStep", sm::CANCEL_STEP, |_| Ok(Status::Ok))
 }
 
 /// `fmi2GetStatus`.
@@ -660,7 +676,7 @@ pub unsafe fn get_status<M: Model>(
     kind: Fmi2StatusKind,
     value: *mut Fmi2Status,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetStatus", sm::GET_STATUS, |inst| {
+    call::<M, String>(c, "fmi2GetStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         let (status, v) = inst.get_status(kind);
         *out = v as Fmi2Status;
@@ -677,7 +693,7 @@ pub unsafe fn get_real_status<M: Model>(
     kind: Fmi2StatusKind,
     value: *mut f64,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetRealStatus", sm::GET_STATUS, |inst| {
+    call::<M, String>(c, "fmi2GetRealStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         let (status, v) = inst.get_real_status(kind);
         *out = v;
@@ -694,7 +710,7 @@ pub unsafe fn get_integer_status<M: Model>(
     kind: Fmi2StatusKind,
     value: *mut Fmi2Integer,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetIntegerStatus", sm::GET_STATUS, |inst| {
+    call::<M, String>(c, "fmi2GetIntegerStatus", sm::GET_STATUS, |inst| {
         out_ptr(value, "value")?;
         Ok(inst.status_unavailable("fmi2GetIntegerStatus", kind))
     })
@@ -709,7 +725,7 @@ pub unsafe fn get_boolean_status<M: Model>(
     kind: Fmi2StatusKind,
     value: *mut Fmi2Boolean,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetBooleanStatus", sm::GET_STATUS, |inst| {
+    call::<M, String>(c, "fmi2GetBooleanStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         let (status, v) = inst.get_boolean_status(kind);
         *out = if v { FMI2_TRUE } else { FMI2_FALSE };
@@ -726,7 +742,7 @@ pub unsafe fn get_string_status<M: Model>(
     kind: Fmi2StatusKind,
     value: *mut Fmi2String,
 ) -> Fmi2Status {
-    call::<M>(c, "fmi2GetStringStatus", sm::GET_STATUS, |inst| {
+    call::<M, String>(c, "fmi2GetStringStatus", sm::GET_STATUS, |inst| {
         let out = out_ptr(value, "value")?;
         *out = c"".as_ptr();
         Ok(inst.status_unavailable("fmi2GetStringStatus", kind))

@@ -6,7 +6,7 @@ use crate::description::{
 };
 use crate::fmu_state::{self, Snapshot, StateReader, StateWriter};
 use crate::logger::{Category, Logger};
-use crate::model::Model;
+use crate::model::{Model, ModelError};
 use crate::state_machine::FmiState;
 use crate::types::{
     status_kind, CallbackFunctions, Fmi2StatusKind, Fmi2Type, Status, FMI2_CO_SIMULATION,
@@ -82,7 +82,7 @@ impl<M: Model> Instance<M> {
         };
         let description = match M::description(resources.as_deref()) {
             Ok(d) => d,
-            Err(e) => return Err((logger, e)),
+            Err(e) => return Err((logger, e.message)),
         };
         match guid {
             Some(g) if g == description.guid => {}
@@ -99,7 +99,7 @@ impl<M: Model> Instance<M> {
         }
         let model = match M::instantiate(resources.as_deref()) {
             Ok(m) => m,
-            Err(e) => return Err((logger, e)),
+            Err(e) => return Err((logger, e.message)),
         };
         let mut index: [Vec<Option<usize>>; 3] = Default::default();
         for (i, v) in description.variables.iter().enumerate() {
@@ -179,7 +179,7 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
-    pub fn exit_initialization_mode(&mut self) -> Result<Status, String> {
+    pub fn exit_initialization_mode(&mut self) -> Result<Status, ModelError> {
         self.model.exit_initialization(self.start_time)?;
         self.state = FmiState::StepComplete;
         self.logger.event(&format!(
@@ -195,7 +195,7 @@ impl<M: Model> Instance<M> {
     }
 
     /// `fmi2Reset`: back to the state right after `fmi2Instantiate`, start values included.
-    pub fn reset(&mut self) -> Result<Status, String> {
+    pub fn reset(&mut self) -> Result<Status, ModelError> {
         self.model = M::instantiate(self.resources.as_deref())?;
         self.state = FmiState::Instantiated;
         self.time = 0.0;
@@ -434,11 +434,11 @@ impl<M: Model> Instance<M> {
         Ok(Status::Warning)
     }
 
-    pub fn do_step(&mut self, current: f64, step: f64) -> Result<Status, String> {
+    pub fn do_step(&mut self, current: f64, step: f64) -> Result<Status, ModelError> {
         if !(step.is_finite() && step > 0.0) {
-            return Err(format!(
-                "communicationStepSize must be a finite number > 0, got {step}"
-            ));
+            return Err(
+                format!("communicationStepSize must be a finite number > 0, got {step}").into(),
+            );
         }
         if !current.is_finite()
             || (current - self.time).abs() > TIME_TOLERANCE * current.abs().max(1.0)
@@ -446,17 +446,23 @@ impl<M: Model> Instance<M> {
             return Err(format!(
                 "currentCommunicationPoint {current} does not match the FMU's time {}",
                 self.time
-            ));
+            )
+            .into());
         }
         if let Some(stop) = self.stop_time {
             if current + step > stop + TIME_TOLERANCE * stop.abs().max(1.0) {
-                return Err(format!(
-                    "step to {} goes beyond stopTime {stop}",
-                    current + step
-                ));
+                return Err(
+                    format!("step to {} goes beyond stopTime {stop}", current + step).into(),
+                );
             }
         }
-        self.model.do_step(current, step)?;
+        if let Err(e) = self.model.do_step(current, step) {
+            if e.status == Status::Discard {
+                // Nothing computed: the last successful time is the step's start.
+                self.state = FmiState::StepFailed;
+            }
+            return Err(e);
+        }
         self.time = current + step;
         Ok(Status::Ok)
     }
@@ -473,7 +479,14 @@ impl<M: Model> Instance<M> {
 
     pub fn get_status(&self, kind: Fmi2StatusKind) -> (Status, Status) {
         match kind {
-            status_kind::DO_STEP_STATUS => (Status::Ok, Status::Ok),
+            status_kind::DO_STEP_STATUS => {
+                let last = if self.state == FmiState::StepFailed {
+                    Status::Discard
+                } else {
+                    Status::Ok
+                };
+                (Status::Ok, last)
+            }
             _ => (self.status_unavailable("fmi2GetStatus", kind), Status::Ok),
         }
     }
@@ -516,7 +529,7 @@ impl<M: Model> Instance<M> {
     /// Restore from bytes; on error nothing changes. The restored values obey the setters'
     /// rules (every parameter and input), and past initialisation the parameters' joint rules:
     /// a state whose checksum matches may still have been forged or written by a buggy tool.
-    pub fn restore_state(&mut self, bytes: &[u8]) -> Result<Status, String> {
+    pub fn restore_state(&mut self, bytes: &[u8]) -> Result<Status, ModelError> {
         let snap = fmu_state::decode(&self.description.guid, bytes)?;
         let mut backup = StateWriter::default();
         self.model.save(&mut backup);
@@ -525,7 +538,7 @@ impl<M: Model> Instance<M> {
             self.model
                 .restore(&mut StateReader::new(&backup.into_bytes()))
                 .map_err(|b| format!("{e}; restoring the previous state failed too: {b}"))?;
-            return Err(format!("FMU state refused: {e}"));
+            return Err(format!("FMU state refused: {e}").into());
         }
         self.state = snap.state;
         self.time = snap.time;
@@ -575,24 +588,24 @@ mod tests {
     struct Nothing;
 
     impl Model for Nothing {
-        fn description(_: Option<&std::path::Path>) -> Result<ModelDescription, String> {
+        fn description(_: Option<&std::path::Path>) -> Result<ModelDescription, ModelError> {
             Err("unused".into())
         }
-        fn instantiate(_: Option<&std::path::Path>) -> Result<Self, String> {
+        fn instantiate(_: Option<&std::path::Path>) -> Result<Self, ModelError> {
             Ok(Nothing)
         }
         fn set_real(&mut self, _: ValueReference, _: f64) {}
         fn get_real(&mut self, _: ValueReference) -> f64 {
             0.0
         }
-        fn exit_initialization(&mut self, _: f64) -> Result<(), String> {
+        fn exit_initialization(&mut self, _: f64) -> Result<(), ModelError> {
             Ok(())
         }
-        fn do_step(&mut self, _: f64, _: f64) -> Result<(), String> {
+        fn do_step(&mut self, _: f64, _: f64) -> Result<(), ModelError> {
             Ok(())
         }
         fn save(&self, _: &mut StateWriter) {}
-        fn restore(&mut self, _: &mut StateReader) -> Result<(), String> {
+        fn restore(&mut self, _: &mut StateReader) -> Result<(), ModelError> {
             Ok(())
         }
     }

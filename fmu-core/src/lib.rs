@@ -24,4 +24,4 @@ pub use description::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, ModelDescription, ValueReference,
     VarType, Variability, Variable,
 };
-pub use model::Model;
+pub use model::{Model, ModelError};

@@ -13,7 +13,8 @@ pub enum Category {
     StatusError,
     /// Calls that return `fmi2Warning`.
     StatusWarning,
-    /// Calls that return `fmi2Discard`.
+    /// Calls that return `fmi2Discard` (a step not taken), with the reason. On by default
+    /// like errors: the importer must learn why its step was refused.
     StatusDiscard,
     /// Noteworthy events: instantiation, initialisation, step-size changes, FMU state use.
     Events,
@@ -47,7 +48,9 @@ impl Category {
                 "Why a call returned fmi2Error (always logged, whatever loggingOn and the categories)"
             }
             Category::StatusWarning => "Why a call returned fmi2Warning",
-            Category::StatusDiscard => "Why a call returned fmi2Discard",
+            Category::StatusDiscard => {
+                "Why a call returned fmi2Discard (always logged, whatever loggingOn and the categories)"
+            }
             Category::Events => {
                 "Instantiation, initialisation, FMU state save/restore and other events"
             }
@@ -117,10 +120,11 @@ impl Logger {
         Ok(())
     }
 
-    /// Errors always: an importer must learn why a call failed, whatever it switched off.
+    /// Errors and discards always: an importer must learn why a call failed or a step was
+    /// refused, whatever it switched off.
     pub fn is_enabled(&self, category: Category) -> bool {
         match category {
-            Category::StatusError => true,
+            Category::StatusError | Category::StatusDiscard => true,
             _ => self.enabled[category.index()] && self.logging_on,
         }
     }

@@ -4,21 +4,88 @@
 
 use crate::description::{ModelDescription, ValueReference};
 use crate::fmu_state::{StateReader, StateWriter};
+use crate::types::Status;
 use std::path::Path;
+
+/// Why a model call did not succeed, and the FMI status the runtime answers it with.
+///
+/// * `fmi2Discard` ([`ModelError::discard`]): only from [`Model::do_step`], a step that could
+///   not be taken but might be in smaller ones (a step too long for the model's stiffness).
+///   The model is unchanged; the instance goes to `StepFailed`, where the importer can read
+///   `fmi2LastSuccessfulTime` (the step's start), the outputs, and restore a state or reset.
+/// * `fmi2Error` ([`ModelError::error`], and every `String` converted with `?`): the call
+///   failed and changed nothing; the instance goes to `Error`.
+/// * `fmi2Fatal` ([`ModelError::fatal`]): the model is corrupt; only `fmi2FreeInstance` is
+///   allowed afterwards.
+///
+/// A call that succeeds has nothing to say here: the runtime issues its own warnings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelError {
+    pub status: Status,
+    pub message: String,
+}
+
+impl ModelError {
+    pub fn discard(message: impl Into<String>) -> Self {
+        ModelError {
+            status: Status::Discard,
+            message: message.into(),
+        }
+    }
+
+    pub fn error(message: impl Into<String>) -> Self {
+        ModelError {
+            status: Status::Error,
+            message: message.into(),
+        }
+    }
+
+    pub fn fatal(message: impl Into<String>) -> Self {
+        ModelError {
+            status: Status::Fatal,
+            message: message.into(),
+        }
+    }
+}
+
+impl From<String> for ModelError {
+    fn from(message: String) -> Self {
+        ModelError::error(message)
+    }
+}
+
+impl From<&str> for ModelError {
+    fn from(message: &str) -> Self {
+        ModelError::error(message)
+    }
+}
+
+/// The message, for callers that only report it.
+impl From<ModelError> for String {
+    fn from(e: ModelError) -> Self {
+        e.message
+    }
+}
+
+impl std::fmt::Display for ModelError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
 
 pub trait Model: Sized + Send + 'static {
     /// The variable table and metadata for the unpacked `resources/` directory (if any).
     /// Called once per instance, before the GUID check: a model whose interface comes from a
     /// resource file (the controllers) derives its description, and so its GUID, from it.
-    fn description(resources: Option<&Path>) -> Result<ModelDescription, String>;
+    fn description(resources: Option<&Path>) -> Result<ModelDescription, ModelError>;
 
     /// A new model with every variable at its start value. `resources` is the unpacked
     /// `resources/` directory, if the importer gave one.
-    fn instantiate(resources: Option<&Path>) -> Result<Self, String>;
+    fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError>;
 
     /// Check a value for a settable Real variable before anything is changed (e.g. a negative
     /// mass). Finite-ness is already checked by the runtime.
-    fn check_real(&self, _vr: ValueReference, _value: f64) -> Result<(), String> {
+    fn check_real(&self, _vr: ValueReference, _value: f64) -> Result<(), ModelError> {
         Ok(())
     }
 
@@ -45,7 +112,7 @@ pub trait Model: Sized + Send + 'static {
     /// [`Model::check_real`] check), as `exit_initialization` enforces them. The runtime also
     /// calls it on a state restored past initialisation, so a forged state cannot bring in
     /// what initialisation would have refused.
-    fn check_parameters(&self) -> Result<(), String> {
+    fn check_parameters(&self) -> Result<(), ModelError> {
         Ok(())
     }
 
@@ -53,20 +120,20 @@ pub trait Model: Sized + Send + 'static {
     /// values at `start_time` for the parameters and inputs set so far (what the first step will
     /// start from), or say why the parameters do not make a model yet (the getter then returns
     /// `fmi2Error`). Parameters may be set again afterwards.
-    fn prepare_initial_outputs(&mut self, _start_time: f64) -> Result<(), String> {
+    fn prepare_initial_outputs(&mut self, _start_time: f64) -> Result<(), ModelError> {
         self.check_parameters()
     }
 
     /// End of initialisation: check the parameters together ([`Model::check_parameters`]) and
     /// build what the steps need.
-    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError>;
 
     /// Advance from `time` by `step` (> 0). On error the model must be left unchanged.
-    fn do_step(&mut self, time: f64, step: f64) -> Result<(), String>;
+    fn do_step(&mut self, time: f64, step: f64) -> Result<(), ModelError>;
 
     /// Write everything needed to continue bit-identically in another instance.
     fn save(&self, out: &mut StateWriter);
 
     /// Restore what [`Model::save`] wrote. On error the model must be left unchanged.
-    fn restore(&mut self, input: &mut StateReader) -> Result<(), String>;
+    fn restore(&mut self, input: &mut StateReader) -> Result<(), ModelError>;
 }

@@ -26,7 +26,7 @@ const VR_U_ECHO: u32 = 3;
 const GUID: &str = "{00000000-lag0-0000-0000-000000000001}";
 
 impl Model for Lag {
-    fn description(_resources: Option<&Path>) -> Result<ModelDescription, String> {
+    fn description(_resources: Option<&Path>) -> Result<ModelDescription, ModelError> {
         Ok(ModelDescription {
             model_name: "lag".into(),
             model_identifier: "lag".into(),
@@ -50,7 +50,7 @@ impl Model for Lag {
             ],
         })
     }
-    fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
+    fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
         Ok(Lag {
             time_constant: 0.5,
             u: 0.0,
@@ -58,9 +58,9 @@ impl Model for Lag {
             resources_seen: resources.map(|p| p.display().to_string()),
         })
     }
-    fn check_real(&self, vr: u32, value: f64) -> Result<(), String> {
+    fn check_real(&self, vr: u32, value: f64) -> Result<(), ModelError> {
         if vr == VR_T && value <= 0.0 {
-            return Err(format!("T must be > 0 s, got {value}"));
+            return Err(format!("T must be > 0 s, got {value}").into());
         }
         Ok(())
     }
@@ -79,10 +79,10 @@ impl Model for Lag {
             _ => self.u,
         }
     }
-    fn exit_initialization(&mut self, _t: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, _t: f64) -> Result<(), ModelError> {
         Ok(())
     }
-    fn do_step(&mut self, _t: f64, h: f64) -> Result<(), String> {
+    fn do_step(&mut self, _t: f64, h: f64) -> Result<(), ModelError> {
         if self.u == 666.0 {
             panic!("the number of the beast");
         }
@@ -93,7 +93,7 @@ impl Model for Lag {
     fn save(&self, w: &mut StateWriter) {
         w.f64s(&[self.time_constant, self.u, self.y]);
     }
-    fn restore(&mut self, r: &mut StateReader) -> Result<(), String> {
+    fn restore(&mut self, r: &mut StateReader) -> Result<(), ModelError> {
         let v = r.f64s_exact(3, "lag state")?;
         r.finish()?;
         (self.time_constant, self.u, self.y) = (v[0], v[1], v[2]);

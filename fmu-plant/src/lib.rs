@@ -10,10 +10,11 @@ pub mod simulator;
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
-    ValueReference, Variable,
+    ModelError, ValueReference, Variable,
 };
-use simulator::{ActuatorParams, Simulator};
+use simulator::{ActuatorParams, Simulator, N_METER};
 use std::path::Path;
+use vehicle::iso2631::METER_OUTPUTS;
 use vehicle::model::{
     physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, FORCE_PORTS, N_ACTUATORS,
     N_PHYSICAL_OUTPUTS, N_ROAD, ROAD_PORTS, STATES,
@@ -37,6 +38,9 @@ pub mod vr {
     pub const OUTPUT: u32 = 300;
     /// `f_*`: forces actually applied.
     pub const FORCE: u32 = 400;
+    /// The vibration meter's weighted accelerations, in the order of
+    /// `vehicle::iso2631::METER_OUTPUTS`.
+    pub const METER: u32 = 450;
 }
 
 struct ActuatorSpec {
@@ -269,6 +273,7 @@ pub struct Plant {
     /// (computed once per change, however many of them a master reads).
     outputs: Vec<f64>,
     forces: [f64; N_ACTUATORS],
+    meter: [f64; N_METER],
     outputs_valid: bool,
 }
 
@@ -280,6 +285,7 @@ impl Plant {
     fn update_outputs(&mut self) {
         if !self.outputs_valid {
             self.forces = self.sim.physical_outputs(&mut self.outputs);
+            self.meter = self.sim.meter();
             self.outputs_valid = true;
         }
     }
@@ -410,6 +416,17 @@ impl Plant {
                     .initially_depending_on(actuator_parameters(i)),
             );
         }
+        // States only (no input reaches them at once; zero at the start whatever the
+        // parameters).
+        for (k, (name, _, unit, desc)) in METER_OUTPUTS.iter().enumerate() {
+            vars.push(Variable::real(
+                *name,
+                vr::METER + k as u32,
+                Causality::Output,
+                unit,
+                *desc,
+            ));
+        }
         ModelDescription {
             model_name: "plant".into(),
             model_identifier: "plant".into(),
@@ -425,23 +442,26 @@ impl Plant {
 }
 
 impl Model for Plant {
-    fn description(_resources: Option<&Path>) -> Result<ModelDescription, String> {
+    fn description(_resources: Option<&Path>) -> Result<ModelDescription, ModelError> {
         Ok(Self::model_description())
     }
 
-    fn instantiate(_resources: Option<&Path>) -> Result<Self, String> {
+    fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {
         Ok(Plant {
             sim: Simulator::new(VehicleParams::default(), ActuatorParams::default()),
             outputs: vec![0.0; N_PHYSICAL_OUTPUTS],
             forces: [0.0; N_ACTUATORS],
+            meter: [0.0; N_METER],
             outputs_valid: false,
         })
     }
 
-    fn check_real(&self, vr: ValueReference, value: f64) -> Result<(), String> {
+    fn check_real(&self, vr: ValueReference, value: f64) -> Result<(), ModelError> {
         if let Some(spec) = vehicle_param(vr) {
             let mut p = self.sim.params;
-            return p.set(spec.name, value).map_err(|e| e.to_string());
+            return p
+                .set(spec.name, value)
+                .map_err(|e| ModelError::error(e.to_string()));
         }
         if let Some(spec) = actuator_param(vr) {
             let below = if spec.strict {
@@ -459,7 +479,8 @@ impl Model for Plant {
                 return Err(format!(
                     "{} must be {lower}{upper} {}, got {value}",
                     spec.name, spec.unit
-                ));
+                )
+                .into());
             }
         }
         Ok(())
@@ -497,6 +518,9 @@ impl Model for Plant {
         } else if (vr::FORCE..vr::FORCE + N_ACTUATORS as u32).contains(&vr) {
             self.update_outputs();
             self.forces[(vr - vr::FORCE) as usize]
+        } else if (vr::METER..vr::METER + N_METER as u32).contains(&vr) {
+            self.update_outputs();
+            self.meter[(vr - vr::METER) as usize]
         } else if let Some(spec) = vehicle_param(vr) {
             (spec.get)(&self.sim.params)
         } else if let Some(spec) = actuator_param(vr) {
@@ -525,20 +549,27 @@ impl Model for Plant {
         }
     }
 
-    fn check_parameters(&self) -> Result<(), String> {
-        self.sim.params.validate().map_err(|e| e.to_string())
+    fn check_parameters(&self) -> Result<(), ModelError> {
+        self.sim
+            .params
+            .validate()
+            .map_err(|e| ModelError::error(e.to_string()))
     }
 
-    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
         self.check_parameters()?;
         self.sim.start(start_time);
         self.invalidate_outputs();
         Ok(())
     }
 
-    fn do_step(&mut self, time: f64, step: f64) -> Result<(), String> {
+    fn do_step(&mut self, time: f64, step: f64) -> Result<(), ModelError> {
         self.invalidate_outputs();
-        self.sim.step(time, step).map_err(|e| e.to_string())
+        self.sim.step(time, step).map_err(|e| match e {
+            // Too long for the car's stiffness: shorter steps may be taken (fmi2Discard).
+            simulator::StepError::Exponential { .. } => ModelError::discard(e.to_string()),
+            simulator::StepError::NonFinite(_) => ModelError::error(e.to_string()),
+        })
     }
 
     fn save(&self, out: &mut StateWriter) {
@@ -555,7 +586,7 @@ impl Model for Plant {
         out.f64s(&self.sim.save());
     }
 
-    fn restore(&mut self, input: &mut StateReader) -> Result<(), String> {
+    fn restore(&mut self, input: &mut StateReader) -> Result<(), ModelError> {
         let params = input.f64s_exact(PARAMETERS.len(), "vehicle parameters")?;
         let act = input.f64s_exact(ACTUATOR_PARAMETERS.len(), "actuator parameters")?;
         let data = input.f64s()?;

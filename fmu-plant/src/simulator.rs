@@ -13,10 +13,14 @@
 //! a delayed command segment starts, where the fault starts and where a ramp crosses the force
 //! limit. The step is cut at those breakpoints and each piece is integrated with the exact
 //! triangle-hold discretisation of [`vehicle::exact`]; nothing is approximated.
+//!
+//! The seat's vibration meter ([`vehicle::iso2631::ComfortMeter`]) is part of the linear
+//! system: the ISO 2631-1 weighted accelerations are states, stepped exactly with the car.
 
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
 use vehicle::exact::{discretize, mat_vec_sum, Discretization, ExpError};
+use vehicle::iso2631::{ComfortMeter, Forces, METER_OUTPUTS};
 use vehicle::model::{
     physical_outputs, StateSpace, StaticEquilibrium, N_ACTUATORS, N_ROAD, N_STATES,
 };
@@ -99,10 +103,39 @@ impl Segment {
     }
 }
 
+/// Number of weighted comfort outputs.
+pub const N_METER: usize = METER_OUTPUTS.len();
+
+/// Number of states before the vibration meter's: the car's 16, and 5 actuator-lag states
+/// with a finite bandwidth.
+fn car_states(act: &ActuatorParams) -> usize {
+    let lag = if act.bandwidth > 0.0 { N_ACTUATORS } else { 0 };
+    N_STATES + lag
+}
+
+/// Number of states for the actuator parameters: [`car_states`], then the meter's.
+fn state_count(act: &ActuatorParams) -> usize {
+    car_states(act) + ComfortMeter::order()
+}
+
+/// A step's exact discretisation in two row blocks. The car (with its actuator lags) from its
+/// own exponential: the meter does not drive it, so it steps exactly as a plant without a meter
+/// would, bit for bit, at the cost it had. The meter's rows from the whole system's exponential
+/// (they read the car's state and the inputs).
+struct StepMatrices {
+    car: Discretization,
+    meter: Discretization,
+}
+
 /// Matrices derived from the parameters.
 struct System {
-    /// State dimension: 16, plus 5 actuator-lag states when the bandwidth is finite.
+    /// State dimension: `[x (16); f_lag (5, with a finite bandwidth); meter]`.
     n: usize,
+    /// Whether the applied forces are the lag states.
+    lag: bool,
+    /// Where the meter's states start, and its weighted outputs `c w`.
+    meter_at: usize,
+    meter_c: DMatrix<f64>,
     a: DMatrix<f64>,
     b: DMatrix<f64>,
     /// Physical outputs `y = C x + D_r r + D_u f` as sparse rows over `[x; r; f]`: row `i`
@@ -113,23 +146,20 @@ struct System {
     out_start: Vec<usize>,
     /// Static deflections and loads under gravity.
     statics: StaticEquilibrium,
-    cache: VecDeque<Discretization>,
+    cache: VecDeque<StepMatrices>,
 }
 
 impl System {
     fn new(p: &VehicleParams, act: &ActuatorParams) -> Self {
         let ss = StateSpace::new(p);
         let lag = act.bandwidth > 0.0;
-        let n = if lag {
-            N_STATES + N_ACTUATORS
-        } else {
-            N_STATES
-        };
+        let (n, meter_at) = (state_count(act), car_states(act));
         let mut a = DMatrix::zeros(n, n);
         let mut b = DMatrix::zeros(n, N_INPUTS);
         a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
         b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&ss.b_r);
-        if lag {
+        // The forces: the lag states, or the actuator outputs themselves.
+        let forces = if lag {
             let w = 2.0 * std::f64::consts::PI * act.bandwidth;
             a.view_mut((0, N_STATES), (N_STATES, N_ACTUATORS))
                 .copy_from(&ss.b_u);
@@ -137,16 +167,20 @@ impl System {
                 a[(N_STATES + i, N_STATES + i)] = -w;
                 b[(N_STATES + i, N_ROAD + i)] = w;
             }
+            Forces::States(N_STATES)
         } else {
             b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
                 .copy_from(&ss.b_u);
-        }
+            Forces::Inputs(N_ROAD)
+        };
+        let outputs = physical_outputs(p);
+        let meter = ComfortMeter::new(&outputs);
+        meter.place(&mut a, &mut b, meter_at, forces);
         let mut out_terms = Vec::new();
         let mut out_start = vec![0];
-        for row in physical_outputs(p) {
-            let coefficients = row.c.iter().chain(&row.d_r).chain(&row.d_u);
+        for row in outputs {
             out_terms.extend(
-                coefficients
+                row.coefficients()
                     .enumerate()
                     .filter(|(_, v)| **v != 0.0)
                     .map(|(k, v)| (k, *v)),
@@ -155,6 +189,9 @@ impl System {
         }
         System {
             n,
+            lag,
+            meter_at,
+            meter_c: meter.c,
             a,
             b,
             out_terms,
@@ -164,16 +201,30 @@ impl System {
         }
     }
 
-    /// The discretisation for step `h`, from the cache or computed (matrix exponential).
-    fn discretization(&mut self, h: f64) -> Result<&Discretization, ExpError> {
+    /// The discretisation for step `h`, from the cache or computed (matrix exponentials).
+    fn discretization(&mut self, h: f64) -> Result<&StepMatrices, ExpError> {
         if let Some(pos) = self
             .cache
             .iter()
-            .position(|d| d.step.to_bits() == h.to_bits())
+            .position(|d| d.car.step.to_bits() == h.to_bits())
         {
             return Ok(&self.cache[pos]);
         }
-        let d = discretize(&self.a, &self.b, h)?;
+        let nc = self.meter_at;
+        let car = discretize(
+            &self.a.view((0, 0), (nc, nc)).into_owned(),
+            &self.b.rows(0, nc).into_owned(),
+            h,
+        )?;
+        let whole = discretize(&self.a, &self.b, h)?;
+        let rows = |m: &DMatrix<f64>| m.rows(nc, self.n - nc).into_owned();
+        let meter = Discretization {
+            step: h,
+            phi: rows(&whole.phi),
+            gamma_hold: rows(&whole.gamma_hold),
+            gamma_ramp: rows(&whole.gamma_ramp),
+        };
+        let d = StepMatrices { car, meter };
         if self.cache.len() == CACHE_SIZE {
             self.cache.pop_front();
         }
@@ -225,7 +276,8 @@ impl std::fmt::Display for StepError {
             ),
             StepError::Exponential { step, error } => write!(
                 f,
-                "cannot discretise the car over {step} s: {error}; the step was discarded"
+                "cannot discretise the car over {step} s: {error}; the step was discarded, \
+                 take shorter ones"
             ),
         }
     }
@@ -314,8 +366,7 @@ impl Simulator {
 
     /// The force each actuator applies now [N].
     pub fn applied_force(&mut self) -> [f64; N_ACTUATORS] {
-        let n = self.system().n;
-        if n > N_STATES {
+        if self.system().lag {
             return std::array::from_fn(|i| self.xi[N_STATES + i]);
         }
         let now = self.time;
@@ -337,6 +388,16 @@ impl Simulator {
             self.segment_at(s + 64.0 * f64::EPSILON * now.abs().max(tau))
         };
         std::array::from_fn(|i| self.actuator_output(&seg, i, now, now))
+    }
+
+    /// The vibration meter's weighted accelerations now, in the order of
+    /// [`vehicle::iso2631::METER_OUTPUTS`] (states only: no input reaches them at once).
+    pub fn meter(&mut self) -> [f64; N_METER] {
+        self.system();
+        let sys = self.system.as_ref().expect("built above");
+        let (c, at) = (&sys.meter_c, sys.meter_at);
+        let w = &self.xi.as_slice()[at..];
+        std::array::from_fn(|k| c.row(k).iter().zip(w).map(|(c, w)| c * w).sum())
     }
 
     /// Physical outputs (the rows of [`vehicle::model::physical_outputs`]) now, and the applied
@@ -443,13 +504,13 @@ impl Simulator {
                 }
             };
             let (x, wa, dw) = (xi.as_slice(), wa.as_slice(), dw.as_slice());
-            if ramp {
-                mat_vec_sum(
-                    next.as_mut_slice(),
-                    &[(&d.phi, x), (&d.gamma_hold, wa), (&d.gamma_ramp, dw)],
-                );
-            } else {
-                mat_vec_sum(next.as_mut_slice(), &[(&d.phi, x), (&d.gamma_hold, wa)]);
+            let (car, meter) = next.as_mut_slice().split_at_mut(d.car.phi.nrows());
+            for (y, d, x) in [(car, &d.car, &x[..d.car.phi.ncols()]), (meter, &d.meter, x)] {
+                if ramp {
+                    mat_vec_sum(y, &[(&d.phi, x), (&d.gamma_hold, wa), (&d.gamma_ramp, dw)]);
+                } else {
+                    mat_vec_sum(y, &[(&d.phi, x), (&d.gamma_hold, wa)]);
+                }
             }
             std::mem::swap(&mut xi, &mut next);
         }
@@ -516,11 +577,7 @@ impl Simulator {
         let command = arr(N_ACTUATORS)?;
         let command_slope = arr(N_ACTUATORS)?;
         let n = arr(1)?[0];
-        let expected = if self.actuator.bandwidth > 0.0 {
-            N_STATES + N_ACTUATORS
-        } else {
-            N_STATES
-        };
+        let expected = state_count(&self.actuator);
         if n != expected as f64 {
             return Err(format!(
                 "plant state has {n} states, the parameters need {expected}"
@@ -587,6 +644,83 @@ mod tests {
                 );
                 sim.command = [command(k); N_ACTUATORS];
                 sim.step(k as f64 * h, h).unwrap();
+            }
+        }
+    }
+
+    /// The vibration meter weights what the car does: driven by a sinusoidal road on the left
+    /// track (ramped between steps) and a sinusoidal seat force, each weighted output is its
+    /// signal times the weighting's `W(j ω)` (the standard's cascade, `vehicle::iso2631`), once
+    /// the transients have died out (measured: within 1.2·10⁻⁶, the least-squares fit of a
+    /// finite window).
+    #[test]
+    fn the_meter_outputs_are_the_weighted_accelerations() {
+        let p = VehicleParams::default();
+        let rows = physical_outputs(&p);
+        let index = |n: &str| rows.iter().position(|r| r.name == n).unwrap();
+        let signals = METER_OUTPUTS.map(|(_, signal, _, _)| index(signal));
+        let weightings = ComfortMeter::weightings();
+        for (f, seat_force, road) in [(1.7, 0.0, 0.01), (6.3, 300.0, 0.0)] {
+            let omega = 2.0 * std::f64::consts::PI * f;
+            let mut sim = Simulator::new(p, ActuatorParams::default());
+            sim.start(0.0);
+            let h = 1e-4;
+            let (steps, fit) = (150_000, 30_000);
+            let inputs = |t: f64| {
+                let (z, v) = ((omega * t).sin() / omega, (omega * t).cos());
+                (
+                    [road * z, 0.0, 0.0, 0.0, road * v, 0.0, 0.0, 0.0],
+                    seat_force * (omega * t).sin(),
+                )
+            };
+            let mut out = vec![0.0; rows.len()];
+            // Least squares of each signal and its weighted output on cos, sin.
+            let mut sums = vec![[0.0; 5]; 6];
+            for k in 0..steps {
+                let t = k as f64 * h;
+                let ((r0, u0), (r1, u1)) = (inputs(t), inputs(t + h));
+                sim.road = r0;
+                sim.road_slope = std::array::from_fn(|j| (r1[j] - r0[j]) / h);
+                sim.command[4] = u0;
+                sim.command_slope[4] = (u1 - u0) / h;
+                if k >= steps - fit {
+                    sim.physical_outputs(&mut out);
+                    let meter = sim.meter();
+                    let (c, s) = ((omega * t).cos(), (omega * t).sin());
+                    for (j, y) in signals.iter().map(|&i| out[i]).chain(meter).enumerate() {
+                        let acc = &mut sums[j];
+                        *acc = [
+                            acc[0] + c * c,
+                            acc[1] + c * s,
+                            acc[2] + s * s,
+                            acc[3] + y * c,
+                            acc[4] + y * s,
+                        ];
+                    }
+                }
+                sim.step(t, h).unwrap();
+            }
+            let amplitude = |a: &[f64; 5]| {
+                let det = a[0] * a[2] - a[1] * a[1];
+                let (x, y) = (
+                    (a[3] * a[2] - a[4] * a[1]) / det,
+                    (a[4] * a[0] - a[3] * a[1]) / det,
+                );
+                nalgebra::Complex::new(x, -y)
+            };
+            for (k, weighting) in weightings.iter().enumerate() {
+                let (signal, weighted) = (amplitude(&sums[k]), amplitude(&sums[3 + k]));
+                let expected = weighting.response(f) * signal;
+                let err = (weighted - expected).norm() / expected.norm();
+                println!(
+                    "{} at {f} Hz: relative difference {err:.1e}",
+                    METER_OUTPUTS[k].0
+                );
+                assert!(
+                    err < 1e-5,
+                    "{} at {f} Hz: {weighted} against {expected} ({err:e})",
+                    METER_OUTPUTS[k].0
+                );
             }
         }
     }

@@ -9,6 +9,7 @@ use std::ffi::CString;
 use std::ptr::{null, null_mut};
 
 const OK: i32 = 0;
+const DISCARD: i32 = 2;
 const ERROR: i32 = 3;
 
 struct Plant<'a> {
@@ -528,10 +529,13 @@ fn two_instances_on_two_threads_give_identical_results() {
 }
 
 /// The stiffest car the parameter ranges admit, stepped over an absurdly long step: the
-/// matrix exponential is refused with `fmi2Error` and the reason (it once never returned), and
-/// the state is unchanged; sensible steps of that car work.
+/// matrix exponential is refused (it once never returned) and the step discarded with
+/// `fmi2Discard` and the reason, the state unchanged. The instance is then in `StepFailed`, as
+/// FMI 2.0.4 §4.2.4 has it: its last successful time is the step's start, `fmi2DoStep` is
+/// illegal there, the outputs can be read, and the state saved before the step restores it, from
+/// where sensible steps of that car work.
 #[test]
-fn an_absurd_step_fails_with_a_message_and_loses_nothing() {
+fn an_absurd_step_is_discarded_with_a_message_and_loses_nothing() {
     let log = LogCapture::default();
     let p = Plant::new(&log);
     for (name, value) in [("k_t", 1e8), ("m_u", 0.1), ("c_s_f", 1e6)] {
@@ -542,13 +546,29 @@ fn an_absurd_step_fails_with_a_message_and_loses_nothing() {
     assert_eq!(p.step(0.0, 1e-4), OK);
     let before = p.states();
     assert!(before.iter().all(|v| v.is_finite()) && before.iter().any(|v| *v != 0.0));
-    assert_eq!(p.step(1e-4, 1e15), ERROR);
+    let mut saved: Fmi2FmuState = null_mut();
+    assert_eq!(unsafe { fmi2GetFMUstate(p.c, &mut saved) }, OK);
+    assert_eq!(p.step(1e-4, 1e15), DISCARD);
     assert!(
         log.contains("cannot discretise the car over") && log.contains("exceeds 1e20"),
         "{:?}",
         log.messages()
     );
     assert_eq!(p.states(), before);
+    unsafe {
+        let (mut last, mut status) = (f64::NAN, -1);
+        assert_eq!(fmi2GetRealStatus(p.c, 2, &mut last), OK);
+        assert_eq!(last, 1e-4, "fmi2LastSuccessfulTime");
+        assert_eq!(fmi2GetStatus(p.c, 0, &mut status), OK);
+        assert_eq!(status, DISCARD, "fmi2DoStepStatus");
+        assert_eq!(p.step(1e-4, 1e-4), ERROR, "no step from StepFailed");
+        assert!(log.contains("fmi2DoStep: illegal call in state StepFailed"));
+    }
+    // The illegal call put the instance in Error; the saved state brings it back.
+    assert_eq!(unsafe { fmi2SetFMUstate(p.c, saved) }, OK);
+    assert_eq!(p.step(1e-4, 1e-4), OK);
+    assert!(p.states().iter().all(|v| v.is_finite()));
+    unsafe { fmi2FreeFMUstate(p.c, &mut saved) };
 }
 
 /// States whose checksum matches but whose values the setters refuse (an actuator limit of

@@ -8,7 +8,8 @@
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
-    Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ValueReference, Variable,
+    Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ModelError,
+    ValueReference, Variable,
 };
 use std::path::Path;
 use vehicle::model::CORNERS;
@@ -175,11 +176,11 @@ impl RoadFmu {
 }
 
 impl Model for RoadFmu {
-    fn description(_resources: Option<&Path>) -> Result<ModelDescription, String> {
+    fn description(_resources: Option<&Path>) -> Result<ModelDescription, ModelError> {
         Ok(model_description())
     }
 
-    fn instantiate(_resources: Option<&Path>) -> Result<Self, String> {
+    fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {
         let mut reals = [0.0; N_REALS];
         for (slot, r) in reals.iter_mut().zip(&REALS) {
             *slot = r.2;
@@ -233,14 +234,14 @@ impl Model for RoadFmu {
         self.identical_tracks
     }
 
-    fn check_parameters(&self) -> Result<(), String> {
+    fn check_parameters(&self) -> Result<(), ModelError> {
         match self.road {
             Some(_) => Ok(()),
-            None => self.build().map(|_| ()),
+            None => self.build().map(|_| ()).map_err(ModelError::from),
         }
     }
 
-    fn prepare_initial_outputs(&mut self, start_time: f64) -> Result<(), String> {
+    fn prepare_initial_outputs(&mut self, start_time: f64) -> Result<(), ModelError> {
         if self.road.is_none() {
             self.road = Some(self.build()?);
         }
@@ -252,11 +253,11 @@ impl Model for RoadFmu {
     }
 
     /// The road read in Initialization Mode (kept: any parameter set since would have dropped it).
-    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
         self.prepare_initial_outputs(start_time)
     }
 
-    fn do_step(&mut self, time: f64, step: f64) -> Result<(), String> {
+    fn do_step(&mut self, time: f64, step: f64) -> Result<(), ModelError> {
         self.time = time + step;
         self.outputs = None;
         Ok(())
@@ -269,7 +270,7 @@ impl Model for RoadFmu {
         out.f64(self.time);
     }
 
-    fn restore(&mut self, input: &mut StateReader) -> Result<(), String> {
+    fn restore(&mut self, input: &mut StateReader) -> Result<(), ModelError> {
         let reals = input.f64s_exact(N_REALS, "road parameters")?;
         let integers = input.f64s_exact(4, "road integer parameters")?;
         let identical = input.bool()?;

@@ -19,10 +19,13 @@ use std::path::{Path, PathBuf};
 
 pub use vehicle::model::{FORCE_PORTS as FORCES, ROAD_PORTS as ROAD};
 /// The plant outputs every run records.
-pub const RECORD: [&str; 18] = [
+pub const RECORD: [&str; 21] = [
     "a_seat",
     "alpha_roll",
     "alpha_pitch",
+    "a_seat_wk",
+    "alpha_roll_we",
+    "alpha_pitch_we",
     "a_body",
     "stroke_fl",
     "stroke_fr",

@@ -1,37 +1,12 @@
-//! Ride-comfort metrics: a signal weighted by an ISO 2631-1 frequency weighting
-//! ([`vehicle::iso2631`]), its RMS and vibration dose value, and the figures of a run against the
-//! passive car.
+//! Ride-comfort metrics of recorded signals: RMS, peak, vibration dose value and PSD.
 //!
-//! The weighting runs on the sampled signal as its cascade of second-order sections, each
-//! discretised exactly for the sample step with the signal linear between samples (first-order
-//! hold).
+//! The ISO 2631-1 weighted signals are not weighted here: the plant outputs them, integrated
+//! with the car (`vehicle::iso2631::ComfortMeter`). A weighting run on samples would misjudge
+//! a signal that jumps at every communication point, as the seat acceleration does under held
+//! commands.
 
-use nalgebra::DVector;
 use num_complex::Complex64;
 use std::f64::consts::PI;
-use vehicle::iso2631::Weighting;
-
-/// `signal` sampled every `h` seconds, filtered by `weighting`, starting at rest.
-pub fn weighted(signal: &[f64], h: f64, weighting: &Weighting) -> Vec<f64> {
-    let mut out = signal.to_vec();
-    for sec in &weighting.sections {
-        let (a, b, c, b2) = sec.canonical();
-        let d = vehicle::exact::discretize(&a, &b, h).expect("a fixed ISO 2631 filter section");
-        let mut x = DVector::zeros(2);
-        let input = out.clone();
-        for k in 0..input.len() {
-            out[k] = c[0] * x[0] + c[1] * x[1] + b2 * input[k];
-            let next = input.get(k + 1).copied().unwrap_or(input[k]);
-            x = &d.phi * &x + &d.gamma_hold * input[k] + &d.gamma_ramp * (next - input[k]);
-        }
-    }
-    out
-}
-
-/// `signal` weighted by `W_k` (seat, vertical).
-pub fn wk_filter(signal: &[f64], h: f64) -> Vec<f64> {
-    weighted(signal, h, &Weighting::wk())
-}
 
 pub fn rms(x: &[f64]) -> f64 {
     (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
@@ -81,25 +56,6 @@ pub fn welch_psd(x: &[f64], h: f64, segment: usize) -> (Vec<f64>, Vec<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A sine through the discrete filter comes out with the analogue gain (steady state).
-    #[test]
-    fn discrete_filter_has_the_analogue_gain() {
-        let h = 1e-3;
-        let wk_gain = |f: f64| Weighting::wk().gain(f);
-        for f in [1.0, 4.0, 12.5] {
-            let x: Vec<f64> = (0..20000)
-                .map(|k| (2.0 * PI * f * k as f64 * h).sin())
-                .collect();
-            let y = wk_filter(&x, h);
-            let steady = rms(&y[10000..]) * 2f64.sqrt();
-            assert!(
-                (steady - wk_gain(f)).abs() < 2e-3 * wk_gain(f),
-                "{f} Hz: {steady} vs {}",
-                wk_gain(f)
-            );
-        }
-    }
 
     #[test]
     fn vdv_rms_and_psd_of_known_signals() {

@@ -104,9 +104,8 @@ pub struct Held {
     pub step_s: f64,
     /// `W_k` seat RMS of the car, time-averaged (what the occupant feels).
     pub predicted_wk_rms_seat_m_s2: f64,
-    /// The same as a master measures it from the values recorded at the communication points
-    /// (`master compare`'s figure): the seat force held over a step makes the seat
-    /// acceleration jump at each point, and the samples see one side of each jump.
+    /// The same as a master measures it (`master compare`'s figure): the plant's weighted
+    /// outputs (its vibration meter) sampled at the communication points.
     pub recorded_wk_rms_seat_m_s2: f64,
     pub recorded_we_rms_roll_rad_s2: f64,
     pub recorded_we_rms_pitch_rad_s2: f64,

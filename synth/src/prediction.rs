@@ -24,7 +24,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use vehicle::exact::expm;
-use vehicle::iso2631::{Weighting, PITCH_FACTOR, ROLL_FACTOR};
+use vehicle::iso2631::{ComfortMeter, METER_OUTPUTS, PITCH_FACTOR, ROLL_FACTOR};
 use vehicle::model::{
     physical_outputs, OutputRow, StateSpace, CORNERS, N_ACTUATORS, N_ROAD, N_STATES, N_WHEELS,
 };
@@ -253,9 +253,10 @@ pub(crate) fn sensor_rows(
     })
 }
 
-/// The plant outputs the figures weight by ISO 2631-1: `W_k` on the seat, `W_e` on roll and
-/// pitch ([`Figures`]' first three).
-pub(crate) const WEIGHTED_SIGNALS: [&str; 3] = ["a_seat", "alpha_roll", "alpha_pitch"];
+/// The plant outputs the figures weight by ISO 2631-1, as the plant's vibration meter does:
+/// `W_k` on the seat, `W_e` on roll and pitch ([`Figures`]' first three).
+pub(crate) const WEIGHTED_SIGNALS: [&str; 3] =
+    [METER_OUTPUTS[0].1, METER_OUTPUTS[1].1, METER_OUTPUTS[2].1];
 
 /// The plant outputs of the unweighted figures, in [`Figures`]' order after the weighted ones
 /// and before the forces, each with what it is divided by (a tyre's static load for its load
@@ -792,7 +793,7 @@ impl Loop {
     /// The predicted figures on `road`.
     pub fn figures(&self, road: &ComfortRoad) -> Figures {
         let delay = (self.conditions.params.l1 + self.conditions.params.l2) / road.speed;
-        let (wk, we) = (Weighting::wk(), Weighting::we());
+        let weightings = ComfortMeter::weightings();
         let weighted: Vec<&OutputRow> = WEIGHTED_SIGNALS.iter().map(|n| self.row(n)).collect();
         let plain: Vec<(&OutputRow, f64)> = plain_signals(&self.static_load)
             .iter()
@@ -804,13 +805,8 @@ impl Loop {
                 let r = track_input(track, omega, delay);
                 let resp = self.respond(omega, &r);
                 let mut k = 0;
-                for (j, row) in weighted.iter().enumerate() {
-                    let w = if j == 0 {
-                        wk.response(f)
-                    } else {
-                        we.response(f)
-                    };
-                    density[k] += (w * self.output(row, &r, &resp)).norm_sqr();
+                for (row, w) in weighted.iter().zip(&weightings) {
+                    density[k] += (w.response(f) * self.output(row, &r, &resp)).norm_sqr();
                     k += 1;
                 }
                 for (row, divisor) in &plain {
@@ -906,6 +902,7 @@ pub fn track_input(track: usize, omega: f64, delay: f64) -> DVector<C64> {
 mod tests {
     use super::*;
     use crate::design::ComfortDesign;
+    use vehicle::iso2631::Weighting;
 
     fn design() -> ComfortDesign {
         ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap()

@@ -11,7 +11,7 @@ use nalgebra::{DMatrix, DVector};
 /// The communication step of these runs [s].
 const H: f64 = 1e-3;
 
-const RECORD: [&str; 17] = [
+const RECORD: [&str; 18] = [
     "a_seat",
     "alpha_roll",
     "alpha_pitch",
@@ -29,6 +29,7 @@ const RECORD: [&str; 17] = [
     "tire_load_fr",
     "tire_load_rl",
     "tire_load_rr",
+    "alpha_roll_we",
 ];
 
 struct Figures {
@@ -47,12 +48,10 @@ struct Figures {
 
 /// The figures of a run logged every `H`.
 fn figures(log: &[Vec<f64>]) -> Figures {
-    let roll: Vec<f64> = log.iter().map(|r| r[1]).collect();
-    let we = vehicle::iso2631::Weighting::we();
     Figures {
         seat: rms(log, 0),
         roll: rms(log, 1),
-        we_roll: master::metrics::rms(&master::metrics::weighted(&roll, H, &we)),
+        we_roll: rms(log, 17),
         pitch: rms(log, 2),
         body: rms(log, 3),
         stroke: (4..8).map(|c| peak(log, c)).fold(0.0, f64::max),

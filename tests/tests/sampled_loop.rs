@@ -56,10 +56,19 @@ impl Case {
     }
 }
 
-/// The recorded `a_seat`, `alpha_roll`, `alpha_pitch` of a run on a road velocity
-/// `AMPLITUDE cos ω t` on the left track, fitted as `Re(A e^{jωt})` over the last `fit` seconds
-/// (per m/s of road velocity).
-fn cosimulated(case: &Case, f: f64, duration: f64, fit: f64) -> [Complex<f64>; 3] {
+/// The plant outputs compared: the accelerations as read, then the vibration meter's weighted
+/// ones (what `master compare` measures comfort with).
+fn record() -> Vec<&'static str> {
+    let meter = vehicle::iso2631::METER_OUTPUTS;
+    let signals = meter.iter().map(|(_, signal, _, _)| *signal);
+    signals
+        .chain(meter.iter().map(|(name, ..)| *name))
+        .collect()
+}
+
+/// The recorded [`record`] of a run on a road velocity `AMPLITUDE cos ω t` on the left track,
+/// fitted as `Re(A e^{jωt})` over the last `fit` seconds (per m/s of road velocity).
+fn cosimulated(case: &Case, f: f64, duration: f64, fit: f64) -> [Complex<f64>; 6] {
     let params = vehicle::VehicleParams::default();
     let omega = 2.0 * std::f64::consts::PI * f;
     let lag = (params.l1 + params.l2) / 20.0;
@@ -83,14 +92,13 @@ fn cosimulated(case: &Case, f: f64, duration: f64, fit: f64) -> [Complex<f64>; 3
     let steps = (duration / STEP).round() as usize;
     let parameters = case.parameters();
     let parameters: Vec<(&str, f64)> = parameters.iter().map(|(n, v)| (n.as_str(), *v)).collect();
-    let record = ["a_seat", "alpha_roll", "alpha_pitch"];
     let log = run_on(
         RoadSource::InProcess(&road),
         &plant,
         controller.as_ref(),
         STEP,
         steps,
-        &record,
+        &record(),
         &parameters,
     );
     // Row k is recorded at t_{k+1}; least squares on cos, sin over the window.
@@ -115,7 +123,7 @@ fn cosimulated(case: &Case, f: f64, duration: f64, fit: f64) -> [Complex<f64>; 3
     })
 }
 
-fn predicted(case: &Case, f: f64) -> [Complex<f64>; 3] {
+fn predicted(case: &Case, f: f64) -> [Complex<f64>; 6] {
     let conditions = case.conditions;
     let law = case.variant.map(|v| {
         let mut law = law(v);
@@ -155,18 +163,20 @@ fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
             for (k, (m, p)) in measured.iter().zip(&model).enumerate() {
                 let err = (m - p).norm() / p.norm();
                 println!(
-                    "{:?} {:?} {f} Hz, output {k}: |A| predicted {:.6e}, co-simulated {:.6e}, \
+                    "{:?} {:?} {f} Hz, {}: |A| predicted {:.6e}, co-simulated {:.6e}, \
                      relative difference {err:.1e}",
                     case.variant,
                     case.parameters(),
+                    record()[k],
                     p.norm(),
                     m.norm()
                 );
                 assert!(
                     err < 1e-6,
-                    "{:?} {:?} at {f} Hz, output {k}: predicted {p}, co-simulated {m}",
+                    "{:?} {:?} at {f} Hz, {}: predicted {p}, co-simulated {m}",
                     case.variant,
-                    case.parameters()
+                    case.parameters(),
+                    record()[k]
                 );
                 worst = worst.max(err);
             }

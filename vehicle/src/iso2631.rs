@@ -9,6 +9,7 @@
 //! `(ω₄²/ω₃ s + ω₄²)/(s² + ω₄s/Q₄ + ω₄²)` and, for `W_k`, the upward step
 //! `(s² + ω₅s/Q₅ + ω₅²)/(s² + ω₆s/Q₆ + ω₆²)` (`ωᵢ = 2π fᵢ`).
 
+use crate::model::{OutputRow, N_ACTUATORS, N_ROAD, N_STATES};
 use nalgebra::{Complex, DMatrix};
 use std::f64::consts::{FRAC_1_SQRT_2, PI};
 
@@ -29,20 +30,6 @@ pub struct Section {
 impl Section {
     fn response(&self, s: Complex<f64>) -> Complex<f64> {
         (s * s * self.b[2] + s * self.b[1] + self.b[0]) / (s * s + s * self.a[1] + self.a[0])
-    }
-
-    /// Controllable canonical form `x' = A x + b v`, `y = c x + d v`: `A = [[0, 1], [−a₀, −a₁]]`,
-    /// `b = [0; 1]`, `c = [b₀ − b₂a₀, b₁ − b₂a₁]`, `d = b₂`.
-    pub fn canonical(&self) -> (DMatrix<f64>, DMatrix<f64>, [f64; 2], f64) {
-        (
-            DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -self.a[0], -self.a[1]]),
-            DMatrix::from_column_slice(2, 1, &[0.0, 1.0]),
-            [
-                self.b[0] - self.b[2] * self.a[0],
-                self.b[1] - self.b[2] * self.a[1],
-            ],
-            self.b[2],
-        )
     }
 }
 
@@ -155,6 +142,124 @@ impl Weighting {
     }
 }
 
+/// The weighted comfort signals of the seat's vibration meter: `(output, signal it weights,
+/// unit, description)`, the weighting being `W_k` for the first and `W_e` for the others
+/// ([`ComfortMeter::weightings`]).
+pub const METER_OUTPUTS: [(&str, &str, &str, &str); 3] = [
+    (
+        "a_seat_wk",
+        "a_seat",
+        "m/s2",
+        "Seat vertical acceleration weighted by ISO 2631-1 W_k (the full weighting, band limits included), integrated exactly with the car (sample it: its RMS is the comfort figure; do not weight the samples of a_seat)",
+    ),
+    (
+        "alpha_roll_we",
+        "alpha_roll",
+        "rad/s2",
+        "Body roll acceleration weighted by ISO 2631-1 W_e (the full weighting, band limits included), integrated exactly with the car",
+    ),
+    (
+        "alpha_pitch_we",
+        "alpha_pitch",
+        "rad/s2",
+        "Body pitch acceleration weighted by ISO 2631-1 W_e (the full weighting, band limits included), integrated exactly with the car",
+    ),
+];
+
+/// Where a system keeps the applied forces the meter reads ([`ComfortMeter::place`]): the inputs
+/// or the states from this index on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Forces {
+    Inputs(usize),
+    States(usize),
+}
+
+/// The seat's vibration meter: the ISO 2631-1 weightings of the comfort signals as one linear
+/// block driven by the car, `ẇ = A w + B [x; r; f]`, weighted signals `C w`.
+///
+/// A weighted signal sampled from a master is not the weighting of the sampled signal: under
+/// held commands the seat acceleration jumps at every communication point (the force feeds
+/// through), so a weighting run on the samples (joined by lines) misjudges the RMS: by up to
+/// a sixth for the shipped designs at 1 ms. Integrated with the car, the weighted signal is
+/// continuous (every weighting's band-limiting low-pass has no feedthrough, so `D = 0`) and
+/// its samples' mean square is the time average's (`synth::sampled` predicts both).
+#[derive(Debug, Clone)]
+pub struct ComfortMeter {
+    /// `n_w × n_w`: the weightings' cascades, one diagonal block per signal.
+    pub a: DMatrix<f64>,
+    /// `n_w × (N_STATES + N_ROAD + N_ACTUATORS)`: each filter's input is its signal's row
+    /// `c x + d_r r + d_u f`.
+    pub b: DMatrix<f64>,
+    /// `3 × n_w`: the weighted signals in the order of [`METER_OUTPUTS`].
+    pub c: DMatrix<f64>,
+}
+
+impl ComfortMeter {
+    /// The weighting of each of [`METER_OUTPUTS`].
+    pub fn weightings() -> [Weighting; 3] {
+        [Weighting::wk(), Weighting::we(), Weighting::we()]
+    }
+
+    /// The meter on the outputs `rows` (those of [`crate::model::physical_outputs`]).
+    pub fn new(rows: &[OutputRow]) -> Self {
+        let filters = Self::weightings().map(|w| w.state_space());
+        let n: usize = filters.iter().map(|f| f[0].nrows()).sum();
+        let inputs = N_STATES + N_ROAD + N_ACTUATORS;
+        let (mut a, mut b, mut c) = (
+            DMatrix::zeros(n, n),
+            DMatrix::zeros(n, inputs),
+            DMatrix::zeros(METER_OUTPUTS.len(), n),
+        );
+        let mut at = 0;
+        for (k, ([a_w, b_w, c_w, d_w], (_, signal, _, _))) in
+            filters.iter().zip(METER_OUTPUTS).enumerate()
+        {
+            assert_eq!(
+                d_w[(0, 0)],
+                0.0,
+                "a band-limited weighting has no feedthrough"
+            );
+            let row = rows
+                .iter()
+                .find(|r| r.name == signal)
+                .unwrap_or_else(|| panic!("the car has no output {signal}"));
+            let over_inputs: Vec<f64> = row.coefficients().copied().collect();
+            let nw = a_w.nrows();
+            a.view_mut((at, at), (nw, nw)).copy_from(a_w);
+            b.view_mut((at, 0), (nw, inputs))
+                .copy_from(&(b_w * DMatrix::from_row_slice(1, inputs, &over_inputs)));
+            c.view_mut((k, at), (1, nw)).copy_from(c_w);
+            at += nw;
+        }
+        ComfortMeter { a, b, c }
+    }
+
+    /// Writes the meter into a system `ẋ = A x + B v` whose first 16 states are the car's and
+    /// whose first 8 inputs are the road's: the meter's states from `at` on, reading the applied
+    /// forces where `forces` says they are.
+    pub fn place(&self, a: &mut DMatrix<f64>, b: &mut DMatrix<f64>, at: usize, forces: Forces) {
+        let n = self.a.nrows();
+        a.view_mut((at, at), (n, n)).copy_from(&self.a);
+        a.view_mut((at, 0), (n, N_STATES))
+            .copy_from(&self.b.columns(0, N_STATES));
+        b.view_mut((at, 0), (n, N_ROAD))
+            .copy_from(&self.b.columns(N_STATES, N_ROAD));
+        let on_forces = self.b.columns(N_STATES + N_ROAD, N_ACTUATORS);
+        match forces {
+            Forces::Inputs(k) => b.view_mut((at, k), (n, N_ACTUATORS)).copy_from(&on_forces),
+            Forces::States(k) => a.view_mut((at, k), (n, N_ACTUATORS)).copy_from(&on_forces),
+        }
+    }
+
+    /// Number of filter states (two per second-order section).
+    pub fn order() -> usize {
+        Self::weightings()
+            .iter()
+            .map(|w| 2 * w.sections.len())
+            .sum()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -224,6 +329,48 @@ mod tests {
             for f in [0.5, 1.0, 4.0, 8.0, 16.0] {
                 let rel = (reduced.gain(f) - full.gain(f)).abs() / full.gain(f);
                 assert!(rel < 1e-3, "{} at {f} Hz: {rel}", full.name);
+            }
+        }
+    }
+
+    /// Each meter output is its weighting times its signal: `C (sI − A)⁻¹ B v = W(s) (row · v)`
+    /// for any direction `v` of `[x; r; f]`, and no other signal reaches it.
+    #[test]
+    fn the_meter_weights_each_comfort_signal_by_its_weighting() {
+        let rows = crate::model::physical_outputs(&crate::VehicleParams::default());
+        let meter = ComfortMeter::new(&rows);
+        assert_eq!(ComfortMeter::order(), 8 + 6 + 6);
+        assert_eq!(meter.a.nrows(), ComfortMeter::order());
+        let inputs = N_STATES + N_ROAD + N_ACTUATORS;
+        let v: Vec<f64> = (0..inputs)
+            .map(|i| ((i * 37 % 11) as f64 - 5.0) * 0.3)
+            .collect();
+        let cx = |m: &DMatrix<f64>| m.map(|x| Complex::new(x, 0.0));
+        for f in [0.3, 1.0, 4.0, 11.0, 60.0] {
+            let s = Complex::new(0.0, w(f));
+            let n = ComfortMeter::order();
+            let m = DMatrix::<Complex<f64>>::identity(n, n) * s - cx(&meter.a);
+            let x = m
+                .lu()
+                .solve(
+                    &(cx(&meter.b)
+                        * DMatrix::from_column_slice(inputs, 1, &v).map(|x| Complex::new(x, 0.0))),
+                )
+                .unwrap();
+            let y = cx(&meter.c) * x;
+            for (k, ((_, signal, _, _), weighting)) in METER_OUTPUTS
+                .iter()
+                .zip(ComfortMeter::weightings())
+                .enumerate()
+            {
+                let row = rows.iter().find(|r| r.name == *signal).unwrap();
+                let direct: f64 = row.coefficients().zip(&v).map(|(a, b)| a * b).sum();
+                let exact = weighting.response(f) * direct;
+                assert!(
+                    (y[(k, 0)] - exact).norm() <= 1e-9 * exact.norm(),
+                    "{signal} at {f} Hz: {} vs {exact}",
+                    y[(k, 0)]
+                );
             }
         }
     }

@@ -332,6 +332,13 @@ pub struct OutputRow {
     pub d_u: [f64; N_ACTUATORS],
 }
 
+impl OutputRow {
+    /// The row over `[x; r; u]`: `c`, then `d_r`, then `d_u`.
+    pub fn coefficients(&self) -> impl Iterator<Item = &f64> {
+        self.c.iter().chain(&self.d_r).chain(&self.d_u)
+    }
+}
+
 /// The physical outputs engineers and controllers need, all dynamic parts (deviation from
 /// static equilibrium): accelerations, the velocities measured by the output-feedback designs,
 /// suspension and seat strokes, tyre deflections and dynamic tyre loads.
