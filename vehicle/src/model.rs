@@ -486,7 +486,7 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
             });
         }
     }
-    debug_assert_eq!(rows.len(), N_PHYSICAL_OUTPUTS);
+    assert_eq!(rows.len(), N_PHYSICAL_OUTPUTS);
     rows
 }
 
