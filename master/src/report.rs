@@ -533,11 +533,10 @@ pub struct Design {
     pub gamma: Option<f64>,
     #[serde(default)]
     pub predicted_wk_rms_seat: Option<f64>,
-    /// The same as a master runs the loop at the communication step `held_step` [s].
+    /// The same as a master runs the loop at its communication step, formatted by `synth`
+    /// (nominal; worst over the uncertainty).
     #[serde(default)]
-    pub held_wk_rms_seat: Option<f64>,
-    #[serde(default)]
-    pub held_step: Option<f64>,
+    pub held: Option<String>,
     pub certified: String,
     pub nominal_design: Option<String>,
     pub seconds: f64,
@@ -602,9 +601,9 @@ pub fn design_table(
             d.robust_to,
             match (d.gamma, d.predicted_wk_rms_seat) {
                 (Some(g), _) => format!("γ {g:.6}"),
-                (None, Some(p)) => match (d.held_wk_rms_seat, d.held_step) {
-                    (Some(v), Some(h)) => format!("{p:.4} m/s²; {v:.4} at {} ms", h * 1e3),
-                    _ => format!("{p:.4} m/s²"),
+                (None, Some(p)) => match &d.held {
+                    Some(held) => format!("{p:.4} m/s²; {held}"),
+                    None => format!("{p:.4} m/s²"),
                 },
                 (None, None) => "-".into(),
             },

@@ -3,7 +3,8 @@
 //! car's own model, independent of the design's LMIs and Riccati equations); the co-simulation
 //! of the shipped FMUs — road FMU on the design road, plant FMU, controller FMU, the master's
 //! loop — measures them. They agree within 5 % for every design and the passive car, and for
-//! each robust design at the ends of its uncertainty and where its prediction is worst (the
+//! each robust design at the ends of its uncertainty and where its prediction is worst, both
+//! continuous and as a master runs it (the
 //! plant FMU's parameters its certificate gives for each condition: mass, actuator delay — which
 //! `delay_sf`'s predictor gets too, by the same name `tau` — or actuator faults).
 //!
@@ -108,6 +109,37 @@ impl Case {
             step,
         }
     }
+
+    /// A certificate's `held` prediction (the loop as a master runs it at its step).
+    fn held(
+        label: String,
+        variant: &str,
+        plant: BTreeMap<String, f64>,
+        held: &serde_json::Value,
+        passive: f64,
+    ) -> Case {
+        let mut case = Case::new(
+            label,
+            Some(variant.into()),
+            plant,
+            figures(&held["predicted"]),
+            passive,
+        );
+        case.step = held["step_s"].as_f64().expect("step_s");
+        // Ten times cheaper per run than the fine step: more seeds (3 left `ft_of` 4.0 % off,
+        // 16 1.4 %).
+        case.seeds = case.seeds.max(12);
+        case
+    }
+}
+
+/// `(W_k seat, W_e roll, W_e pitch)` RMS of a certificate's figures.
+fn figures(f: &serde_json::Value) -> [f64; 3] {
+    [
+        f["wk_rms_seat_m_s2"].as_f64().unwrap(),
+        f["we_rms_roll_rad_s2"].as_f64().unwrap(),
+        f["we_rms_pitch_rad_s2"].as_f64().unwrap(),
+    ]
 }
 
 /// Measured `(W_k seat, W_e roll, W_e pitch)` RMS of every case, its mean squares averaged over
@@ -178,13 +210,6 @@ fn cosimulated_comfort_is_the_certificates_prediction() {
         ["iso_class", "speed_m_s", "tracks", "band_hz"].map(|k| c["comfort"]["road"][k].clone())
     };
     let road = predicted_road(&certificates[0].1);
-    let figures = |f: &serde_json::Value| {
-        [
-            f["wk_rms_seat_m_s2"].as_f64().unwrap(),
-            f["we_rms_roll_rad_s2"].as_f64().unwrap(),
-            f["we_rms_pitch_rad_s2"].as_f64().unwrap(),
-        ]
-    };
     let passive = figures(&certificates[0].1["comfort"]["passive"]);
     let mut cases = vec![Case::new(
         "passive".into(),
@@ -204,19 +229,13 @@ fn cosimulated_comfort_is_the_certificates_prediction() {
             passive[0],
         ));
         // As a master runs it, at the certificate's communication step.
-        let held = &comfort["held"];
-        let mut sampled = Case::new(
+        cases.push(Case::held(
             format!("{variant} held"),
-            Some(variant.clone()),
+            variant,
             BTreeMap::new(),
-            figures(&held["predicted"]),
+            &comfort["held"],
             passive[0],
-        );
-        sampled.step = held["step_s"].as_f64().expect("step_s");
-        // Ten times cheaper per run than the fine step: more seeds (3 left `ft_of` 4.0 % off,
-        // 16 1.4 %).
-        sampled.seeds = sampled.seeds.max(12);
-        cases.push(sampled);
+        ));
         // Over its uncertainty: the first and last conditions and the worst.
         let Some(u) = comfort.get("uncertainty") else {
             continue;
@@ -237,11 +256,22 @@ fn cosimulated_comfort_is_the_certificates_prediction() {
             if plant.is_empty() {
                 continue; // the nominal car, measured above
             }
+            let label = format!("{variant} at {}", predictions[k][0].as_str().unwrap());
             cases.push(Case::new(
-                format!("{variant} at {}", predictions[k][0].as_str().unwrap()),
+                label.clone(),
                 Some(variant.clone()),
-                plant,
+                plant.clone(),
                 figures(&predictions[k][1]),
+                passive[0],
+            ));
+            // And as a master runs it there.
+            let held = &u["held"][k];
+            assert!(held.is_object(), "{label}: no held prediction: {held}");
+            cases.push(Case::held(
+                format!("{label} held"),
+                variant,
+                plant,
+                held,
                 passive[0],
             ));
         }

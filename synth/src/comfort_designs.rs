@@ -156,6 +156,10 @@ pub struct OverUncertainty {
     pub nominal_name: Option<String>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub nominal_design: Vec<(String, Option<Figures>)>,
+    /// The loop as a master runs it at the design file's communication step, at each condition
+    /// of `predictions` (`None` where it is unstable there), and the worst `W_k` seat.
+    pub held: Vec<Option<Held>>,
+    pub worst_held_wk_rms_seat_m_s2: f64,
     /// The conditions of `predictions`.
     #[serde(skip)]
     pub conditions: Vec<Conditions>,
@@ -186,6 +190,8 @@ impl OverUncertainty {
             over_delays: None,
             nominal_name: None,
             nominal_design: Vec::new(),
+            held: Vec::new(),
+            worst_held_wk_rms_seat_m_s2: f64::NAN,
             plant_parameters: conditions
                 .iter()
                 .map(|c| c.plant_parameters(nominal))
@@ -207,6 +213,30 @@ impl OverUncertainty {
              guarantee claimed"
         ));
         None
+    }
+
+    /// The held loop at every condition with `law`, evaluated in parallel.
+    pub fn predict_held(&mut self, law: &ControlLaw, d: &ComfortDesign) {
+        use rayon::prelude::*;
+        let held = self
+            .conditions
+            .par_iter()
+            .map(|c| held_at(law, *c, d))
+            .collect();
+        self.set_held(held);
+    }
+
+    /// The held loop's predictions at the conditions, in their order, and their worst.
+    pub fn set_held(&mut self, held: Vec<Option<Held>>) {
+        assert_eq!(held.len(), self.conditions.len());
+        self.worst_held_wk_rms_seat_m_s2 = held
+            .iter()
+            .map(|h| {
+                h.as_ref()
+                    .map_or(f64::INFINITY, |h| h.predicted_wk_rms_seat_m_s2)
+            })
+            .fold(0.0, f64::max);
+        self.held = held;
     }
 }
 
@@ -770,6 +800,13 @@ pub fn state_feedback_wiring(g: &ComfortPlant) -> (Plant, Sensors) {
     (plant_of(g), state_feedback_sensors(g))
 }
 
+/// The loop at `conditions` as a master runs it at the design file's communication step;
+/// `None` where it is unstable there (a design's uncertainty reports it; see
+/// [`OverUncertainty::held`]).
+pub fn held_at(law: &ControlLaw, conditions: Conditions, d: &ComfortDesign) -> Option<Held> {
+    held_prediction(law, conditions, d).ok()
+}
+
 /// The nominal loop as a master runs it at the design file's communication step; unstable
 /// there is a refusal.
 fn held_prediction(
@@ -908,12 +945,14 @@ pub fn certify(
         .map(|l| [l.re, l.im])
         .collect();
     poles.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
-    let uncertainty = over_uncertainty(ctx, &g0, robust_to, law, wiring).map_err(&fail)?;
+    let mut uncertainty = over_uncertainty(ctx, &g0, robust_to, law, wiring).map_err(&fail)?;
+    if let Some(u) = uncertainty.as_mut() {
+        u.predict_held(law, d);
+    }
     // The prediction for a nominal design; for a robust one the design model's bound, claimed
     // only where it covers every prediction on the exact car (the design model's Padé rear track
     // and band-unlimited weightings differ from the car; a bound that does not cover is no
     // guarantee of the car, and is reported as such).
-    let mut uncertainty = uncertainty;
     let guaranteed = match uncertainty.as_mut() {
         // Accommodated: every stationary loop of the box is the nominal one, checked here on
         // the predictions (computed with the estimate settled, not assumed equal).

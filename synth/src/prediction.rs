@@ -293,10 +293,12 @@ fn eigenvalues(m: DMatrix<C64>) -> Vec<C64> {
 /// column, and the predictor's blocks have 4 outputs for dozens of inputs.
 #[derive(Clone)]
 pub(crate) struct HessenbergResponse {
-    h: DMatrix<f64>,
-    qt_b: DMatrix<f64>,
-    c_q: DMatrix<f64>,
-    d: DMatrix<f64>,
+    /// `Hᵀ` (rows of `H` contiguous: [`solve_hessenberg`]).
+    h_t: DMatrix<f64>,
+    /// `Qᵀ B`, `C Q` and `D`, complex once here rather than at every frequency.
+    qt_b: DMatrix<C64>,
+    c_q: DMatrix<C64>,
+    d: DMatrix<C64>,
     /// Whether `h`, `qt_b`, `c_q` and `d` are the dual's.
     dual: bool,
 }
@@ -322,10 +324,10 @@ impl HessenbergResponse {
         let n = sys.order();
         if n == 0 {
             return HessenbergResponse {
-                h: DMatrix::zeros(0, 0),
+                h_t: DMatrix::zeros(0, 0),
                 qt_b: DMatrix::zeros(0, sys.b.ncols()),
                 c_q: DMatrix::zeros(sys.c.nrows(), 0),
-                d: sys.d.clone(),
+                d: complex(&sys.d),
                 dual: false,
             };
         }
@@ -336,10 +338,10 @@ impl HessenbergResponse {
         let b = DMatrix::from_fn(n, sys.b.ncols(), |i, j| sys.b[(i, j)] / scale[i]);
         let c = DMatrix::from_fn(sys.c.nrows(), n, |i, j| sys.c[(i, j)] * scale[j]);
         HessenbergResponse {
-            qt_b: q.transpose() * b,
-            c_q: c * &q,
-            h,
-            d: sys.d.clone(),
+            qt_b: complex(&(q.transpose() * b)),
+            c_q: complex(&(c * &q)),
+            h_t: h.transpose(),
+            d: complex(&sys.d),
             dual: false,
         }
     }
@@ -350,51 +352,104 @@ impl HessenbergResponse {
 
     /// `C (sI − A)⁻¹ B + D` at any complex `s` (`e^{jωh}` for a discrete-time system).
     pub(crate) fn at_s(&self, s: C64) -> DMatrix<C64> {
-        let mut out = self.d.map(|v| C64::new(v, 0.0));
-        if self.h.nrows() > 0 {
-            let x = solve_hessenberg(&self.h, s, &self.qt_b);
-            out += self.c_q.map(|v| C64::new(v, 0.0)) * x;
+        let mut out = self.d.clone();
+        if self.h_t.nrows() > 0 {
+            let x = solve_hessenberg(&self.h_t, s, self.qt_b.clone());
+            out += &self.c_q * x;
         }
         match self.dual {
             true => out.transpose(),
             false => out,
         }
     }
+
+    /// `(C (sI − A)⁻¹ B + D) v`: one solve per column of `v` instead of per input, for a
+    /// system with many inputs driven along a few directions (the held loop's eight road
+    /// samples by two tracks; at `delay_sf`'s longest delay the solve is most of its
+    /// synthesis). Not for a system kept as its dual.
+    pub(crate) fn applied(&self, s: C64, v: &DMatrix<C64>) -> DMatrix<C64> {
+        assert!(!self.dual, "applied() on a system kept as its dual");
+        let mut out = &self.d * v;
+        if self.h_t.nrows() > 0 {
+            let x = solve_hessenberg(&self.h_t, s, &self.qt_b * v);
+            out += &self.c_q * x;
+        }
+        out
+    }
 }
 
-/// `(sI − H)⁻¹ B` for upper Hessenberg `H`: Gaussian elimination with partial pivoting between
-/// neighbouring rows (the only ones with a sub-diagonal entry), `O(n²)` per column of `B`.
-fn solve_hessenberg(h: &DMatrix<f64>, s: C64, b: &DMatrix<f64>) -> DMatrix<C64> {
-    let n = h.nrows();
-    let mut m: DMatrix<C64> = h.map(|v| C64::new(-v, 0.0));
-    for i in 0..n {
-        m[(i, i)] += s;
+fn complex(m: &DMatrix<f64>) -> DMatrix<C64> {
+    m.map(|v| C64::new(v, 0.0))
+}
+
+/// `(sI − H)⁻¹ B` for upper Hessenberg `H`, given as `Hᵀ` (each row of `H` contiguous).
+/// Gaussian elimination with partial pivoting between neighbouring rows (the only ones with a
+/// sub-diagonal entry), `O(n²)` per column of `B`. Each step changes only the row below the
+/// pivot, so the rows of `sI − H` are formed as the elimination reaches them and the finished
+/// rows of `U` packed (row `k` from column `k`): half the memory traffic of eliminating a full
+/// complex copy, which cost as much as the arithmetic once `H` outgrew the cache (`delay_sf`'s
+/// held loops reach 580 states).
+fn solve_hessenberg(h_t: &DMatrix<f64>, s: C64, b: DMatrix<C64>) -> DMatrix<C64> {
+    let n = h_t.nrows();
+    if n == 0 {
+        return b;
     }
-    let mut x: DMatrix<C64> = b.map(|v| C64::new(v, 0.0));
-    for k in 0..n.saturating_sub(1) {
-        if m[(k + 1, k)].norm() > m[(k, k)].norm() {
-            m.swap_rows(k, k + 1);
+    // Row `i` of `sI − H` from column `from`.
+    let row = |i: usize, from: usize, out: &mut Vec<C64>| {
+        out.clear();
+        out.extend(
+            h_t.column(i).as_slice()[from..]
+                .iter()
+                .map(|v| C64::new(-v, 0.0)),
+        );
+        out[i - from] += s;
+    };
+    let start = |k: usize| k * n - k * k.saturating_sub(1) / 2;
+    let mut u: Vec<C64> = Vec::with_capacity(n * (n + 1) / 2);
+    let (mut pivot, mut next) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    row(0, 0, &mut pivot);
+    let mut x = b;
+    for k in 0..n - 1 {
+        row(k + 1, k, &mut next);
+        if next[0].norm() > pivot[0].norm() {
+            std::mem::swap(&mut pivot, &mut next);
             x.swap_rows(k, k + 1);
         }
-        let f = m[(k + 1, k)] / m[(k, k)];
+        let f = next[0] / pivot[0];
         if f != C64::new(0.0, 0.0) {
-            for j in k..n {
-                let v = m[(k, j)];
-                m[(k + 1, j)] -= f * v;
+            for (a, b) in next.iter_mut().zip(pivot.iter()) {
+                *a -= f * b;
             }
             for j in 0..x.ncols() {
                 let v = x[(k, j)];
                 x[(k + 1, j)] -= f * v;
             }
         }
+        debug_assert_eq!(u.len(), start(k));
+        u.extend_from_slice(&pivot);
+        // The remaining row, from column k + 1, is the next pivot row.
+        pivot.clear();
+        pivot.extend_from_slice(&next[1..]);
     }
-    for j in 0..x.ncols() {
-        for i in (0..n).rev() {
-            let mut s = x[(i, j)];
-            for k in i + 1..n {
-                s -= m[(i, k)] * x[(k, j)];
+    u.extend_from_slice(&pivot);
+    // Back-substitution, every column in one pass: their sums are independent chains the
+    // processor overlaps (one column's is a chain of dependent additions), each summed in the
+    // same order as alone.
+    let columns = x.ncols();
+    let x_all = x.as_mut_slice();
+    let mut sums = vec![C64::new(0.0, 0.0); columns];
+    for i in (0..n).rev() {
+        let row = &u[start(i)..start(i) + n - i];
+        for (c, s) in sums.iter_mut().enumerate() {
+            *s = x_all[c * n + i];
+        }
+        for (k, a) in row.iter().enumerate().skip(1) {
+            for (c, s) in sums.iter_mut().enumerate() {
+                *s -= a * x_all[c * n + i + k];
             }
-            x[(i, j)] = s / m[(i, i)];
+        }
+        for (c, s) in sums.iter().enumerate() {
+            x_all[c * n + i] = s / row[0];
         }
     }
     x

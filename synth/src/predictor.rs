@@ -215,7 +215,8 @@ pub fn predictor_design(
         .map(|i| d.delay_max * i as f64 / count as f64)
         .collect();
     // Each delay's loop on its own thread (the rest of the synthesis is done by then): the
-    // delay-margin scans dominate delay_sf's synthesis time. Collected in order.
+    // delay-margin scans, and then the held loops (up to 330 states at 50 ms), are delay_sf's
+    // synthesis time. Collected in order.
     use rayon::prelude::*;
     let evaluated = delays
         .par_iter()
@@ -238,6 +239,11 @@ pub fn predictor_design(
         predictions.push(prediction);
         conditions.push(c);
     }
+    // The loops as a master runs them, each with the predictor matched to its delay.
+    let held = conditions
+        .par_iter()
+        .map(|c| crate::comfort_designs::held_at(&law_at(c.delay), *c, d))
+        .collect();
     let seat = g.c_z.rows(0, 1).into_owned();
     let over = over_delays(g, &sf.k, &seat, d.delay_max, DELAY_INTERVALS)
         .ok_or_else(|| fail("the design model's comfort over the delays".into()))?;
@@ -264,6 +270,7 @@ pub fn predictor_design(
     }
     let mut uncertainty =
         OverUncertainty::predicted(Uncertainty::InputDelay, predictions, conditions, ctx.params);
+    uncertainty.set_held(held);
     // Claimed for the car only where the design model's bound covers every prediction on it, as
     // for the other robust designs: over the prediction horizon the predictor also predicts the
     // rear wheels' road through the design model's Padé rear track, whose error the car feels.
