@@ -224,6 +224,7 @@ COMPARISON_SECTION := \#\# Summary: W_k RMS seat acceleration [m/s²]
 LIMITS_SECTION := \#\# Limits and model validity
 readme: descriptions schemas $(STAMP)/synth compare
 	./target/release/fmu-pack splice --from dist/synthesis.md --readme README.md --tag synthesis
+	./target/release/fmu-pack splice --from dist/car.md --readme README.md --tag modes
 	./target/release/fmu-pack splice --from results/report.md --section "$(COMPARISON_SECTION)" --readme README.md --tag comparison
 	./target/release/fmu-pack splice --from results/report.md --section "$(LIMITS_SECTION)" --readme README.md --tag limits
 

@@ -81,6 +81,17 @@ fn run(cli: Cli) -> Result<(), SynthError> {
     for (name, why) in &outcome.refused {
         table += &format!("\nRefused `{name}` (no controller written): {why}\n");
     }
+    // The car designed for, in the README's words (spliced there by `make readme`).
+    let car = out.join("car.md");
+    std::fs::write(
+        &car,
+        format!(
+            "Modal frequencies of the car the controllers are designed for (undamped, \
+             `MechanicalModel::modes`): {}.\n",
+            vehicle::model::MechanicalModel::new(&params).modes_in_words()
+        ),
+    )
+    .map_err(|e| SynthError::Io(format!("{}: {e}", car.display())))?;
     let path = out.join("synthesis.md");
     std::fs::write(&path, &table)
         .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;

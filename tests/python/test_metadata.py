@@ -63,6 +63,12 @@ def test_the_readme_comparison_is_the_measured_one(heading, tag):
     assert without_timing(readme).strip() == without_timing(section).strip(), f"README {tag} is stale: run `make readme`"
 
 
+def test_the_readme_modal_frequencies_are_the_cars():
+    """`synth` writes the modes of the car it designs for (dist/car.md); `make readme` splices them."""
+    car = (ROOT / "dist" / "car.md").read_text()
+    assert block((ROOT / "README.md").read_text(), "modes").strip() == car.strip(), "README modes are stale: run `make readme`"
+
+
 def test_the_makefile_builds_every_variant_synth_lists():
     listed = subprocess.run([str(ROOT / "target" / "release" / "synth"), "--list"], capture_output=True, text=True, check=True).stdout.split()
     line = re.search(r"^CONTROLLERS := (.*)$", (ROOT / "Makefile").read_text(), re.M).group(1)

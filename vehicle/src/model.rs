@@ -256,6 +256,35 @@ impl MechanicalModel {
         modes.sort_by(|a, b| a.0.total_cmp(&b.0));
         modes
     }
+
+    /// The modes in words, by frequency, the four wheel hops as one range: `body heave 1.05
+    /// Hz, pitch 1.36 Hz, roll 1.41 Hz, seat 2.16 Hz, wheel hop 11.63–11.69 Hz` (the README's,
+    /// written by `synth` for the car it designs for).
+    pub fn modes_in_words(&self) -> String {
+        let modes = self.modes();
+        let wheels: Vec<f64> = modes
+            .iter()
+            .filter(|m| coord::WHEEL.contains(&m.1))
+            .map(|m| m.0)
+            .collect();
+        let mut words = Vec::new();
+        for (f, c) in &modes {
+            let name = match *c {
+                coord::HEAVE => "body heave",
+                coord::ROLL => "roll",
+                coord::PITCH => "pitch",
+                coord::SEAT => "seat",
+                _ if Some(f) == wheels.first() => {
+                    let last = wheels.last().expect("a wheel");
+                    words.push(format!("wheel hop {f:.2}–{last:.2} Hz"));
+                    continue;
+                }
+                _ => continue,
+            };
+            words.push(format!("{name} {f:.2} Hz"));
+        }
+        words.join(", ")
+    }
 }
 
 /// First-order model `ẋ = A x + B_u u + B_r r`, `x = [q; q̇]`, `r = [z_r; ż_r]`.

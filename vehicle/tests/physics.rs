@@ -266,9 +266,26 @@ fn modal_frequencies_are_in_the_ranges_spec_gives() {
     assert!((1.3..1.45).contains(&roll[0]), "roll {} Hz", roll[0]);
     assert!((1.3..1.45).contains(&pitch[0]), "pitch {} Hz", pitch[0]);
     assert!((2.0..2.2).contains(&seat[0]), "seat {} Hz", seat[0]);
-    for w in wheels {
-        assert!((11.2..11.8).contains(&w), "wheel hop {w} Hz");
+    for w in &wheels {
+        assert!((11.2..11.8).contains(w), "wheel hop {w} Hz");
     }
+    let hop = (
+        wheels.iter().copied().fold(f64::INFINITY, f64::min),
+        wheels.iter().copied().fold(0.0, f64::max),
+    );
+    // In words (the README's line), from the same modes.
+    assert_eq!(
+        MechanicalModel::new(&VehicleParams::default()).modes_in_words(),
+        format!(
+            "body heave {:.2} Hz, pitch {:.2} Hz, roll {:.2} Hz, seat {:.2} Hz, wheel hop {:.2}–{:.2} Hz",
+            heave[0],
+            pitch[0],
+            roll[0],
+            seat[0],
+            hop.0,
+            hop.1
+        )
+    );
 }
 
 #[test]
