@@ -4,9 +4,9 @@
 //! of the shipped FMUs — road FMU on the design road, plant FMU, controller FMU, the master's
 //! loop — measures them. They agree within 5 % for every design and the passive car, and for
 //! each robust design at the ends of its uncertainty and where its prediction is worst, both
-//! continuous and as a master runs it (the
-//! plant FMU's parameters its certificate gives for each condition: mass, actuator delay — which
-//! `delay_sf`'s predictor gets too, by the same name `tau` — or actuator faults).
+//! continuous and as a master runs it (the plant FMU's parameters its certificate gives for
+//! each condition: mass, actuator delay — which `delay_sf`'s predictor gets too, by the same
+//! name `tau` — or actuator faults).
 //!
 //! The measurement: 60 s per road seed (the first 5 s dropped: fade-in and the filters'
 //! transient), mean squares averaged over the seeds. A finite window of the road FMU's 400
@@ -165,7 +165,7 @@ fn measure(cases: &[Case], road: &serde_json::Value) -> Vec<[f64; 3]> {
             };
             (
                 i,
-                ["a_seat_wk", "alpha_roll_we", "alpha_pitch_we"].map(mean_square),
+                vehicle::iso2631::METER_OUTPUTS.map(|(name, ..)| mean_square(name)),
             )
         })
         .collect();

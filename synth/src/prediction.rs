@@ -299,7 +299,7 @@ pub(crate) struct HessenbergResponse {
     qt_b: DMatrix<C64>,
     c_q: DMatrix<C64>,
     d: DMatrix<C64>,
-    /// Whether `h`, `qt_b`, `c_q` and `d` are the dual's.
+    /// Whether `h_t`, `qt_b`, `c_q` and `d` are the dual's.
     dual: bool,
 }
 

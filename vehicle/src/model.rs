@@ -268,18 +268,22 @@ impl MechanicalModel {
             .map(|m| m.0)
             .collect();
         let mut words = Vec::new();
+        let mut hops_said = false;
         for (f, c) in &modes {
             let name = match *c {
                 coord::HEAVE => "body heave",
                 coord::ROLL => "roll",
                 coord::PITCH => "pitch",
                 coord::SEAT => "seat",
-                _ if Some(f) == wheels.first() => {
-                    let last = wheels.last().expect("a wheel");
-                    words.push(format!("wheel hop {f:.2}–{last:.2} Hz"));
+                // The wheel hops as one range, where the lowest of them falls.
+                _ => {
+                    if !hops_said {
+                        let (lo, hi) = (wheels[0], wheels[wheels.len() - 1]);
+                        words.push(format!("wheel hop {lo:.2}–{hi:.2} Hz"));
+                        hops_said = true;
+                    }
                     continue;
                 }
-                _ => continue,
             };
             words.push(format!("{name} {f:.2} Hz"));
         }
