@@ -156,6 +156,10 @@ pub struct OverUncertainty {
     pub nominal_name: Option<String>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub nominal_design: Vec<(String, Option<Figures>)>,
+    /// The nominal counterpart as a master runs it at the same conditions and step as `held`
+    /// (`None` where it is unstable there).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub nominal_held: Vec<Option<Held>>,
     /// The loop as a master runs it at the design file's communication step, at each condition
     /// of `predictions` (`None` where it is unstable there), and the worst `W_k` seat.
     pub held: Vec<Option<Held>>,
@@ -190,6 +194,7 @@ impl OverUncertainty {
             over_delays: None,
             nominal_name: None,
             nominal_design: Vec::new(),
+            nominal_held: Vec::new(),
             held: Vec::new(),
             worst_held_wk_rms_seat_m_s2: f64::NAN,
             plant_parameters: conditions

@@ -12,14 +12,14 @@
 //! [`crate::thesis::synthesise`]); the Makefile, the tables and the comparisons follow.
 
 use crate::comfort_designs::{
-    anti_windup_design, fault_tolerant_design, nominal_gain, output_feedback_design, robust_gain,
-    robust_output_feedback_design, robust_state_feedback_design, state_feedback_design, Comfort,
-    ComfortDesignResult, ComfortError, Context, Uncertainty,
+    anti_windup_design, fault_tolerant_design, held_at, nominal_gain, output_feedback_design,
+    robust_gain, robust_output_feedback_design, robust_state_feedback_design,
+    state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, Uncertainty,
 };
 use crate::controller_file::{controller_json, ControllerFile, Guarantee};
 use crate::design::{ComfortDesign, Design, DesignError};
 use crate::guaranteed::StateFeedback;
-use crate::prediction::{predict, ControlLaw};
+use crate::prediction::{predict, Conditions, ControlLaw, Figures};
 use crate::{comfort_plant::ComfortPlant, SynthError};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -438,26 +438,43 @@ fn comfort_all(
                 .map(|nom| (n.clone(), nom.to_string()))
         })
         .collect();
-    for (robust, nominal) in pairs {
-        let nominal_law = by_name[&nominal].0.law.clone();
-        let entry = &mut by_name.get_mut(&robust).expect("present").0;
-        if let Some(u) = entry.certificate.comfort.uncertainty.as_mut() {
-            // In parallel: after every design is made this is all that runs (8.8 s on one
-            // thread of 2, `delay_sf`'s eleven delays with `hinf_sf` most of it).
-            use rayon::prelude::*;
-            u.nominal_design = u
-                .conditions
-                .par_iter()
-                .zip(&u.predictions)
-                .map(|(c, (label, _))| {
-                    (
-                        label.clone(),
-                        predict(Some(&nominal_law), *c, &design.road).ok(),
-                    )
-                })
-                .collect();
-            u.nominal_name = Some(nominal.clone());
-        }
+    // Every pair's every condition in one parallel pass (after every design is made this is
+    // all that runs; pair by pair, the two threads idled between the pairs' few conditions).
+    let jobs: Vec<(&ControlLaw, Conditions)> = pairs
+        .iter()
+        .filter_map(|(robust, nominal)| {
+            let u = by_name[robust].0.certificate.comfort.uncertainty.as_ref()?;
+            let law = &by_name[nominal].0.law;
+            Some(u.conditions.iter().map(move |c| (law, *c)))
+        })
+        .flatten()
+        .collect();
+    let done: Vec<(Option<Figures>, Option<Held>)> = {
+        use rayon::prelude::*;
+        jobs.par_iter()
+            .map(|(law, c)| {
+                rayon::join(
+                    || predict(Some(law), *c, &design.road).ok(),
+                    || held_at(law, *c, design),
+                )
+            })
+            .collect()
+    };
+    let mut done = done.into_iter();
+    for (robust, nominal) in &pairs {
+        let entry = &mut by_name.get_mut(robust).expect("present").0;
+        let Some(u) = entry.certificate.comfort.uncertainty.as_mut() else {
+            continue;
+        };
+        let (continuous, held): (Vec<_>, Vec<_>) = done.by_ref().take(u.conditions.len()).unzip();
+        u.nominal_design = u
+            .predictions
+            .iter()
+            .map(|(l, _)| l.clone())
+            .zip(continuous)
+            .collect();
+        u.nominal_held = held;
+        u.nominal_name = Some(nominal.clone());
     }
     let designs = names
         .iter()
@@ -525,11 +542,16 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
                     .iter()
                     .map(|(_, f)| f.as_ref().map_or(f64::INFINITY, |f| f.wk_rms_seat_m_s2))
                     .fold(0.0, f64::max);
-                if worst.is_finite() {
+                let continuous = if worst.is_finite() {
                     format!("worst W_k seat {worst:.4}")
                 } else {
                     "unstable somewhere".into()
-                }
+                };
+                format!(
+                    "{continuous}; at {} ms {}",
+                    comfort.held.step_s * 1e3,
+                    held_over(&u.nominal_held, &u.predictions)
+                )
             });
             (
                 format!(
@@ -574,20 +596,42 @@ fn held(comfort: &crate::comfort_designs::Comfort) -> String {
         h.predicted_wk_rms_seat_m_s2,
         h.step_s * 1e3
     );
-    let Some(u) = &comfort.uncertainty else {
-        return nominal;
-    };
-    let unstable: Vec<&str> = u
-        .held
+    match &comfort.uncertainty {
+        None => nominal,
+        Some(u) => format!("{nominal}; {}", held_over(&u.held, &u.predictions)),
+    }
+}
+
+/// Held predictions over an uncertainty's conditions: `worst 0.0105`, or the conditions where
+/// the loop is unstable at the step.
+fn held_over(
+    held: &[Option<crate::comfort_designs::Held>],
+    conditions: &[(String, crate::prediction::Figures)],
+) -> String {
+    let unstable: Vec<&str> = held
         .iter()
-        .zip(&u.predictions)
+        .zip(conditions)
         .filter(|(h, _)| h.is_none())
         .map(|(_, (label, _))| label.as_str())
         .collect();
+    if let [first, .., last] = unstable[..] {
+        if unstable.len() > 2 {
+            return format!(
+                "unstable at {} of {} conditions ({first} … {last})",
+                unstable.len(),
+                held.len()
+            );
+        }
+    }
     if unstable.is_empty() {
-        format!("{nominal}; worst {:.4}", u.worst_held_wk_rms_seat_m_s2)
+        let worst = held
+            .iter()
+            .flatten()
+            .map(|h| h.predicted_wk_rms_seat_m_s2)
+            .fold(0.0, f64::max);
+        format!("worst {worst:.4}")
     } else {
-        format!("{nominal}; unstable at {}", unstable.join(", "))
+        format!("unstable at {}", unstable.join(", "))
     }
 }
 
