@@ -222,8 +222,9 @@ schemas: $(STAMP)/release
 # comparison is stale).
 COMPARISON_SECTION := \#\# Summary: W_k RMS seat acceleration [m/s²]
 LIMITS_SECTION := \#\# Limits and model validity
-readme: descriptions schemas $(STAMP)/synth compare
+readme: descriptions schemas $(STAMP)/synth $(STAMP)/thesis compare
 	./target/release/fmu-pack splice --from dist/synthesis.md --readme README.md --tag synthesis
+	./target/release/fmu-pack splice --from dist/thesis/gamma.md --readme README.md --tag gamma
 	./target/release/fmu-pack splice --from dist/car.md --readme README.md --tag modes
 	./target/release/fmu-pack splice --from results/report.md --section "$(COMPARISON_SECTION)" --readme README.md --tag comparison
 	./target/release/fmu-pack splice --from results/report.md --section "$(LIMITS_SECTION)" --readme README.md --tag limits

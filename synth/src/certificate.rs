@@ -49,6 +49,10 @@ pub struct Certificate {
     pub gamma: f64,
     pub norm_lower: f64,
     pub norm_upper: f64,
+    /// `‖T_zw‖∞` of the same generalised plant without a controller: the passive car's score
+    /// on the measure γ bounds (`None` where that open loop is unstable). Every design's norm
+    /// peaks at the wheel hop, as this one does, so it is the floor γ cannot go far below.
+    pub passive_norm: Option<f64>,
     pub peak_frequency_rad_s: f64,
     pub spectral_abscissa: f64,
     pub closed_loop_poles: Vec<[f64; 2]>,
@@ -218,6 +222,10 @@ pub fn certify(
         gamma,
         norm_lower: norm.lower,
         norm_upper: norm.upper,
+        passive_norm: Lti::new(g.a.clone(), g.b_w.clone(), g.c_z.clone(), g.d_zw.clone())
+            .hinf_norm(1e-9)
+            .ok()
+            .map(|n| n.upper),
         peak_frequency_rad_s: norm.peak_frequency,
         spectral_abscissa: cl.spectral_abscissa(),
         closed_loop_poles: poles,

@@ -109,6 +109,10 @@ pub struct Design {
     pub mass_grid_points: usize,
     /// Strictness margin ε of every LMI.
     pub lmi_margin: f64,
+    /// Where given, the summary predicts each design's W_k seat RMS on this road beside the
+    /// passive car's (what γ says nothing about: README "Why not γ").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub comfort_road: Option<IsoRoad>,
     /// Per-variant changes to the fields above, e.g. `{"hinf_of": {"weight_alpha_roll": 0.8}}`:
     /// each design has its own weights where one set does not suit all ([`Design::with_overrides`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
@@ -188,6 +192,30 @@ impl ComfortRoad {
     pub fn band_hz(&self) -> (f64, f64) {
         let (lo, hi) = vehicle::road::ISO_BAND;
         (lo * self.speed, hi * self.speed)
+    }
+}
+
+/// An ISO 8608 road on which a thesis design's comfort is predicted beside the passive car's
+/// (its summary's W_k columns): the rear wheels on the front track exactly the wheelbase over
+/// the speed later, the two tracks independent.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IsoRoad {
+    pub iso_class: IsoClass,
+    /// Vehicle speed [m/s].
+    pub speed: f64,
+}
+
+impl IsoRoad {
+    /// The same road as a comfort design's (whose `rear_wheels`, the design model's, no
+    /// prediction reads).
+    pub fn as_comfort_road(&self) -> ComfortRoad {
+        ComfortRoad {
+            iso_class: self.iso_class,
+            speed: self.speed,
+            rear_wheels: RearWheels::Independent,
+            output_feedback_rear_wheels: None,
+        }
     }
 }
 
@@ -441,6 +469,10 @@ impl Design {
             ("delay_epsilon", self.delay_epsilon),
             ("fault_time_constant", self.fault_time_constant),
             ("fault_threshold", self.fault_threshold),
+            (
+                "comfort_road.speed",
+                self.comfort_road.map_or(1.0, |r| r.speed),
+            ),
         ];
         require_positive(&positive)?;
         require_mass_range(self.mass_min, self.mass_max)?;
@@ -693,6 +725,29 @@ mod tests {
             v
         };
         assert_eq!(strip(&same), strip(&d));
+    }
+
+    /// The thesis file's comfort road is checked like a comfort design's: a speed that is not
+    /// positive and an unknown class are refused by name.
+    #[test]
+    fn a_bad_comfort_road_is_refused_by_name() {
+        let road = r#""comfort_road": { "iso_class": "C", "speed": 20.0 }"#;
+        assert!(THESIS_DESIGN_FILE.contains(road));
+        let speed = THESIS_DESIGN_FILE
+            .replace(road, r#""comfort_road": { "iso_class": "C", "speed": -1 }"#);
+        assert!(matches!(
+            Design::from_json(&speed),
+            Err(DesignError::Value {
+                name: "comfort_road.speed",
+                ..
+            })
+        ));
+        let class = THESIS_DESIGN_FILE
+            .replace(road, r#""comfort_road": { "iso_class": "Z", "speed": 20 }"#);
+        let e = Design::from_json(&class).unwrap_err().to_string();
+        assert!(e.contains('Z'), "{e}");
+        let without = THESIS_DESIGN_FILE.replace(&format!("  {road},\n"), "");
+        assert_eq!(Design::from_json(&without).unwrap().comfort_road, None);
     }
 
     #[test]

@@ -92,6 +92,17 @@ fn run(cli: Cli) -> Result<(), SynthError> {
         ),
     )
     .map_err(|e| SynthError::Io(format!("{}: {e}", car.display())))?;
+    // What γ says about comfort, in words (spliced into the README by `make readme`).
+    if let registry::DesignFile::Thesis(d) = &file {
+        if let Some(words) = d
+            .comfort_road
+            .and_then(|road| registry::gamma_in_words(&rows, &road))
+        {
+            let path = out.join("gamma.md");
+            std::fs::write(&path, words)
+                .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+        }
+    }
     let path = out.join("synthesis.md");
     std::fs::write(&path, &table)
         .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;

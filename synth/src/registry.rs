@@ -236,8 +236,13 @@ pub struct SummaryRow {
     /// over the design's uncertainty: `0.0103 at 1 ms; worst 0.0105` (the cell of both tables,
     /// `master`'s read from `synthesis.json`).
     pub held: Option<String>,
-    /// Thesis designs: the γ the LMI claims.
+    /// Thesis designs: the γ the LMI claims, the certified `‖T_zw‖∞` at the nominal car, and
+    /// the passive car's on the same generalised plant.
     pub gamma: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub norm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub passive_norm: Option<f64>,
     /// The headline certified figure over the design's uncertainty.
     pub certified: String,
     pub nominal_design: Option<String>,
@@ -307,29 +312,45 @@ fn thesis_all(
 ) -> Result<Vec<(String, Synthesised)>, SynthError> {
     let results = crate::thesis::synthesise_all(names, params, design)?;
     let rows = crate::thesis::summary_rows(&results);
+    // The road the design file names for comfort, and the passive car's figure on it.
+    let comfort = match design.comfort_road {
+        None => None,
+        Some(r) => {
+            let road = r.as_comfort_road();
+            let passive = predict(None, Conditions::nominal(*params), &road)
+                .map_err(|e| SynthError::Usage(format!("the passive car on comfort_road: {e}")))?;
+            Some((road, passive.wk_rms_seat_m_s2))
+        }
+    };
     Ok(results
         .into_iter()
         .zip(rows)
         .map(|((name, s), r)| {
-            let row = SummaryRow {
-                variant: r.variant,
-                objective: "hinf",
-                robust_to: r.robust_to,
-                predicted_wk_rms_seat: None,
-                passive_wk_rms_seat: None,
-                guaranteed_wk_rms_seat: None,
-                held: None,
-                gamma: Some(r.gamma),
-                certified: r.certified,
-                nominal_design: r.nominal_design,
-                nominal_figure: r.nominal_figure,
-                seconds: r.seconds,
-            };
             let law = ControlLaw {
                 lti: s.controller,
                 inputs: s.certificate.measurements.clone(),
                 accommodation: None,
                 predictor: None,
+            };
+            let predicted = comfort.as_ref().map(|(road, _)| {
+                predict(Some(&law), Conditions::nominal(*params), road)
+                    .map_or(f64::INFINITY, |f| f.wk_rms_seat_m_s2)
+            });
+            let row = SummaryRow {
+                variant: r.variant,
+                objective: "hinf",
+                robust_to: r.robust_to,
+                predicted_wk_rms_seat: predicted,
+                passive_wk_rms_seat: comfort.as_ref().map(|(_, passive)| *passive),
+                guaranteed_wk_rms_seat: None,
+                held: None,
+                gamma: Some(r.gamma),
+                norm: Some(s.certificate.norm_upper),
+                passive_norm: s.certificate.passive_norm,
+                certified: r.certified,
+                nominal_design: r.nominal_design,
+                nominal_figure: r.nominal_figure,
+                seconds: r.seconds,
             };
             let certificate = serde_json::to_value(&s.certificate).expect("serialisable");
             (
@@ -502,6 +523,8 @@ fn comfort_all(
                 guaranteed_wk_rms_seat: comfort.guaranteed_wk_rms_seat_m_s2,
                 held: Some(held(comfort)),
                 gamma: None,
+                norm: None,
+                passive_norm: None,
                 certified,
                 nominal_design: v.nominal.map(String::from),
                 nominal_figure,
@@ -635,6 +658,66 @@ fn held_over(
     }
 }
 
+/// What γ says about comfort, in the README's words (`make readme` splices it under "Why not
+/// γ"): the thesis design γ favours most beside the passive car on the same generalised plant,
+/// and its predicted comfort on `road` beside the passive car's; then the range over every
+/// design. `None` without a design that has all four figures.
+pub fn gamma_in_words(rows: &[SummaryRow], road: &crate::design::IsoRoad) -> Option<String> {
+    // Per design: how far below the passive car's its certified norm and its predicted W_k
+    // seat RMS are [%], and the four figures.
+    struct Scores<'a> {
+        name: &'a str,
+        norm: [f64; 2],
+        seat: [f64; 2],
+    }
+    let below = |[x, passive]: [f64; 2]| 100.0 * (1.0 - x / passive);
+    let scores: Vec<Scores> = rows
+        .iter()
+        .filter_map(|r| {
+            Some(Scores {
+                name: &r.variant,
+                norm: [r.norm?, r.passive_norm?],
+                seat: [
+                    r.predicted_wk_rms_seat.filter(|p| p.is_finite())?,
+                    r.passive_wk_rms_seat?,
+                ],
+            })
+        })
+        .collect();
+    let best = scores
+        .iter()
+        .max_by(|a, b| below(a.norm).total_cmp(&below(b.norm)))?;
+    let range = |of: fn(&Scores) -> [f64; 2]| {
+        scores
+            .iter()
+            .map(|s| below(of(s)))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            })
+    };
+    let (norm_lo, norm_hi) = range(|s| s.norm);
+    let (seat_lo, seat_hi) = range(|s| s.seat);
+    Some(format!(
+        "The thesis design whose certified norm is furthest below the passive car's is \
+         `{}`: on its generalised plant the passive car scores ‖T_zw‖∞ = {:.2} and the design \
+         {:.2} ({:.1} % lower), while on an ISO 8608 class {} road at {} m/s its predicted W_k \
+         seat RMS is {:.4} m/s² against the passive car's {:.4} ({:.1} % lower). Over the {} \
+         thesis designs the certified norm at the nominal car is {norm_lo:.1}–{norm_hi:.1} % \
+         below the passive car's on the same plant, and the predicted comfort \
+         {seat_lo:.1}–{seat_hi:.1} % better (`make thesis`, `dist/thesis/synthesis.md`).\n",
+        best.name,
+        best.norm[1],
+        best.norm[0],
+        below(best.norm),
+        String::from(road.iso_class),
+        road.speed,
+        best.seat[0],
+        best.seat[1],
+        below(best.seat),
+        scores.len(),
+    ))
+}
+
 /// The summary table (Markdown) of a run.
 pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
     let comfort = rows.iter().any(|r| r.objective == "comfort");
@@ -644,7 +727,7 @@ pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
         )
     } else {
         String::from(
-            "| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | nominal design, worst over the same | synthesis |\n|---|---|---|---|---|---|\n",
+            "| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | passive car, same plant | nominal design, worst over the same | predicted W_k seat [m/s²] | passive | synthesis |\n|---|---|---|---|---|---|---|---|---|\n",
         )
     };
     let f = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.4}"));
@@ -664,12 +747,16 @@ pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
             );
         } else {
             t += &format!(
-                "| `{}` | {} | {:.6} | {} | {} | {:.2} s |\n",
+                "| `{}` | {} | {:.6} | {} | {} | {} | {} | {} | {:.2} s |\n",
                 r.variant,
                 r.robust_to,
                 r.gamma.unwrap_or(f64::NAN),
                 r.certified,
+                r.passive_norm
+                    .map_or("unstable".into(), |n| format!("{n:.6}")),
                 r.nominal_figure.as_deref().unwrap_or("-"),
+                f(r.predicted_wk_rms_seat),
+                f(r.passive_wk_rms_seat),
                 r.seconds
             );
         }

@@ -270,26 +270,6 @@ pub fn summary_rows(results: &[(String, Synthesised)]) -> Vec<SummaryRow> {
         .collect()
 }
 
-/// The summary table (Markdown) of a run: per design what it is robust to, the claimed γ, the
-/// certified norm (worst case over its uncertainty), the nominal design's worst case over the
-/// same uncertainty, and the synthesis time.
-pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
-    let mut t = String::from("| variant | robust to | γ | certified ‖T_zw‖∞ (worst over its uncertainty) | nominal design, worst over the same | synthesis |\n|---|---|---|---|---|---|\n");
-    for r in rows {
-        t += &format!(
-            "| `{}` | {} | {:.6} | {} | {} | {:.2} s |\n",
-            r.variant,
-            r.robust_to,
-            r.gamma,
-            r.certified,
-            r.nominal_figure.as_deref().unwrap_or("-"),
-            r.seconds
-        );
-    }
-    t += &format!("\nAll {} designs in {wall_seconds:.2} s wall time (designs in parallel, one BLAS thread each).\n", rows.len());
-    t
-}
-
 /// How the nominal design fares against the uncertainty `variant` is certified for: its delay
 /// margin, or its norm over the mass grid (full state or the output-feedback measurements).
 fn nominal_comparison(

@@ -2,6 +2,8 @@
 Cargo manifest names exist, CITATION.cff is valid CFF 1.2.0 and names the version every FMU
 reports (`version`, and `generationTool` with it), the changelog has that version, the README's
 comparison is the one `make` measures, and the Makefile builds every variant synth knows."""
+import json
+import math
 import re
 import subprocess
 import zipfile
@@ -67,6 +69,21 @@ def test_the_readme_modal_frequencies_are_the_cars():
     """`synth` writes the modes of the car it designs for (dist/car.md); `make readme` splices them."""
     car = (ROOT / "dist" / "car.md").read_text()
     assert block((ROOT / "README.md").read_text(), "modes").strip() == car.strip(), "README modes are stale: run `make readme`"
+
+
+def test_the_readme_says_what_gamma_is_worth_as_the_thesis_synthesis_does():
+    """`synth` on the thesis's design file writes what γ says about comfort (dist/thesis/gamma.md:
+    each design's certified norm beside the passive car's on the same plant, and the comfort
+    predicted beside the passive car's); `make readme` splices it under "Why not γ"."""
+    words = (ROOT / "dist" / "thesis" / "gamma.md").read_text()
+    assert "passive car scores" in words
+    assert block((ROOT / "README.md").read_text(), "gamma").strip() == words.strip(), "README γ words are stale: run `make readme`"
+    # What the paragraph says around them: every design's norm peaks at the wheel hop (11.6 Hz
+    # on this car) and is pinned within 10 % of the passive car's on the same plant.
+    for cert in sorted((ROOT / "dist" / "thesis").glob("*.certificate.json")):
+        c = json.loads(cert.read_text())
+        assert 10.0 < c["peak_frequency_rad_s"] / (2 * math.pi) < 12.0, cert.name
+        assert 0.9 * c["passive_norm"] < c["norm_upper"] <= c["passive_norm"] * (1 + 1e-6), cert.name
 
 
 def test_the_makefile_builds_every_variant_synth_lists():
