@@ -68,7 +68,7 @@ ARM_FMU_FILES :=
 HARNESSES :=
 PLATFORM_FMUS := dist/plant.fmu
 endif
-RUST_SOURCES := $(shell find vehicle fmu-core fmu-plant fmu-controller controller-file fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
+RUST_SOURCES := $(shell find linsys vehicle fmu-core fmu-plant fmu-controller controller-file fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
 .PHONY: all setup fmus harnesses validate compare sweep constrained thesis test lint test-rust test-python bench descriptions schemas readme clean
 

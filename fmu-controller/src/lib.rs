@@ -17,10 +17,10 @@ use fmu_core::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
     ModelError, ValueReference, Variable,
 };
+use linsys::{discretize, mat_vec_sum, Discretization};
 use nalgebra::DVector;
 use spec::Spec;
 use std::path::Path;
-use vehicle::exact::{discretize, mat_vec_sum, Discretization};
 
 /// Value references: inputs from 0, outputs from 1000, the guarantee at 2000, force limits of an
 /// anti-windup controller from 3000, a fault detector's variables from 4000, a predictor's
@@ -659,7 +659,7 @@ impl Model for Controller {
 
 /// Why a step was refused when its matrix exponential was (the controller's own dynamics or
 /// the predictor's blocks over a step far too long, or a corrupt `controller.json`).
-fn step_refused(step: f64, e: vehicle::exact::ExpError) -> String {
+fn step_refused(step: f64, e: linsys::ExpError) -> String {
     format!("cannot discretise the controller over {step} s: {e}; the step was discarded")
 }
 

@@ -12,14 +12,14 @@
 //!   whose commands act during the step.
 //!
 //! Each term's matrix depends only on the part's age and length, so it is computed once (Van
-//! Loan's exponential, [`vehicle::exact::discretize`]) and kept: with a constant communication
+//! Loan's exponential, [`linsys::discretize`]) and kept: with a constant communication
 //! step every step reuses the same `θ / h + 1` small matrices (`K e^{A a} G` is 5×5); a master
 //! that changes its step pays a few exponentials per new part, and stays exact.
 
 use crate::spec::Predictor;
+use linsys::{discretize, ExpError};
 use nalgebra::{DMatrix, DVector, DVectorView};
 use std::collections::{HashMap, VecDeque};
-use vehicle::exact::{discretize, ExpError};
 
 /// The number of cached matrices above which a cache is cleared (a master that varies its
 /// step at every call would otherwise grow it without bound).

@@ -12,14 +12,14 @@
 //! derivatives), so the actuator output `v(t)` is piecewise linear too, with breakpoints where
 //! a delayed command segment starts, where the fault starts and where a ramp crosses the force
 //! limit. The step is cut at those breakpoints and each piece is integrated with the exact
-//! triangle-hold discretisation of [`vehicle::exact`]; nothing is approximated.
+//! triangle-hold discretisation of [`linsys`]; nothing is approximated.
 //!
 //! The seat's vibration meter ([`vehicle::iso2631::ComfortMeter`]) is part of the linear
 //! system: the ISO 2631-1 weighted accelerations are states, stepped exactly with the car.
 
+use linsys::{discretize, mat_vec_sum, Discretization, ExpError};
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
-use vehicle::exact::{discretize, mat_vec_sum, Discretization, ExpError};
 use vehicle::iso2631::{ComfortMeter, Forces, METER_OUTPUTS};
 use vehicle::model::{
     physical_outputs, StateSpace, StaticEquilibrium, N_ACTUATORS, N_ROAD, N_STATES,

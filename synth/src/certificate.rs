@@ -4,16 +4,12 @@
 //! The JSON written beside the FMU holds everything needed to re-check the claim elsewhere.
 
 use crate::generalized::{GeneralizedPlant, Measurement, FORCE_UNIT};
-use crate::hinf_norm::{Lti, NormError};
+use crate::hinf_norm::{Controller, Lti, NormError};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
 /// Relative slack allowed between the certified norm and the claimed γ.
 pub const NORM_TOLERANCE: f64 = 1e-6;
-
-/// A controller in the plant's units: `ẋc = Ac xc + Bc y`, `u [N] = Cc xc + Dc y` — an LTI
-/// system like any other ([`Lti::static_gain`] for one without states).
-pub type Controller = Lti;
 
 /// The closed loop of the generalised plant with `controller` on the measurement `y = C x + D w`
 /// (the full state for state feedback), in the scaled `w → z` channels.

@@ -121,6 +121,23 @@ pub struct RoadDescription {
     pub band_hz: [f64; 2],
 }
 
+/// The design model's comfort behind a predictor, `J(θ)` ([`crate::predictor::comfort_at`]),
+/// over the whole of `[0, θ_max]`: its worst on an even grid of
+/// `intervals + 1` delays, and a bound that holds between them.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct OverDelays {
+    pub delay_max_s: f64,
+    /// In the certificate as `design_model_grid_points` (`intervals + 1`).
+    #[serde(skip)]
+    pub intervals: usize,
+    /// The worst of `J` at the grid's delays (a lower bound on its supremum). In the
+    /// certificate as `design_model_grid_worst_wk_rms_seat`.
+    #[serde(skip)]
+    pub grid_worst: f64,
+    /// An upper bound on `J(θ)` at every `θ` of the interval.
+    pub bound: f64,
+}
+
 /// Predictions and bounds over the design's uncertainty.
 #[derive(Debug, Clone, Serialize)]
 pub struct OverUncertainty {
@@ -149,7 +166,7 @@ pub struct OverUncertainty {
     pub design_model_grid_points: usize,
     /// A delay interval's bound on the design model (`delay_sf`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub over_delays: Option<crate::predictor::OverDelays>,
+    pub over_delays: Option<OverDelays>,
     /// The nominal counterpart at the same conditions (filled by the registry; `None` where it
     /// is unstable).
     #[serde(skip_serializing_if = "Option::is_none")]

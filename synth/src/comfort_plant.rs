@@ -20,7 +20,7 @@
 //!
 //! State `x = [car (16); road; W_k seat; W_e roll; W_e pitch]`, control `u` the five forces in N.
 
-use crate::design::{ComfortDesign, RearWheels};
+use crate::design::{ComfortDesign, ComfortRoad, RearWheels};
 use crate::generalized::row;
 use nalgebra::DMatrix;
 use std::ops::Range;
@@ -114,6 +114,18 @@ pub struct RoadModel {
     pub rear: RearWheels,
 }
 
+impl RoadModel {
+    /// The road model of the design plant for the car `p` on `road`.
+    pub fn new(road: &ComfortRoad, p: &VehicleParams) -> Self {
+        RoadModel {
+            sigma: (0.5 * vehicle::road::iso_velocity_psd(road.iso_class.0, road.speed)).sqrt(),
+            corner: 2.0 * std::f64::consts::PI * vehicle::road::ISO_BAND.0 * road.speed,
+            delay: (p.l1 + p.l2) / road.speed,
+            rear: road.rear_wheels,
+        }
+    }
+}
+
 /// The comfort design plant: `ẋ = A x + B_w w + B_u u`, `z = C_z x`, limits `l = C_l x + D_lu u`.
 #[derive(Debug, Clone)]
 pub struct ComfortPlant {
@@ -198,7 +210,7 @@ impl ComfortPlant {
         let ss = StateSpace::new(&car);
         let mut outputs = physical_outputs(&car);
         outputs.extend(vehicle::model::applied_force_rows());
-        let road = d.road.model(&car);
+        let road = RoadModel::new(&d.road, &car);
         let [ar, br, r_x, r_w] = road_system(&road);
         let nr = ar.nrows();
         let weightings: Vec<Abcd> = (0..COMFORT_OUTPUTS.len())

@@ -6,7 +6,6 @@
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use vehicle::VehicleParams;
 
 pub const THESIS_DESIGN_FILE: &str = include_str!("../designs/thesis.json");
 pub const CONSTRAINED_DESIGN_FILE: &str = include_str!("../designs/constrained.json");
@@ -177,16 +176,6 @@ impl From<IsoClass> for String {
 }
 
 impl ComfortRoad {
-    /// The road model of the design plant for the car `p` ([`crate::comfort_plant`]).
-    pub fn model(&self, p: &VehicleParams) -> crate::comfort_plant::RoadModel {
-        crate::comfort_plant::RoadModel {
-            sigma: (0.5 * vehicle::road::iso_velocity_psd(self.iso_class.0, self.speed)).sqrt(),
-            corner: 2.0 * std::f64::consts::PI * vehicle::road::ISO_BAND.0 * self.speed,
-            delay: (p.l1 + p.l2) / self.speed,
-            rear: self.rear_wheels,
-        }
-    }
-
     /// The temporal band [Hz] the road FMU's ISO profile covers at this speed, over which the
     /// certificates predict the comfort figures.
     pub fn band_hz(&self) -> (f64, f64) {

@@ -27,9 +27,10 @@
 //! The block-diagonal `P` is a restriction (sound, possibly conservative); the certificate
 //! recomputes the closed-loop H∞ norm at every vertex by Hamiltonian bisection.
 
-use crate::certificate::{closed_loop, CertificateError, Controller, NORM_TOLERANCE};
+use crate::certificate::{closed_loop, CertificateError, NORM_TOLERANCE};
 use crate::controller_file::{matrix_rows, FaultDetection};
 use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
+use crate::hinf_norm::Controller;
 use crate::hinf_norm::Lti;
 use crate::lmi::{Affine, LmiError, Problem};
 use crate::state_feedback::NormBounded;

@@ -343,21 +343,6 @@ impl GeneralizedPlant {
             .collect()
     }
 
-    /// The matrices as the output-feedback LMI names them (`B₁ = B_w`, `C₁ = C_z`, …).
-    pub fn of_plant(&self) -> crate::output_feedback::OfPlant<'_> {
-        crate::output_feedback::OfPlant {
-            a: &self.a,
-            b1: &self.b_w,
-            b2: &self.b_u,
-            c1: &self.c_z,
-            d11: &self.d_zw,
-            d12: &self.d_zu,
-            c2: &self.c_y,
-            d21: &self.d_yw,
-            unit_channels: 0,
-        }
-    }
-
     /// `g` with an uncertainty channel `p = Δ q` as extra inputs and outputs: `p` enters as
     /// `H_x p` in `ẋ` and `H_z p` in `z`, `q = E_x x + E_u u` is appended to `z`; nothing of it
     /// reaches `y` (the uncertainty acts on the plant, not on the sensors).

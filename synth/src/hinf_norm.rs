@@ -10,6 +10,10 @@
 
 use nalgebra::{Complex, DMatrix};
 
+/// A controller in the plant's units: `ẋc = Ac xc + Bc y`, `u [N] = Cc xc + Dc y` — an LTI
+/// system like any other ([`Lti::static_gain`] for one without states).
+pub type Controller = Lti;
+
 /// `ẋ = A x + B w`, `z = C x + D w`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lti {

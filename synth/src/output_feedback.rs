@@ -19,8 +19,8 @@
 //! maximise `t` with `[X I; I Y] ⪰ tI`; (3) reconstruct from that better-conditioned point.
 //! The certificate then checks the reconstructed closed loop independently.
 
-use crate::certificate::Controller;
-use crate::generalized::FORCE_UNIT;
+use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
+use crate::hinf_norm::Controller;
 use crate::lmi::{Affine, LmiError, Problem, Var};
 use nalgebra::DMatrix;
 
@@ -38,6 +38,23 @@ pub struct OfPlant<'a> {
     /// uncertainty channel `p = δ q`, `|δ| ≤ 1` (S-procedure multiplier absorbed in their scaling):
     /// their diagonal blocks are `−I` instead of `−γI` (robust designs; 0 otherwise).
     pub unit_channels: usize,
+}
+
+impl<'a> OfPlant<'a> {
+    /// `g`'s matrices as the output-feedback LMI names them (`B₁ = B_w`, `C₁ = C_z`, …).
+    pub fn of(g: &'a GeneralizedPlant) -> Self {
+        OfPlant {
+            a: &g.a,
+            b1: &g.b_w,
+            b2: &g.b_u,
+            c1: &g.c_z,
+            d11: &g.d_zw,
+            d12: &g.d_zu,
+            c2: &g.c_y,
+            d21: &g.d_yw,
+            unit_channels: 0,
+        }
+    }
 }
 
 /// The plant in balanced state coordinates `x = D x̄` (`D` diagonal, powers of two, Osborne's
@@ -1002,7 +1019,7 @@ mod tests {
             road_scale: Vec::new(),
             road_model: crate::design::RoadModel::Independent,
         };
-        let p = g.of_plant();
+        let p = OfPlant::of(&g);
         // The energy at which the unconstrained design's stroke peaks at 1.5 of its limit (its
         // force, with D_K ≠ 0, has no finite peak at all).
         let free = hinf_of(&p, 1e-7, 0.02, 1e3).unwrap();
@@ -1044,7 +1061,7 @@ mod tests {
     fn reduced_projected_gamma_matches_the_one_shot_lmi_and_the_controller_certifies() {
         let d = Design::default();
         let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d).with_sensor_noise(&d);
-        let p = g.of_plant();
+        let p = OfPlant::of(&g);
         // Stage 1 by the reduced, scaled projected LMIs against all of X, Y, Â, B̂, Ĉ, D̂ in one
         // 65-row LMI (unbalanced coordinates: a second formulation in other coordinates).
         let reduced = optimal_gamma(&p, d.lmi_margin).unwrap();
@@ -1072,7 +1089,7 @@ mod tests {
         // LMI(X̃ = X/γ, η = 1/γ, ζ = η²) = η · LMI(X, γ), for any X, Y and the real plant.
         let d = Design::default();
         let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d).with_sensor_noise(&d);
-        let p = g.of_plant();
+        let p = OfPlant::of(&g);
         let n = p.a.nrows();
         let x = DMatrix::from_fn(n, n, |i, j| 1.0 / (1.0 + i as f64 + j as f64))
             + DMatrix::identity(n, n);
@@ -1104,7 +1121,7 @@ mod tests {
         // `Ψ` and the bases directly, at points on both sides of feasibility.
         let d = Design::default();
         let g = GeneralizedPlant::new(&vehicle::VehicleParams::default(), &d).with_sensor_noise(&d);
-        let p = g.of_plant();
+        let p = OfPlant::of(&g);
         let (n, nw, nz) = (p.a.nrows(), p.b1.ncols(), p.c1.nrows());
         let balanced = Balanced::new(&p);
         let p = &balanced.plant(&p);

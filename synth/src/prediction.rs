@@ -19,11 +19,11 @@
 
 use crate::design::ComfortRoad;
 use crate::hinf_norm::Lti;
+use linsys::expm;
 use nalgebra::{Complex, DMatrix, DVector, Hessenberg};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
-use vehicle::exact::expm;
 use vehicle::iso2631::{ComfortMeter, METER_OUTPUTS, PITCH_FACTOR, ROLL_FACTOR};
 use vehicle::model::{
     physical_outputs, OutputRow, StateSpace, CORNERS, N_ACTUATORS, N_ROAD, N_STATES, N_WHEELS,

@@ -23,16 +23,16 @@ use crate::comfort_controllers::{
     realise_state_feedback, reconstruction, state_feedback_sensors, Reconstruction,
 };
 use crate::comfort_designs::{
-    certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context, OverUncertainty,
-    Uncertainty,
+    certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context, OverDelays,
+    OverUncertainty, Uncertainty,
 };
 use crate::comfort_plant::ComfortPlant;
 use crate::guaranteed::StateFeedback;
 use crate::prediction::{Conditions, ControlLaw, Loop, PredictorLaw};
 use crate::riccati::lyapunov;
+use linsys::expm;
 use nalgebra::DMatrix;
 use serde::Serialize;
-use vehicle::exact::expm;
 
 /// The design model's comfort with the predictor at the delay it compensates:
 /// `x = x̂ + ε`, `x̂` driven by `e^{Aθ} B_w w` through `A + B K`, `ε` the road's effect during the
@@ -63,22 +63,6 @@ fn gramian_integral(a: &DMatrix<f64>, w: &DMatrix<f64>, t: f64) -> Option<DMatri
     m.view_mut((n, n), (n, n)).copy_from(&(a.transpose() * t));
     let big = expm(&m).ok()?;
     Some(big.view((n, n), (n, n)).transpose() * big.view((0, n), (n, n)))
-}
-
-/// `J(θ)` ([`comfort_at`]) over the whole of `[0, θ_max]`: its worst on an even grid of
-/// `intervals + 1` delays, and a bound that holds between them.
-#[derive(Debug, Clone, Copy, Serialize)]
-pub struct OverDelays {
-    pub delay_max_s: f64,
-    /// In the certificate as `design_model_grid_points` (`intervals + 1`).
-    #[serde(skip)]
-    pub intervals: usize,
-    /// The worst of `J` at the grid's delays (a lower bound on its supremum). In the
-    /// certificate as `design_model_grid_worst_wk_rms_seat`.
-    #[serde(skip)]
-    pub grid_worst: f64,
-    /// An upper bound on `J(θ)` at every `θ` of the interval.
-    pub bound: f64,
 }
 
 /// `J(θ)² = f(θ) + e(θ)`, `f = tr(Mᵀ Q M)` with `M(θ) = e^{Aθ} B_w` and `Q` the closed loop's
@@ -162,7 +146,7 @@ const HELD_STEP: f64 = 1e-3;
 
 /// The spectral radius of `Φ_ξ + Γ_ξu K S_ξ` at step `h` ([`PredictorFacts`]).
 fn held_open_loop_radius(r: &Reconstruction, k: &DMatrix<f64>, h: f64) -> Option<f64> {
-    let d = vehicle::exact::discretize(&r.a_xi, &r.b_xiu, h).ok()?;
+    let d = linsys::discretize(&r.a_xi, &r.b_xiu, h).ok()?;
     let radius = crate::eig::spectral_radius(&(&d.phi + &d.gamma_hold * k * &r.s_xi));
     radius.is_finite().then_some(radius)
 }

@@ -12,9 +12,10 @@
 //! The certificate does not rely on either: it computes the closed-loop H∞ norm by Hamiltonian
 //! bisection at every mass of a uniform grid ([`mass_grid_certificate`]).
 
-use crate::certificate::{closed_loop, Controller, NORM_TOLERANCE};
+use crate::certificate::{closed_loop, NORM_TOLERANCE};
 use crate::design::Design;
 use crate::generalized::{GeneralizedPlant, Measurement};
+use crate::hinf_norm::Controller;
 use crate::state_feedback::NormBounded;
 use nalgebra::DMatrix;
 use serde::Serialize;

@@ -38,8 +38,8 @@ use crate::prediction::{
     Figures, HessenbergResponse, PredictionError, PredictorLaw, SensorRows, N_CHANNELS,
     WEIGHTED_SIGNALS,
 };
+use linsys::{discretize, expm};
 use nalgebra::{Complex, DMatrix, DVector};
-use vehicle::exact::{discretize, expm};
 use vehicle::iso2631::{ComfortMeter, Forces, METER_OUTPUTS};
 use vehicle::model::{OutputRow, StateSpace, N_ACTUATORS, N_ROAD, N_STATES};
 

@@ -423,8 +423,9 @@ fn state_feedback(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::certificate::{closed_loop, Controller};
+    use crate::certificate::closed_loop;
     use crate::design::Design;
+    use crate::hinf_norm::Controller;
 
     #[test]
     fn the_mixed_design_keeps_its_gamma_and_lowers_the_true_h2_norm() {

@@ -5,7 +5,7 @@
 
 use crate::anti_windup::{circle_check, mraw};
 use crate::certificate::{
-    certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate, Controller,
+    certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate,
 };
 use crate::controller_file::{controller_json, matrix_rows, AntiWindup, ControllerFile, Guarantee};
 use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
@@ -16,6 +16,7 @@ use crate::fault::{
 };
 use crate::generalized::FORCE_UNIT;
 use crate::generalized::{GeneralizedPlant, Measurement, MEASUREMENTS};
+use crate::hinf_norm::Controller;
 use crate::output_feedback::{
     hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OutputFeedback,
 };
@@ -438,7 +439,7 @@ fn synthesise_untimed(
             let (of, peak_bounds) = if design.constraints {
                 let energy = design.design_energy();
                 let (of, bounds) = hinf_of_constrained(
-                    &g.of_plant(),
+                    &OfPlant::of(&g),
                     &g.c_c,
                     &g.d_cu,
                     energy,
@@ -450,8 +451,13 @@ fn synthesise_untimed(
                 (of, g.constraint_names.iter().cloned().zip(bounds).collect())
             } else {
                 (
-                    hinf_of(&g.of_plant(), design.lmi_margin, GAMMA_BACKOFF, OF_XY_BOUND)
-                        .map_err(lmi)?,
+                    hinf_of(
+                        &OfPlant::of(&g),
+                        design.lmi_margin,
+                        GAMMA_BACKOFF,
+                        OF_XY_BOUND,
+                    )
+                    .map_err(lmi)?,
                     Vec::new(),
                 )
             };
@@ -849,8 +855,8 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     let sf_v =
         hinf_sf_robust(&[&unc.vertices[0], &unc.vertices[1]], None, eps, None).map_err(lmi)?;
     let vertex = hinf_of_common_x(
-        &[unc.vertices[0].of_plant(), unc.vertices[1].of_plant()],
-        &unc.center.of_plant(),
+        &[OfPlant::of(&unc.vertices[0]), OfPlant::of(&unc.vertices[1])],
+        &OfPlant::of(&unc.center),
         &sf_v.q,
         &sf_v.y,
         eps,
@@ -965,7 +971,7 @@ fn norm_bounded_plant(unc: &MassUncertainty, lambda: f64) -> GeneralizedPlant {
 fn norm_bounded_of_plant<'a>(g: &'a GeneralizedPlant, unc: &MassUncertainty) -> OfPlant<'a> {
     OfPlant {
         unit_channels: unc.norm_bounded.h.ncols(),
-        ..g.of_plant()
+        ..OfPlant::of(g)
     }
 }
 

@@ -91,7 +91,7 @@ fn constrained_state_feedback_keeps_force_stroke_and_tyre_load_within_their_limi
         r
     };
     let h = 1e-4;
-    let step = vehicle::exact::discretize(&a_cl, &b_cl, h).unwrap();
+    let step = linsys::discretize(&a_cl, &b_cl, h).unwrap();
     let static_load = StaticEquilibrium::new(&p).tire_load;
     let limits = [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat];
     let RoadModel::Shaped { corner } = d.road_model else {

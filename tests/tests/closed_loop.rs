@@ -228,7 +228,7 @@ fn cosimulation_matches_certificate(variant: &str) {
     let (a_cl, b_cl, scale) = certified_closed_loop(variant);
     let road = bump(0.05);
     let exact = |h: f64, steps: usize| {
-        let d = vehicle::exact::discretize(&a_cl, &b_cl, h).unwrap();
+        let d = linsys::discretize(&a_cl, &b_cl, h).unwrap();
         let w =
             |t: f64| DVector::from_iterator(8, road.at(t).iter().zip(&scale).map(|(r, s)| r / s));
         let mut x = DVector::zeros(a_cl.nrows());

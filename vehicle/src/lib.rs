@@ -4,14 +4,12 @@
 //! * [`model`]: the element-Jacobian derivation of `M, C, K`, the 16-state model and the
 //!   physical outputs;
 //! * [`polytope`]: the vertex and COG forms over the sprung mass;
-//! * [`exact`]: exact discretisation used by the plant FMU and the tests;
 //! * [`road`]: road profiles under the four wheels (the road FMU, the tests, the master);
 //! * [`iso2631`]: the ISO 2631-1 comfort weightings `W_k`, `W_e` (the master's metrics and the
 //!   synthesis's comfort objective).
 //!
 //! Nothing here knows about FMI.
 
-pub mod exact;
 pub mod iso2631;
 pub mod model;
 pub mod params;

@@ -3,8 +3,8 @@
 //! distribution, the actuator moments the thesis omitted, the polytope forms, and the modal
 //! frequencies SPEC §1 gives.
 
+use linsys::discretize;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
-use vehicle::exact::discretize;
 use vehicle::model::{coord, physical_outputs, StaticEquilibrium, N_DOF};
 use vehicle::polytope::MassPolytope;
 use vehicle::{MechanicalModel, StateSpace, VehicleParams};

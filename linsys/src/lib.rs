@@ -1,4 +1,6 @@
-//! Exact discretisation of a linear system over one step.
+//! Exact discretisation of a linear system over one step: the plant FMU's and the controller
+//! FMUs' stepping, and the synthesis's sampled-data predictions, all use it (a crate of its own,
+//! so the generic controller runtime does not depend on the car).
 //!
 //! For `ẋ = A x + B v(t)` with `v` linear over `[0, h]` (`v(s) = v₀ + (v₁ − v₀) s/h`, which
 //! covers held inputs as `v₁ = v₀`), the exponential of the augmented matrix
