@@ -108,7 +108,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         // A predictor's feedthrough is K e^{Aθ} S_y, θ a parameter: every input S_y reads.
         let feeds = |j: usize| match &spec.predictor {
             Some(p) => p.s_y.column(j).iter().any(|v| *v != 0.0),
-            None => spec.d[(i, j)] != 0.0,
+            None => spec.lti.d[(i, j)] != 0.0,
         };
         let deps: Vec<String> = (0..spec.inputs.len())
             .filter(|&j| feeds(j))
@@ -293,16 +293,16 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
             spec.outputs.len(),
         );
         let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
-        a.view_mut((0, 0), (n, n)).copy_from(&spec.a);
+        a.view_mut((0, 0), (n, n)).copy_from(&spec.lti.a);
         a.view_mut((n, n), (m, m)).copy_from(&fd.a);
         let mut b = nalgebra::DMatrix::zeros(n + m, ny + nu);
-        b.view_mut((0, 0), (n, ny)).copy_from(&spec.b);
+        b.view_mut((0, 0), (n, ny)).copy_from(&spec.lti.b);
         b.view_mut((n, 0), (m, ny)).copy_from(&fd.b);
         b.view_mut((n, ny), (m, nu)).copy_from(&fd.b_u);
         return (a, b);
     }
     let Some(aw) = &spec.anti_windup else {
-        return (spec.a.clone(), spec.b.clone());
+        return (spec.lti.a.clone(), spec.lti.b.clone());
     };
     let (n, m, ny, nu) = (
         spec.order(),
@@ -311,11 +311,12 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
         spec.outputs.len(),
     );
     let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
-    a.view_mut((0, 0), (n, n)).copy_from(&spec.a);
-    a.view_mut((0, n), (n, m)).copy_from(&(-&spec.b * &aw.c));
+    a.view_mut((0, 0), (n, n)).copy_from(&spec.lti.a);
+    a.view_mut((0, n), (n, m))
+        .copy_from(&(-&spec.lti.b * &aw.c));
     a.view_mut((n, n), (m, m)).copy_from(&aw.a);
     let mut b = nalgebra::DMatrix::zeros(n + m, ny + nu);
-    b.view_mut((0, 0), (n, ny)).copy_from(&spec.b);
+    b.view_mut((0, 0), (n, ny)).copy_from(&spec.lti.b);
     b.view_mut((n, ny), (m, nu)).copy_from(&aw.b);
     (a, b)
 }
@@ -341,8 +342,8 @@ impl Controller {
         mat_vec_sum(
             self.yc.as_mut_slice(),
             &[
-                (&self.spec.c, &self.x.as_slice()[..n]),
-                (&self.spec.d, self.w.as_slice()),
+                (&self.spec.lti.c, &self.x.as_slice()[..n]),
+                (&self.spec.lti.d, self.w.as_slice()),
             ],
         );
         match &self.spec.anti_windup {

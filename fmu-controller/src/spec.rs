@@ -2,6 +2,7 @@
 //! `u = C xc + D y` in the plant's units, and the names and units of its inputs (plant outputs)
 //! and outputs (plant inputs `u_*`).
 
+use linsys::Lti;
 use nalgebra::DMatrix;
 
 use controller_file::{ControllerFile as Raw, Predictor as RawPredictor};
@@ -72,10 +73,8 @@ pub struct Spec {
     pub guarantee: Guarantee,
     pub inputs: Vec<Signal>,
     pub outputs: Vec<Signal>,
-    pub a: DMatrix<f64>,
-    pub b: DMatrix<f64>,
-    pub c: DMatrix<f64>,
-    pub d: DMatrix<f64>,
+    /// The controller `ẋc = A xc + B y`, `u = C xc + D y` (N).
+    pub lti: Lti,
     pub accommodation: Option<Accommodation>,
     pub anti_windup: Option<AntiWindup>,
     pub fault_detection: Option<FaultDetection>,
@@ -201,10 +200,10 @@ fn check_undelayed(spec: &Spec, p: &Predictor) -> Result<(), SpecError> {
     let ks = &p.k * &p.s_xi;
     let ky = &p.k * &p.s_y;
     let pairs = [
-        ("C", &spec.c, ks.clone()),
-        ("D", &spec.d, ky.clone()),
-        ("A", &spec.a, &p.a_xi + &p.b_xiu * &ks),
-        ("B", &spec.b, &p.b_xi + &p.b_xiu * &ky),
+        ("C", &spec.lti.c, ks.clone()),
+        ("D", &spec.lti.d, ky.clone()),
+        ("A", &spec.lti.a, &p.a_xi + &p.b_xiu * &ks),
+        ("B", &spec.lti.b, &p.b_xi + &p.b_xiu * &ky),
     ];
     for (name, given, implied) in pairs {
         if given.shape() != implied.shape() {
@@ -334,10 +333,12 @@ impl Spec {
             anti_windup,
             fault_detection,
             predictor,
-            a: matrix("A", &raw.a, n, n)?,
-            b: matrix("B", &raw.b, n, ny)?,
-            c: matrix("C", &raw.c, nu, n)?,
-            d: matrix("D", &raw.d, nu, ny)?,
+            lti: Lti::new(
+                matrix("A", &raw.a, n, n)?,
+                matrix("B", &raw.b, n, ny)?,
+                matrix("C", &raw.c, nu, n)?,
+                matrix("D", &raw.d, nu, ny)?,
+            ),
             variant: raw.variant,
             description: raw.description,
             guarantee: raw.guarantee,
@@ -411,6 +412,6 @@ impl Spec {
     }
 
     pub fn order(&self) -> usize {
-        self.a.nrows()
+        self.lti.order()
     }
 }

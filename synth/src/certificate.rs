@@ -4,7 +4,7 @@
 //! The JSON written beside the FMU holds everything needed to re-check the claim elsewhere.
 
 use crate::generalized::{GeneralizedPlant, Measurement, FORCE_UNIT};
-use crate::hinf_norm::{Controller, Lti, NormError};
+use crate::hinf_norm::{Analysis, Controller, Lti, NormError};
 use nalgebra::DMatrix;
 use serde::Serialize;
 

@@ -341,6 +341,7 @@ mod tests {
     use super::*;
     use crate::design::ComfortDesign;
     use crate::guaranteed::state_feedback;
+    use crate::hinf_norm::Analysis;
     use crate::interconnect::close;
     use vehicle::VehicleParams;
 

@@ -32,7 +32,7 @@ use crate::controller_file::{matrix_rows, Accommodation, AntiWindup, Extensions}
 use crate::design::ComfortDesign;
 use crate::fault::FaultBox;
 use crate::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
-use crate::hinf_norm::Lti;
+use crate::hinf_norm::{Analysis, Lti};
 use crate::interconnect::{close, ClosedLoop, Plant, Sensors};
 use crate::prediction::{predict, Conditions, ControlLaw, Figures, Loop};
 use nalgebra::DMatrix;

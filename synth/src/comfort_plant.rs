@@ -559,7 +559,7 @@ pub fn fault_channel(g0: &ComfortPlant, d: &ComfortDesign) -> (ComfortPlant, Cha
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hinf_norm::Lti;
+    use crate::hinf_norm::{Analysis, Lti};
     use nalgebra::Complex;
 
     pub(crate) fn design() -> ComfortDesign {

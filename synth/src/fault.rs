@@ -31,7 +31,7 @@ use crate::certificate::{closed_loop, CertificateError, NORM_TOLERANCE};
 use crate::controller_file::{matrix_rows, FaultDetection};
 use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
 use crate::hinf_norm::Controller;
-use crate::hinf_norm::Lti;
+use crate::hinf_norm::{Analysis, Lti};
 use crate::lmi::{Affine, LmiError, Problem};
 use crate::state_feedback::NormBounded;
 use nalgebra::DMatrix;

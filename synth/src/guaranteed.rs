@@ -358,7 +358,7 @@ pub fn state_feedback(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hinf_norm::Lti;
+    use crate::hinf_norm::{Analysis, Lti};
 
     /// A scalar loop `ẋ = −a x + b w + h p`, `q = e x`, `z = x`, `p = δ q`: the bound at the
     /// best multiplier matches the worst real δ (the closed form `b²/(2(a − h e δ))` at

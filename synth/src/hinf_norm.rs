@@ -14,14 +14,7 @@ use nalgebra::{Complex, DMatrix};
 /// system like any other ([`Lti::static_gain`] for one without states).
 pub type Controller = Lti;
 
-/// `ẋ = A x + B w`, `z = C x + D w`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Lti {
-    pub a: DMatrix<f64>,
-    pub b: DMatrix<f64>,
-    pub c: DMatrix<f64>,
-    pub d: DMatrix<f64>,
-}
+pub use linsys::Lti;
 
 /// The norm with its bracket and the frequency where it is attained.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,42 +35,27 @@ pub enum NormError {
     Feedthrough(f64),
 }
 
-impl Lti {
-    pub fn new(a: DMatrix<f64>, b: DMatrix<f64>, c: DMatrix<f64>, d: DMatrix<f64>) -> Self {
-        let n = a.nrows();
-        assert!(
-            a.is_square()
-                && b.nrows() == n
-                && c.ncols() == n
-                && d.shape() == (c.nrows(), b.ncols()),
-            "inconsistent LTI dimensions"
-        );
-        Lti { a, b, c, d }
-    }
+/// What the synthesis computes of an [`Lti`]: stability, the H∞ norm (Hamiltonian bisection,
+/// LAPACK eigenvalues), the controllability Gramian and the H2 and energy-to-peak norms from it.
+/// A trait here, not methods of `linsys::Lti`, so that the FMUs, which share the type, do not
+/// link LAPACK.
+pub trait Analysis {
+    fn spectral_abscissa(&self) -> f64;
+    fn sigma_max(&self, w: f64) -> f64;
+    fn hinf_norm(&self, tol: f64) -> Result<Norm, NormError>;
+    fn controllability_gramian(&self) -> Result<DMatrix<f64>, NormError>;
+    fn h2_norm(&self) -> Result<f64, NormError>;
+    fn energy_to_peak(&self) -> Result<Vec<f64>, NormError>;
+}
 
-    /// `y = D u`: no states.
-    pub fn static_gain(d: DMatrix<f64>) -> Self {
-        let (m, p) = d.shape();
-        Lti {
-            a: DMatrix::zeros(0, 0),
-            b: DMatrix::zeros(0, p),
-            c: DMatrix::zeros(m, 0),
-            d,
-        }
-    }
-
-    /// Number of states.
-    pub fn order(&self) -> usize {
-        self.a.nrows()
-    }
-
+impl Analysis for Lti {
     /// Largest real part of the eigenvalues of `A`.
-    pub fn spectral_abscissa(&self) -> f64 {
+    fn spectral_abscissa(&self) -> f64 {
         crate::eig::spectral_abscissa(&self.a)
     }
 
     /// `σ_max(G(jω))`.
-    pub fn sigma_max(&self, w: f64) -> f64 {
+    fn sigma_max(&self, w: f64) -> f64 {
         let n = self.a.nrows();
         let mut jw_a = self.a.map(|v| Complex::new(-v, 0.0));
         for i in 0..n {
@@ -92,19 +70,9 @@ impl Lti {
         g.singular_values().max()
     }
 
-    /// `Ok` when asymptotically stable (a NaN abscissa is not).
-    fn require_stable(&self) -> Result<(), NormError> {
-        let abscissa = self.spectral_abscissa();
-        if abscissa < 0.0 {
-            Ok(())
-        } else {
-            Err(NormError::Unstable(abscissa))
-        }
-    }
-
     /// The H∞ norm to relative accuracy `tol` (bracket width `2·tol`).
-    pub fn hinf_norm(&self, tol: f64) -> Result<Norm, NormError> {
-        self.require_stable()?;
+    fn hinf_norm(&self, tol: f64) -> Result<Norm, NormError> {
+        require_stable(self)?;
         let (n, m, p) = (self.a.nrows(), self.b.ncols(), self.c.nrows());
         // Initial lower bound: D, DC gain, and the most lightly damped pole's frequency.
         let poles = crate::eig::eigenvalues(&self.a);
@@ -202,14 +170,12 @@ impl Lti {
         }
         Err(NormError::NoConvergence(100))
     }
-}
 
-impl Lti {
     /// The controllability Gramian `P`, `AP + PAᵀ + BBᵀ = 0` (the state covariance under unit
     /// white noise), by Bartels–Stewart ([`crate::riccati::lyapunov`]): exact and independent
     /// of any LMI bound.
-    pub fn controllability_gramian(&self) -> Result<DMatrix<f64>, NormError> {
-        self.require_stable()?;
+    fn controllability_gramian(&self) -> Result<DMatrix<f64>, NormError> {
+        require_stable(self)?;
         if self.d.amax() != 0.0 {
             return Err(NormError::Feedthrough(self.d.norm()));
         }
@@ -219,7 +185,7 @@ impl Lti {
     }
 
     /// The H2 norm `√tr(C P Cᵀ)`, `P` the controllability Gramian.
-    pub fn h2_norm(&self) -> Result<f64, NormError> {
+    fn h2_norm(&self) -> Result<f64, NormError> {
         let p = self.controllability_gramian()?;
         Ok((&self.c * p * self.c.transpose()).trace().max(0.0).sqrt())
     }
@@ -227,22 +193,22 @@ impl Lti {
     /// The energy-to-peak gain of each output, `sup { max_t |zᵢ(t)| : ‖w‖₂ ≤ 1 } = √(C P Cᵀ)ᵢᵢ`
     /// (exact for one output: by Cauchy–Schwarz on `zᵢ(t) = ∫ cᵢ e^{A(t−s)} B w(s) ds`, attained
     /// by the time-reversed impulse response; Wilson, IEEE TAC 34(1), 1989).
-    pub fn energy_to_peak(&self) -> Result<Vec<f64>, NormError> {
+    fn energy_to_peak(&self) -> Result<Vec<f64>, NormError> {
         let p = self.controllability_gramian()?;
         let cpc = &self.c * p * self.c.transpose();
         Ok((0..self.c.nrows())
             .map(|i| cpc[(i, i)].max(0.0).sqrt())
             .collect())
     }
+}
 
-    /// The system from all inputs to the outputs `rows`.
-    pub fn select_outputs(&self, rows: &[usize]) -> Lti {
-        Lti::new(
-            self.a.clone(),
-            self.b.clone(),
-            self.c.select_rows(rows),
-            self.d.select_rows(rows),
-        )
+/// `Ok` when asymptotically stable (a NaN abscissa is not).
+fn require_stable(sys: &Lti) -> Result<(), NormError> {
+    let abscissa = sys.spectral_abscissa();
+    if abscissa < 0.0 {
+        Ok(())
+    } else {
+        Err(NormError::Unstable(abscissa))
     }
 }
 

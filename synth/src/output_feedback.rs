@@ -954,6 +954,7 @@ mod tests {
     use crate::certificate::closed_loop;
     use crate::design::Design;
     use crate::generalized::GeneralizedPlant;
+    use crate::hinf_norm::Analysis;
 
     /// The constrained synthesis on a quarter car (u in kN): the closed loop it rebuilds meets
     /// its γ (Hamiltonian bisection) and each constraint's exact energy-to-peak gain (Gramian) is

@@ -18,7 +18,7 @@
 //! form once, so a frequency costs `O(n²)`).
 
 use crate::design::ComfortRoad;
-use crate::hinf_norm::Lti;
+use crate::hinf_norm::{Analysis, Lti};
 use linsys::expm;
 use nalgebra::{Complex, DMatrix, DVector, Hessenberg};
 use serde::Serialize;

@@ -191,7 +191,7 @@ pub fn care(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hinf_norm::Lti;
+    use crate::hinf_norm::{Analysis, Lti};
 
     fn random(n: usize, m: usize, seed: u64) -> DMatrix<f64> {
         let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1);

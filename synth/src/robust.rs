@@ -15,7 +15,7 @@
 use crate::certificate::{closed_loop, NORM_TOLERANCE};
 use crate::design::Design;
 use crate::generalized::{GeneralizedPlant, Measurement};
-use crate::hinf_norm::Controller;
+use crate::hinf_norm::{Analysis, Controller};
 use crate::state_feedback::NormBounded;
 use nalgebra::DMatrix;
 use serde::Serialize;

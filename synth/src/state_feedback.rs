@@ -425,7 +425,7 @@ mod tests {
     use super::*;
     use crate::certificate::closed_loop;
     use crate::design::Design;
-    use crate::hinf_norm::Controller;
+    use crate::hinf_norm::{Analysis, Controller};
 
     #[test]
     fn the_mixed_design_keeps_its_gamma_and_lowers_the_true_h2_norm() {

@@ -16,7 +16,7 @@ use crate::fault::{
 };
 use crate::generalized::FORCE_UNIT;
 use crate::generalized::{GeneralizedPlant, Measurement, MEASUREMENTS};
-use crate::hinf_norm::Controller;
+use crate::hinf_norm::{Analysis, Controller};
 use crate::output_feedback::{
     hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OutputFeedback,
 };
