@@ -20,7 +20,7 @@
 //! The certificate then checks the reconstructed closed loop independently.
 
 use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
-use crate::hinf_norm::Controller;
+use crate::hinf_norm::{Controller, Lti};
 use crate::lmi::{Affine, LmiError, Problem, Var};
 use nalgebra::DMatrix;
 
@@ -586,6 +586,16 @@ fn optimal_gamma_balanced(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
     Ok(1.0 / eta.value(&s1.solve()?.x)[(0, 0)])
 }
 
+/// What every output-feedback synthesis here takes besides the plant: the strictness margin `eps`
+/// of its LMIs, the back-off `delta` from the optimum (`γ = (1 + delta) γ*`) and the bound
+/// `beta` on `X, Y` (SPEC §5).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OfSettings {
+    pub eps: f64,
+    pub delta: f64,
+    pub beta: f64,
+}
+
 /// The shipped synthesis, three stages (SPEC §5):
 /// 1. γ* by [`optimal_gamma`];
 /// 2. γ fixed at `(1 + delta) γ*`, `X, Y ⪯ βI`, coupling margin `t` in `[X I; I Y] ⪰ tI`
@@ -595,7 +605,8 @@ fn optimal_gamma_balanced(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
 ///
 /// All on the balanced plant ([`Balanced`]). Stage 2 as one 65-row SDP with all of
 /// `X, Y, Â, B̂, Ĉ, D̂` (777 variables) took ~7 s; stages 2–3 here take ~0.3 s.
-pub fn hinf_of(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result<OutputFeedback, LmiError> {
+pub fn hinf_of(p: &OfPlant, settings: OfSettings) -> Result<OutputFeedback, LmiError> {
+    let OfSettings { eps, delta, beta } = settings;
     let balanced = Balanced::new(p);
     let p = &balanced.plant(p);
     let n = p.a.nrows();
@@ -638,10 +649,7 @@ pub fn hinf_of(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result<OutputFee
         p,
         &x,
         &y,
-        &ah,
-        &bh,
-        &ch,
-        &dh,
+        &Lti::new(ah, bh, ch, dh),
         gamma,
         gamma_opt,
         t.value(&sol.x)[(0, 0)],
@@ -668,16 +676,14 @@ pub fn hinf_of(p: &OfPlant, eps: f64, delta: f64, beta: f64) -> Result<OutputFee
 /// γ at `(1 + delta)γ*`, bounds `X, Y ⪯ βI` and maximises the coupling margin; the controller is
 /// rebuilt from stage 2's variables. Returns the controller and each constraint's peak bound.
 /// Slow: on the car with the shaped road (n = 20, 13 constraints) about 4 minutes.
-#[allow(clippy::too_many_arguments)]
 pub fn hinf_of_constrained(
     p: &OfPlant,
     c_c: &DMatrix<f64>,
     d_cu: &DMatrix<f64>,
     energy: f64,
-    eps: f64,
-    delta: f64,
-    beta: f64,
+    settings: OfSettings,
 ) -> Result<(OutputFeedback, Vec<f64>), LmiError> {
+    let OfSettings { eps, delta, beta } = settings;
     let balanced = Balanced::new(p);
     let c_c = c_c * Balanced::diag(&balanced.d, 1.0);
     let p = &balanced.plant(p);
@@ -788,10 +794,12 @@ pub fn hinf_of_constrained(
         p,
         &x,
         &y,
-        &v.ah.value(&sol.x),
-        &v.bh.value(&sol.x),
-        &ch,
-        &DMatrix::zeros(nu, ny),
+        &Lti::new(
+            v.ah.value(&sol.x),
+            v.bh.value(&sol.x),
+            ch,
+            DMatrix::zeros(nu, ny),
+        ),
         gamma,
         gamma_opt,
         t.value(&sol.x)[(0, 0)],
@@ -800,15 +808,11 @@ pub fn hinf_of_constrained(
 }
 
 /// Remark 5.1: controller from `X, Y` and the linearising variables, `N = I`, `M = I − XY`.
-#[allow(clippy::too_many_arguments)]
 fn reconstruct(
     p: &OfPlant,
     x: &DMatrix<f64>,
     y: &DMatrix<f64>,
-    ah: &DMatrix<f64>,
-    bh: &DMatrix<f64>,
-    ch: &DMatrix<f64>,
-    dh: &DMatrix<f64>,
+    hat: &Lti,
     gamma: f64,
     gamma_opt: f64,
     margin: f64,
@@ -821,7 +825,8 @@ fn reconstruct(
         .try_inverse()
         .ok_or(LmiError::Setup("I − XY is singular".into()))?;
     let sv = m.singular_values();
-    let dk = dh.clone();
+    let (ah, bh, ch) = (&hat.a, &hat.b, &hat.c);
+    let dk = hat.d.clone();
     let ck = (ch - &dk * p.c2 * x) * &mt_inv;
     let bk = bh - y * p.b2 * &dk;
     let ak =
@@ -866,16 +871,14 @@ pub fn optimal_gamma_one_shot(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
 /// Solved on the vertices balanced with the centre plant's scaling ([`Balanced`]): `X̄ = D⁻¹XD⁻¹`,
 /// `Ĉ̄ = ĈD⁻¹` (so `ĀX̄ + B̄₂Ĉ̄ = D⁻¹(AX + B₂Ĉ)D⁻¹`). Unbalanced, Clarabel stopped with
 /// NumericalError on stage 2 for some weights (roll weight 0.8).
-#[allow(clippy::too_many_arguments)]
 pub fn hinf_of_common_x(
     vertices: &[OfPlant],
     center: &OfPlant,
     x: &DMatrix<f64>,
     ch: &DMatrix<f64>,
-    eps: f64,
-    delta: f64,
-    beta: f64,
+    settings: OfSettings,
 ) -> Result<OutputFeedback, LmiError> {
+    let OfSettings { eps, delta, beta } = settings;
     let balanced_center = Balanced::new(center);
     let scaling = balanced_center.d.clone();
     let balanced: Vec<Balanced> = vertices
@@ -938,10 +941,7 @@ pub fn hinf_of_common_x(
         center,
         x,
         &y,
-        &ah,
-        &bh,
-        ch,
-        &DMatrix::zeros(nu, ny),
+        &Lti::new(ah, bh, ch.clone(), DMatrix::zeros(nu, ny)),
         gamma,
         gamma_opt,
         t.value(&sol.x)[(0, 0)],
@@ -951,6 +951,12 @@ pub fn hinf_of_common_x(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const SETTINGS: OfSettings = OfSettings {
+        eps: 1e-7,
+        delta: 0.02,
+        beta: 1e3,
+    };
     use crate::certificate::closed_loop;
     use crate::design::Design;
     use crate::generalized::GeneralizedPlant;
@@ -1023,7 +1029,7 @@ mod tests {
         let p = OfPlant::of(&g);
         // The energy at which the unconstrained design's stroke peaks at 1.5 of its limit (its
         // force, with D_K ≠ 0, has no finite peak at all).
-        let free = hinf_of(&p, 1e-7, 0.02, 1e3).unwrap();
+        let free = hinf_of(&p, SETTINGS).unwrap();
         let free_stroke = closed_loop(
             &g.constraint_plant(),
             &g.output_measurement(),
@@ -1033,8 +1039,7 @@ mod tests {
         .energy_to_peak()
         .unwrap()[0];
         let energy = (1.5 / free_stroke).powi(2);
-        let (of, bounds) =
-            hinf_of_constrained(&p, &g.c_c, &g.d_cu, energy, 1e-7, 0.02, 1e3).unwrap();
+        let (of, bounds) = hinf_of_constrained(&p, &g.c_c, &g.d_cu, energy, SETTINGS).unwrap();
         let norm = closed_loop(&g, &g.output_measurement(), &of.controller)
             .hinf_norm(1e-9)
             .unwrap();
@@ -1072,7 +1077,14 @@ mod tests {
             rel < 1e-6,
             "γ*: reduced {reduced} vs one-shot {one_shot} ({rel:e})"
         );
-        let of = hinf_of(&p, d.lmi_margin, 0.02, 1e3).unwrap();
+        let of = hinf_of(
+            &p,
+            OfSettings {
+                eps: d.lmi_margin,
+                ..SETTINGS
+            },
+        )
+        .unwrap();
         assert_eq!(of.gamma_opt, reduced);
         let norm = closed_loop(&g, &g.output_measurement(), &of.controller)
             .hinf_norm(1e-9)

@@ -18,7 +18,8 @@ use crate::generalized::FORCE_UNIT;
 use crate::generalized::{GeneralizedPlant, Measurement, MEASUREMENTS};
 use crate::hinf_norm::{Analysis, Controller};
 use crate::output_feedback::{
-    hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OutputFeedback,
+    hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OfSettings,
+    OutputFeedback,
 };
 use crate::robust::{mass_grid_certificate, MassGrid, MassUncertainty};
 use crate::state_feedback::{best_constraint_peak, hinf_sf_mixed, hinf_sf_robust, StateFeedback};
@@ -42,6 +43,15 @@ pub const ALL: [&str; 7] = [
 /// reconstructing; `hinf_sf`: before minimising the H2 bound), and the bound on `X, Y`.
 const GAMMA_BACKOFF: f64 = 0.02;
 const OF_XY_BOUND: f64 = 1e3;
+/// The output-feedback syntheses' settings at the LMI margin `eps`.
+fn of_settings(eps: f64) -> OfSettings {
+    OfSettings {
+        eps,
+        delta: GAMMA_BACKOFF,
+        beta: OF_XY_BOUND,
+    }
+}
+
 /// Robust output feedback: half-width, in decades, of the multiplier search.
 const LAMBDA_DECADES: f64 = 1.0;
 
@@ -443,21 +453,13 @@ fn synthesise_untimed(
                     &g.c_c,
                     &g.d_cu,
                     energy,
-                    design.lmi_margin,
-                    GAMMA_BACKOFF,
-                    OF_XY_BOUND,
+                    of_settings(design.lmi_margin),
                 )
                 .map_err(|e| constraint_diagnosis(variant, &[&g], design, lmi(e)))?;
                 (of, g.constraint_names.iter().cloned().zip(bounds).collect())
             } else {
                 (
-                    hinf_of(
-                        &OfPlant::of(&g),
-                        design.lmi_margin,
-                        GAMMA_BACKOFF,
-                        OF_XY_BOUND,
-                    )
-                    .map_err(lmi)?,
+                    hinf_of(&OfPlant::of(&g), of_settings(design.lmi_margin)).map_err(lmi)?,
                     Vec::new(),
                 )
             };
@@ -859,9 +861,7 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
         &OfPlant::of(&unc.center),
         &sf_v.q,
         &sf_v.y,
-        eps,
-        GAMMA_BACKOFF,
-        OF_XY_BOUND,
+        of_settings(eps),
     )
     .map_err(lmi)?;
     // The norm-bounded controller is reconstructed only if it is the one shipped.
@@ -870,13 +870,7 @@ fn robust_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, Syn
     } else {
         let g = norm_bounded_plant(&unc, lambda);
         (
-            hinf_of(
-                &norm_bounded_of_plant(&g, &unc),
-                eps,
-                GAMMA_BACKOFF,
-                OF_XY_BOUND,
-            )
-            .map_err(lmi)?,
+            hinf_of(&norm_bounded_of_plant(&g, &unc), of_settings(eps)).map_err(lmi)?,
             "norm-bounded",
         )
     };
