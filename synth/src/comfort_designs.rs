@@ -251,15 +251,19 @@ impl OverUncertainty {
     /// The held loop's predictions at the conditions, in their order, and their worst.
     pub fn set_held(&mut self, held: Vec<Option<Held>>) {
         assert_eq!(held.len(), self.conditions.len());
-        self.worst_held_wk_rms_seat_m_s2 = held
-            .iter()
-            .map(|h| {
-                h.as_ref()
-                    .map_or(f64::INFINITY, |h| h.predicted_wk_rms_seat_m_s2)
-            })
-            .fold(0.0, f64::max);
+        self.worst_held_wk_rms_seat_m_s2 = worst_held(&held);
         self.held = held;
     }
+}
+
+/// The worst `W_k` seat of held predictions, infinite where one is unstable (`None`).
+pub fn worst_held(held: &[Option<Held>]) -> f64 {
+    held.iter()
+        .map(|h| {
+            h.as_ref()
+                .map_or(f64::INFINITY, |h| h.predicted_wk_rms_seat_m_s2)
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Robust stability to the actuators' unmodelled delay.

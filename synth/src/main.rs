@@ -5,7 +5,7 @@
 //! written, and `synth` exits with failure (so `make` ships no partial set).
 
 use clap::Parser;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use synth::registry::{self, DesignFile};
 use synth::SynthError;
@@ -41,14 +41,12 @@ fn run(cli: Cli) -> Result<(), SynthError> {
         }
         return Ok(());
     }
-    let text = std::fs::read_to_string(&cli.design)
-        .map_err(|e| SynthError::Io(format!("{}: {e}", cli.design.display())))?;
+    let text = std::fs::read_to_string(&cli.design).map_err(|e| io_error(&cli.design, e))?;
     let file = DesignFile::from_json(&text)?;
     let params = match &cli.vehicle {
         None => VehicleParams::default(),
         Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+            let text = std::fs::read_to_string(path).map_err(|e| io_error(path, e))?;
             VehicleParams::from_parameter_file(&text)
                 .map_err(|e| SynthError::Usage(format!("{}: {e}", path.display())))?
         }
@@ -58,21 +56,17 @@ fn run(cli: Cli) -> Result<(), SynthError> {
     let outcome = registry::synthesise_all(&names, &params, &file)?;
     let results = &outcome.designs;
     let out = &cli.out;
-    std::fs::create_dir_all(out).map_err(|e| SynthError::Io(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out).map_err(|e| io_error(out, e))?;
     let write = |path: PathBuf, value: &serde_json::Value| {
-        std::fs::write(&path, serde_json::to_string_pretty(value).expect("JSON"))
-            .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))
+        write_text(&path, &serde_json::to_string_pretty(value).expect("JSON"))
     };
     for (name, s) in results {
         let dir = out.join(name);
-        std::fs::create_dir_all(&dir)
-            .map_err(|e| SynthError::Io(format!("{}: {e}", dir.display())))?;
+        std::fs::create_dir_all(&dir).map_err(|e| io_error(&dir, e))?;
         let mut cert = s.certificate.clone();
         cert["synthesis_seconds"] = serde_json::json!(s.seconds);
         write(out.join(format!("{name}.certificate.json")), &cert)?;
-        let path = dir.join("controller.json");
-        std::fs::write(&path, s.controller_json.to_json())
-            .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+        write_text(&dir.join("controller.json"), &s.controller_json.to_json())?;
         println!("{name:<10} {} ({:.2} s)", s.row.certified, s.seconds);
     }
     let wall = started.elapsed().as_secs_f64();
@@ -82,30 +76,25 @@ fn run(cli: Cli) -> Result<(), SynthError> {
         table += &format!("\nRefused `{name}` (no controller written): {why}\n");
     }
     // The car designed for, in the README's words (spliced there by `make readme`).
-    let car = out.join("car.md");
-    std::fs::write(
-        &car,
-        format!(
+    write_text(
+        &out.join("car.md"),
+        &format!(
             "Modal frequencies of the car the controllers are designed for (undamped, \
              `MechanicalModel::modes`): {}.\n",
             vehicle::model::MechanicalModel::new(&params).modes_in_words()
         ),
-    )
-    .map_err(|e| SynthError::Io(format!("{}: {e}", car.display())))?;
+    )?;
     // What γ says about comfort, in words (spliced into the README by `make readme`).
     if let registry::DesignFile::Thesis(d) = &file {
         if let Some(words) = d
             .comfort_road
             .and_then(|road| registry::gamma_in_words(&rows, &road))
         {
-            let path = out.join("gamma.md");
-            std::fs::write(&path, words)
-                .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+            write_text(&out.join("gamma.md"), &words)?;
         }
     }
     let path = out.join("synthesis.md");
-    std::fs::write(&path, &table)
-        .map_err(|e| SynthError::Io(format!("{}: {e}", path.display())))?;
+    write_text(&path, &table)?;
     // The same, for tools (the master's design table).
     write(
         out.join("synthesis.json"),
@@ -123,6 +112,16 @@ fn run(cli: Cli) -> Result<(), SynthError> {
             path.display()
         ))),
     }
+}
+
+/// An I/O failure on `path`, named.
+fn io_error(path: &Path, e: std::io::Error) -> SynthError {
+    SynthError::Io(format!("{}: {e}", path.display()))
+}
+
+/// Write `text` to `path`.
+fn write_text(path: &Path, text: &str) -> Result<(), SynthError> {
+    std::fs::write(path, text).map_err(|e| io_error(path, e))
 }
 
 fn main() -> ExitCode {

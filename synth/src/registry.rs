@@ -626,7 +626,7 @@ fn held(comfort: &crate::comfort_designs::Comfort) -> String {
 }
 
 /// Held predictions over an uncertainty's conditions: `worst 0.0105`, or the conditions where
-/// the loop is unstable at the step.
+/// the loop is unstable at the step (the first and last of them beyond two).
 fn held_over(
     held: &[Option<crate::comfort_designs::Held>],
     conditions: &[(String, crate::prediction::Figures)],
@@ -637,24 +637,14 @@ fn held_over(
         .filter(|(h, _)| h.is_none())
         .map(|(_, (label, _))| label.as_str())
         .collect();
-    if let [first, .., last] = unstable[..] {
-        if unstable.len() > 2 {
-            return format!(
-                "unstable at {} of {} conditions ({first} … {last})",
-                unstable.len(),
-                held.len()
-            );
-        }
-    }
-    if unstable.is_empty() {
-        let worst = held
-            .iter()
-            .flatten()
-            .map(|h| h.predicted_wk_rms_seat_m_s2)
-            .fold(0.0, f64::max);
-        format!("worst {worst:.4}")
-    } else {
-        format!("unstable at {}", unstable.join(", "))
+    match unstable[..] {
+        [] => format!("worst {:.4}", crate::comfort_designs::worst_held(held)),
+        [_] | [_, _] => format!("unstable at {}", unstable.join(", ")),
+        [first, .., last] => format!(
+            "unstable at {} of {} conditions ({first} … {last})",
+            unstable.len(),
+            held.len()
+        ),
     }
 }
 

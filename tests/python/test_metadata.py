@@ -65,21 +65,20 @@ def test_the_readme_comparison_is_the_measured_one(heading, tag):
     assert without_timing(readme).strip() == without_timing(section).strip(), f"README {tag} is stale: run `make readme`"
 
 
-def test_the_readme_modal_frequencies_are_the_cars():
-    """`synth` writes the modes of the car it designs for (dist/car.md); `make readme` splices them."""
-    car = (ROOT / "dist" / "car.md").read_text()
-    assert block((ROOT / "README.md").read_text(), "modes").strip() == car.strip(), "README modes are stale: run `make readme`"
+@pytest.mark.parametrize("tag,path", [("modes", "dist/car.md"), ("gamma", "dist/thesis/gamma.md")])
+def test_the_readme_blocks_are_what_synth_writes(tag, path):
+    """`synth` writes the modes of the car it designs for (dist/car.md) and, on the thesis's design
+    file, what γ says about comfort (dist/thesis/gamma.md: each design's certified norm beside the
+    passive car's on the same plant, and the comfort predicted beside the passive car's);
+    `make readme` splices them."""
+    written = (ROOT / path).read_text()
+    assert block((ROOT / "README.md").read_text(), tag).strip() == written.strip(), f"README {tag} is stale: run `make readme`"
 
 
-def test_the_readme_says_what_gamma_is_worth_as_the_thesis_synthesis_does():
-    """`synth` on the thesis's design file writes what γ says about comfort (dist/thesis/gamma.md:
-    each design's certified norm beside the passive car's on the same plant, and the comfort
-    predicted beside the passive car's); `make readme` splices it under "Why not γ"."""
-    words = (ROOT / "dist" / "thesis" / "gamma.md").read_text()
-    assert "passive car scores" in words
-    assert block((ROOT / "README.md").read_text(), "gamma").strip() == words.strip(), "README γ words are stale: run `make readme`"
-    # What the paragraph says around them: every design's norm peaks at the wheel hop (11.6 Hz
-    # on this car) and is pinned within 10 % of the passive car's on the same plant.
+def test_what_the_readme_says_around_the_gamma_figures_holds_on_every_thesis_certificate():
+    """Every thesis design's norm peaks at the wheel hop (11.6 Hz on this car) and is pinned within
+    10 % of the passive car's on the same plant (README "Why not γ")."""
+    assert "passive car scores" in (ROOT / "dist" / "thesis" / "gamma.md").read_text()
     for cert in sorted((ROOT / "dist" / "thesis").glob("*.certificate.json")):
         c = json.loads(cert.read_text())
         assert 10.0 < c["peak_frequency_rad_s"] / (2 * math.pi) < 12.0, cert.name
