@@ -220,6 +220,8 @@ impl<M: Model> Instance<M> {
     /// Check that every `vr` is known and, in Initialization Mode, that the outputs and
     /// calculated parameters among them can be computed for the parameters set so far.
     fn check_gettable(&mut self, base: BaseType, vrs: &[ValueReference]) -> Result<(), String> {
+        // The first computed variable's reference, named only in an error: this runs on every
+        // get of every communication step.
         let mut computed = None;
         for &vr in vrs {
             let v = self.variable(base, vr)?;
@@ -227,14 +229,20 @@ impl<M: Model> Instance<M> {
                 v.causality,
                 Causality::Output | Causality::CalculatedParameter
             ) {
-                computed.get_or_insert_with(|| v.name.clone());
+                computed.get_or_insert(vr);
             }
         }
         match computed {
-            Some(name) if self.initialising() => self
-                .model
-                .prepare_initial_outputs(self.start_time)
-                .map_err(|e| format!("'{name}' cannot be computed for the parameters set: {e}")),
+            Some(vr) if self.initialising() => {
+                let prepared = self.model.prepare_initial_outputs(self.start_time);
+                prepared.map_err(|e| {
+                    let name = self.variable(base, vr).map(|v| v.name.as_str());
+                    format!(
+                        "'{}' cannot be computed for the parameters set: {e}",
+                        name.unwrap_or_default()
+                    )
+                })
+            }
             _ => Ok(()),
         }
     }

@@ -646,8 +646,39 @@ pub fn run_loaded(
     })
 }
 
-/// A recorded variable: on the controller?, Boolean?, value reference.
-type Recorded = (bool, bool, u32);
+/// Where a recorded column is read: the plant's Reals, the controller's Reals or its Booleans.
+#[derive(Clone, Copy, PartialEq)]
+enum Batch {
+    Plant,
+    ControllerReal,
+    ControllerBoolean,
+}
+
+/// The recorded variables, read in one FMI call per batch and step (a call per variable cost
+/// more than the plant's step): each batch's value references, and per column its batch and
+/// index there.
+struct Recording {
+    plant: Vec<u32>,
+    controller_real: Vec<u32>,
+    controller_boolean: Vec<u32>,
+    columns: Vec<(Batch, usize)>,
+}
+
+impl Recording {
+    fn add(&mut self, batch: Batch, vr: u32) {
+        let refs = match batch {
+            Batch::Plant => &mut self.plant,
+            Batch::ControllerReal => &mut self.controller_real,
+            Batch::ControllerBoolean => &mut self.controller_boolean,
+        };
+        self.columns.push((batch, refs.len()));
+        refs.push(vr);
+    }
+
+    fn on_controller(&self) -> bool {
+        !(self.controller_real.is_empty() && self.controller_boolean.is_empty())
+    }
+}
 
 /// The co-simulation loop of this module's order (see the module's documentation), the one
 /// every run and every closed-loop test goes through.
@@ -675,21 +706,29 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         .transpose()?;
     let road_in = vrs(plant, &ROAD)?;
     let force_in = vrs(plant, &FORCES)?;
-    let recorded: Vec<Recorded> = setup
-        .record
-        .iter()
-        .map(|n| match (plant.has(n), ctrl) {
-            (true, _) => Ok((false, false, plant.vr(n)?)),
+    let mut recording = Recording {
+        plant: vec![],
+        controller_real: vec![],
+        controller_boolean: vec![],
+        columns: vec![],
+    };
+    for n in setup.record {
+        match (plant.has(n), ctrl) {
+            (true, _) => recording.add(Batch::Plant, plant.vr(n)?),
             (false, Some(cf)) => {
                 let boolean = matches!(
                     cf.variable(n).map(|v| v.1),
                     Some(ScalarVariableElement::Boolean(_))
                 );
-                Ok((true, boolean, cf.vr(n)?))
+                let batch = match boolean {
+                    true => Batch::ControllerBoolean,
+                    false => Batch::ControllerReal,
+                };
+                recording.add(batch, cf.vr(n)?)
             }
-            (false, None) => Err(err(format!("plant has no variable '{n}' to record"))),
-        })
-        .collect::<Result<_, MasterError>>()?;
+            (false, None) => return Err(err(format!("plant has no variable '{n}' to record"))),
+        }
+    }
     let (y_from, y_to, u_from) = match ctrl {
         Some(cf) => {
             let inputs = cf.names_with_causality("input");
@@ -698,17 +737,15 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         }
         None => (vec![], vec![], vec![]),
     };
-    let on_controller = recorded.iter().any(|r| r.0);
+    let on_controller = recording.on_controller();
     let units = setup
         .record
         .iter()
-        .zip(&recorded)
-        .map(
-            |(n, (on_controller_side, ..))| match (on_controller_side, ctrl) {
-                (true, Some(c)) => c.unit(n).to_string(),
-                _ => plant.unit(n).to_string(),
-            },
-        )
+        .zip(&recording.columns)
+        .map(|(n, (batch, _))| match (batch, ctrl) {
+            (Batch::Plant, _) | (_, None) => plant.unit(n).to_string(),
+            (_, Some(c)) => c.unit(n).to_string(),
+        })
         .collect();
     // The plant's values after initialisation: its own, or the scenario's overrides.
     let mut plant_reals = |names: &[&str], values: &mut [f64]| {
@@ -741,12 +778,14 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     };
     let (h, steps) = (setup.step, setup.steps);
     let mut time = Vec::with_capacity(steps);
-    let mut data = Vec::with_capacity(steps * recorded.len());
+    let mut data = Vec::with_capacity(steps * recording.columns.len());
+    let mut plant_values = vec![0.0; recording.plant.len()];
+    let mut controller_reals = vec![0.0; recording.controller_real.len()];
+    let mut controller_booleans = vec![0; recording.controller_boolean.len()];
     let mut commands = Vec::with_capacity(steps);
     let mut road_values = [0.0; 8];
     let mut y = vec![0.0; y_from.len()];
     let mut u = [0.0; 5];
-    let mut value = [0.0];
     let started = std::time::Instant::now();
     // The road at t + h, the FMU stepped from t over h first (not for h = 0).
     let mut road_at = |t: f64, h: f64, values: &mut [f64; 8]| match (&setup.road, road.as_mut()) {
@@ -788,28 +827,25 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
             p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
             c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
         }
-        for (controller_side, boolean, vr) in &recorded {
-            let v = match (controller_side, c.as_mut()) {
-                (false, _) => {
-                    p.get_real(&[*vr], &mut value)
-                        .map_err(|e| fail("plant", e))?;
-                    value[0]
-                }
-                (true, Some(c)) if *boolean => {
-                    let mut b = [0];
-                    c.get_boolean(&[*vr], &mut b)
-                        .map_err(|e| fail("controller", e))?;
-                    b[0] as f64
-                }
-                (true, Some(c)) => {
-                    c.get_real(&[*vr], &mut value)
-                        .map_err(|e| fail("controller", e))?;
-                    value[0]
-                }
-                (true, None) => unreachable!("resolved against the controller above"),
-            };
-            data.push(v);
+        if !recording.plant.is_empty() {
+            p.get_real(&recording.plant, &mut plant_values)
+                .map_err(|e| fail("plant", e))?;
         }
+        if let (Some(c), true) = (c.as_mut(), on_controller) {
+            if !recording.controller_real.is_empty() {
+                c.get_real(&recording.controller_real, &mut controller_reals)
+                    .map_err(|e| fail("controller", e))?;
+            }
+            if !recording.controller_boolean.is_empty() {
+                c.get_boolean(&recording.controller_boolean, &mut controller_booleans)
+                    .map_err(|e| fail("controller", e))?;
+            }
+        }
+        data.extend(recording.columns.iter().map(|&(batch, i)| match batch {
+            Batch::Plant => plant_values[i],
+            Batch::ControllerReal => controller_reals[i],
+            Batch::ControllerBoolean => controller_booleans[i] as f64,
+        }));
         time.push(t + h);
     }
     Ok(Run {
