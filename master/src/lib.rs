@@ -1,5 +1,6 @@
 //! The co-simulation master: road, plant and controller FMUs through the `fmi` crate.
 
+pub mod certified;
 pub mod cosim;
 pub mod fmu_log;
 pub mod metrics;

@@ -306,13 +306,28 @@ fn sweep(
         ));
     }
     let fmus = Fmus::load(dist, &sweep.spec.controllers)?;
+    // Before any run: a certificate that cannot be read stops the sweep.
+    let certified: Vec<_> = sweep
+        .spec
+        .controllers
+        .iter()
+        .filter(|c| *c != "passive")
+        .map(|c| master::certified::load(dist, c))
+        .collect::<Result<Vec<_>, _>>()?
+        .into_iter()
+        .flatten()
+        .collect();
     let io = |e: std::io::Error| MasterError(format!("{}: {e}", out.display()));
     std::fs::create_dir_all(out).map_err(io)?;
     let (rows, wall) = in_parallel(&jobs, |j| fmus.run(j));
     let names = sweep.parameter_names();
     std::fs::write(out.join("runs.csv"), csv(&names, &rows)).map_err(io)?;
     write_parquet(&out.join("runs.parquet"), &names, &rows)?;
-    let text = report(&sweep, &rows, wall);
+    let text = report(&sweep, &rows, wall)
+        + &master::certified::section(&certified, &rows, |c, r| {
+            let condition = c.condition_of(&r.job.scenario, |p| fmus.plant().start_real(p))?;
+            c.conditions.iter().position(|k| k == condition)
+        });
     std::fs::write(out.join("report.md"), &text).map_err(io)?;
     plot_cdf(&out.join("cdf.svg"), &sweep, &rows)?;
     let failed = rows

@@ -417,6 +417,11 @@ impl Fmus {
         })
     }
 
+    /// The plant FMU (its start values are the car's nominal parameters).
+    pub fn plant(&self) -> &Fmu {
+        &self.plant
+    }
+
     /// Run one job; an FMU error or an instability is the row's outcome, not an error.
     pub fn run(&self, job: &Job) -> Row {
         let ctrl = job.controller.as_ref().map(|c| &self.controllers[c]);

@@ -203,3 +203,94 @@ fn bad_sweeps_and_chunks_are_refused_with_the_reason() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The report sets each certificate's prediction for the loop a master runs beside the runs at
+/// that condition: exactly the runs on the design road (class C, 20 m/s, 1 ms) at the nominal
+/// car or at a checked condition of the design's uncertainty, every other run left out; the
+/// measured mean near the prediction (20 s runs past the fade-in, two seeds).
+#[test]
+fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditions() {
+    let dir = std::env::temp_dir().join(format!("master-sweep-predicted-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("iso.json"),
+        r#"{"name": "iso_c_20s", "duration": 20.0, "step": 0.001, "metrics_from": 2.0,
+            "road": {"profile": 2, "iso_class": 3, "seed": 7, "speed": 20.0,
+                     "start_distance": -2.4}}"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("sweep.json"),
+        r#"{"name": "p", "base": "iso.json", "controllers": ["passive", "robust_of", "delay_sf"],
+            "seed": 3, "samples": 2,
+            "parameters": {"plant.m_s": {"grid": [1200, 1500, 1650.5]},
+                           "plant.tau": {"grid": [0.0, 0.01]},
+                           "road.seed": {"integers": [1, 100000]}}}"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    master(&[
+        "sweep",
+        dir.join("sweep.json").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let section = &report[report.find("## Predicted beside measured").unwrap()..];
+    let rows: Vec<Vec<&str>> = section
+        .lines()
+        .filter(|l| l.starts_with("| `"))
+        .map(|l| l.trim_matches('|').split(" | ").map(str::trim).collect())
+        .collect();
+    let found: Vec<(&str, &str, &str)> = rows.iter().map(|r| (r[0], r[1], r[3])).collect();
+    assert_eq!(
+        found,
+        [
+            ("`robust_of`", "nominal car", "2"),
+            ("`robust_of`", "m_s = 1200 kg", "2"),
+            ("`delay_sf`", "nominal car", "2"),
+            ("`delay_sf`", "delay 10.0 ms", "2"),
+        ],
+        "{section}"
+    );
+    // The predictions are the certificates' (read here on their own).
+    let certificate = |c: &str| -> serde_json::Value {
+        let path = root().join("dist").join(format!("{c}.certificate.json"));
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let held = |c: &str, k: Option<usize>| -> f64 {
+        let json = certificate(c);
+        let at = match k {
+            None => "/comfort/held/predicted_wk_rms_seat_m_s2".to_string(),
+            Some(k) => format!("/comfort/uncertainty/held/{k}/predicted_wk_rms_seat_m_s2"),
+        };
+        json.pointer(&at).and_then(|v| v.as_f64()).unwrap()
+    };
+    let robust_1200 = certificate("robust_of")
+        .pointer("/comfort/uncertainty/plant_parameters")
+        .and_then(|v| v.as_array())
+        .unwrap()
+        .iter()
+        .position(|p| p.get("m_s").and_then(|m| m.as_f64()) == Some(1200.0))
+        .unwrap();
+    let delay_10 = certificate("delay_sf")
+        .pointer("/comfort/uncertainty/plant_parameters")
+        .and_then(|v| v.as_array())
+        .unwrap()
+        .iter()
+        .position(|p| p.get("tau").and_then(|m| m.as_f64()) == Some(0.01))
+        .unwrap();
+    let expected = [
+        held("robust_of", None),
+        held("robust_of", Some(robust_1200)),
+        held("delay_sf", None),
+        held("delay_sf", Some(delay_10)),
+    ];
+    for (r, p) in rows.iter().zip(expected) {
+        assert_eq!(r[2], format!("{p:.4}"), "{r:?}");
+        let ratio: f64 = r[6].parse().unwrap();
+        assert!((0.85..=1.15).contains(&ratio), "{r:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
