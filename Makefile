@@ -250,8 +250,9 @@ $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
 	@touch $@
 
 # Benchmarks: one fmi2DoStep of the plant (criterion), each synthesis against the same LMIs
-# in CVXPY + Clarabel (Python) in the same run, every design together (wall time), and a 10 s
-# closed loop in the Rust master against the same loop in FMPy.
+# in CVXPY + Clarabel (Python) in the same run, every design together (wall time), a 10 s
+# closed loop in the Rust master against the same loop in FMPy, and the 10 000-run sweep
+# (sweeps/study_10k.json, about 3 minutes on 2 cores; its report in $(STAMP)/bench-study).
 bench: $(FMU_FILES) $(STAMP)/venv-bench
 	$(CARGO) bench -p fmu-plant --bench do_step
 	$(CARGO) bench -p vehicle --bench road
@@ -259,6 +260,7 @@ bench: $(FMU_FILES) $(STAMP)/venv-bench
 	./target/release/synth --design synth/designs/comfort.json --out $(STAMP)/bench-synth
 	./target/release/synth --design synth/designs/thesis.json --out $(STAMP)/bench-synth-thesis
 	$(PY) bench/master_vs_fmpy.py
+	./target/release/master sweep sweeps/study_10k.json --out $(STAMP)/bench-study
 
 clean:
 	rm -rf dist results $(STAMP)

@@ -1,7 +1,8 @@
 """`make bench`: a 10 s closed loop at 1 kHz (road.fmu -> plant.fmu -> hinf_of.fmu, the 5 cm
 bump) in the Rust master against the same loop in FMPy (the Python master of
-tests/python/test_closed_loop.py), same FMUs, same order. Loop time only (FMUs loaded and
-initialised), best of three, as a ratio and against real time."""
+tests/python/test_closed_loop.py), same FMUs, same order; then the Rust loop on the ISO class C
+road. Loop time only (FMUs loaded and initialised), best of three, as a ratio and against real
+time."""
 
 import json
 import pathlib
@@ -52,14 +53,22 @@ def python(road_params):
     return best
 
 
-def main():
-    scenario = json.loads((ROOT / "scenarios" / "bump.json").read_text())
-    scenario.update(name="bench_bump_10s", duration=SECONDS, step=STEP)
-    path = pathlib.Path(tempfile.gettempdir()) / "bench_bump_10s.json"
+def scenario_file(name):
+    """scenarios/<name>.json cut to 10 s at 1 kHz, in the temporary directory."""
+    scenario = json.loads((ROOT / "scenarios" / f"{name}.json").read_text())
+    scenario.update(name=f"bench_{name}_10s", duration=SECONDS, step=STEP)
+    path = pathlib.Path(tempfile.gettempdir()) / f"bench_{name}_10s.json"
     path.write_text(json.dumps(scenario))
-    r, p = rust(str(path)), python(scenario["road"])
+    return scenario, str(path)
+
+
+def main():
+    scenario, path = scenario_file("bump")
+    r, p = rust(path), python(scenario["road"])
     print(f"10 s closed loop at 1 kHz (road -> plant -> hinf_of): Rust master {r * 1e3:.1f} ms ({SECONDS / r:.0f}x real time), "
           f"FMPy master {p * 1e3:.0f} ms ({SECONDS / p:.1f}x real time): Rust {p / r:.0f}x faster")
+    r = rust(scenario_file("iso_c")[1])
+    print(f"The same on the ISO class C road at 20 m/s: Rust master {r * 1e3:.1f} ms ({SECONDS / r:.0f}x real time)")
 
 
 if __name__ == "__main__":
