@@ -267,25 +267,21 @@ fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditi
         };
         json.pointer(&at).and_then(|v| v.as_f64()).unwrap()
     };
-    let robust_1200 = certificate("robust_of")
-        .pointer("/comfort/uncertainty/plant_parameters")
-        .and_then(|v| v.as_array())
-        .unwrap()
-        .iter()
-        .position(|p| p.get("m_s").and_then(|m| m.as_f64()) == Some(1200.0))
-        .unwrap();
-    let delay_10 = certificate("delay_sf")
-        .pointer("/comfort/uncertainty/plant_parameters")
-        .and_then(|v| v.as_array())
-        .unwrap()
-        .iter()
-        .position(|p| p.get("tau").and_then(|m| m.as_f64()) == Some(0.01))
-        .unwrap();
+    // The index of the condition that sets `parameter` to `value`.
+    let condition = |c: &str, parameter: &str, value: f64| {
+        certificate(c)
+            .pointer("/comfort/uncertainty/plant_parameters")
+            .and_then(|v| v.as_array())
+            .unwrap()
+            .iter()
+            .position(|p| p.get(parameter).and_then(|m| m.as_f64()) == Some(value))
+            .expect("the certificate checks that condition")
+    };
     let expected = [
         held("robust_of", None),
-        held("robust_of", Some(robust_1200)),
+        held("robust_of", Some(condition("robust_of", "m_s", 1200.0))),
         held("delay_sf", None),
-        held("delay_sf", Some(delay_10)),
+        held("delay_sf", Some(condition("delay_sf", "tau", 0.01))),
     ];
     for (r, p) in rows.iter().zip(expected) {
         assert_eq!(r[2], format!("{p:.4}"), "{r:?}");
