@@ -186,6 +186,12 @@ mod tests {
             let x2: Vec<f64> = (0..m2).map(|_| rand()).collect();
             let mut y = vec![f64::NAN; n];
             mat_vec_sum(&mut y, &[(&a1, &x1), (&a2, &x2)]);
+            // The baseline code too (what runs where the CPU has no AVX).
+            let mut baseline = vec![f64::NAN; n];
+            mat_vec_sum_blocks(&mut baseline, &[(&a1, &x1), (&a2, &x2)]);
+            for (k, (a, b)) in y.iter().zip(&baseline).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "n = {n}, row {k}: {a} vs {b}");
+            }
             let mut reference = nalgebra::DVector::from_element(n, 0.0);
             reference.gemv(1.0, &a1, &nalgebra::DVector::from_column_slice(&x1), 0.0);
             reference.gemv(1.0, &a2, &nalgebra::DVector::from_column_slice(&x2), 1.0);

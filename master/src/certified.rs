@@ -135,14 +135,14 @@ pub fn load(dist: &Path, controller: &str) -> Result<Option<Certified>, MasterEr
 }
 
 impl Certified {
-    /// The condition `scenario` runs at, if any (see the module's documentation);
-    /// `start(name)` is the plant's start value of a parameter neither sets
-    /// ([`crate::cosim::Fmu::start_real`] of the plant FMU).
+    /// The index in [`Self::conditions`] of the condition `scenario` runs at, if any (see the
+    /// module's documentation); `start(name)` is the plant's start value of a parameter
+    /// neither sets ([`crate::cosim::Fmu::start_real`] of the plant FMU).
     pub fn condition_of(
         &self,
         scenario: &Scenario,
         start: impl Fn(&str) -> Option<f64>,
-    ) -> Option<&Condition> {
+    ) -> Option<usize> {
         let road = |k: &str| scenario.road.get(k);
         let on_design_road = road("profile").and_then(Value::as_i64) == Some(2)
             && road("iso_class").and_then(Value::as_i64) == Some(self.iso_class)
@@ -151,7 +151,7 @@ impl Certified {
         if !on_design_road || scenario.step != self.step {
             return None;
         }
-        self.conditions.iter().find(|c| {
+        self.conditions.iter().position(|c| {
             let value =
                 |p: &str, of: &BTreeMap<String, f64>| of.get(p).copied().or_else(|| start(p));
             scenario
@@ -165,7 +165,7 @@ impl Certified {
 
 /// The report's section: per controller with a certificate and per condition some run is at,
 /// the prediction beside the runs' measured W_k RMS seat (mean, range, mean / predicted).
-/// `at(c, row)` is the index in `certified[c].conditions` of the condition `row` runs at.
+/// `at(c, row)` is [`Certified::condition_of`] `row`'s scenario.
 pub fn section(
     certified: &[Certified],
     rows: &[crate::sweep::Row],
@@ -208,13 +208,13 @@ pub fn section(
             let predicted = condition
                 .predicted
                 .map_or("unstable".to_string(), |p| format!("{p:.4}"));
-            let (figures, ratio) = match (measured.is_empty(), condition.predicted) {
-                (true, _) => ("- | -".to_string(), "-".to_string()),
-                (false, Some(p)) => (
-                    format!("{mean:.4} | {lo:.4} … {hi:.4}"),
-                    format!("{:.3}", mean / p),
-                ),
-                (false, None) => (format!("{mean:.4} | {lo:.4} … {hi:.4}"), "-".to_string()),
+            let figures = match measured.is_empty() {
+                true => "- | -".to_string(),
+                false => format!("{mean:.4} | {lo:.4} … {hi:.4}"),
+            };
+            let ratio = match (measured.is_empty(), condition.predicted) {
+                (false, Some(p)) => format!("{:.3}", mean / p),
+                _ => "-".to_string(),
             };
             let failed = match failed {
                 0 => String::new(),
@@ -320,7 +320,7 @@ mod tests {
             .unwrap();
         let at = |road: &str, plant: &str| {
             c.condition_of(&scenario(road, plant), start)
-                .map(|k| k.label.clone())
+                .map(|k| c.conditions[k].label.clone())
         };
         assert_eq!(at(DESIGN_ROAD, "{}").as_deref(), Some("nominal car"));
         // The start value written out is the nominal car too.

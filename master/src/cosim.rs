@@ -647,7 +647,7 @@ pub fn run_loaded(
 }
 
 /// Where a recorded column is read: the plant's Reals, the controller's Reals or its Booleans.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 enum Batch {
     Plant,
     ControllerReal,

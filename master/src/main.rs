@@ -325,8 +325,7 @@ fn sweep(
     write_parquet(&out.join("runs.parquet"), &names, &rows)?;
     let text = report(&sweep, &rows, wall)
         + &master::certified::section(&certified, &rows, |c, r| {
-            let condition = c.condition_of(&r.job.scenario, |p| fmus.plant().start_real(p))?;
-            c.conditions.iter().position(|k| k == condition)
+            c.condition_of(&r.job.scenario, |p| fmus.plant().start_real(p))
         });
     std::fs::write(out.join("report.md"), &text).map_err(io)?;
     plot_cdf(&out.join("cdf.svg"), &sweep, &rows)?;
