@@ -200,6 +200,9 @@ pub struct Predictor {
     pub b_xi: Rows,
     #[serde(rename = "B_xiu")]
     pub b_xiu: Rows,
+    /// How the applied force reaches the inputs at once (ny × nu); absent: not at all.
+    #[serde(rename = "D_yu", default, skip_serializing_if = "Option::is_none")]
+    pub d_yu: Option<Rows>,
     #[serde(rename = "K")]
     pub k: Rows,
     #[serde(rename = "S_xi")]
@@ -208,6 +211,10 @@ pub struct Predictor {
     pub s_y: Rows,
     /// The largest delay it is certified for [s] (the parameter `tau`'s maximum).
     pub delay_max: f64,
+    /// The actuators' force limits the commands are clamped to [N], one per output
+    /// (parameters `u_max`, `u_max_seat`); absent: not clamped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u_max: Option<Vec<f64>>,
     /// The synthesis's figures about it, for the reader (the runtime does not use them).
     #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
     pub facts: serde_json::Value,

@@ -82,26 +82,31 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         );
     }
     // How a measurement enters a command: through the predictor's `K e^{Aθ} S_y` (θ the fixed
-    // parameter `tau`), through the anti-windup saturation, or as the constant `D` of the
-    // resource file (divided by the effectiveness estimate, a state, with accommodation). In
-    // Initialization Mode the state is zero, so a command also reads its saturation limit or the
-    // delay, and nothing else.
-    let kind = if spec.predictor.is_some() {
+    // parameter `tau`; clamped when it has force limits), through the anti-windup saturation,
+    // or as the constant `D` of the resource file (divided by the effectiveness estimate, a
+    // state, with accommodation). In Initialization Mode the state is zero, so a command also
+    // reads its saturation limit or the delay, and nothing else.
+    let clamped = spec.predictor.as_ref().is_some_and(|p| p.u_max.is_some());
+    let kind = if spec.predictor.is_some() && !clamped {
         DependencyKind::Fixed
-    } else if spec.anti_windup.is_some() || spec.accommodation.is_some() {
+    } else if spec.anti_windup.is_some() || spec.accommodation.is_some() || clamped {
         DependencyKind::Dependent
     } else {
         DependencyKind::Constant
     };
     let limits = limit_groups(spec);
     let initial = |i: usize| -> Vec<String> {
-        if spec.predictor.is_some() {
-            vec!["tau".to_string()]
-        } else if spec.anti_windup.is_some() {
-            let group = limits.iter().filter(|g| g.1.contains(&i));
-            group.map(|g| g.0.to_string()).collect()
-        } else {
-            Vec::new()
+        let limit = || {
+            limits
+                .iter()
+                .filter(|g| g.1.contains(&i))
+                .map(|g| g.0.to_string())
+        };
+        match &spec.predictor {
+            Some(_) if clamped => std::iter::once("tau".to_string()).chain(limit()).collect(),
+            Some(_) => vec!["tau".to_string()],
+            None if spec.anti_windup.is_some() => limit().collect(),
+            None => Vec::new(),
         }
     };
     for (i, s) in spec.outputs.iter().enumerate() {
@@ -143,6 +148,8 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
                 .join(", ");
             let role = if spec.anti_windup.is_some() {
                 format!("the anti-windup compensator saturates {what} at")
+            } else if spec.predictor.is_some() {
+                format!("{what} are clamped to, the forces the predictor integrates as in flight")
             } else {
                 format!("of the actuators {what} drive: the effectiveness estimate reads their commands saturated at it")
             };
@@ -329,8 +336,13 @@ impl Controller {
             return;
         }
         if let Some(p) = &self.predictor {
+            // Clamped to the actuators' limits (when the file gives them): the commands in
+            // flight the predictor integrates are then the forces the actuators apply.
             p.command(&self.y, self.x.as_slice(), &mut self.yc);
             self.u.copy_from(&self.yc);
+            for (u, l) in self.u.iter_mut().zip(&self.limits) {
+                *u = u.clamp(-l, *l);
+            }
             self.valid = true;
             return;
         }

@@ -26,7 +26,10 @@ pub struct FaultDetection {
 /// `predictor.rs`): the design state `x = S_y y + S_ξ ξ` from the inputs `y` and the
 /// controller's own states `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u(t − θ)`, and the command
 /// `u(t) = K [e^{Aθ} x(t) + ∫_{t−θ}^{t} e^{A(t−r)} B u(r) dr]`: the design state `θ` ahead.
-/// With `θ = 0` it is the controller `A, B, C, D` of the file (checked on reading).
+/// With `θ = 0` it is the controller `A, B, C, D` of the file (checked on reading). `D_yu` is
+/// how the applied force reaches the inputs at once (the accelerations), so that the runtime,
+/// which holds `y` over a step, can drive `ξ` by the force as the actuators apply it.
+/// `u_max`, when given, are the actuators' force limits the commands are clamped to.
 #[derive(Debug, Clone)]
 pub struct Predictor {
     pub a: DMatrix<f64>,
@@ -37,8 +40,12 @@ pub struct Predictor {
     pub a_xi: DMatrix<f64>,
     pub b_xi: DMatrix<f64>,
     pub b_xiu: DMatrix<f64>,
+    /// `D_yu` (ny × nu; zero when the file has none).
+    pub d_yu: DMatrix<f64>,
     /// The largest delay it is certified for [s] (the parameter `tau`'s maximum).
     pub delay_max: f64,
+    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`), if any.
+    pub u_max: Option<Vec<f64>>,
 }
 
 /// Fault accommodation (`controller_file::Accommodation`): the effectiveness of each actuator
@@ -139,7 +146,16 @@ fn predictor(p: &RawPredictor, ny: usize, nu: usize) -> Result<Predictor, SpecEr
         a_xi: matrix("predictor.A_xi", &p.a_xi, m, m)?,
         b_xi: matrix("predictor.B_xi", &p.b_xi, m, ny)?,
         b_xiu: matrix("predictor.B_xiu", &p.b_xiu, m, nu)?,
+        d_yu: match &p.d_yu {
+            Some(rows) => matrix("predictor.D_yu", rows, ny, nu)?,
+            None => DMatrix::zeros(ny, nu),
+        },
         delay_max: p.delay_max,
+        u_max: p
+            .u_max
+            .as_ref()
+            .map(|u| force_limits("predictor.u_max", u, nu))
+            .transpose()?,
     })
 }
 
@@ -398,10 +414,11 @@ impl Spec {
     /// The default force limits of a controller that has them as parameters (`u_max`,
     /// `u_max_seat`): anti-windup and fault accommodation.
     pub fn default_limits(&self) -> Option<&[f64]> {
-        match (&self.anti_windup, &self.accommodation) {
-            (Some(aw), _) => Some(&aw.u_max),
-            (None, Some(acc)) => Some(&acc.u_max),
-            (None, None) => None,
+        match (&self.anti_windup, &self.accommodation, &self.predictor) {
+            (Some(aw), _, _) => Some(&aw.u_max),
+            (None, Some(acc), _) => Some(&acc.u_max),
+            (None, None, Some(p)) => p.u_max.as_deref(),
+            (None, None, None) => None,
         }
     }
 

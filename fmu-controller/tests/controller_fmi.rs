@@ -312,7 +312,8 @@ fn fault_detector_integrates_the_command_sent_and_latches_its_flag() {
 }
 
 /// A scalar predictor: design model `ẋ = −2 x + 1.5 u`, gain `K = −0.8`, `x = y + 0.7 ξ`,
-/// `ξ̇ = −3 ξ + 0.3 y + u(t − θ)`; `delay_max` 0.3 s. Its undelayed controller (A, B, C, D) is
+/// `ξ̇ = −3 ξ + 0.3 y + u(t − θ)`, the input carrying the applied force as `0.4 u(t − θ)`;
+/// `delay_max` 0.3 s. Its undelayed controller (A, B, C, D) is
 /// `A = −3 + 1·(−0.8)·0.7`, `B = 0.3 − 0.8`, `C = −0.8·0.7`, `D = −0.8`.
 const PRED_SPEC: &str = r#"{
   "format": "suspension-controller/2", "variant": "test_pred", "description": "test", "guarantee": {"name": "gamma", "value": 1.0, "unit": "1", "description": "test"},
@@ -320,14 +321,18 @@ const PRED_SPEC: &str = r#"{
   "outputs": [{"name": "u_fl", "unit": "N"}],
   "A": [[-3.56]], "B": [[-0.5]], "C": [[-0.56]], "D": [[-0.8]],
   "predictor": {"A": [[-2.0]], "B": [[1.5]], "K": [[-0.8]], "S_y": [[1.0]], "S_xi": [[0.7]],
-                "A_xi": [[-3.0]], "B_xi": [[0.3]], "B_xiu": [[1.0]], "delay_max": 0.3, "facts": {}}
+                "A_xi": [[-3.0]], "B_xi": [[0.3]], "B_xiu": [[1.0]], "D_yu": [[0.4]], "delay_max": 0.3, "facts": {}}
 }"#;
 
 /// The scalar predictor of [`PRED_SPEC`] in closed form, independent of the runtime's matrix
-/// exponentials: the commands held over their steps, `ξ` exact on each piece where `y` and the
-/// delayed command are constant, the in-flight integral `∫ e^{−2(t−r)} 1.5 u(r) dr` piece by piece.
+/// exponentials: the commands held over their steps, `ξ` exact on each piece where the delayed
+/// command is constant, driven by `y` held with its force part `0.4 u_r` (the command sent `θ`
+/// before the step's start; with no delay the previous one) replaced by the force applied on
+/// the piece, the in-flight integral `∫ e^{−2(t−r)} 1.5 u(r) dr` piece by piece.
 struct ScalarPredictor {
     theta: f64,
+    /// The force limit commands are clamped to.
+    limit: f64,
     xi: f64,
     /// `(start, end, command)`.
     sent: Vec<(f64, f64, f64)>,
@@ -358,7 +363,13 @@ impl ScalarPredictor {
     }
 
     fn step(&mut self, t: f64, h: f64, y: f64) -> f64 {
-        let u = self.command(t, y);
+        let u = self.command(t, y).clamp(-self.limit, self.limit);
+        let read = if self.theta == 0.0 {
+            self.sent.last().map_or(0.0, |p| p.2)
+        } else {
+            // A command's start counts as reached within rounding, as the plant counts it.
+            self.sent_at(t - self.theta + 1e-12)
+        };
         self.sent.push((t, t + h, u));
         let mut cuts = vec![t, t + h];
         for &(s, e, _) in &self.sent {
@@ -371,7 +382,8 @@ impl ScalarPredictor {
         cuts.sort_by(f64::total_cmp);
         for w in cuts.windows(2) {
             let d = w[1] - w[0];
-            let input = 0.3 * y + self.sent_at(0.5 * (w[0] + w[1]) - self.theta);
+            let applied = self.sent_at(0.5 * (w[0] + w[1]) - self.theta);
+            let input = 0.3 * (y + 0.4 * (applied - read)) + applied;
             self.xi = (-3.0 * d).exp() * self.xi + (1.0 - (-3.0 * d).exp()) / 3.0 * input;
         }
         u
@@ -397,56 +409,82 @@ fn predictor_commands_are_the_closed_form_over_any_steps_and_restore_whole() {
         fmi2FreeInstance(c);
     }
     assert!(log.contains("0.31"), "{:?}", log.messages());
-    // θ = 0.25 s: not a multiple of the steps, which change on the way.
-    let theta = 0.25;
+    // θ = 0.25 s: not a multiple of the steps, which change on the way; θ = 0 (the inputs
+    // carry the previous command's force); θ = 0.2 s, whole steps at first; and θ = 0.25 s
+    // with the commands clamped to a force limit of 0.2 (what is in flight is then clamped too).
     let steps = [
         0.1, 0.1, 0.1, 0.1, 0.05, 0.15, 0.1, 0.02, 0.1, 0.1, 0.1, 0.1, 0.1,
     ];
     let y = |t: f64| (3.0 * t).sin() + 0.5;
-    let mut reference = ScalarPredictor {
-        theta,
-        xi: 0.0,
-        sent: Vec::new(),
-    };
-    let (c, _cb) = instantiate(&log, &guid_of(PRED_SPEC), Some(&dir));
-    let mut sent = Vec::new();
-    let mut saved: Fmi2FmuState = std::ptr::null_mut();
-    unsafe {
-        assert_eq!(fmi2SetReal(c, &tau, 1, &theta), 0);
-        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
-        fmi2EnterInitializationMode(c);
-        assert_eq!(fmi2ExitInitializationMode(c), 0);
-        let mut t = 0.0;
-        for (k, h) in steps.iter().enumerate() {
-            if k == 6 {
-                assert_eq!(fmi2GetFMUstate(c, &mut saved), 0);
+    let clamped = PRED_SPEC.replace(
+        "\"delay_max\": 0.3,",
+        "\"delay_max\": 0.3, \"u_max\": [0.2],",
+    );
+    let clamped_dir = dir_with("pred_clamped", Some(&clamped));
+    let infinite = f64::INFINITY;
+    for (theta, limit) in [
+        (0.25, infinite),
+        (0.0, infinite),
+        (0.2, infinite),
+        (0.25, 0.2),
+    ] {
+        let mut reference = ScalarPredictor {
+            theta,
+            limit,
+            xi: 0.0,
+            sent: Vec::new(),
+        };
+        let (text, dir) = if limit.is_finite() {
+            (clamped.as_str(), &clamped_dir)
+        } else {
+            (PRED_SPEC, &dir)
+        };
+        let (c, _cb) = instantiate(&log, &guid_of(text), Some(dir));
+        let mut sent = Vec::new();
+        let mut saved: Fmi2FmuState = std::ptr::null_mut();
+        unsafe {
+            assert_eq!(fmi2SetReal(c, &tau, 1, &theta), 0);
+            fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+            fmi2EnterInitializationMode(c);
+            assert_eq!(fmi2ExitInitializationMode(c), 0);
+            let mut t = 0.0;
+            for (k, h) in steps.iter().enumerate() {
+                if k == 6 {
+                    assert_eq!(fmi2GetFMUstate(c, &mut saved), 0);
+                }
+                fmi2SetReal(c, &vr::INPUT, 1, &y(t));
+                let mut u = 0.0;
+                fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+                let expected = reference.step(t, *h, y(t));
+                assert!(
+                    (u - expected).abs() <= 1e-12 * expected.abs().max(1.0),
+                    "θ = {theta}, t = {t}: command {u}, closed form {expected}"
+                );
+                sent.push(u);
+                assert_eq!(fmi2DoStep(c, t, *h, 1), 0);
+                t += h;
             }
-            fmi2SetReal(c, &vr::INPUT, 1, &y(t));
-            let mut u = 0.0;
-            fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
-            let expected = reference.step(t, *h, y(t));
-            assert!(
-                (u - expected).abs() <= 1e-12 * expected.abs().max(1.0),
-                "t = {t}: command {u}, closed form {expected}"
-            );
-            sent.push(u);
-            assert_eq!(fmi2DoStep(c, t, *h, 1), 0);
-            t += h;
+            assert!(sent.iter().any(|u| u.abs() > 0.1), "{sent:?}");
+            if limit.is_finite() {
+                assert!(sent.iter().all(|u| u.abs() <= limit), "{sent:?}");
+                assert!(sent.iter().any(|u| u.abs() == limit), "{sent:?}");
+                assert!(reference.sent.iter().any(|p| p.2.abs() == limit));
+            }
+            // Back to the state before step 6 (commands in flight included): the same commands
+            // again.
+            assert_eq!(fmi2SetFMUstate(c, saved), 0);
+            let mut t: f64 = steps[..6].iter().sum();
+            for (k, h) in steps.iter().enumerate().skip(6) {
+                fmi2SetReal(c, &vr::INPUT, 1, &y(t));
+                let mut u = 0.0;
+                fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+                assert_eq!(u, sent[k], "θ = {theta}: after restoring, step {k}");
+                assert_eq!(fmi2DoStep(c, t, *h, 1), 0);
+                t += h;
+            }
+            fmi2FreeFMUstate(c, &mut saved);
+            fmi2FreeInstance(c);
         }
-        assert!(sent.iter().any(|u| u.abs() > 0.1), "{sent:?}");
-        // Back to the state before step 6 (commands in flight included): the same commands again.
-        assert_eq!(fmi2SetFMUstate(c, saved), 0);
-        let mut t: f64 = steps[..6].iter().sum();
-        for (k, h) in steps.iter().enumerate().skip(6) {
-            fmi2SetReal(c, &vr::INPUT, 1, &y(t));
-            let mut u = 0.0;
-            fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
-            assert_eq!(u, sent[k], "after restoring, step {k}");
-            assert_eq!(fmi2DoStep(c, t, *h, 1), 0);
-            t += h;
-        }
-        fmi2FreeFMUstate(c, &mut saved);
-        fmi2FreeInstance(c);
     }
 }
 
@@ -472,6 +510,16 @@ fn predictor_blocks_must_be_the_controller_without_delay() {
     assert!(err.contains("'gamma'"), "{err}");
     let err = refusal(PRED_SPEC, "\"S_y\": [[1.0]]", "\"S_y\": [[1.0, 2.0]]");
     assert!(err.contains("predictor.S_y"), "{err}");
+    let err = refusal(PRED_SPEC, "\"D_yu\": [[0.4]]", "\"D_yu\": [[0.4], [0.1]]");
+    assert!(err.contains("predictor.D_yu"), "{err}");
+    for limits in ["[-1.0]", "[1.0, 2.0]", "[0.0]"] {
+        let err = refusal(
+            PRED_SPEC,
+            "\"delay_max\": 0.3,",
+            &format!("\"delay_max\": 0.3, \"u_max\": {limits},"),
+        );
+        assert!(err.contains("predictor.u_max"), "{limits}: {err}");
+    }
 }
 
 /// A `controller.json` whose `A` is absurd (1e40, finite, so it loads): a step returns

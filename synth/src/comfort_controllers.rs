@@ -108,6 +108,11 @@ pub struct Reconstruction {
     pub a_xi: DMatrix<f64>,
     pub b_xi: DMatrix<f64>,
     pub b_xiu: DMatrix<f64>,
+    /// `D_yu`: how the force the actuators apply reaches what it reads at once (the
+    /// accelerations). A runtime that holds `y` over a step drives `ξ` by `y − D_yu f(t_k)` held
+    /// and `B_ξ D_yu f(t)` as the actuators apply it: exact, where the held `y` would carry the
+    /// force of `t_k` across a step in which the (delayed) command changes.
+    pub d_yu: DMatrix<f64>,
 }
 
 /// The [`Reconstruction`] of `g`'s state (which includes the delay weight).
@@ -178,6 +183,7 @@ pub fn reconstruction(g: &ComfortPlant) -> Reconstruction {
         a_xi,
         b_xi,
         b_xiu,
+        d_yu: state_feedback_sensors(g).d_u,
     }
 }
 

@@ -81,6 +81,10 @@ impl ControlLaw {
                         a_xi: matrix("predictor.A_xi", &p.a_xi, m, m)?,
                         b_xi: matrix("predictor.B_xi", &p.b_xi, m, ny)?,
                         b_xiu: matrix("predictor.B_xiu", &p.b_xiu, m, nu)?,
+                        d_yu: match &p.d_yu {
+                            Some(rows) => matrix("predictor.D_yu", rows, ny, nu)?,
+                            None => DMatrix::zeros(ny, nu),
+                        },
                     },
                     delay: tau,
                 })

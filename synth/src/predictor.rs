@@ -17,11 +17,11 @@
 //! Certified: stability for every `θ` (the roots above), and the design model's seat comfort
 //! `J(θ)` bounded at every delay of the interval ([`over_delays`]), which is the guarantee
 //! where it covers the predictions on the car at delays across the interval (beside
-//! `hinf_sf`'s). Checked: the margins to a mismatch between the actual and the predicted delay.
+//! `hinf_sf`'s). Checked: the margins to a mismatch between the actual and the predicted delay,
+//! and the loop as a master runs it (held inputs and commands, `crate::sampled`) stable at
+//! delays between whole communication steps, where the delayed command changes mid-step.
 
-use crate::comfort_controllers::{
-    realise_state_feedback, reconstruction, state_feedback_sensors, Reconstruction,
-};
+use crate::comfort_controllers::{realise_state_feedback, reconstruction, state_feedback_sensors};
 use crate::comfort_designs::{
     certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context, OverDelays,
     OverUncertainty, Uncertainty,
@@ -131,24 +131,33 @@ pub struct PredictorFacts {
     /// predicted one that the loop tolerates.
     pub mismatch_margin_lag_s: f64,
     pub mismatch_margin_lead_s: f64,
-    /// With the actuators not answering (saturated: the plant's measurements do not move with
-    /// the command), the controller's own states under its commands held over the step
-    /// `held_step_s`: the spectral radius of `Φ_ξ + Γ_ξu K S_ξ`, below 1 (checked). The exact
-    /// closed loop does not see it; the runtime's held command does (measured: 0.9998, the
-    /// slowest mode, with the rear track's Padé order 2; 1.37 with order 4, whose faster gain
-    /// made `delay_sf` diverge under saturation).
-    pub held_step_s: f64,
-    pub held_open_loop_spectral_radius: f64,
+    /// The spectral abscissa of `A_ξ`, below 0 (checked): the controller's own states follow
+    /// what it reads and the forces it commands through stable filters. Its commands are
+    /// clamped to the actuators' limits (the parameters `u_max`, `u_max_seat`), which are the
+    /// forces it integrates as in flight, so under saturation every state stays bounded (before
+    /// the clamp, held commands with the plant saturated ran away at 1 ms: the in-flight
+    /// prediction fed the unapplied commands back).
+    pub own_states_abscissa: f64,
+    /// The loop as a master runs it at `step_s` with the delay not a whole number of steps (the
+    /// delayed command changes mid-step): `fractional_delays` delays checked stable, the largest
+    /// spectral radius at the sampling instants among them.
+    pub step_s: f64,
+    pub fractional_delays: Vec<f64>,
+    pub fractional_worst_radius: f64,
 }
 
-/// The communication step the held-command check uses: every scenario's.
-const HELD_STEP: f64 = 1e-3;
-
-/// The spectral radius of `Φ_ξ + Γ_ξu K S_ξ` at step `h` ([`PredictorFacts`]).
-fn held_open_loop_radius(r: &Reconstruction, k: &DMatrix<f64>, h: f64) -> Option<f64> {
-    let d = linsys::discretize(&r.a_xi, &r.b_xiu, h).ok()?;
-    let radius = crate::eig::spectral_radius(&(&d.phi + &d.gamma_hold * k * &r.s_xi));
-    radius.is_finite().then_some(radius)
+/// Delays off the step grid where the held loop is checked stable: a quarter, a half and
+/// three quarters of a step past each of the first five whole steps (where a step is largest
+/// against the delay), and half a step before each 5 ms mark of the interval.
+fn fractional_delays(delay_max: f64, h: f64) -> Vec<f64> {
+    let early = (0..5).flat_map(|d| [0.25, 0.5, 0.75].map(|e| (d as f64 + e) * h));
+    let marks = (1..=(delay_max / 0.005).round() as usize)
+        .map(|i| i as f64 * 0.005 - 0.5 * h)
+        .filter(|&t| t > 5.0 * h);
+    early
+        .chain(marks)
+        .filter(|&t| t > 0.0 && t <= delay_max)
+        .collect()
 }
 
 /// `delay_sf` from the nominal gain.
@@ -228,6 +237,20 @@ pub fn predictor_design(
         .par_iter()
         .map(|c| crate::comfort_designs::held_at(&law_at(c.delay), *c, d))
         .collect();
+    // Between the whole steps: stable, or refused.
+    let fractional_at = fractional_delays(d.delay_max, d.communication_step);
+    let fractional = fractional_at
+        .par_iter()
+        .map(|&theta| {
+            let c = Conditions {
+                delay: theta,
+                ..Conditions::nominal(*ctx.params)
+            };
+            crate::sampled::SampledLoop::new(Some(&law_at(theta)), c, d.communication_step)
+                .map(|l| l.radius())
+                .map_err(|e| fail(format!("at a delay of {theta} s, between whole steps: {e}")))
+        })
+        .collect::<Result<Vec<f64>, ComfortError>>()?;
     let seat = g.c_z.rows(0, 1).into_owned();
     let over = over_delays(g, &sf.k, &seat, d.delay_max, DELAY_INTERVALS)
         .ok_or_else(|| fail("the design model's comfort over the delays".into()))?;
@@ -238,18 +261,19 @@ pub fn predictor_design(
         open_loop_abscissa: crate::eig::spectral_abscissa(&g.a),
         mismatch_margin_lag_s: lag,
         mismatch_margin_lead_s: lead,
-        held_step_s: HELD_STEP,
-        held_open_loop_spectral_radius: held_open_loop_radius(&r, &sf.k, HELD_STEP)
-            .unwrap_or(f64::INFINITY),
+        own_states_abscissa: crate::eig::spectral_abscissa(&r.a_xi),
+        step_s: d.communication_step,
+        fractional_worst_radius: fractional.iter().fold(0.0f64, |worst, r| worst.max(*r)),
+        fractional_delays: fractional_at,
     };
     if !(facts.closed_loop_abscissa < 0.0 && facts.open_loop_abscissa < 0.0) {
         return Err(fail(format!("not stable for every delay: {facts:?}")));
     }
-    if facts.held_open_loop_spectral_radius >= 1.0 {
+    if facts.own_states_abscissa.is_nan() || facts.own_states_abscissa >= 0.0 {
         return Err(fail(format!(
-            "with the actuators saturated, the controller's own states diverge under commands \
-             held over {} s (spectral radius {}): the gain is too fast for the step",
-            HELD_STEP, facts.held_open_loop_spectral_radius
+            "the controller's own states are not stable (spectral abscissa {}): clamped \
+             commands would not bound them",
+            facts.own_states_abscissa
         )));
     }
     let mut uncertainty =
@@ -270,13 +294,18 @@ pub fn predictor_design(
         "Over delays: the design model's W_k seat comfort with the predictor matched is at most \
          {:.5} at every delay of [0, {} s] (worst {:.5} on {} delays, the bound between them by \
          the Gramian of the state's rate); mismatch between the actual and the predicted delay \
-         tolerated: +{:.2} ms / -{:.2} ms (least over the checked delays).",
+         tolerated: +{:.2} ms / -{:.2} ms (least over the checked delays). As a master runs \
+         it at {} s: stable at {} delays between whole steps (largest spectral radius {:.6}); \
+         commands clamped to the force limits u_max, u_max_seat (set them as the plant's).",
         over.bound,
         d.delay_max,
         over.grid_worst,
         over.intervals + 1,
         1e3 * lag,
-        1e3 * lead
+        1e3 * lead,
+        facts.step_s,
+        facts.fractional_delays.len(),
+        facts.fractional_worst_radius,
     ));
     let m = crate::controller_file::matrix_rows;
     let extensions = crate::controller_file::Extensions {
@@ -289,6 +318,8 @@ pub fn predictor_design(
             a_xi: m(&r.a_xi),
             b_xi: m(&r.b_xi),
             b_xiu: m(&r.b_xiu),
+            d_yu: Some(m(&r.d_yu)),
+            u_max: Some(crate::comfort_plant::force_limits(d).to_vec()),
             delay_max: d.delay_max,
             facts: serde_json::to_value(&facts).expect("serialisable"),
         }),
@@ -399,16 +430,66 @@ mod tests {
         );
     }
 
-    /// The held-command check passes at the co-simulation step and fails at a step too long
-    /// for the gain's fastest internal mode (about 1400 rad/s): it can refuse.
+    /// Between whole steps the loop a master runs is stable only if `ξ` sees the force as the
+    /// actuators apply it: with `D_yu` zeroed (the held inputs carrying the force of the step's
+    /// start through the step), the sampled loop at 1.1 and 1.5 ms is refused as unstable (it
+    /// was the shipped runtime's behaviour: measured radius 1.41 and 1.21, the co-simulations
+    /// diverged or limit-cycled); with it, every delay of [`fractional_delays`] is stable, and
+    /// the whole steps are as before (the correction cancels there).
     #[test]
-    fn the_held_command_check_sees_a_step_too_long_for_the_gain() {
-        let (_, _, g, sf, _) = nominal();
-        let r = reconstruction(&g);
-        let at_step = held_open_loop_radius(&r, &sf.k, HELD_STEP).unwrap();
-        assert!(at_step < 1.0, "{at_step}");
-        let too_long = held_open_loop_radius(&r, &sf.k, 4e-3).unwrap();
-        assert!(too_long > 1.0, "{too_long}");
+    fn the_held_loop_is_stable_between_whole_steps_with_the_force_as_applied() {
+        let (d, p, g, sf, _) = nominal();
+        let law_at = |theta: f64, d_yu: bool| {
+            let mut reconstruction = reconstruction(&g);
+            if !d_yu {
+                reconstruction.d_yu.fill(0.0);
+            }
+            ControlLaw {
+                lti: realise_state_feedback(&g, &sf.k),
+                inputs: state_feedback_sensors(&g).names,
+                accommodation: None,
+                predictor: Some(PredictorLaw {
+                    a: g.a.clone(),
+                    b: g.b_u.clone(),
+                    k: sf.k.clone(),
+                    reconstruction,
+                    delay: theta,
+                }),
+            }
+        };
+        let h = d.communication_step;
+        let held = |theta: f64, d_yu: bool| {
+            let c = Conditions {
+                delay: theta,
+                ..Conditions::nominal(p)
+            };
+            crate::sampled::SampledLoop::new(Some(&law_at(theta, d_yu)), c, h)
+        };
+        for theta in [1.1e-3, 1.5e-3] {
+            assert!(held(theta, false).is_err(), "{theta}");
+        }
+        let delays = fractional_delays(d.delay_max, h);
+        assert_eq!(delays.len(), 24, "{delays:?}");
+        for &theta in &delays {
+            assert!(theta % h > 1e-9 * h, "{theta} is a whole number of steps");
+            let radius = held(theta, true).unwrap().radius();
+            assert!(radius < 1.0, "{theta}: {radius}");
+        }
+        for theta in [0.0, 2e-3, 2e-2] {
+            let (with, without) = (held(theta, true).unwrap(), held(theta, false).unwrap());
+            let (a, b) = (
+                with.figures(&d.road).time_averaged.wk_rms_seat_m_s2,
+                without.figures(&d.road).time_averaged.wk_rms_seat_m_s2,
+            );
+            if theta > 0.0 {
+                assert!((a / b - 1.0).abs() < 1e-7, "{theta}: {a} vs {b}");
+            } else {
+                // With no delay the master reads the plant before setting the new command: the
+                // correction moves the previous command's force onto the step's own.
+                println!("no delay: W_k seat {a} with the correction, {b} without");
+                assert!((a / b - 1.0).abs() < 0.05, "{a} vs {b}");
+            }
+        }
     }
 
     /// Van Loan's integral against Simpson's rule on the exponential itself, for a matrix

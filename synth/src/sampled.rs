@@ -169,49 +169,85 @@ impl DiscreteController {
     }
 }
 
-/// A predictor (`fmu-controller`'s runtime) at a step `h` that divides its delay `θ = d h`:
-/// `u_k = K e^{Aθ} (S_y y_k + S_ξ ξ_k) + Σ_{j<d} K e^{A jh} G(h) u_{k−1−j}` (the commands in
-/// flight, `G(h) = ∫₀^h e^{As} ds B`) and `ξ_{k+1} = Φ_ξ ξ_k + Γ_ξ y_k + G_ξ(h) u_{k−d}`.
+/// A predictor (`fmu-controller`'s runtime) at a step `h`, its delay `θ = d h + ε`
+/// (`0 ≤ ε < h`). At `t_k` the commands in flight are `u_{k−1} … u_{k−d}` whole and the first
+/// `ε` of `u_{k−d−1}`:
+/// `u_k = K e^{Aθ} (S_y y_k + S_ξ ξ_k) + Σ_{j<d} K e^{A jh} G(h) u_{k−1−j} + K e^{A dh} G(ε) u_{k−d−1}`
+/// (`G(ℓ) = ∫₀^ℓ e^{As} ds B`). Over the step the delayed command is `u_{k−d−1}` until
+/// `t_k + ε`, then `u_{k−d}`:
+/// `ξ_{k+1} = Φ_ξ ξ_k + Γ_ξ y_k + e^{A_ξ(h−ε)} G_ξ(ε) u_{k−d−1} + G_ξ(h − ε) u_{k−d}`,
+/// with `u_k` substituted where `d = 0`.
 fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<DiscreteController, PredictionError> {
-    let ratio = p.delay / h;
-    let d = ratio.round();
-    if (ratio - d).abs() > 1e-9 * ratio.max(1.0) {
-        return Err(PredictionError::Unstable(format!(
-            "the predictor's delay {} s is not a whole number of steps of {h} s",
-            p.delay
-        )));
-    }
-    let d = d as usize;
+    let (d, eps) = whole_steps(p.delay, h);
     let fail = |e| PredictionError::Unstable(format!("the predictor at h = {h}: {e}"));
     let r = &p.reconstruction;
     let (nxi, nu) = (r.a_xi.nrows(), p.k.nrows());
     let own = discretize(&r.a_xi, &r.b_xi, h).map_err(fail)?;
-    let delayed = discretize(&r.a_xi, &r.b_xiu, h).map_err(fail)?.gamma_hold;
+    // The applied force drives ξ through `B_ξu` and through what it reads, `B_ξ D_yu`.
+    let b_force = &r.b_xiu + &r.b_xi * &r.d_yu;
+    let late = discretize(&r.a_xi, &b_force, h - eps).map_err(fail)?;
+    let early = &late.phi * discretize(&r.a_xi, &b_force, eps).map_err(fail)?.gamma_hold;
     let g = discretize(&p.a, &p.b, h).map_err(fail)?.gamma_hold;
+    let g_eps = discretize(&p.a, &p.b, eps).map_err(fail)?.gamma_hold;
     let step = expm(&(&p.a * h)).map_err(fail)?;
     let ke = &p.k * expm(&(&p.a * p.delay)).map_err(fail)?;
     let (k_y, k_xi) = (&ke * &r.s_y, &ke * &r.s_xi);
+    // Commands read: the in-flight `u_{k−1} … u_{k−d}` (and part of `u_{k−d−1}`), and the one
+    // whose force `y_k` carries.
+    let in_flight = d + usize::from(eps > 0.0);
+    let read = read_lag(p.delay, d, eps);
+    let commands = in_flight.max(read);
+    let mut k_u = DMatrix::zeros(nu, commands * nu);
+    let mut age = DMatrix::identity(p.a.nrows(), p.a.nrows());
+    for j in 0..in_flight {
+        let part = if j < d { &g } else { &g_eps };
+        k_u.columns_mut(j * nu, nu).copy_from(&(&p.k * &age * part));
+        age = &step * age;
+    }
     let (mut phi, mut gamma) = (own.phi, own.gamma_hold);
-    let mut g_u = DMatrix::zeros(nxi, d * nu);
-    let mut k_u = DMatrix::zeros(nu, d * nu);
+    let mut g_u = DMatrix::zeros(nxi, commands * nu);
+    {
+        let mut on_read = g_u.columns_mut((read - 1) * nu, nu);
+        on_read -= &gamma * &r.d_yu;
+    }
+    if eps > 0.0 {
+        let mut on_early = g_u.columns_mut(d * nu, nu);
+        on_early += &early;
+    }
     if d == 0 {
-        // `u_k` itself drives ξ: substitute `u_k = K_ξ ξ + K_y y`.
-        phi += &delayed * &k_xi;
-        gamma += &delayed * &k_y;
+        // `u_k` itself drives ξ: substitute `u_k = K_ξ ξ + K_y y + K_u c`.
+        phi += &late.gamma_hold * &k_xi;
+        gamma += &late.gamma_hold * &k_y;
+        g_u += &late.gamma_hold * &k_u;
     } else {
-        g_u.columns_mut((d - 1) * nu, nu).copy_from(&delayed);
-        let mut age = DMatrix::identity(p.a.nrows(), p.a.nrows());
-        for j in 0..d {
-            k_u.columns_mut(j * nu, nu).copy_from(&(&p.k * &age * &g));
-            age = &step * age;
-        }
+        let mut on_late = g_u.columns_mut((d - 1) * nu, nu);
+        on_late += &late.gamma_hold;
     }
     Ok(DiscreteController {
         lti: Lti::new(phi, gamma, k_xi, k_y),
-        commands: d,
+        commands,
         g_u,
         k_u,
     })
+}
+
+/// Which past command `u_{k−j}` the plant's outputs at `t_k` carry the force of: with no delay
+/// the previous one (a master sets the new command after reading), else the one sent at
+/// `t_k − θ` (at a whole number of steps the one taking over at `t_k`).
+fn read_lag(theta: f64, d: usize, eps: f64) -> usize {
+    if theta == 0.0 {
+        1
+    } else {
+        d + usize::from(eps > 0.0)
+    }
+}
+
+/// `θ = d h + ε`, `0 ≤ ε < h`: `(d, ε)`, a delay within rounding of a whole number of steps
+/// taken as whole.
+fn whole_steps(theta: f64, h: f64) -> (usize, f64) {
+    let d = (theta / h + 1e-9).floor().max(0.0) as usize;
+    let eps = (theta - d as f64 * h).max(0.0);
+    (d, if eps < 1e-12 * h { 0.0 } else { eps })
 }
 
 /// The loop at conditions and a communication step, ready to be evaluated at any frequency.
@@ -230,6 +266,8 @@ pub struct SampledLoop {
     first: (DMatrix<f64>, DMatrix<f64>),
     /// Power forms over `[0, ε)` (empty when `ε = 0`) and `[ε, h)`.
     forms: (Vec<DMatrix<f64>>, Vec<DMatrix<f64>>),
+    /// The spectral radius of the loop at the sampling instants (below 1).
+    radius: f64,
 }
 
 impl SampledLoop {
@@ -255,9 +293,7 @@ impl SampledLoop {
         let car = WeightedCar::new(p, &outputs);
         let h = step;
         let theta = conditions.delay;
-        let d = (theta / h + 1e-9).floor().max(0.0) as usize;
-        let eps = (theta - d as f64 * h).max(0.0);
-        let eps = if eps < 1e-12 * h { 0.0 } else { eps };
+        let (d, eps) = whole_steps(theta, h);
         let fail = |e| PredictionError::Unstable(format!("the car at h = {h}: {e}"));
         let full = discretize(&car.a, &car.b, h).map_err(fail)?;
         let first = discretize(&car.a, &car.b, eps).map_err(fail)?;
@@ -273,11 +309,7 @@ impl SampledLoop {
         let controller = law.map(|l| DiscreteController::new(l, h)).transpose()?;
         let nc = controller.as_ref().map_or(0, |k| k.lti.order());
         // The plant's outputs read at `t_k` carry the force of the command `lag_read` back.
-        let lag_read = if theta == 0.0 {
-            1
-        } else {
-            d + usize::from(eps > 0.0)
-        };
+        let lag_read = read_lag(theta, d, eps);
         // Commands kept: `u_{k−1} … u_{k−depth}` (`lag_read ≤ d + 1`), and as many as the
         // controller reads.
         let depth = (d + 1).max(controller.as_ref().map_or(0, |k| k.commands));
@@ -385,7 +417,13 @@ impl SampledLoop {
             instants,
             first: (first.phi, first.gamma_hold),
             forms,
+            radius,
         })
+    }
+
+    /// The spectral radius of the loop at the sampling instants (below 1: checked by `new`).
+    pub fn radius(&self) -> f64 {
+        self.radius
     }
 
     /// Adds the time-averaged power of each figure over a step, from `q`: the loop's response

@@ -140,7 +140,8 @@ fn predicted(case: &Case, f: f64) -> [Complex<f64>; 6] {
 
 /// Every kind of controller runtime (state feedback, observer, predictor, accommodation) and
 /// of actuator (ideal; delayed by whole steps, which a predictor compensates; delayed by a
-/// fraction of a step; at half force with the fault accommodated), at a body-mode and a
+/// fraction of a step, with and without a predictor, whose delayed command then changes
+/// mid-step; at half force with the fault accommodated), at a body-mode and a
 /// wheel-hop-side frequency: the amplitudes agree to 10⁻⁶ (measured: at most 2·10⁻⁷, the
 /// slowest observer modes' remaining transient after 50 s).
 #[test]
@@ -153,6 +154,8 @@ fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
         Case::new(Some("hinf_of"), 0.0155, healthy),
         Case::new(Some("delay_sf"), 0.0, healthy),
         Case::new(Some("delay_sf"), 0.02, healthy),
+        Case::new(Some("delay_sf"), 0.0015, healthy),
+        Case::new(Some("delay_sf"), 0.0205, healthy),
         Case::new(Some("ft_of"), 0.0, [1.0, 1.0, 0.5, 1.0, 1.0]),
     ];
     let mut worst = 0.0f64;
