@@ -5,8 +5,8 @@
 //!   every scenario with the passive car and each controller, in parallel, then a table per
 //!   scenario, a summary, plots and `results/report.md`.
 //! * `master sweep sweeps/mass_delay.json --out results/sweep`: a robustness sweep (README
-//!   "Robustness sweeps"): the run table in parallel, `runs.csv`, `runs.parquet`, `report.md`
-//!   and `cdf.svg`.
+//!   "Robustness sweeps"): the run table in parallel, `runs.csv`, `runs.parquet`, `report.md`,
+//!   `cdf.svg` and `map.svg`.
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -68,11 +68,12 @@ enum Command {
     },
     /// A robustness sweep: a base scenario with parameters swept over grids or seeded
     /// distributions, every point with every controller, in parallel; one row per run in
-    /// runs.csv and runs.parquet, statistics and a worst-case map in report.md, CDFs in cdf.svg.
+    /// runs.csv and runs.parquet, statistics and a worst-case map in report.md, CDFs in cdf.svg,
+    /// the worst-case map in map.svg.
     Sweep {
         /// The sweep file (JSON; README "Robustness sweeps").
         spec: PathBuf,
-        /// Directory for runs.csv, runs.parquet, report.md and cdf.svg.
+        /// Directory for runs.csv, runs.parquet, report.md, cdf.svg and map.svg.
         #[arg(long, default_value = "results/sweep")]
         out: PathBuf,
         /// Only the runs `START..END` of the run table (0-based, END excluded): a chunk of a
@@ -282,7 +283,7 @@ fn sweep(
     dry_run: bool,
 ) -> Result<String, MasterError> {
     use master::sweep::{Fmus, Sweep};
-    use master::sweep_out::{csv, plot_cdf, report, write_parquet};
+    use master::sweep_out::{csv, plot_cdf, plot_map, report, write_parquet, WorstMap};
     let sweep = Sweep::load(spec)?;
     let all = sweep.jobs()?;
     let total = all.len();
@@ -329,6 +330,9 @@ fn sweep(
         });
     std::fs::write(out.join("report.md"), &text).map_err(io)?;
     plot_cdf(&out.join("cdf.svg"), &sweep, &rows)?;
+    if let Some(map) = WorstMap::new(&sweep, &rows) {
+        plot_map(&out.join("map.svg"), &sweep, &map)?;
+    }
     let failed = rows
         .iter()
         .filter(|r| r.outcome.finished().is_none())

@@ -12,6 +12,7 @@ use parquet::file::properties::WriterProperties;
 use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::Type;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -293,7 +294,6 @@ fn axis(values: &[f64]) -> (Vec<String>, Vec<usize>) {
 /// each metric's mean, median, p95 and worst; the worst W_k seat over a map of two parameters.
 pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
     let s = &sweep.spec;
-    let names = sweep.parameter_names();
     let mut t = format!(
         "# Sweep `{}`\n\n{}\n\nBase scenario `{}` ({}), {} runs: {} parameter points × {} controllers, in {:.1} s wall time (`master sweep`). Every point is run with every controller. Rows in `runs.csv` and `runs.parquet`.\n\n",
         s.name,
@@ -397,50 +397,29 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
         t.push('\n');
     }
     t += "\n![W_k RMS seat acceleration: empirical CDF per controller](cdf.svg)\n";
-    let map = s.map.clone().or_else(|| match names.as_slice() {
-        [a, b, ..] => Some([a.clone(), b.clone()]),
-        _ => None,
-    });
-    if let Some([a, b]) = map {
-        let (ia, ib) = (
-            names.iter().position(|n| *n == a).unwrap_or(0),
-            names.iter().position(|n| *n == b).unwrap_or(0),
-        );
-        let va: Vec<f64> = rows.iter().map(|r| number(&r.job.values[ia])).collect();
-        let vb: Vec<f64> = rows.iter().map(|r| number(&r.job.values[ib])).collect();
-        let ((la, ca), (lb, cb)) = (axis(&va), axis(&vb));
+    if let Some(map) = WorstMap::new(sweep, rows) {
         writeln!(
             t,
-            "\n## Worst W_k RMS seat acceleration [m/s²] over `{a}` (rows) × `{b}` (columns)\n\n`failed` where a run of the cell failed (instability or FMU error).\n"
+            "\n## Worst W_k RMS seat acceleration [m/s²] over `{}` (rows) × `{}` (columns)\n\n`failed` where a run of the cell failed (instability or FMU error).\n\n![Worst W_k RMS seat acceleration per cell, one panel per controller](map.svg)\n",
+            map.rows_name, map.columns_name
         )
         .unwrap();
-        for c in &s.controllers {
+        for (c, cells) in &map.panels {
             writeln!(t, "\n**`{c}`**\n").unwrap();
-            t += &format!("| {a} \\ {b} |");
-            for l in &lb {
+            t += &format!("| {} \\ {} |", map.rows_name, map.columns_name);
+            for l in &map.columns {
                 write!(t, " {l} |").unwrap();
             }
             t += "\n|---|";
-            t += &"---|".repeat(lb.len());
+            t += &"---|".repeat(map.columns.len());
             t.push('\n');
-            for (i, l) in la.iter().enumerate() {
+            for (l, row) in map.rows.iter().zip(cells) {
                 write!(t, "| {l} |").unwrap();
-                for j in 0..lb.len() {
-                    let cell: Vec<&Row> = rows
-                        .iter()
-                        .enumerate()
-                        .filter(|(k, r)| ca[*k] == i && cb[*k] == j && r.job.controller_name() == c)
-                        .map(|(_, r)| r)
-                        .collect();
-                    let failed = cell.iter().any(|r| r.outcome.finished().is_none());
-                    let worst = cell
-                        .iter()
-                        .filter_map(|r| r.outcome.finished().map(|f| f.wk_rms_seat))
-                        .fold(f64::NAN, f64::max);
-                    t += &match (cell.is_empty(), failed) {
-                        (true, _) => " |".to_string(),
-                        (false, true) => " failed |".to_string(),
-                        (false, false) => format!(" {worst:.4} |"),
+                for cell in row {
+                    t += &match cell {
+                        MapCell::Empty => " |".to_string(),
+                        MapCell::Failed => " failed |".to_string(),
+                        MapCell::Worst(w) => format!(" {w:.4} |"),
                     };
                 }
                 t.push('\n');
@@ -448,6 +427,203 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
         }
     }
     t
+}
+
+/// A cell of the worst-case map.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MapCell {
+    /// No run of the sweep falls in it.
+    Empty,
+    /// A run of it failed (instability or FMU error).
+    Failed,
+    /// The worst W_k seat RMS of its runs [m/s²].
+    Worst(f64),
+}
+
+/// The worst W_k seat RMS over two swept parameters (the spec's `map`, else the first two),
+/// per controller: the axes as [`axis`] cuts them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorstMap {
+    pub rows_name: String,
+    pub columns_name: String,
+    pub rows: Vec<String>,
+    pub columns: Vec<String>,
+    /// Per controller, in the spec's order: `cells[row][column]`.
+    pub panels: Vec<(String, Vec<Vec<MapCell>>)>,
+}
+
+impl WorstMap {
+    /// `None` with fewer than two swept parameters.
+    pub fn new(sweep: &Sweep, rows: &[Row]) -> Option<WorstMap> {
+        let names = sweep.parameter_names();
+        let [a, b] = sweep.spec.map.clone().or_else(|| match names.as_slice() {
+            [a, b, ..] => Some([a.clone(), b.clone()]),
+            _ => None,
+        })?;
+        let index = |n: &str| names.iter().position(|m| m == n).unwrap_or(0);
+        let values =
+            |i: usize| -> Vec<f64> { rows.iter().map(|r| number(&r.job.values[i])).collect() };
+        let ((la, ca), (lb, cb)) = (axis(&values(index(&a))), axis(&values(index(&b))));
+        let panels = sweep
+            .spec
+            .controllers
+            .iter()
+            .map(|c| {
+                let mut cells = vec![vec![MapCell::Empty; lb.len()]; la.len()];
+                for (k, r) in rows.iter().enumerate() {
+                    if r.job.controller_name() != c {
+                        continue;
+                    }
+                    let cell = &mut cells[ca[k]][cb[k]];
+                    *cell = match (*cell, r.outcome.finished()) {
+                        (MapCell::Failed, _) | (_, None) => MapCell::Failed,
+                        (MapCell::Empty, Some(f)) => MapCell::Worst(f.wk_rms_seat),
+                        (MapCell::Worst(w), Some(f)) => MapCell::Worst(w.max(f.wk_rms_seat)),
+                    };
+                }
+                (c.clone(), cells)
+            })
+            .collect();
+        Some(WorstMap {
+            rows_name: a,
+            columns_name: b,
+            rows: la,
+            columns: lb,
+            panels,
+        })
+    }
+}
+
+/// The worst-case map as a heat map: one panel per controller, every panel on one logarithmic
+/// colour scale (viridis, shown on the right), each cell's worst figure written in it, failed
+/// cells red.
+pub fn plot_map(path: &Path, sweep: &Sweep, map: &WorstMap) -> Result<(), MasterError> {
+    use plotters::style::colors::colormaps::ViridisRGB;
+    let e = |x: String| err(format!("plot {}: {x}", path.display()));
+    let worst = map.panels.iter().flat_map(|p| p.1.iter().flatten());
+    let (lo, hi) = worst.fold((f64::INFINITY, 0.0f64), |(lo, hi), c| match c {
+        MapCell::Worst(w) if *w > 0.0 => (lo.min(w.log10()), hi.max(w.log10())),
+        _ => (lo, hi),
+    });
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo, hi)
+    } else if lo.is_finite() {
+        (lo - 0.5, lo + 0.5)
+    } else {
+        (-3.0, 0.0)
+    };
+    let colour = |w: f64| ViridisRGB::get_color_normalized(w.log10().clamp(lo, hi), lo, hi);
+    let n = map.panels.len().max(1);
+    let across = n.min(3);
+    let down = n.div_ceil(across);
+    let (width, height) = (380 * across as u32 + 130, 330 * down as u32 + 50);
+    let root = SVGBackend::new(path, (width, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
+    let root = root
+        .titled(
+            &format!(
+                "Sweep {}: worst W_k RMS seat acceleration [m/s²] per cell",
+                sweep.spec.name
+            ),
+            ("sans-serif", 20),
+        )
+        .map_err(|x| e(x.to_string()))?;
+    let (panels, bar) = root.split_horizontally(width - 130);
+    let (nr, nc) = (map.rows.len(), map.columns.len());
+    let text = |size: u32| ("sans-serif", size).into_font();
+    for ((name, cells), area) in map.panels.iter().zip(panels.split_evenly((down, across))) {
+        let mut chart = ChartBuilder::on(&area)
+            .caption(name.as_str(), text(16))
+            .margin(8)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..nc as f64, 0.0..nr as f64)
+            .map_err(|x| e(x.to_string()))?;
+        let label = |labels: &[String], v: f64| {
+            let i = v.floor() as usize;
+            if (v - i as f64 - 0.5).abs() < 1e-9 {
+                labels.get(i).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        };
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(map.columns_name.as_str())
+            .y_desc(map.rows_name.as_str())
+            .x_labels(2 * nc + 1)
+            .y_labels(2 * nr + 1)
+            .x_label_formatter(&|v| label(&map.columns, *v))
+            .y_label_formatter(&|v| label(&map.rows, *v))
+            .label_style(text(10))
+            .draw()
+            .map_err(|x| e(x.to_string()))?;
+        let at = |i: usize, j: usize| (j as f64, i as f64);
+        chart
+            .draw_series(cells.iter().enumerate().flat_map(|(i, row)| {
+                row.iter().enumerate().filter_map(move |(j, c)| {
+                    let fill = match c {
+                        MapCell::Empty => return None,
+                        MapCell::Failed => RED.filled(),
+                        MapCell::Worst(w) => colour(*w).filled(),
+                    };
+                    let (x, y) = at(i, j);
+                    Some(Rectangle::new([(x, y), (x + 1.0, y + 1.0)], fill))
+                })
+            }))
+            .map_err(|x| e(x.to_string()))?;
+        if nr * nc <= 64 {
+            chart
+                .draw_series(cells.iter().enumerate().flat_map(|(i, row)| {
+                    row.iter().enumerate().filter_map(move |(j, c)| {
+                        let (s, dark) = match c {
+                            MapCell::Empty => return None,
+                            MapCell::Failed => ("failed".to_string(), true),
+                            MapCell::Worst(w) => (significant(*w), w.log10() < 0.5 * (lo + hi)),
+                        };
+                        let (x, y) = at(i, j);
+                        let style = text(11)
+                            .color(if dark { &WHITE } else { &BLACK })
+                            .pos(Pos::new(HPos::Center, VPos::Center));
+                        Some(Text::new(s, (x + 0.5, y + 0.5), style))
+                    })
+                }))
+                .map_err(|x| e(x.to_string()))?;
+        }
+    }
+    // The colour bar: the scale's decades of W_k seat RMS.
+    let mut chart = ChartBuilder::on(&bar)
+        .margin(20)
+        .margin_left(30)
+        .margin_right(5)
+        .right_y_label_area_size(55)
+        .build_cartesian_2d(0.0..1.0, lo..hi)
+        .map_err(|x| e(x.to_string()))?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_labels(6)
+        .y_label_formatter(&|v| significant(10f64.powf(*v)))
+        .label_style(text(10))
+        .draw()
+        .map_err(|x| e(x.to_string()))?;
+    let strips = 64;
+    chart
+        .draw_series((0..strips).map(|k| {
+            let (a, b) = (
+                lo + (hi - lo) * k as f64 / strips as f64,
+                lo + (hi - lo) * (k + 1) as f64 / strips as f64,
+            );
+            Rectangle::new(
+                [(0.0, a), (1.0, b)],
+                colour(10f64.powf(0.5 * (a + b))).filled(),
+            )
+        }))
+        .map_err(|x| e(x.to_string()))?;
+    root.present().map_err(|x| e(x.to_string()))?;
+    Ok(())
 }
 
 /// The empirical CDF of W_k RMS seat acceleration of each controller (log axis), failed runs

@@ -129,6 +129,23 @@ fn a_sweep_is_its_runs_row_by_row_and_a_chunk_is_the_same_rows() {
     assert!(std::fs::read_to_string(out.join("cdf.svg"))
         .unwrap()
         .contains("<svg"));
+    // The map as a heat map: a panel per controller, the failed cells (m_s = −1 at each of the
+    // three τ, for both controllers) marked, the report's map linked.
+    let map = std::fs::read_to_string(out.join("map.svg")).unwrap();
+    let texts: Vec<&str> = map
+        .split("<text")
+        .skip(1)
+        .filter_map(|t| Some(t.split_once('>')?.1.split_once("</text>")?.0.trim()))
+        .collect();
+    for c in &sweep.spec.controllers {
+        assert!(texts.contains(&c.as_str()), "{c}: {texts:?}");
+    }
+    assert_eq!(
+        texts.iter().filter(|t| **t == "failed").count(),
+        6,
+        "{texts:?}"
+    );
+    assert!(report.contains("](map.svg)"));
 
     // A chunk: runs 7..12 only, the same rows with the same numbers (loop time aside).
     let chunk = dir.join("chunk");
