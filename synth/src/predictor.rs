@@ -21,7 +21,9 @@
 //! and the loop as a master runs it (held inputs and commands, `crate::sampled`) stable at
 //! delays between whole communication steps, where the delayed command changes mid-step.
 
-use crate::comfort_controllers::{realise_state_feedback, reconstruction, state_feedback_sensors};
+use crate::comfort_controllers::{
+    realise_state_feedback, reconstruction, state_feedback_sensors, Reconstruction,
+};
 use crate::comfort_designs::{
     certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context, OverDelays,
     OverUncertainty, Uncertainty,
@@ -160,6 +162,28 @@ fn fractional_delays(delay_max: f64, h: f64) -> Vec<f64> {
         .collect()
 }
 
+/// The gain `k` on `g`'s design state behind a predictor over `theta`, the design state
+/// known through `reconstruction`.
+fn predictor_law(
+    g: &ComfortPlant,
+    k: &DMatrix<f64>,
+    reconstruction: Reconstruction,
+    theta: f64,
+) -> ControlLaw {
+    ControlLaw {
+        lti: realise_state_feedback(g, k),
+        inputs: state_feedback_sensors(g).names,
+        accommodation: None,
+        predictor: Some(PredictorLaw {
+            a: g.a.clone(),
+            b: g.b_u.clone(),
+            k: k.clone(),
+            reconstruction,
+            delay: theta,
+        }),
+    }
+}
+
 /// `delay_sf` from the nominal gain.
 pub fn predictor_design(
     ctx: &Context,
@@ -173,18 +197,7 @@ pub fn predictor_design(
         reason,
     };
     let r = reconstruction(g);
-    let law_at = |theta: f64| ControlLaw {
-        lti: realise_state_feedback(g, &sf.k),
-        inputs: state_feedback_sensors(g).names,
-        accommodation: None,
-        predictor: Some(PredictorLaw {
-            a: g.a.clone(),
-            b: g.b_u.clone(),
-            k: sf.k.clone(),
-            reconstruction: r.clone(),
-            delay: theta,
-        }),
-    };
+    let law_at = |theta: f64| predictor_law(g, &sf.k, r.clone(), theta);
     let law = law_at(0.0);
     let notes = vec![format!(
         "hinf_sf's guaranteed-cost gain behind a predictor of the design state over the \
@@ -444,18 +457,7 @@ mod tests {
             if !d_yu {
                 reconstruction.d_yu.fill(0.0);
             }
-            ControlLaw {
-                lti: realise_state_feedback(&g, &sf.k),
-                inputs: state_feedback_sensors(&g).names,
-                accommodation: None,
-                predictor: Some(PredictorLaw {
-                    a: g.a.clone(),
-                    b: g.b_u.clone(),
-                    k: sf.k.clone(),
-                    reconstruction,
-                    delay: theta,
-                }),
-            }
+            predictor_law(&g, &sf.k, reconstruction, theta)
         };
         let h = d.communication_step;
         let held = |theta: f64, d_yu: bool| {
@@ -525,18 +527,7 @@ mod tests {
     fn the_predictor_loop_matches_the_closed_form_comfort_at_every_delay() {
         let (d, p, g, sf, seat) = nominal();
         let ratio = |theta: f64| {
-            let law = ControlLaw {
-                lti: realise_state_feedback(&g, &sf.k),
-                inputs: state_feedback_sensors(&g).names,
-                accommodation: None,
-                predictor: Some(PredictorLaw {
-                    a: g.a.clone(),
-                    b: g.b_u.clone(),
-                    k: sf.k.clone(),
-                    reconstruction: reconstruction(&g),
-                    delay: theta,
-                }),
-            };
+            let law = predictor_law(&g, &sf.k, reconstruction(&g), theta);
             let c = Conditions {
                 delay: theta,
                 ..Conditions::nominal(p)

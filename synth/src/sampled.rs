@@ -174,9 +174,10 @@ impl DiscreteController {
 /// `ε` of `u_{k−d−1}`:
 /// `u_k = K e^{Aθ} (S_y y_k + S_ξ ξ_k) + Σ_{j<d} K e^{A jh} G(h) u_{k−1−j} + K e^{A dh} G(ε) u_{k−d−1}`
 /// (`G(ℓ) = ∫₀^ℓ e^{As} ds B`). Over the step the delayed command is `u_{k−d−1}` until
-/// `t_k + ε`, then `u_{k−d}`:
-/// `ξ_{k+1} = Φ_ξ ξ_k + Γ_ξ y_k + e^{A_ξ(h−ε)} G_ξ(ε) u_{k−d−1} + G_ξ(h − ε) u_{k−d}`,
-/// with `u_k` substituted where `d = 0`.
+/// `t_k + ε`, then `u_{k−d}`, and `ξ` sees the force as applied, `y_k` without the force it
+/// carries (that of `u_{k−r}`, [`read_lag`]):
+/// `ξ_{k+1} = Φ_ξ ξ_k + Γ_ξ (y_k − D_yu u_{k−r}) + e^{A_ξ(h−ε)} G'_ξ(ε) u_{k−d−1} + G'_ξ(h − ε) u_{k−d}`,
+/// `G'_ξ` with `B_ξu + B_ξ D_yu`, and `u_k` substituted where `d = 0`.
 fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<DiscreteController, PredictionError> {
     let (d, eps) = whole_steps(p.delay, h);
     let fail = |e| PredictionError::Unstable(format!("the predictor at h = {h}: {e}"));
@@ -242,12 +243,12 @@ fn read_lag(theta: f64, d: usize, eps: f64) -> usize {
     }
 }
 
-/// `θ = d h + ε`, `0 ≤ ε < h`: `(d, ε)`, a delay within rounding of a whole number of steps
-/// taken as whole.
+/// `θ = d h + ε`, `0 ≤ ε < h`: `(d, ε)`, a delay within `10⁻⁹ h` of a whole number of steps
+/// taken as whole, as the controller FMU's runtime takes it.
 fn whole_steps(theta: f64, h: f64) -> (usize, f64) {
     let d = (theta / h + 1e-9).floor().max(0.0) as usize;
     let eps = (theta - d as f64 * h).max(0.0);
-    (d, if eps < 1e-12 * h { 0.0 } else { eps })
+    (d, if eps < 1e-9 * h { 0.0 } else { eps })
 }
 
 /// The loop at conditions and a communication step, ready to be evaluated at any frequency.
