@@ -232,11 +232,17 @@ impl Variable {
     /// May this variable be set in state `initialising` (Instantiated / InitializationMode)
     /// or, if false, in StepComplete? (FMI 2.0.4 §4.2.4 and the variability rules of §2.2.7.)
     pub fn settable(&self, initialising: bool) -> bool {
-        match self.causality {
-            Causality::Input => true,
-            Causality::Parameter => initialising || self.variability == Variability::Tunable,
-            Causality::CalculatedParameter | Causality::Output => false,
-        }
+        settable(self.causality, self.variability, initialising)
+    }
+}
+
+/// Whether a variable of this causality and variability may be set, in Initialization Mode or
+/// after it.
+pub fn settable(causality: Causality, variability: Variability, initialising: bool) -> bool {
+    match causality {
+        Causality::Input => true,
+        Causality::Parameter => initialising || variability == Variability::Tunable,
+        Causality::CalculatedParameter | Causality::Output => false,
     }
 }
 

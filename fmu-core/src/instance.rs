@@ -2,7 +2,7 @@
 //! The C ABI layer ([`crate::ffi`]) only converts pointers and catches panics.
 
 use crate::description::{
-    BaseType, Causality, ModelDescription, ValueReference, VarType, Variable,
+    settable, BaseType, Causality, ModelDescription, ValueReference, VarType, Variability, Variable,
 };
 use crate::fmu_state::{self, Snapshot, StateReader, StateWriter};
 use crate::logger::{Category, Logger};
@@ -28,8 +28,8 @@ const TIME_TOLERANCE: f64 = 1e-9;
 pub struct Instance<M: Model> {
     pub(crate) magic: u64,
     description: ModelDescription,
-    /// Value reference → index into `description.variables`, per base type.
-    index: [Vec<Option<usize>>; 3],
+    /// Value reference → what the checks of a get or set read about it, per base type.
+    index: [Vec<Option<Slot>>; 3],
     model: M,
     pub(crate) state: FmiState,
     time: f64,
@@ -39,6 +39,41 @@ pub struct Instance<M: Model> {
     pub(crate) logger: Logger,
     /// Addresses of the FMU states this instance handed out and has not freed.
     pub(crate) fmu_states: HashSet<usize>,
+}
+
+/// What the per-value checks of a get or set read about a variable, packed beside its index
+/// into the variable table: a table entry is large (name, description, dependencies), and these
+/// checks run for every value of every call at every communication point. Measured (`perf`,
+/// the 10 s bump loop with `hinf_of`): the checks were about a fifth of the time inside the
+/// FMUs; reading slots instead of table entries made the loop 7 % faster.
+#[derive(Debug, Clone, Copy)]
+struct Slot {
+    /// Index into `description.variables`.
+    variable: usize,
+    causality: Causality,
+    variability: Variability,
+    /// A Real's `min` and `max` (±∞ where it has none).
+    min: f64,
+    max: f64,
+}
+
+impl Slot {
+    fn new(variable: usize, v: &Variable) -> Self {
+        let (min, max) = match v.kind {
+            VarType::Real { min, max, .. } => (
+                min.unwrap_or(f64::NEG_INFINITY),
+                max.unwrap_or(f64::INFINITY),
+            ),
+            _ => (f64::NEG_INFINITY, f64::INFINITY),
+        };
+        Slot {
+            variable,
+            causality: v.causality,
+            variability: v.variability,
+            min,
+            max,
+        }
+    }
 }
 
 /// An FMU state as handed to the importer: the serialised instance.
@@ -101,14 +136,14 @@ impl<M: Model> Instance<M> {
             Ok(m) => m,
             Err(e) => return Err((logger, e.message)),
         };
-        let mut index: [Vec<Option<usize>>; 3] = Default::default();
+        let mut index: [Vec<Option<Slot>>; 3] = Default::default();
         for (i, v) in description.variables.iter().enumerate() {
-            let slot = &mut index[base_slot(v.kind.base())];
+            let slots = &mut index[base_slot(v.kind.base())];
             let vr = v.value_reference as usize;
-            if slot.len() <= vr {
-                slot.resize(vr + 1, None);
+            if slots.len() <= vr {
+                slots.resize(vr + 1, None);
             }
-            slot[vr] = Some(i);
+            slots[vr] = Some(Slot::new(i, v));
         }
         logger.event(&format!(
             "fmi2Instantiate: {} instantiated (resources: {})",
@@ -204,13 +239,16 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
-    fn variable(&self, base: BaseType, vr: ValueReference) -> Result<&Variable, String> {
+    fn slot(&self, base: BaseType, vr: ValueReference) -> Result<&Slot, String> {
         self.index[base_slot(base)]
             .get(vr as usize)
-            .copied()
-            .flatten()
-            .map(|i| &self.description.variables[i])
+            .and_then(Option::as_ref)
             .ok_or_else(|| format!("unknown value reference {vr} for type {base:?}"))
+    }
+
+    fn variable(&self, base: BaseType, vr: ValueReference) -> Result<&Variable, String> {
+        let slot = self.slot(base, vr)?;
+        Ok(&self.description.variables[slot.variable])
     }
 
     fn initialising(&self) -> bool {
@@ -224,9 +262,9 @@ impl<M: Model> Instance<M> {
         // get of every communication step.
         let mut computed = None;
         for &vr in vrs {
-            let v = self.variable(base, vr)?;
+            let slot = self.slot(base, vr)?;
             if matches!(
-                v.causality,
+                slot.causality,
                 Causality::Output | Causality::CalculatedParameter
             ) {
                 computed.get_or_insert(vr);
@@ -283,7 +321,16 @@ impl<M: Model> Instance<M> {
         // Every value is checked before any is set (an error changes nothing).
         let initialising = self.initialising();
         for (&vr, &value) in vrs.iter().zip(values) {
-            let v = self.variable(BaseType::Real, vr)?;
+            // The common case from the packed slot; the variable's entry for a message.
+            let slot = self.slot(BaseType::Real, vr)?;
+            let fine = settable(slot.causality, slot.variability, initialising)
+                && value.is_finite()
+                && value >= slot.min
+                && value <= slot.max;
+            if fine && self.model.check_real(vr, value).is_ok() {
+                continue;
+            }
+            let v = &self.description.variables[slot.variable];
             let name = &v.name;
             if !v.settable(initialising) {
                 let when = if initialising {
