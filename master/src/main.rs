@@ -324,14 +324,15 @@ fn sweep(
     let names = sweep.parameter_names();
     std::fs::write(out.join("runs.csv"), csv(&names, &rows)).map_err(io)?;
     write_parquet(&out.join("runs.parquet"), &names, &rows)?;
-    let text = report(&sweep, &rows, wall)
+    let map = WorstMap::new(&sweep, &rows);
+    let text = report(&sweep, &rows, map.as_ref(), wall)
         + &master::certified::section(&certified, &rows, |c, r| {
             c.condition_of(&r.job.scenario, |p| fmus.plant().start_real(p))
         });
     std::fs::write(out.join("report.md"), &text).map_err(io)?;
     plot_cdf(&out.join("cdf.svg"), &sweep, &rows)?;
-    if let Some(map) = WorstMap::new(&sweep, &rows) {
-        plot_map(&out.join("map.svg"), &sweep, &map)?;
+    if let Some(map) = &map {
+        plot_map(&out.join("map.svg"), &sweep, map)?;
     }
     let failed = rows
         .iter()

@@ -291,8 +291,9 @@ fn axis(values: &[f64]) -> (Vec<String>, Vec<usize>) {
 }
 
 /// The report: the sweep, then per controller the share of failed and limit-breaking runs and
-/// each metric's mean, median, p95 and worst; the worst W_k seat over a map of two parameters.
-pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
+/// each metric's mean, median, p95 and worst; the worst W_k seat over a map of two parameters
+/// (`map`, [`WorstMap::new`] of the same rows, which `map.svg` draws too).
+pub fn report(sweep: &Sweep, rows: &[Row], map: Option<&WorstMap>, wall_seconds: f64) -> String {
     let s = &sweep.spec;
     let mut t = format!(
         "# Sweep `{}`\n\n{}\n\nBase scenario `{}` ({}), {} runs: {} parameter points × {} controllers, in {:.1} s wall time (`master sweep`). Every point is run with every controller. Rows in `runs.csv` and `runs.parquet`.\n\n",
@@ -397,7 +398,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], wall_seconds: f64) -> String {
         t.push('\n');
     }
     t += "\n![W_k RMS seat acceleration: empirical CDF per controller](cdf.svg)\n";
-    if let Some(map) = WorstMap::new(sweep, rows) {
+    if let Some(map) = map {
         writeln!(
             t,
             "\n## Worst W_k RMS seat acceleration [m/s²] over `{}` (rows) × `{}` (columns)\n\n`failed` where a run of the cell failed (instability or FMU error).\n\n![Worst W_k RMS seat acceleration per cell, one panel per controller](map.svg)\n",
@@ -512,7 +513,8 @@ pub fn plot_map(path: &Path, sweep: &Sweep, map: &WorstMap) -> Result<(), Master
     } else {
         (-3.0, 0.0)
     };
-    let colour = |w: f64| ViridisRGB::get_color_normalized(w.log10().clamp(lo, hi), lo, hi);
+    // The colour of a figure's log10.
+    let colour = |l: f64| ViridisRGB::get_color_normalized(l.clamp(lo, hi), lo, hi);
     let n = map.panels.len().max(1);
     let across = n.min(3);
     let down = n.div_ceil(across);
@@ -566,7 +568,7 @@ pub fn plot_map(path: &Path, sweep: &Sweep, map: &WorstMap) -> Result<(), Master
                     let fill = match c {
                         MapCell::Empty => return None,
                         MapCell::Failed => RED.filled(),
-                        MapCell::Worst(w) => colour(*w).filled(),
+                        MapCell::Worst(w) => colour(w.log10()).filled(),
                     };
                     let (x, y) = at(i, j);
                     Some(Rectangle::new([(x, y), (x + 1.0, y + 1.0)], fill))
@@ -616,10 +618,7 @@ pub fn plot_map(path: &Path, sweep: &Sweep, map: &WorstMap) -> Result<(), Master
                 lo + (hi - lo) * k as f64 / strips as f64,
                 lo + (hi - lo) * (k + 1) as f64 / strips as f64,
             );
-            Rectangle::new(
-                [(0.0, a), (1.0, b)],
-                colour(10f64.powf(0.5 * (a + b))).filled(),
-            )
+            Rectangle::new([(0.0, a), (1.0, b)], colour(0.5 * (a + b)).filled())
         }))
         .map_err(|x| e(x.to_string()))?;
     root.present().map_err(|x| e(x.to_string()))?;
