@@ -55,6 +55,13 @@ fn limit_groups(spec: &Spec) -> Vec<(&'static str, Vec<usize>)> {
     groups
 }
 
+/// Each command within `±` its force limit (every command, when there are limits).
+fn clamp(u: &mut DVector<f64>, limits: &[f64]) {
+    for (u, l) in u.iter_mut().zip(limits) {
+        *u = u.clamp(-l, *l);
+    }
+}
+
 pub const RESOURCE_FILE: &str = "controller.json";
 
 /// Read and check `resources/controller.json`.
@@ -340,9 +347,7 @@ impl Controller {
             // flight the predictor integrates are then the forces the actuators apply.
             p.command(&self.y, self.x.as_slice(), &mut self.yc);
             self.u.copy_from(&self.yc);
-            for (u, l) in self.u.iter_mut().zip(&self.limits) {
-                *u = u.clamp(-l, *l);
-            }
+            clamp(&mut self.u, &self.limits);
             self.valid = true;
             return;
         }
@@ -369,9 +374,7 @@ impl Controller {
                 let eta = self.x.rows(n, aw.a.nrows());
                 self.u.copy_from(&self.yc);
                 self.u.gemv(1.0, &aw.f, &eta, 1.0);
-                for (u, l) in self.u.iter_mut().zip(&self.limits) {
-                    *u = u.clamp(-l, *l);
-                }
+                clamp(&mut self.u, &self.limits);
             }
         }
         self.valid = true;

@@ -50,8 +50,17 @@ pub struct Runtime {
     in_flight: DVector<f64>,
     prediction: HashMap<Key, DMatrix<f64>>,
     delayed: HashMap<Key, DMatrix<f64>>,
-    /// `(step, Φ_ξ, Γ_ξ)` of the last step length.
-    own: Option<(f64, DMatrix<f64>, DMatrix<f64>)>,
+    /// `ξ`'s own matrices at the last step length.
+    own: Option<OwnStep>,
+}
+
+/// `Φ_ξ`, `Γ_ξ` and `Γ_ξ D_yu` over a step.
+#[derive(Debug, Clone)]
+struct OwnStep {
+    step: f64,
+    phi: DMatrix<f64>,
+    gamma: DMatrix<f64>,
+    gamma_d: DMatrix<f64>,
 }
 
 impl Runtime {
@@ -130,17 +139,26 @@ impl Runtime {
         h: f64,
     ) -> Result<DVector<f64>, String> {
         let failed = |e: ExpError| crate::step_refused(h, e);
-        if self.own.as_ref().map(|o| o.0.to_bits()) != Some(h.to_bits()) {
+        if self.own.as_ref().map(|o| o.step.to_bits()) != Some(h.to_bits()) {
             let d = discretize(&self.spec.a_xi, &self.spec.b_xi, h).map_err(failed)?;
-            self.own = Some((h, d.phi, d.gamma_hold));
+            self.own = Some(OwnStep {
+                step: h,
+                gamma_d: &d.gamma_hold * &self.spec.d_yu,
+                phi: d.phi,
+                gamma: d.gamma_hold,
+            });
         }
-        let (_, phi, gamma) = self.own.as_ref().expect("set above");
+        let OwnStep {
+            phi,
+            gamma,
+            gamma_d,
+            ..
+        } = self.own.as_ref().expect("set above");
         let mut next = phi * DVectorView::from_slice(xi, xi.len());
-        let mut held = y.clone();
+        next.gemv(1.0, gamma, y, 1.0);
         if let Some(u_r) = self.read_command(h) {
-            held.gemv(-1.0, &self.spec.d_yu, u_r, 1.0);
+            next.gemv(-1.0, gamma_d, u_r, 1.0);
         }
-        next.gemv(1.0, gamma, &held, 1.0);
         // The history with this step's command, ages from the end of the step (taken back out
         // if the step fails).
         self.history.push_front((h, u.clone()));
