@@ -127,23 +127,49 @@ struct StepMatrices {
     meter: Discretization,
 }
 
+/// Rows of a matrix with few non-zeros (the physical outputs: strokes, velocities, tyre loads;
+/// the meter's outputs, each reading its own weighting's states): row `i` is
+/// `terms[start[i]..start[i + 1]]`, (column, coefficient) in column order. Several times
+/// cheaper than the dense product; each row sums its non-zero products in the dense order, so
+/// the value is the dense product's (up to the sign of an exact zero).
+struct SparseRows {
+    terms: Vec<(usize, f64)>,
+    start: Vec<usize>,
+}
+
+impl SparseRows {
+    fn new(rows: impl Iterator<Item = Vec<f64>>) -> Self {
+        let (mut terms, mut start) = (Vec::new(), vec![0]);
+        for row in rows {
+            terms.extend(row.into_iter().enumerate().filter(|(_, v)| *v != 0.0));
+            start.push(terms.len());
+        }
+        SparseRows { terms, start }
+    }
+
+    /// `out = M z`.
+    fn apply(&self, z: &[f64], out: &mut [f64]) {
+        for (y, range) in out.iter_mut().zip(self.start.windows(2)) {
+            *y = self.terms[range[0]..range[1]]
+                .iter()
+                .fold(0.0, |acc, &(k, v)| acc + v * z[k]);
+        }
+    }
+}
+
 /// Matrices derived from the parameters.
 struct System {
     /// State dimension: `[x (16); f_lag (5, with a finite bandwidth); meter]`.
     n: usize,
     /// Whether the applied forces are the lag states.
     lag: bool,
-    /// Where the meter's states start, and its weighted outputs `c w`.
+    /// Where the meter's states start, and its weighted outputs `c w` over them.
     meter_at: usize,
-    meter_c: DMatrix<f64>,
+    meter_c: SparseRows,
     a: DMatrix<f64>,
     b: DMatrix<f64>,
-    /// Physical outputs `y = C x + D_r r + D_u f` as sparse rows over `[x; r; f]`: row `i`
-    /// is `out_terms[out_start[i]..out_start[i + 1]]`, (column, coefficient) in column order.
-    /// Most rows have a handful of non-zeros (strokes, velocities, tyre loads), so this is
-    /// several times cheaper than the dense product and sums the same terms in the same order.
-    out_terms: Vec<(usize, f64)>,
-    out_start: Vec<usize>,
+    /// Physical outputs `y = C x + D_r r + D_u f` over `[x; r; f]`.
+    outputs: SparseRows,
     /// Static deflections and loads under gravity.
     statics: StaticEquilibrium,
     cache: VecDeque<StepMatrices>,
@@ -176,26 +202,14 @@ impl System {
         let outputs = physical_outputs(p);
         let meter = ComfortMeter::new(&outputs);
         meter.place(&mut a, &mut b, meter_at, forces);
-        let mut out_terms = Vec::new();
-        let mut out_start = vec![0];
-        for row in outputs {
-            out_terms.extend(
-                row.coefficients()
-                    .enumerate()
-                    .filter(|(_, v)| **v != 0.0)
-                    .map(|(k, v)| (k, *v)),
-            );
-            out_start.push(out_terms.len());
-        }
         System {
             n,
             lag,
             meter_at,
-            meter_c: meter.c,
+            meter_c: SparseRows::new(meter.c.row_iter().map(|r| r.iter().copied().collect())),
             a,
             b,
-            out_terms,
-            out_start,
+            outputs: SparseRows::new(outputs.iter().map(|r| r.coefficients().copied().collect())),
             statics: StaticEquilibrium::new(p),
             cache: VecDeque::with_capacity(CACHE_SIZE),
         }
@@ -395,9 +409,10 @@ impl Simulator {
     pub fn meter(&mut self) -> [f64; N_METER] {
         self.system();
         let sys = self.system.as_ref().expect("built above");
-        let (c, at) = (&sys.meter_c, sys.meter_at);
-        let w = &self.xi.as_slice()[at..];
-        std::array::from_fn(|k| c.row(k).iter().zip(w).map(|(c, w)| c * w).sum())
+        let mut out = [0.0; N_METER];
+        sys.meter_c
+            .apply(&self.xi.as_slice()[sys.meter_at..], &mut out);
+        out
     }
 
     /// Physical outputs (the rows of [`vehicle::model::physical_outputs`]) now, and the applied
@@ -412,11 +427,7 @@ impl Simulator {
             .system
             .as_ref()
             .expect("applied_force built the system");
-        for (y, range) in out.iter_mut().zip(sys.out_start.windows(2)) {
-            *y = sys.out_terms[range[0]..range[1]]
-                .iter()
-                .fold(0.0, |acc, &(k, v)| acc + v * z[k]);
-        }
+        sys.outputs.apply(&z, out);
         f
     }
 
