@@ -310,7 +310,14 @@ impl<M: Model> Instance<M> {
         vrs: &[ValueReference],
         values: &mut [f64],
     ) -> Result<Status, String> {
-        self.check_gettable(BaseType::Real, vrs)?;
+        if self.initialising() {
+            self.check_gettable(BaseType::Real, vrs)?;
+        } else {
+            // Every known variable can be read now: one pass checks that each is known.
+            for &vr in vrs {
+                self.slot(BaseType::Real, vr)?;
+            }
+        }
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             *out = self.model.get_real(*vr);
         }

@@ -282,12 +282,19 @@ impl Plant {
         self.outputs_valid = false;
     }
 
+    /// Inlined into every read (the flag check), the computation not.
+    #[inline(always)]
     fn update_outputs(&mut self) {
         if !self.outputs_valid {
-            self.forces = self.sim.physical_outputs(&mut self.outputs);
-            self.meter = self.sim.meter();
-            self.outputs_valid = true;
+            self.compute_outputs();
         }
+    }
+
+    #[inline(never)]
+    fn compute_outputs(&mut self) {
+        self.forces = self.sim.physical_outputs(&mut self.outputs);
+        self.meter = self.sim.meter();
+        self.outputs_valid = true;
     }
 }
 
