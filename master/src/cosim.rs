@@ -738,6 +738,21 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         None => (vec![], vec![], vec![]),
     };
     let on_controller = recording.on_controller();
+    // The plant is read once per communication point: the recorded outputs, then the
+    // controller's inputs not among them. Nothing is set between the end of one step and the
+    // start of the next, so the values read at the end of a step are those the next one starts
+    // from (one FMI call a step fewer, same values).
+    let mut plant_reads = recording.plant.clone();
+    let y_at: Vec<usize> = y_from
+        .iter()
+        .map(|vr| match plant_reads.iter().position(|r| r == vr) {
+            Some(i) => i,
+            None => {
+                plant_reads.push(*vr);
+                plant_reads.len() - 1
+            }
+        })
+        .collect();
     let units = setup
         .record
         .iter()
@@ -781,7 +796,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     // faults, a few hundred microseconds) is allocation, not stepping.
     let mut time = prefaulted(steps);
     let mut data = prefaulted(steps * recording.columns.len());
-    let mut plant_values = vec![0.0; recording.plant.len()];
+    let mut plant_values = vec![0.0; plant_reads.len()];
     let mut controller_reals = vec![0.0; recording.controller_real.len()];
     let mut controller_booleans = vec![0; recording.controller_boolean.len()];
     let mut commands = prefaulted(steps);
@@ -809,10 +824,20 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     road_at(0.0, 0.0, &mut road_values)?;
     p.set_real(&road_in, &road_values)
         .map_err(|e| fail("plant", e))?;
+    let read_plant = |p: &mut Instance<CS>, values: &mut [f64], y: &mut [f64]| {
+        if !plant_reads.is_empty() {
+            p.get_real(&plant_reads, values)
+                .map_err(|e| fail("plant", e))?;
+        }
+        for (y, &at) in y.iter_mut().zip(&y_at) {
+            *y = values[at];
+        }
+        Ok::<(), MasterError>(())
+    };
+    read_plant(&mut p, &mut plant_values, &mut y)?;
     for k in 0..steps {
         let t = k as f64 * h;
         if let Some(c) = c.as_mut() {
-            p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
             c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
             c.get_real(&u_from, &mut u)
                 .map_err(|e| fail("controller", e))?;
@@ -825,15 +850,9 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         road_at(t, h, &mut road_values)?;
         p.set_real(&road_in, &road_values)
             .map_err(|e| fail("plant", e))?;
+        read_plant(&mut p, &mut plant_values, &mut y)?;
         if let (Some(c), true) = (c.as_mut(), on_controller) {
-            p.get_real(&y_from, &mut y).map_err(|e| fail("plant", e))?;
             c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
-        }
-        if !recording.plant.is_empty() {
-            p.get_real(&recording.plant, &mut plant_values)
-                .map_err(|e| fail("plant", e))?;
-        }
-        if let (Some(c), true) = (c.as_mut(), on_controller) {
             if !recording.controller_real.is_empty() {
                 c.get_real(&recording.controller_real, &mut controller_reals)
                     .map_err(|e| fail("controller", e))?;
