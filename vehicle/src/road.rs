@@ -194,18 +194,14 @@ impl Road {
     pub fn at(&self, t: f64) -> [f64; 8] {
         let s_front = self.speed * t - self.start_distance;
         let mut r = [0.0; 8];
-        for (wheel, (track, s)) in [
-            (0, s_front),
-            (1, s_front),
-            (0, s_front - self.wheelbase),
-            (1, s_front - self.wheelbase),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let (z, dz_ds) = self.track(track, s);
-            r[wheel] = z;
-            r[4 + wheel] = self.speed * dz_ds;
+        // Wheels FL, FR, RL, RR: the front ones on tracks 0 and 1, the rear ones a wheelbase
+        // behind on the same tracks.
+        for track in 0..2 {
+            let wheels = self.track_each(track, [s_front, s_front - self.wheelbase]);
+            for (wheel, (z, dz_ds)) in [track, 2 + track].into_iter().zip(wheels) {
+                r[wheel] = z;
+                r[4 + wheel] = self.speed * dz_ds;
+            }
         }
         if let Profile::Iso { fade_in, .. } = self.profile {
             if t < fade_in {
@@ -235,9 +231,14 @@ impl Road {
     /// the ISO road, whose track is interpolated within [`IsoTrack::error_bounds`] of
     /// [`Road::track_exact`].
     pub fn track(&self, track: usize, s: f64) -> (f64, f64) {
+        self.track_each(track, [s])[0]
+    }
+
+    /// [`Road::track`] at each distance of `s`.
+    pub fn track_each<const N: usize>(&self, track: usize, s: [f64; N]) -> [(f64, f64); N] {
         match &self.grids {
-            Some(g) => g[track].at(s),
-            None => self.track_exact(track, s),
+            Some(g) => g[track].at_each(s),
+            None => s.map(|s| self.track_exact(track, s)),
         }
     }
 
@@ -332,8 +333,8 @@ const BLOCK: usize = 512;
 /// Blocks kept per track: the front and rear wheels' (one wheelbase apart) and spares.
 const BLOCKS_KEPT: usize = 4;
 
-/// `[z, dz/ds, d²z/ds²]` at the nodes of one block, shared with the queries that read it.
-type Nodes = std::sync::Arc<[[f64; 3]]>;
+/// `[z, dz/ds, d²z/ds²]` at the nodes of one block.
+type Nodes = Vec<[f64; 3]>;
 
 /// One ISO track, summed exactly at the nodes of a uniform grid and interpolated between them.
 ///
@@ -386,6 +387,28 @@ impl PartialEq for IsoTrack {
     }
 }
 
+/// `(z, dz/ds)` at `t ∈ [0, 1]` of the way from node `[z0, d0, c0]` to node `[z1, d1, c1]`
+/// (values, slopes and curvatures in `s`, [`ISO_GRID`] apart): the quintic Hermite basis on
+/// `[0, 1]` (values, first and second derivatives in `t` at each end) and its derivatives in
+/// `t`; `d/ds = (1/h) d/dt`.
+fn quintic_hermite([z0, d0, c0]: [f64; 3], [z1, d1, c1]: [f64; 3], t: f64) -> (f64, f64) {
+    let h = ISO_GRID;
+    let (t2, t3) = (t * t, t * t * t);
+    let (t4, t5) = (t3 * t, t3 * t2);
+    let z = (1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5) * z0
+        + (t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5) * h * d0
+        + 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5) * h * h * c0
+        + (10.0 * t3 - 15.0 * t4 + 6.0 * t5) * z1
+        + (-4.0 * t3 + 7.0 * t4 - 3.0 * t5) * h * d1
+        + 0.5 * (t3 - 2.0 * t4 + t5) * h * h * c1;
+    let dz = (-30.0 * t2 + 60.0 * t3 - 30.0 * t4) * (z0 - z1) / h
+        + (1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4) * d0
+        + 0.5 * (2.0 * t - 9.0 * t2 + 12.0 * t3 - 5.0 * t4) * h * c0
+        + (-12.0 * t2 + 28.0 * t3 - 15.0 * t4) * d1
+        + 0.5 * (3.0 * t2 - 8.0 * t3 + 5.0 * t4) * h * c1;
+    (z, dz)
+}
+
 impl IsoTrack {
     /// The track of `components`, `(amplitude [m], spatial frequency [cycles/m], phase)`.
     pub fn new(components: &[(f64, f64, f64)]) -> IsoTrack {
@@ -436,49 +459,42 @@ impl IsoTrack {
 
     /// `(z, dz/ds)` at distance `s`.
     pub fn at(&self, s: f64) -> (f64, f64) {
-        let x = s / ISO_GRID;
-        let k = x.floor();
-        let t = x - k;
-        let k = k as i64;
-        let (block, j) = (
-            k.div_euclid(BLOCK as i64),
-            k.rem_euclid(BLOCK as i64) as usize,
-        );
-        let nodes = self.block(block);
-        let ([z0, d0, c0], [z1, d1, c1]) = (nodes[j], nodes[j + 1]);
-        let h = ISO_GRID;
-        let (t2, t3) = (t * t, t * t * t);
-        let (t4, t5) = (t3 * t, t3 * t2);
-        // The quintic Hermite basis on [0, 1] (values, first and second derivatives in t at
-        // each end) and its derivatives in t; d/ds = (1/h) d/dt.
-        let z = (1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5) * z0
-            + (t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5) * h * d0
-            + 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5) * h * h * c0
-            + (10.0 * t3 - 15.0 * t4 + 6.0 * t5) * z1
-            + (-4.0 * t3 + 7.0 * t4 - 3.0 * t5) * h * d1
-            + 0.5 * (t3 - 2.0 * t4 + t5) * h * h * c1;
-        let dz = (-30.0 * t2 + 60.0 * t3 - 30.0 * t4) * (z0 - z1) / h
-            + (1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4) * d0
-            + 0.5 * (2.0 * t - 9.0 * t2 + 12.0 * t3 - 5.0 * t4) * h * c0
-            + (-12.0 * t2 + 28.0 * t3 - 15.0 * t4) * d1
-            + 0.5 * (3.0 * t2 - 8.0 * t3 + 5.0 * t4) * h * c1;
-        (z, dz)
+        self.at_each([s])[0]
     }
 
-    /// The nodes of block `b`, computed if not kept.
-    fn block(&self, b: i64) -> Nodes {
+    /// `(z, dz/ds)` at each distance of `s`, under one lock of the kept blocks (a road asks
+    /// for a front and a rear wheel on each track at every step).
+    pub fn at_each<const N: usize>(&self, s: [f64; N]) -> [(f64, f64); N] {
         // A poisoned lock only means another thread panicked while holding it; the cache is
         // still a list of finished blocks.
         let mut kept = self.blocks.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, nodes)) = kept.iter().find(|(i, _)| *i == b) {
-            return nodes.clone();
-        }
-        let nodes: Nodes = self.compute(b).into();
-        if kept.len() == BLOCKS_KEPT {
-            kept.remove(0);
-        }
-        kept.push((b, nodes.clone()));
-        nodes
+        s.map(|s| {
+            let x = s / ISO_GRID;
+            let k = x.floor();
+            let t = x - k;
+            let k = k as i64;
+            let (block, j) = (
+                k.div_euclid(BLOCK as i64),
+                k.rem_euclid(BLOCK as i64) as usize,
+            );
+            let nodes = self.block(&mut kept, block);
+            quintic_hermite(nodes[j], nodes[j + 1], t)
+        })
+    }
+
+    /// The nodes of block `b`, computed if not among the `kept`.
+    fn block<'a>(&self, kept: &'a mut Vec<(i64, Nodes)>, b: i64) -> &'a Nodes {
+        let at = match kept.iter().position(|(i, _)| *i == b) {
+            Some(at) => at,
+            None => {
+                if kept.len() == BLOCKS_KEPT {
+                    kept.remove(0);
+                }
+                kept.push((b, self.compute(b)));
+                kept.len() - 1
+            }
+        };
+        &kept[at].1
     }
 
     /// `[z, dz/ds, d²z/ds²]` at the `BLOCK + 1` nodes of block `b`.
