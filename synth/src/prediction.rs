@@ -539,6 +539,10 @@ pub struct Loop {
     c_y: DMatrix<f64>,
     d_yr: DMatrix<f64>,
     d_yu: DMatrix<f64>,
+    /// `G_y(jω) = C_y (jωI − A)⁻¹ B_u + D_yu`: what the controller's inputs see of the forces
+    /// (the loop gain at every frequency of the delay-margin scans: 20001 and a bisection per
+    /// crossing, most of a robust design's certificate before it was kept in Hessenberg form).
+    sensed: HessenbergResponse,
     controller: Option<HessenbergResponse>,
     predictor: Option<PredictorResponse>,
     outputs: Vec<OutputRow>,
@@ -571,10 +575,17 @@ impl Loop {
         let outputs = plant_outputs(p);
         let sensors = sensor_rows(&outputs, &names)?;
         let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
+        let sensed = HessenbergResponse::new(&Lti::new(
+            ss.a.clone(),
+            ss.b_u.clone(),
+            sensors.c.clone(),
+            sensors.d_u.clone(),
+        ));
         let lp = Loop {
             c_y: sensors.c,
             d_yr: sensors.d_r,
             d_yu: sensors.d_u,
+            sensed,
             controller: law.map(|l| HessenbergResponse::new(&l.lti)),
             predictor: law
                 .and_then(|l| l.predictor.as_ref())
@@ -641,10 +652,8 @@ impl Loop {
     /// predictor, `E (I − P₂ e^{−jωθ} − P₃)⁻¹ P₁ G_y` including the actuators' delay `E`, whose
     /// margins are then the extra delay (or advance) the loop tolerates.
     fn loop_gain(&self, omega: f64) -> DMatrix<C64> {
+        let g_y = self.sensed.at(omega);
         if let Some(p) = &self.predictor {
-            let (_, g_u) = self.car_response(omega);
-            let g_y =
-                self.c_y.map(|v| C64::new(v, 0.0)) * &g_u + self.d_yu.map(|v| C64::new(v, 0.0));
             let (p1, inner) = p.at(omega);
             let u = inner
                 .lu()
@@ -652,7 +661,6 @@ impl Loop {
                 .expect("the predictor loop is well posed");
             return self.actuators(omega) * u;
         }
-        let (_, g_u) = self.car_response(omega);
         let k = self.controller.as_ref().expect("a controller").at(omega);
         let rho = DMatrix::from_diagonal(&DVector::from_iterator(
             N_ACTUATORS,
@@ -661,7 +669,6 @@ impl Loop {
                 .iter()
                 .map(|r| C64::new(*r, 0.0)),
         ));
-        let g_y = self.c_y.map(|v| C64::new(v, 0.0)) * &g_u + self.d_yu.map(|v| C64::new(v, 0.0));
         k * g_y * rho
     }
 
@@ -756,6 +763,7 @@ impl Loop {
             c_y: self.c_y.clone(),
             d_yr: self.d_yr.clone(),
             d_yu: self.d_yu.clone(),
+            sensed: self.sensed.clone(),
             controller: None,
             predictor: self.predictor.clone(),
             outputs: Vec::new(),
@@ -802,36 +810,42 @@ impl Loop {
         )
     }
 
-    /// The loop's response to the road vector `r` at `ω`.
-    fn respond(&self, omega: f64, r: &DVector<C64>) -> Response {
+    /// The loop's response to each road vector of `rs` at `ω` (a road's two tracks), the car's,
+    /// the controller's and the loop's matrices formed and factored once for all.
+    fn respond_each<const N: usize>(&self, omega: f64, rs: [&DVector<C64>; N]) -> [Response; N] {
         let (g_r, g_u) = self.car_response(omega);
-        let x_road = &g_r * r;
         let e = self.actuators(omega);
-        let u_applied = match (&self.predictor, &self.controller) {
+        let c = |x: &DMatrix<f64>| x.map(|v| C64::new(v, 0.0));
+        // The loop `u = M⁻¹ P g_yr` with `g_yr` the sensors' response to the road alone.
+        let closed = match (&self.predictor, &self.controller) {
             (Some(p), _) => {
-                let c = |x: &DMatrix<f64>| x.map(|v| C64::new(v, 0.0));
                 let g_y = c(&self.c_y) * &g_u + c(&self.d_yu);
-                let g_yr = c(&self.c_y) * &x_road + c(&self.d_yr) * r;
                 let (p1, inner) = p.at(omega);
                 let m = inner - &p1 * g_y * &e;
-                let u = m.lu().solve(&(p1 * g_yr)).expect("the loop is well posed");
-                &e * u
+                Some((m.lu(), p1))
             }
-            (None, None) => DVector::zeros(N_ACTUATORS),
+            (None, None) => None,
             (None, Some(k)) => {
-                let c = |x: &DMatrix<f64>| x.map(|v| C64::new(v, 0.0));
                 let k = k.at(omega);
                 let g_y = c(&self.c_y) * &g_u + c(&self.d_yu);
-                let g_yr = c(&self.c_y) * &x_road + c(&self.d_yr) * r;
                 let m = DMatrix::<C64>::identity(N_ACTUATORS, N_ACTUATORS) - &k * g_y * &e;
-                let u = m.lu().solve(&(k * g_yr)).expect("the loop is well posed");
-                &e * u
+                Some((m.lu(), k))
             }
         };
-        Response {
-            x: x_road + g_u * &u_applied,
-            u_applied,
-        }
+        rs.map(|r| {
+            let x_road = &g_r * r;
+            let u_applied = match &closed {
+                None => DVector::zeros(N_ACTUATORS),
+                Some((lu, p)) => {
+                    let g_yr = c(&self.c_y) * &x_road + c(&self.d_yr) * r;
+                    &e * lu.solve(&(p * g_yr)).expect("the loop is well posed")
+                }
+            };
+            Response {
+                x: x_road + &g_u * &u_applied,
+                u_applied,
+            }
+        })
     }
 
     /// An output's response `c x + d_r r + d_u u_a`.
@@ -860,16 +874,16 @@ impl Loop {
             .collect();
         let mean_squares = road_integral(road, |omega, f| {
             let mut density = [0.0f64; N_CHANNELS];
-            for track in 0..2 {
-                let r = track_input(track, omega, delay);
-                let resp = self.respond(omega, &r);
+            let r = [0, 1].map(|track| track_input(track, omega, delay));
+            let responses = self.respond_each(omega, [&r[0], &r[1]]);
+            for (r, resp) in r.iter().zip(&responses) {
                 let mut k = 0;
                 for (row, w) in weighted.iter().zip(&weightings) {
-                    density[k] += (w.response(f) * self.output(row, &r, &resp)).norm_sqr();
+                    density[k] += (w.response(f) * self.output(row, r, resp)).norm_sqr();
                     k += 1;
                 }
                 for (row, divisor) in &plain {
-                    density[k] += (self.output(row, &r, &resp) / *divisor).norm_sqr();
+                    density[k] += (self.output(row, r, resp) / *divisor).norm_sqr();
                     k += 1;
                 }
                 for a in 0..N_ACTUATORS {
@@ -1039,7 +1053,7 @@ mod tests {
                 let f = n * d.road.speed;
                 let omega = 2.0 * PI * f;
                 let r = track_input(track, omega, delay);
-                let resp = lp.respond(omega, &r);
+                let [resp] = lp.respond_each(omega, [&r]);
                 let h = wk.response(f) * lp.output(lp.row("a_seat"), &r, &resp);
                 mean_square += 0.5 * h.norm_sqr() * (a * omega).powi(2);
             }
@@ -1107,7 +1121,7 @@ mod tests {
             (0..2)
                 .map(|track| {
                     let r = track_input(track, omega, delay);
-                    let resp = lp.respond(omega, &r);
+                    let [resp] = lp.respond_each(omega, [&r]);
                     (wk.response(f) * lp.output(lp.row("a_seat"), &r, &resp)).norm_sqr()
                 })
                 .sum::<f64>()
