@@ -569,9 +569,9 @@ pub struct Loop {
     c_y: DMatrix<f64>,
     d_yr: DMatrix<f64>,
     d_yu: DMatrix<f64>,
-    /// `G_y(jω) = C_y (jωI − A)⁻¹ B_u + D_yu`: what the controller's inputs see of the forces
-    /// (the loop gain at every frequency of the delay-margin scans: 20001 and a bisection per
-    /// crossing, most of a robust design's certificate before it was kept in Hessenberg form).
+    /// `G_y(jω) = C_y (jωI − A)⁻¹ B_u + D_yu`: what the controller's inputs see of the forces,
+    /// in the loop gain at every frequency of the delay-margin scans (20001 and a bisection per
+    /// crossing; a dense complex LU of `jωI − A` at each of them before).
     sensed: HessenbergResponse,
     controller: Option<HessenbergResponse>,
     predictor: Option<PredictorResponse>,
@@ -719,8 +719,8 @@ impl Loop {
     /// the effectiveness, the controller's or the predictor's response and then the delay, all
     /// as bits): a robust design's certificate asks for the same scan at every condition that
     /// differs only in its delay (a controller's loop gain does not depend on it; a
-    /// predictor's mismatch margins are those of its matched loop), 20 of a synthesis's 27
-    /// scans, a fifth of its CPU.
+    /// predictor's mismatch margins are those of its matched loop): 20 of a synthesis's 27
+    /// scans, a tenth of its CPU.
     fn crossings(&self) -> Vec<(f64, f64)> {
         type Scans = HashMap<Vec<u64>, Arc<OnceLock<Vec<(f64, f64)>>>>;
         static SCANS: OnceLock<Mutex<Scans>> = OnceLock::new();
