@@ -887,19 +887,19 @@ impl Loop {
         let (g_r, g_u) = self.car_response(omega);
         let e = self.actuators(omega);
         let c = |x: &DMatrix<f64>| x.map(|v| C64::new(v, 0.0));
+        let (c_y, d_yr) = (c(&self.c_y), c(&self.d_yr));
         // The loop `u = M⁻¹ P g_yr` with `g_yr` the sensors' response to the road alone.
+        let g_y = || &c_y * &g_u + c(&self.d_yu);
         let closed = match (&self.predictor, &self.controller) {
             (Some(p), _) => {
-                let g_y = c(&self.c_y) * &g_u + c(&self.d_yu);
                 let (p1, inner) = p.at(omega);
-                let m = inner - &p1 * g_y * &e;
+                let m = inner - &p1 * g_y() * &e;
                 Some((m.lu(), p1))
             }
             (None, None) => None,
             (None, Some(k)) => {
                 let k = k.at(omega);
-                let g_y = c(&self.c_y) * &g_u + c(&self.d_yu);
-                let m = DMatrix::<C64>::identity(N_ACTUATORS, N_ACTUATORS) - &k * g_y * &e;
+                let m = DMatrix::<C64>::identity(N_ACTUATORS, N_ACTUATORS) - &k * g_y() * &e;
                 Some((m.lu(), k))
             }
         };
@@ -908,7 +908,7 @@ impl Loop {
             let u_applied = match &closed {
                 None => DVector::zeros(N_ACTUATORS),
                 Some((lu, p)) => {
-                    let g_yr = c(&self.c_y) * &x_road + c(&self.d_yr) * r;
+                    let g_yr = &c_y * &x_road + &d_yr * r;
                     &e * lu.solve(&(p * g_yr)).expect("the loop is well posed")
                 }
             };

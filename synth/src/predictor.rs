@@ -224,13 +224,14 @@ pub fn predictor_design(
     // delay-margin scans, and then the held loops (up to 330 states at 50 ms), are delay_sf's
     // synthesis time. Collected in order.
     use rayon::prelude::*;
+    let at_delay = |delay: f64| Conditions {
+        delay,
+        ..Conditions::nominal(*ctx.params)
+    };
     let evaluated = delays
         .par_iter()
         .map(|&theta| {
-            let c = Conditions {
-                delay: theta,
-                ..Conditions::nominal(*ctx.params)
-            };
+            let c = at_delay(theta);
             let lp = Loop::new(Some(&law_at(theta)), c).map_err(|e| fail(e.to_string()))?;
             let label = format!("delay {:.1} ms", 1e3 * theta);
             Ok((lp.delay_margins(), (label, lp.figures(&d.road)), c))
@@ -255,13 +256,13 @@ pub fn predictor_design(
     let fractional = fractional_at
         .par_iter()
         .map(|&theta| {
-            let c = Conditions {
-                delay: theta,
-                ..Conditions::nominal(*ctx.params)
-            };
-            crate::sampled::SampledLoop::new(Some(&law_at(theta)), c, d.communication_step)
-                .map(|l| l.radius())
-                .map_err(|e| fail(format!("at a delay of {theta} s, between whole steps: {e}")))
+            crate::sampled::SampledLoop::new(
+                Some(&law_at(theta)),
+                at_delay(theta),
+                d.communication_step,
+            )
+            .map(|l| l.radius())
+            .map_err(|e| fail(format!("at a delay of {theta} s, between whole steps: {e}")))
         })
         .collect::<Result<Vec<f64>, ComfortError>>()?;
     let seat = g.c_z.rows(0, 1).into_owned();
