@@ -457,11 +457,6 @@ impl IsoTrack {
         )
     }
 
-    /// `(z, dz/ds)` at distance `s`.
-    pub fn at(&self, s: f64) -> (f64, f64) {
-        self.at_each([s])[0]
-    }
-
     /// `(z, dz/ds)` at each distance of `s`, under one lock of the kept blocks (a road asks
     /// for a front and a rear wheel on each track at every step).
     pub fn at_each<const N: usize>(&self, s: [f64; N]) -> [(f64, f64); N] {
