@@ -62,10 +62,14 @@ pub fn lyapunov(a: &DMatrix<f64>, c: &DMatrix<f64>) -> Result<DMatrix<f64>, Ricc
     if n == 0 {
         return Ok(DMatrix::zeros(0, 0));
     }
-    let (u, t, blocks) = schur_blocks(a)?;
+    // Balanced (exactly, by powers of two): `A = D Ã D⁻¹`, `X = D X̃ D` with
+    // `Ã X̃ + X̃ Ãᵀ + D⁻¹ C D⁻¹ = 0`.
+    let (a, d) = crate::eig::balance(a).ok_or(RiccatiError::Schur)?;
+    let c = DMatrix::from_fn(n, n, |i, j| c[(i, j)] / (d[i] * d[j]));
+    let (u, t, blocks) = schur_blocks(&a)?;
     // T Y + Y Tᵀ = F, F = −Uᵀ C U, solved block by block from the bottom right:
     // T_ii Y_ij + Y_ij T_jjᵀ = F_ij − Σ_{k>i} T_ik Y_kj − Σ_{k>j} Y_ik T_jkᵀ.
-    let f = -(u.transpose() * c * &u);
+    let f = -(u.transpose() * &c * &u);
     let mut y = DMatrix::<f64>::zeros(n, n);
     for &(i, p) in blocks.iter().rev() {
         for &(j, q) in blocks.iter().rev() {
@@ -90,7 +94,12 @@ pub fn lyapunov(a: &DMatrix<f64>, c: &DMatrix<f64>) -> Result<DMatrix<f64>, Ricc
                 .copy_from(&DMatrix::from_column_slice(p, q, v.as_slice()));
         }
     }
-    let x = &u * y * u.transpose();
+    let mut x = &u * y * u.transpose();
+    for j in 0..n {
+        for i in 0..n {
+            x[(i, j)] *= d[i] * d[j];
+        }
+    }
     if !x.iter().all(|v| v.is_finite()) {
         return Err(RiccatiError::Singular);
     }
@@ -242,6 +251,28 @@ mod tests {
         // No unique solution when λᵢ + λⱼ = 0.
         let bad = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, -1.0]);
         assert!(lyapunov(&bad, &DMatrix::identity(2, 2)).is_err());
+    }
+
+    /// A system in badly scaled state coordinates, as the closed loops are (controller states
+    /// in large units beside the car's metres): `A = S A₀ S⁻¹`, `C = S C₀ S`, so `X = S X₀ S`
+    /// exactly, with `S` spanning ten decades. Each entry of `S⁻¹ X S⁻¹` must match `X₀` (solved
+    /// well scaled) to the accuracy of `X₀` itself, which the Gramian's quadratic forms need.
+    #[test]
+    fn lyapunov_is_accurate_in_badly_scaled_coordinates() {
+        let n = 12;
+        let a0 = stable(n, 5);
+        let b = random(n, 2, 15);
+        let c0 = &b * b.transpose();
+        let x0 = lyapunov(&a0, &c0).unwrap();
+        let s: Vec<f64> = (0..n)
+            .map(|i| 10f64.powf(-5.0 + 10.0 * (i * 7 % n) as f64 / (n - 1) as f64))
+            .collect();
+        let a = DMatrix::from_fn(n, n, |i, j| s[i] * a0[(i, j)] / s[j]);
+        let c = DMatrix::from_fn(n, n, |i, j| s[i] * c0[(i, j)] * s[j]);
+        let x = lyapunov(&a, &c).unwrap();
+        let back = DMatrix::from_fn(n, n, |i, j| x[(i, j)] / (s[i] * s[j]));
+        let err = (&back - &x0).amax() / x0.amax();
+        assert!(err <= 1e-10, "relative error {err:e}");
     }
 
     /// Scalar LQR: `2 a x − b² x² / r + q = 0`, `x = r (a + √(a² + b² q / r)) / b²`.
