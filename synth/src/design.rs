@@ -131,6 +131,15 @@ pub enum RearWheels {
     },
 }
 
+impl std::fmt::Display for RearWheels {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RearWheels::Independent => write!(f, "independent tracks"),
+            RearWheels::Pade { order } => write!(f, "the front track, Padé order {order}"),
+        }
+    }
+}
+
 /// The ISO 8608 road the comfort designs are optimised for.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -293,6 +293,10 @@ pub fn predictor_design(
     let mut uncertainty =
         OverUncertainty::predicted(Uncertainty::InputDelay, predictions, conditions, ctx.params);
     uncertainty.set_held(held);
+    uncertainty.bound_model = format!(
+        "the design model (rear wheels: {}), the predictor matched to the delay",
+        d.road.rear_wheels
+    );
     // Claimed for the car only where the design model's bound covers every prediction on it, as
     // for the other robust designs: over the prediction horizon the predictor also predicts the
     // rear wheels' road through the design model's Padé rear track, whose error the car feels.
@@ -300,8 +304,8 @@ pub fn predictor_design(
         over.bound,
         &format!(" over every delay of [0, {} s]", d.delay_max),
     );
-    uncertainty.design_model_grid_worst_wk_rms_seat = Some(over.grid_worst);
-    uncertainty.design_model_grid_points = over.intervals + 1;
+    uncertainty.bound_model_grid_worst_wk_rms_seat = Some(over.grid_worst);
+    uncertainty.bound_model_grid_points = over.intervals + 1;
     uncertainty.over_delays = Some(over);
     certificate.comfort.uncertainty = Some(uncertainty);
     certificate.notes.push(format!(

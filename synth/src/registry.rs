@@ -584,10 +584,10 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
                     match (
                         &u.bound_wk_rms_seat,
                         u.over_delays,
-                        u.design_model_grid_worst_wk_rms_seat,
+                        u.bound_model_grid_worst_wk_rms_seat,
                         u.accommodated_down_to,
                     ) {
-                        (Some(b), _, _, _) => format!("design-model bound {:.4}", b.value),
+                        (Some(b), _, _, _) => format!("car-model bound {:.4}", b.value),
                         (None, Some(o), _, _) => format!(
                             "design-model bound {:.4} over every delay of [0, {} ms]",
                             o.bound,
@@ -595,11 +595,11 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
                         ),
                         (None, None, Some(g), Some(r)) => format!(
                             "accommodated down to ρ = {r}: the nominal loop once the estimate \
-                             settles; the transient's frozen loops stable (design-model worst \
+                             settles; the transient's frozen loops stable (car-model worst \
                              {g:.4})"
                         ),
                         (None, None, Some(g), None) =>
-                            format!("design-model grid worst {g:.4} (no bound)"),
+                            format!("car-model grid worst {g:.4} (no bound)"),
                         (None, None, None, _) => "-".into(),
                     }
                 ),
