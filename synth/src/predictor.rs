@@ -14,7 +14,11 @@
 //! controller can undo, so the comfort worsens with `θ` as the design model says exactly:
 //! `J(θ) = tr(C X C') `-form below ([`comfort_at`]).
 //!
-//! Certified: stability for every `θ` (the roots above), and the design model's seat comfort
+//! The model it predicts is the car model ([`predictor_model`]: the rear wheels on the front
+//! track through a Padé approximant of order 8, the gain's order-2 preview beside it), so on that
+//! model the predictor is matched and the closed form holds.
+//!
+//! Certified: stability for every `θ` (the roots above), and the car model's seat comfort
 //! `J(θ)` bounded at every delay of the interval ([`over_delays`]), which is the guarantee
 //! where it covers the predictions on the car at delays across the interval (beside
 //! `hinf_sf`'s). Checked: the margins to a mismatch between the actual and the predicted delay,
@@ -25,10 +29,11 @@ use crate::comfort_controllers::{
     realise_state_feedback, reconstruction, state_feedback_sensors, Reconstruction,
 };
 use crate::comfort_designs::{
-    certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context, OverDelays,
-    OverUncertainty, Uncertainty,
+    bound_model, certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context,
+    OverDelays, OverUncertainty, Uncertainty,
 };
 use crate::comfort_plant::ComfortPlant;
+use crate::design::RearWheels;
 use crate::guaranteed::StateFeedback;
 use crate::prediction::{Conditions, ControlLaw, Loop, PredictorLaw};
 use crate::riccati::lyapunov;
@@ -184,6 +189,115 @@ fn predictor_law(
     }
 }
 
+/// The model `delay_sf`'s predictor runs, and the gain on it: the car model of
+/// [`bound_model`] (the rear wheels on the front track through a Padé approximant of order
+/// [`crate::comfort_designs::BOUND_MODEL_PADE_ORDER`]) with the design model's preview states
+/// (its order-2 rear track, which the gain reads) beside it as filters of the front road that
+/// drive nothing. `k` on the design model's state `g` (with its delay weight) is mapped onto
+/// it, zero on the car model's rear-track states.
+///
+/// Predicting the design model instead, the predictor took the preview states for the rear road
+/// over its horizon; the car's rear road is the front track's, so its comfort on the car was
+/// 8.7 % worse than the design model's closed form at 50 ms (0.0676 against 0.0622 m/s²), and
+/// that form bounded nothing on the car. Predicting this model, the closed form holds on it
+/// (the predictor matched) and is within 0.02 % of the car's prediction at 40–50 ms.
+pub fn predictor_model(
+    ctx: &Context,
+    g: &ComfortPlant,
+    k: &DMatrix<f64>,
+) -> Result<(ComfortPlant, DMatrix<f64>), String> {
+    let d = ctx.design;
+    let RearWheels::Pade { order: p2 } = g.road.rear else {
+        return Err(format!(
+            "a predictor needs the design model's rear wheels as a Padé track, not {}",
+            g.road.rear
+        ));
+    };
+    let (model, _) = bound_model(d, ctx.params);
+    let car = ComfortPlant::new(ctx.params, &model);
+    let RearWheels::Pade { order: p8 } = car.road.rear else {
+        unreachable!("the bound model's rear track is a Padé track")
+    };
+    let (n_car, extra) = (car.n(), 2 * p2);
+    let at = car.layout.road.end;
+    // The car model's index of each of its states once the preview states are inserted at `at`.
+    let shift = |i: usize| if i < at { i } else { i + extra };
+    let n = n_car + extra;
+    let mut a = DMatrix::zeros(n, n);
+    for i in 0..n_car {
+        for j in 0..n_car {
+            a[(shift(i), shift(j))] = car.a[(i, j)];
+        }
+    }
+    let rows = |m: &DMatrix<f64>| {
+        let mut out = DMatrix::zeros(n, m.ncols());
+        for i in 0..n_car {
+            out.row_mut(shift(i)).copy_from(&m.row(i));
+        }
+        out
+    };
+    let cols = |m: &DMatrix<f64>| {
+        let mut out = DMatrix::zeros(m.nrows(), n);
+        for j in 0..n_car {
+            out.column_mut(shift(j)).copy_from(&m.column(j));
+        }
+        out
+    };
+    // Design state index → this model's, with the preview rows copied from the design model.
+    let design_road = g.layout.road.start;
+    let mut map: Vec<usize> = (0..g.n()).collect();
+    for t in 0..2 {
+        let (front_g, front) = (
+            design_road + t * (1 + p2),
+            car.layout.road.start + t * (1 + p8),
+        );
+        map[front_g] = front;
+        for q in 0..p2 {
+            map[front_g + 1 + q] = at + t * p2 + q;
+        }
+    }
+    let filters_g = g.layout.filters[0].start;
+    for (j, m) in map.iter_mut().enumerate().skip(filters_g) {
+        *m = j - filters_g + car.layout.filters[0].start + extra;
+    }
+    for t in 0..2 {
+        let front_g = design_road + t * (1 + p2);
+        for q in 0..p2 {
+            let row = front_g + 1 + q;
+            for col in [front_g].into_iter().chain(front_g + 1..front_g + 1 + p2) {
+                a[(map[row], map[col])] = g.a[(row, col)];
+            }
+        }
+    }
+    let mut layout = car.layout.clone();
+    layout.road = car.layout.road.start..at + extra;
+    for f in &mut layout.filters {
+        *f = f.start + extra..f.end + extra;
+    }
+    let augmented = ComfortPlant {
+        a,
+        b_w: rows(&car.b_w),
+        b_u: rows(&car.b_u),
+        c_z: cols(&car.c_z),
+        c_lim: cols(&car.c_lim),
+        // `R_x` reads the road states only; the preview states, last among them, drive nothing.
+        r_x: car
+            .r_x
+            .clone()
+            .resize_horizontally(car.r_x.ncols() + extra, 0.0),
+        layout,
+        ..car.clone()
+    };
+    let (augmented, _) =
+        augmented.with_delay_weight(d.unmodelled_delay, &crate::comfort_plant::force_limits(d));
+    debug_assert!(map.iter().all(|m| *m < augmented.n()));
+    let mut k_ext = DMatrix::zeros(k.nrows(), augmented.n());
+    for (j, m) in map.iter().enumerate() {
+        k_ext.column_mut(*m).copy_from(&k.column(j));
+    }
+    Ok((augmented, k_ext))
+}
+
 /// `delay_sf` from the nominal gain.
 pub fn predictor_design(
     ctx: &Context,
@@ -191,21 +305,24 @@ pub fn predictor_design(
 ) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "delay_sf";
     let d = ctx.design;
-    let (g, sf) = nominal;
     let fail = |reason: String| ComfortError::Certificate {
         variant: variant.into(),
         reason,
     };
+    let (g, k) = predictor_model(ctx, &nominal.0, &nominal.1.k).map_err(&fail)?;
+    let (g, k) = (&g, &k);
     let r = reconstruction(g);
-    let law_at = |theta: f64| predictor_law(g, &sf.k, r.clone(), theta);
+    let law_at = |theta: f64| predictor_law(g, k, r.clone(), theta);
     let law = law_at(0.0);
     let notes = vec![format!(
-        "hinf_sf's guaranteed-cost gain behind a predictor of the design state over the \
-         actuators' known delay theta (parameter tau, 0 ... {} s): u(t) = K \
-         x_hat(t + theta), x_hat(t + theta) = e^(A theta) x(t) + integral over the commands \
-         still in flight. With the delay it predicts over, the closed loop has the roots of A + B K \
+        "hinf_sf's guaranteed-cost gain behind a predictor over the actuators' known delay \
+         theta (parameter tau, 0 ... {} s) of the car model's state (the rear wheels on the \
+         front track through a Pade approximant of order {}, the gain's order-2 preview beside \
+         it): u(t) = K x_hat(t + theta), x_hat(t + theta) = e^(A theta) x(t) + integral over \
+         the commands still in flight. With the delay it predicts over, the closed loop has the roots of A + B K \
          and of A for every theta (finite spectrum assignment): stable over the whole interval.",
-        d.delay_max
+        d.delay_max,
+        crate::comfort_designs::BOUND_MODEL_PADE_ORDER
     )];
     let mut certificate = certify(
         ctx,
@@ -266,9 +383,9 @@ pub fn predictor_design(
         })
         .collect::<Result<Vec<f64>, ComfortError>>()?;
     let seat = g.c_z.rows(0, 1).into_owned();
-    let over = over_delays(g, &sf.k, &seat, d.delay_max, DELAY_INTERVALS)
-        .ok_or_else(|| fail("the design model's comfort over the delays".into()))?;
-    let a_cl = &g.a + &g.b_u * &sf.k;
+    let over = over_delays(g, k, &seat, d.delay_max, DELAY_INTERVALS)
+        .ok_or_else(|| fail("the car model's comfort over the delays".into()))?;
+    let a_cl = &g.a + &g.b_u * k;
     let facts = PredictorFacts {
         delay_max_s: d.delay_max,
         closed_loop_abscissa: crate::eig::spectral_abscissa(&a_cl),
@@ -294,12 +411,11 @@ pub fn predictor_design(
         OverUncertainty::predicted(Uncertainty::InputDelay, predictions, conditions, ctx.params);
     uncertainty.set_held(held);
     uncertainty.bound_model = format!(
-        "the design model (rear wheels: {}), the predictor matched to the delay",
-        d.road.rear_wheels
+        "{} with the gain's own preview beside it, the predictor matched to the delay",
+        bound_model(d, ctx.params).1
     );
-    // Claimed for the car only where the design model's bound covers every prediction on it, as
-    // for the other robust designs: over the prediction horizon the predictor also predicts the
-    // rear wheels' road through the design model's Padé rear track, whose error the car feels.
+    // Claimed for the car only where the car model's bound covers every prediction on it (exact
+    // wheelbase delay, the road FMU's band), as for the other robust designs.
     certificate.comfort.guaranteed_wk_rms_seat_m_s2 = uncertainty.claim(
         over.bound,
         &format!(" over every delay of [0, {} s]", d.delay_max),
@@ -309,7 +425,7 @@ pub fn predictor_design(
     uncertainty.over_delays = Some(over);
     certificate.comfort.uncertainty = Some(uncertainty);
     certificate.notes.push(format!(
-        "Over delays: the design model's W_k seat comfort with the predictor matched is at most \
+        "Over delays: the car model's W_k seat comfort with the predictor matched is at most \
          {:.5} at every delay of [0, {} s] (worst {:.5} on {} delays, the bound between them by \
          the Gramian of the state's rate); mismatch between the actual and the predicted delay \
          tolerated: +{:.2} ms / -{:.2} ms (least over the checked delays). As a master runs \
@@ -330,7 +446,7 @@ pub fn predictor_design(
         predictor: Some(crate::controller_file::Predictor {
             a: m(&g.a),
             b: m(&g.b_u),
-            k: m(&sf.k),
+            k: m(k),
             s_y: m(&r.s_y),
             s_xi: m(&r.s_xi),
             a_xi: m(&r.a_xi),
@@ -523,25 +639,35 @@ mod tests {
     }
 
     /// The predictor's frequency-domain loop on the car (the certificate's predictions) against
-    /// the design model's closed form `J(θ)`: at `θ = 0` the predictor is the plain realised law
-    /// (equal to 1e-6: two evaluations of the same response), and at every delay the two agree up to the design model's differences
-    /// from the car. Those do change with `θ` (measured: the car's prediction over `J(θ)` is
-    /// 1.078 at 0, 0.988 at 10 ms — the Padé rear track's error enters the prediction over the
-    /// horizon), so the bound is 15 %, which a wrong sign or a missing term would break by far.
+    /// the closed form `J(θ)` on the model it predicts ([`predictor_model`]): at `θ = 0` the
+    /// predictor is the plain realised law (equal to 1e-6: two evaluations of the same
+    /// response), and at every delay the two agree up to the car model's differences from the
+    /// car (the weightings' and the road's band limits, the Padé track's residual). Measured,
+    /// the car's prediction over `J(θ)`: 1.010 at 0, 1.018 at 10 ms, 1.041 at 20 ms, 1.009 at
+    /// 30 ms, 0.9999 at 40 ms and 0.9998 at 50 ms, where the comfort is the road's during the
+    /// horizon, which the car model predicts as the car has it. So within 5 % everywhere and
+    /// 1e-3 from 40 ms, where `J` is largest and the guarantee is decided. (Predicting the design
+    /// model the ratio was 1.078 at 0, 0.988 at 10 ms and 1.087 at 50 ms.)
     #[test]
     fn the_predictor_loop_matches_the_closed_form_comfort_at_every_delay() {
-        let (d, p, g, sf, seat) = nominal();
+        let (d, p, g, sf, _) = nominal();
+        let ctx = Context {
+            params: &p,
+            design: &d,
+        };
+        let (g, k) = predictor_model(&ctx, &g, &sf.k).unwrap();
+        let seat = g.c_z.rows(0, 1).into_owned();
         let ratio = |theta: f64| {
-            let law = predictor_law(&g, &sf.k, reconstruction(&g), theta);
+            let law = predictor_law(&g, &k, reconstruction(&g), theta);
             let c = Conditions {
                 delay: theta,
                 ..Conditions::nominal(p)
             };
             let f: Figures = Loop::new(Some(&law), c).unwrap().figures(&d.road);
-            f.wk_rms_seat_m_s2 / comfort_at(&g, &sf.k, &seat, theta).unwrap()
+            f.wk_rms_seat_m_s2 / comfort_at(&g, &k, &seat, theta).unwrap()
         };
         let plain = ControlLaw {
-            lti: realise_state_feedback(&g, &sf.k),
+            lti: realise_state_feedback(&g, &k),
             inputs: state_feedback_sensors(&g).names,
             accommodation: None,
             predictor: None,
@@ -549,14 +675,15 @@ mod tests {
         let f = Loop::new(Some(&plain), Conditions::nominal(p))
             .unwrap()
             .figures(&d.road);
-        let r_plain = f.wk_rms_seat_m_s2 / comfort_at(&g, &sf.k, &seat, 0.0).unwrap();
+        let r_plain = f.wk_rms_seat_m_s2 / comfort_at(&g, &k, &seat, 0.0).unwrap();
         let r0 = ratio(0.0);
         assert!((r0 / r_plain - 1.0).abs() < 1e-6, "{r0} vs {r_plain}");
-        for theta in [0.01, 0.02, 0.05] {
+        for theta in [0.0, 0.01, 0.02, 0.03, 0.04, 0.05] {
             let r = ratio(theta);
+            let tolerance = if theta >= 0.04 { 1e-3 } else { 0.05 };
             assert!(
-                (r - 1.0).abs() < 0.15,
-                "θ = {theta}: car / design model {r}"
+                (r - 1.0).abs() < tolerance,
+                "θ = {theta}: car / car model {r}"
             );
         }
     }

@@ -589,7 +589,7 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
                     ) {
                         (Some(b), _, _, _) => format!("car-model bound {:.4}", b.value),
                         (None, Some(o), _, _) => format!(
-                            "design-model bound {:.4} over every delay of [0, {} ms]",
+                            "car-model bound {:.4} over every delay of [0, {} ms]",
                             o.bound,
                             1e3 * o.delay_max_s
                         ),
