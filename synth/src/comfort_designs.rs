@@ -146,8 +146,9 @@ pub struct OverUncertainty {
     /// `(condition, figures)` at the checked conditions.
     pub predictions: Vec<(String, Figures)>,
     pub worst_predicted_wk_rms_seat_m_s2: f64,
-    /// The model the bounds and the check grid are computed on ([`bound_model`] for the mass
-    /// and fault designs, the design model for `delay_sf`).
+    /// The model the bounds and the check grid are computed on: the car model of
+    /// [`bound_model`] (for `delay_sf` with the gain's preview beside it, which its predictor
+    /// predicts).
     pub bound_model: String,
     /// The guaranteed bounds on `bound_model`, seat and vibration total.
     #[serde(skip_serializing_if = "Option::is_none")]

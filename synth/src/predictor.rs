@@ -319,8 +319,9 @@ pub fn predictor_design(
          theta (parameter tau, 0 ... {} s) of the car model's state (the rear wheels on the \
          front track through a Pade approximant of order {}, the gain's order-2 preview beside \
          it): u(t) = K x_hat(t + theta), x_hat(t + theta) = e^(A theta) x(t) + integral over \
-         the commands still in flight. With the delay it predicts over, the closed loop has the roots of A + B K \
-         and of A for every theta (finite spectrum assignment): stable over the whole interval.",
+         the commands still in flight. With the delay it predicts over, the closed loop has \
+         the roots of A + B K and of A for every theta (finite spectrum assignment): stable \
+         over the whole interval.",
         d.delay_max,
         crate::comfort_designs::BOUND_MODEL_PADE_ORDER
     )];
@@ -675,6 +676,19 @@ mod tests {
         let f = Loop::new(Some(&plain), Conditions::nominal(p))
             .unwrap()
             .figures(&d.road);
+        // The gain mapped onto the predictor's model is hinf_sf's controller on the car.
+        let (_, _, g_design, sf, _) = nominal();
+        let hinf_sf = ControlLaw {
+            lti: realise_state_feedback(&g_design, &sf.k),
+            inputs: state_feedback_sensors(&g_design).names,
+            accommodation: None,
+            predictor: None,
+        };
+        let h = Loop::new(Some(&hinf_sf), Conditions::nominal(p))
+            .unwrap()
+            .figures(&d.road);
+        let same = f.wk_rms_seat_m_s2 / h.wk_rms_seat_m_s2 - 1.0;
+        assert!(same.abs() < 1e-9, "mapped gain vs hinf_sf: {same:e}");
         let r_plain = f.wk_rms_seat_m_s2 / comfort_at(&g, &k, &seat, 0.0).unwrap();
         let r0 = ratio(0.0);
         assert!((r0 / r_plain - 1.0).abs() < 1e-6, "{r0} vs {r_plain}");
