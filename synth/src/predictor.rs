@@ -218,31 +218,12 @@ pub fn predictor_model(
     let RearWheels::Pade { order: p8 } = car.road.rear else {
         unreachable!("the bound model's rear track is a Padé track")
     };
-    let (n_car, extra) = (car.n(), 2 * p2);
+    let extra = 2 * p2;
     let at = car.layout.road.end;
-    // The car model's index of each of its states once the preview states are inserted at `at`.
-    let shift = |i: usize| if i < at { i } else { i + extra };
-    let n = n_car + extra;
-    let mut a = DMatrix::zeros(n, n);
-    for i in 0..n_car {
-        for j in 0..n_car {
-            a[(shift(i), shift(j))] = car.a[(i, j)];
-        }
-    }
-    let rows = |m: &DMatrix<f64>| {
-        let mut out = DMatrix::zeros(n, m.ncols());
-        for i in 0..n_car {
-            out.row_mut(shift(i)).copy_from(&m.row(i));
-        }
-        out
-    };
-    let cols = |m: &DMatrix<f64>| {
-        let mut out = DMatrix::zeros(m.nrows(), n);
-        for j in 0..n_car {
-            out.column_mut(shift(j)).copy_from(&m.column(j));
-        }
-        out
-    };
+    // The car model with `extra` zero states inserted at `at`, the end of its road block.
+    let rows = |m: &DMatrix<f64>| m.clone().insert_rows(at, extra, 0.0);
+    let cols = |m: &DMatrix<f64>| m.clone().insert_columns(at, extra, 0.0);
+    let mut a = cols(&rows(&car.a));
     // Design state index → this model's, with the preview rows copied from the design model.
     let design_road = g.layout.road.start;
     let mut map: Vec<usize> = (0..g.n()).collect();
@@ -651,12 +632,12 @@ mod tests {
     /// model the ratio was 1.078 at 0, 0.988 at 10 ms and 1.087 at 50 ms.)
     #[test]
     fn the_predictor_loop_matches_the_closed_form_comfort_at_every_delay() {
-        let (d, p, g, sf, _) = nominal();
+        let (d, p, g_design, sf, _) = nominal();
         let ctx = Context {
             params: &p,
             design: &d,
         };
-        let (g, k) = predictor_model(&ctx, &g, &sf.k).unwrap();
+        let (g, k) = predictor_model(&ctx, &g_design, &sf.k).unwrap();
         let seat = g.c_z.rows(0, 1).into_owned();
         let ratio = |theta: f64| {
             let law = predictor_law(&g, &k, reconstruction(&g), theta);
@@ -667,26 +648,21 @@ mod tests {
             let f: Figures = Loop::new(Some(&law), c).unwrap().figures(&d.road);
             f.wk_rms_seat_m_s2 / comfort_at(&g, &k, &seat, theta).unwrap()
         };
-        let plain = ControlLaw {
-            lti: realise_state_feedback(&g, &k),
-            inputs: state_feedback_sensors(&g).names,
-            accommodation: None,
-            predictor: None,
+        // A gain as the plain realised controller (no predictor), on the car.
+        let plain = |g: &ComfortPlant, k: &DMatrix<f64>| {
+            let law = ControlLaw {
+                lti: realise_state_feedback(g, k),
+                inputs: state_feedback_sensors(g).names,
+                accommodation: None,
+                predictor: None,
+            };
+            Loop::new(Some(&law), Conditions::nominal(p))
+                .unwrap()
+                .figures(&d.road)
         };
-        let f = Loop::new(Some(&plain), Conditions::nominal(p))
-            .unwrap()
-            .figures(&d.road);
+        let f = plain(&g, &k);
         // The gain mapped onto the predictor's model is hinf_sf's controller on the car.
-        let (_, _, g_design, sf, _) = nominal();
-        let hinf_sf = ControlLaw {
-            lti: realise_state_feedback(&g_design, &sf.k),
-            inputs: state_feedback_sensors(&g_design).names,
-            accommodation: None,
-            predictor: None,
-        };
-        let h = Loop::new(Some(&hinf_sf), Conditions::nominal(p))
-            .unwrap()
-            .figures(&d.road);
+        let h = plain(&g_design, &sf.k);
         let same = f.wk_rms_seat_m_s2 / h.wk_rms_seat_m_s2 - 1.0;
         assert!(same.abs() < 1e-9, "mapped gain vs hinf_sf: {same:e}");
         let r_plain = f.wk_rms_seat_m_s2 / comfort_at(&g, &k, &seat, 0.0).unwrap();
