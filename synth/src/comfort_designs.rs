@@ -122,7 +122,7 @@ pub struct RoadDescription {
     pub band_hz: [f64; 2],
 }
 
-/// The design model's comfort behind a predictor, `J(θ)` ([`crate::predictor::comfort_at`]),
+/// The car model's comfort behind a predictor that predicts it, `J(θ)` ([`crate::predictor::comfort_at`]),
 /// over the whole of `[0, θ_max]`: its worst on an even grid of
 /// `intervals + 1` delays, and a bound that holds between them.
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -169,7 +169,7 @@ pub struct OverUncertainty {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub accommodated_down_to: Option<f64>,
     pub bound_model_grid_points: usize,
-    /// A delay interval's bound on the design model (`delay_sf`).
+    /// A delay interval's bound on the car model (`delay_sf`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub over_delays: Option<OverDelays>,
     /// The nominal counterpart at the same conditions (filled by the registry; `None` where it
@@ -982,8 +982,8 @@ pub fn certify(
     if let Some(u) = uncertainty.as_mut() {
         u.predict_held(law, d);
     }
-    // The prediction for a nominal design; for a robust one the design model's bound, claimed
-    // only where it covers every prediction on the exact car (the design model's Padé rear track
+    // The prediction for a nominal design; for a robust one the car model's bound, claimed
+    // only where it covers every prediction on the exact car (the car model's Padé rear track
     // and band-unlimited weightings differ from the car; a bound that does not cover is no
     // guarantee of the car, and is reported as such).
     let guaranteed = match uncertainty.as_mut() {
@@ -1116,7 +1116,7 @@ fn over_uncertainty(
                     .map(|i| d.mass_min + (d.mass_max - d.mass_min) * i as f64 / 4.0)
                     .collect();
                 let (centre, _, mass) = mass_channel(ctx.params, d);
-                // The dense check grid: the design model at every mass of the file's grid.
+                // The dense check grid: the car model at every mass of the file's grid.
                 let grid = (0..d.mass_grid_points)
                     .map(|i| {
                         let m = d.mass_min
@@ -1175,7 +1175,7 @@ fn over_uncertainty(
     let accommodated = law
         .accommodation
         .filter(|r| kind == Uncertainty::ActuatorFaults && *r <= d.fault_rho_min);
-    // Otherwise the guaranteed bound at the uncertainty's centre, and the design model's exact
+    // Otherwise the guaranteed bound at the uncertainty's centre, and the car model's exact
     // H2 norm at every grid point, which the bound must cover.
     let (seat, bound_failure, total) = if accommodated.is_some() {
         (None, None, None)
@@ -1211,7 +1211,7 @@ fn over_uncertainty(
         let (plant, sensors) = wiring(g);
         let cl = design_loop(&plant, &sensors, law)?;
         if !crate::eig::is_hurwitz(&cl.a) {
-            return Err("the design model is unstable at a point of the check grid".into());
+            return Err("the car model is unstable at a point of the check grid".into());
         }
         let rows = comfort_rows(g0, &cl, &[0]);
         let h2 = Lti::new(
@@ -1221,13 +1221,13 @@ fn over_uncertainty(
             DMatrix::zeros(1, cl.b_w.ncols()),
         )
         .h2_norm()
-        .map_err(|e| format!("design model on the check grid: {e}"))?;
+        .map_err(|e| format!("car model on the check grid: {e}"))?;
         grid_worst = grid_worst.max(h2);
     }
     if let Some(seat) = &seat {
         if grid_worst > seat.value * (1.0 + 1e-6) {
             return Err(format!(
-                "the design model's seat comfort {grid_worst} on the check grid exceeds the \
+                "the car model's seat comfort {grid_worst} on the check grid exceeds the \
                  guaranteed bound {}",
                 seat.value
             ));

@@ -11,7 +11,7 @@
 //! delay it compensates, its closed loop has the roots of `A + B K` and of `A` — stable, as the
 //! car and the design model's filters are — for every `θ`, so it is stable over the whole
 //! interval `[0, delay_max]`; the road still acts during the last `θ` seconds, which no
-//! controller can undo, so the comfort worsens with `θ` as the design model says exactly:
+//! controller can undo, so the comfort worsens with `θ` as the predicted model says exactly:
 //! `J(θ) = tr(C X C') `-form below ([`comfort_at`]).
 //!
 //! The model it predicts is the car model ([`predictor_model`]: the rear wheels on the front
@@ -41,7 +41,8 @@ use linsys::expm;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-/// The design model's comfort with the predictor at the delay it compensates:
+/// A model's comfort with a predictor of that model at the delay it compensates (`delay_sf`:
+/// the car model of [`predictor_model`]):
 /// `x = x̂ + ε`, `x̂` driven by `e^{Aθ} B_w w` through `A + B K`, `ε` the road's effect during the
 /// last `θ` seconds, independent of it: `J(θ) = tr(C [P̂ + P_ε] Cᵀ)`,
 /// `(A + BK) P̂ + P̂ (A + BK)ᵀ + e^{Aθ} B_w B_wᵀ e^{Aᵀθ} = 0`, `P_ε = ∫_0^θ e^{As} B_w B_wᵀ e^{Aᵀs} ds`
