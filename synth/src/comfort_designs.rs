@@ -96,6 +96,60 @@ pub struct Comfort {
     pub uncertainty: Option<OverUncertainty>,
     /// At the nominal car as a master runs the loop: sampled and held at a communication step.
     pub held: Held,
+    /// The nominal loop as a master runs it, checked for stability at other communication steps.
+    pub communication_steps: StepStability,
+}
+
+/// Communication steps [s] at which each certificate checks the nominal loop as a master runs
+/// it: the design file's step is one master's choice, and a sample-and-hold destabilises a loop
+/// whose fastest closed-loop mode it cannot follow.
+pub const CHECKED_STEPS: [f64; 10] = [
+    0.25e-3, 0.5e-3, 1e-3, 1.25e-3, 1.5e-3, 2e-3, 3e-3, 5e-3, 7.5e-3, 10e-3,
+];
+
+/// The nominal loop as a master runs it at each of [`CHECKED_STEPS`].
+#[derive(Debug, Clone, Serialize)]
+pub struct StepStability {
+    pub checked: Vec<CheckedStep>,
+    /// The largest checked step up to which every checked step is stable (`null`: not even the
+    /// first). Checked on this grid only: between two checked steps nothing is claimed.
+    pub stable_up_to_s: Option<f64>,
+}
+
+/// One checked step.
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckedStep {
+    pub step_s: f64,
+    /// At the sampling instants; below 1 is stable. `null` where the loop could not be formed
+    /// (an exponential failed).
+    pub spectral_radius: Option<f64>,
+}
+
+impl CheckedStep {
+    pub fn stable(&self) -> bool {
+        self.spectral_radius.is_some_and(|r| r < 1.0)
+    }
+}
+
+impl StepStability {
+    pub fn check(law: &ControlLaw, nominal: Conditions) -> Self {
+        let checked: Vec<CheckedStep> = CHECKED_STEPS
+            .iter()
+            .map(|&step_s| CheckedStep {
+                step_s,
+                spectral_radius: crate::sampled::spectral_radius(Some(law), nominal, step_s).ok(),
+            })
+            .collect();
+        let stable_up_to_s = checked
+            .iter()
+            .take_while(|c| c.stable())
+            .last()
+            .map(|c| c.step_s);
+        StepStability {
+            checked,
+            stable_up_to_s,
+        }
+    }
 }
 
 /// The nominal prediction for the sampled-data loop of a co-simulation ([`crate::sampled`]):
@@ -926,6 +980,7 @@ pub fn certify(
     // Predictions, design and passive.
     let predicted = lp.figures(&d.road);
     let held = held_prediction(law, nominal, d).map_err(&fail)?;
+    let communication_steps = StepStability::check(law, nominal);
     let passive = predict(None, nominal, &d.road).map_err(|e| fail(e.to_string()))?;
     let seat = predicted.wk_rms_seat_m_s2;
     if seat.is_nan() || seat >= 0.5 * passive.wk_rms_seat_m_s2 {
@@ -1038,6 +1093,7 @@ pub fn certify(
             design_model_vibration_total_m_s2: dm_total,
             uncertainty,
             held,
+            communication_steps,
         },
         unmodelled_delay: UnmodelledDelay {
             tolerated_delay_s: d.unmodelled_delay,

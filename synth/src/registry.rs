@@ -233,7 +233,8 @@ pub struct SummaryRow {
     pub guaranteed_wk_rms_seat: Option<f64>,
     /// Comfort designs: the predicted W_k RMS seat acceleration as a master runs the loop at
     /// its communication step (the certificate's `comfort.held`), at the nominal car and worst
-    /// over the design's uncertainty: `0.0103 at 1 ms; worst 0.0105` (the cell of both tables,
+    /// over the design's uncertainty: `0.0103 at 1 ms (stable at steps to 5 ms, unstable at 7.5 ms);
+    /// worst 0.0105` (the cell of both tables,
     /// `master`'s read from `synthesis.json`).
     pub held: Option<String>,
     /// Thesis designs: the γ the LMI claims, the certified `‖T_zw‖∞` at the nominal car, and
@@ -609,19 +610,34 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
     }
 }
 
-/// A comfort design's prediction as a master runs it: `0.0103 at 1 ms`, and for a robust
+/// A comfort design's prediction as a master runs it: `0.0103 at 1 ms`, the communication
+/// steps its nominal loop is stable at (`(stable at steps to 5 ms, unstable at 7.5 ms)`), and for a robust
 /// design its worst over the uncertainty's conditions (`; worst 0.0105`, or where it is
 /// unstable at the step).
 fn held(comfort: &crate::comfort_designs::Comfort) -> String {
     let h = &comfort.held;
     let nominal = format!(
-        "{:.4} at {} ms",
+        "{:.4} at {} ms ({})",
         h.predicted_wk_rms_seat_m_s2,
-        h.step_s * 1e3
+        h.step_s * 1e3,
+        steps(&comfort.communication_steps)
     );
     match &comfort.uncertainty {
         None => nominal,
         Some(u) => format!("{nominal}; {}", held_over(&u.held, &u.predictions)),
+    }
+}
+
+/// Where the nominal loop as a master runs it is stable over the checked communication steps:
+/// `stable at steps to 10 ms`, `stable at steps to 1 ms, unstable at 1.25 ms`.
+fn steps(s: &crate::comfort_designs::StepStability) -> String {
+    let ms = |h: f64| format!("{} ms", h * 1e3);
+    let first_unstable = s.checked.iter().find(|c| !c.stable()).map(|c| c.step_s);
+    match (s.stable_up_to_s, first_unstable) {
+        (Some(up), None) => format!("stable at steps to {}", ms(up)),
+        (Some(up), Some(h)) => format!("stable at steps to {}, unstable at {}", ms(up), ms(h)),
+        (None, Some(h)) => format!("unstable at {}", ms(h)),
+        (None, None) => "no step checked".into(),
     }
 }
 

@@ -326,9 +326,29 @@ pub struct SampledLoop {
     radius: f64,
 }
 
-impl SampledLoop {
-    /// `law = None` is the passive car. A loop unstable at the sampling instants is refused.
-    pub fn new(
+/// The loop at the sampling instants before its power forms: what [`SampledLoop::new`] and
+/// [`spectral_radius`] share.
+struct Instants {
+    car: WeightedCar,
+    wheelbase: f64,
+    eps: f64,
+    first: (DMatrix<f64>, DMatrix<f64>),
+    lti: Lti,
+    radius: f64,
+}
+
+/// The spectral radius at the sampling instants of the loop a master runs at `step` (`≥ 1`:
+/// unstable), without the power forms [`SampledLoop::new`] adds: the check of a step alone.
+pub fn spectral_radius(
+    law: Option<&ControlLaw>,
+    conditions: Conditions,
+    step: f64,
+) -> Result<f64, PredictionError> {
+    Ok(Instants::new(law, conditions, step)?.radius)
+}
+
+impl Instants {
+    fn new(
         law: Option<&ControlLaw>,
         conditions: Conditions,
         step: f64,
@@ -433,11 +453,6 @@ impl SampledLoop {
                 .fill_with_identity();
         }
         let radius = crate::eig::spectral_radius(&a_cl);
-        if radius.is_nan() || radius >= 1.0 {
-            return Err(PredictionError::Unstable(format!(
-                "spectral radius {radius} at the sampling instants (step {h} s)"
-            )));
-        }
         // Out: x_k (the meter's states included), then the held inputs `[r; ρ u]` before and
         // after `t_k + ε`, then the accelerations the meter weights as the plant outputs them
         // at `t_k` (with the force it applies then; `recorded`).
@@ -456,22 +471,46 @@ impl SampledLoop {
             c_out.rows_mut(at + N_ROAD, nu).copy_from(&(&rho * &part.0));
             d_out.rows_mut(at + N_ROAD, nu).copy_from(&(&rho * &part.1));
         }
-        let instants = HessenbergResponse::new(&Lti::new(a_cl, b_cl, c_out, d_out));
+        Ok(Instants {
+            wheelbase: p.l1 + p.l2,
+            car,
+            eps,
+            first: (first.phi, first.gamma_hold),
+            lti: Lti::new(a_cl, b_cl, c_out, d_out),
+            radius,
+        })
+    }
+}
+
+impl SampledLoop {
+    /// `law = None` is the passive car. A loop unstable at the sampling instants is refused.
+    pub fn new(
+        law: Option<&ControlLaw>,
+        conditions: Conditions,
+        step: f64,
+    ) -> Result<Self, PredictionError> {
+        let i = Instants::new(law, conditions, step)?;
+        let (h, eps, radius) = (step, i.eps, i.radius);
+        if radius.is_nan() || radius >= 1.0 {
+            return Err(PredictionError::Unstable(format!(
+                "spectral radius {radius} at the sampling instants (step {h} s)"
+            )));
+        }
         let forms = (
             FactoredForms::new(&if eps > 0.0 {
-                car.power_forms(eps, h)?
+                i.car.power_forms(eps, h)?
             } else {
                 Vec::new()
             }),
-            FactoredForms::new(&car.power_forms(h - eps, h)?),
+            FactoredForms::new(&i.car.power_forms(h - eps, h)?),
         );
         Ok(SampledLoop {
-            wheelbase: p.l1 + p.l2,
-            car,
+            instants: HessenbergResponse::new(&i.lti),
+            wheelbase: i.wheelbase,
+            car: i.car,
             step: h,
             eps,
-            instants,
-            first: (first.phi, first.gamma_hold),
+            first: i.first,
             forms,
             radius,
         })
