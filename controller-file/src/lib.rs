@@ -48,6 +48,10 @@ pub struct ControllerFile {
     pub accommodation: Option<Accommodation>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub anti_windup: Option<AntiWindup>,
+    /// The communication steps its certificate found the loop as a master runs it stable at
+    /// (absent: not checked). The FMU warns at a step beyond them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub communication_steps: Option<CommunicationSteps>,
     pub description: String,
     /// The car it was designed for (absent from files written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -65,6 +69,17 @@ pub struct ControllerFile {
     pub predictor: Option<Predictor>,
     /// The FMU's model identifier.
     pub variant: String,
+}
+
+/// Where the nominal loop as a master runs it (commands and measurements held over each
+/// communication step) was found stable: every checked step up to `stable_up_to_s`, unstable at
+/// `unstable_at_s` (absent: stable at every checked step), on the car it was designed for.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommunicationSteps {
+    pub stable_up_to_s: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unstable_at_s: Option<f64>,
 }
 
 /// The car a controller was designed for: every vehicle parameter by the plant FMU's name (SI
@@ -280,6 +295,10 @@ mod tests {
             d: vec![vec![0.25, -4.0]],
             accommodation: None,
             anti_windup: None,
+            communication_steps: Some(CommunicationSteps {
+                stable_up_to_s: 0.001,
+                unstable_at_s: Some(0.00125),
+            }),
             description: "test".into(),
             designed_for: Some(DesignedFor {
                 mass_range_kg: Some([1200.0, 1800.0]),

@@ -290,6 +290,8 @@ pub struct Controller {
     r: DVector<f64>,
     /// A predictor over the actuators' delay, with the delay set for the next run.
     predictor: Option<predictor::Runtime>,
+    /// The last communication step warned about (by its bits): each step size once.
+    warned_step: Option<u64>,
     tau: f64,
     /// Fault accommodation: the effectiveness estimator the commands are divided by.
     estimator: Option<accommodation::Estimator>,
@@ -447,6 +449,7 @@ impl Model for Controller {
             .map(accommodation::Estimator::new);
         Ok(Controller {
             predictor,
+            warned_step: None,
             tau: 0.0,
             estimator,
             x: DVector::zeros(nx),
@@ -560,6 +563,26 @@ impl Model for Controller {
         self.detected = false;
         self.valid = false;
         Ok(())
+    }
+
+    fn step_warning(&mut self, step: f64) -> Option<String> {
+        let steps = self.spec.communication_steps.as_ref()?;
+        // 10⁻⁹ relative: a step the certificate checked, as a master computes it, is not beyond.
+        if step <= steps.stable_up_to_s * (1.0 + 1e-9) || self.warned_step == Some(step.to_bits()) {
+            return None;
+        }
+        self.warned_step = Some(step.to_bits());
+        let unstable = match steps.unstable_at_s {
+            Some(u) => format!(", and unstable at {u} s"),
+            None => String::new(),
+        };
+        Some(format!(
+            "communication step {step} s: {}'s loop as a master runs it (commands and \
+             measurements held over each step) was found stable at the steps checked up to {} s \
+             on the car it was designed for{unstable} (its certificate's \
+             comfort.communication_steps); use a step of at most {} s",
+            self.spec.variant, steps.stable_up_to_s, steps.stable_up_to_s
+        ))
     }
 
     fn do_step(&mut self, _time: f64, step: f64) -> Result<(), ModelError> {

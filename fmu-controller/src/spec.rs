@@ -5,8 +5,8 @@
 use linsys::Lti;
 use nalgebra::DMatrix;
 
+pub use controller_file::{CommunicationSteps, Guarantee, Signal, FORMAT};
 use controller_file::{ControllerFile as Raw, Predictor as RawPredictor};
-pub use controller_file::{Guarantee, Signal, FORMAT};
 
 /// A fault detector (thesis ch. 8): `ξ̇ = A ξ + B y + B_u u` with `u` the command sent (N),
 /// the residual `r = C ξ + D y` (N, the estimated actuator force deficit); `fault_detected`
@@ -86,6 +86,8 @@ pub struct Spec {
     pub anti_windup: Option<AntiWindup>,
     pub fault_detection: Option<FaultDetection>,
     pub predictor: Option<Predictor>,
+    /// Where its certificate found the loop as a master runs it stable (absent: not checked).
+    pub communication_steps: Option<CommunicationSteps>,
     /// FNV-1a of the file's bytes: enters the version string, hence the GUID.
     pub content_hash: u64,
 }
@@ -344,7 +346,21 @@ impl Spec {
             .as_ref()
             .map(|a| accommodation(a, &raw.inputs, nu))
             .transpose()?;
+        if let Some(c) = &raw.communication_steps {
+            let positive = |v: f64| v.is_finite() && v > 0.0;
+            if !positive(c.stable_up_to_s)
+                || c.unstable_at_s
+                    .is_some_and(|u| !(positive(u) && u > c.stable_up_to_s))
+            {
+                return Err(SpecError::Invalid(format!(
+                    "communication_steps: stable_up_to_s must be finite and > 0 and \
+                     unstable_at_s above it, found {} and {:?}",
+                    c.stable_up_to_s, c.unstable_at_s
+                )));
+            }
+        }
         let spec = Spec {
+            communication_steps: raw.communication_steps,
             accommodation,
             anti_windup,
             fault_detection,

@@ -172,6 +172,61 @@ fn spec_rejects_non_finite_numbers_duplicates_and_bad_identifiers() {
     ));
 }
 
+/// A communication step beyond the ones `controller.json` says its loop is stable at is
+/// stepped (the step itself is exact) and answered with `fmi2Warning` and one log message per
+/// step size; the steps within them stay `fmi2OK`. Values that make no range are refused.
+#[test]
+fn a_step_beyond_the_stable_communication_steps_is_a_warning_once_per_step_size() {
+    let with = |steps: &str| {
+        SPEC.replace(
+            r#""variant": "test_ctrl","#,
+            &format!(r#""variant": "test_ctrl", "communication_steps": {steps},"#),
+        )
+    };
+    let spec = with(r#"{"stable_up_to_s": 0.001, "unstable_at_s": 0.00125}"#);
+    let log = LogCapture::default();
+    let (c, _cb) = running(&log, "steps", &spec);
+    let mut t = 0.0;
+    let mut step = |h: f64| {
+        let status = unsafe { fmi2DoStep(c, t, h, 1) };
+        t += h;
+        status
+    };
+    assert_eq!(step(0.0005), 0);
+    assert_eq!(step(0.001), 0);
+    assert!(log.messages().is_empty(), "{:?}", log.messages());
+    assert_eq!(step(0.002), 1, "fmi2Warning beyond the stable steps");
+    let said = log.messages();
+    assert_eq!(said.len(), 1, "{said:?}");
+    assert!(
+        said[0].contains("communication step 0.002 s")
+            && said[0].contains("up to 0.001 s")
+            && said[0].contains("unstable at 0.00125 s"),
+        "{said:?}"
+    );
+    assert_eq!(step(0.002), 0, "said once per step size");
+    assert_eq!(step(0.001), 0);
+    assert_eq!(step(0.003), 1, "another step size is said again");
+    assert_eq!(log.messages().len(), 2);
+    // Stepped exactly all the same: xc after the steps with y1 held at 0.2.
+    let mut u = [0.0; 2];
+    unsafe { fmi2GetReal(c, OUTPUTS.as_ptr(), 2, u.as_mut_ptr()) };
+    let xc = 0.1 * (1.0 - (-2.0 * t).exp());
+    assert!((u[0] - (3.0 * xc + 2.0)).abs() < 1e-14, "{u:?}");
+    unsafe { fmi2FreeInstance(c) };
+
+    for bad in [
+        r#"{"stable_up_to_s": 0.0}"#,
+        r#"{"stable_up_to_s": 0.002, "unstable_at_s": 0.001}"#,
+        r#"{"stable_up_to_s": -1.0}"#,
+        r#"{"unstable_at_s": 0.001}"#,
+        r#"{"stable_up_to_s": 0.001, "beyond": 2}"#,
+    ] {
+        assert!(Spec::from_json(&with(bad)).is_err(), "{bad} accepted");
+    }
+    assert!(Spec::from_json(&with(r#"{"stable_up_to_s": 0.01}"#)).is_ok());
+}
+
 /// Static controller `y_c = [10 y; 0]` with a scalar anti-windup state: `η̇ = −η + (u_fl − y_c,fl)`,
 /// the controller reads `y − 0.5 η`, `u = sat(y_c + [0; 1] η)`.
 const AW_SPEC: &str = r#"{

@@ -526,6 +526,14 @@ impl<M: Model> Instance<M> {
             return Err(e);
         }
         self.time = current + step;
+        if let Some(why) = self.model.step_warning(step) {
+            self.logger.log(
+                Status::Warning,
+                Category::StatusWarning,
+                &format!("fmi2DoStep: {why}"),
+            );
+            return Ok(Status::Warning);
+        }
         Ok(Status::Ok)
     }
 

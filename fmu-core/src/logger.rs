@@ -120,11 +120,12 @@ impl Logger {
         Ok(())
     }
 
-    /// Errors and discards always: an importer must learn why a call failed or a step was
-    /// refused, whatever it switched off.
+    /// Errors, discards and warnings always: an importer must learn why a call failed, a step
+    /// was refused or a call returned `fmi2Warning` (whose meaning in FMI 2.0 is that the
+    /// logger has been called), whatever it switched off.
     pub fn is_enabled(&self, category: Category) -> bool {
         match category {
-            Category::StatusError | Category::StatusDiscard => true,
+            Category::StatusError | Category::StatusDiscard | Category::StatusWarning => true,
             _ => self.enabled[category.index()] && self.logging_on,
         }
     }

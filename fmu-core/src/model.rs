@@ -131,6 +131,14 @@ pub trait Model: Sized + Send + 'static {
     /// Advance from `time` by `step` (> 0). On error the model must be left unchanged.
     fn do_step(&mut self, time: f64, step: f64) -> Result<(), ModelError>;
 
+    /// After a successful step of `step`: why the master should not use this communication
+    /// step, if it should not (the runtime logs it as a warning and the step returns
+    /// `fmi2Warning`). Asked at every step; a model says it once per step size, not at every
+    /// step.
+    fn step_warning(&mut self, _step: f64) -> Option<String> {
+        None
+    }
+
     /// Write everything needed to continue bit-identically in another instance.
     fn save(&self, out: &mut StateWriter);
 

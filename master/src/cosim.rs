@@ -513,6 +513,9 @@ pub struct Run {
     pub commands: Vec<[f64; 5]>,
     /// Wall time of the stepping loop alone (FMUs loaded and initialised) [s].
     pub loop_seconds: f64,
+    /// What the FMUs said in a run that went through (their warnings: a controller stepped
+    /// beyond the communication steps its loop is stable at says so), as `instance: message`.
+    pub warnings: Vec<String>,
 }
 
 impl Run {
@@ -869,6 +872,13 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         }));
         time.push(t + h);
     }
+    let loop_seconds = started.elapsed().as_secs_f64();
+    let mut instances = vec![instance("road"), instance("plant"), instance("controller")];
+    instances.dedup();
+    let warnings = instances
+        .iter()
+        .filter_map(|i| crate::fmu_log::said(i).map(|m| format!("{i}: {m}")))
+        .collect();
     Ok(Run {
         columns: setup.record.to_vec(),
         units,
@@ -878,7 +888,8 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         force_limits: [u_max, u_max, u_max, u_max, u_max_seat],
         delay,
         commands,
-        loop_seconds: started.elapsed().as_secs_f64(),
+        loop_seconds,
+        warnings,
     })
 }
 

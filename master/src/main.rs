@@ -358,6 +358,9 @@ fn main() {
             }
             let r = run(&cli.dist, &s, controller.as_deref())?;
             r.write_csv(out)?;
+            for w in &r.warnings {
+                eprintln!("warning: {w}");
+            }
             let values = master::sweep::metric_values(&figures(&r, &s));
             let metrics: String = master::sweep::METRICS
                 .iter()

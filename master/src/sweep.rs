@@ -578,6 +578,7 @@ mod tests {
             delay: 0.0,
             commands: vec![[0.0; 5]; n],
             loop_seconds: 0.0,
+            warnings: Vec::new(),
         }
     }
 

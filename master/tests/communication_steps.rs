@@ -5,7 +5,8 @@
 //! largest step the certificate calls stable the car on the design road stays controlled (no
 //! actuator reaches its force limit, the W_k seat RMS well below the passive car's), and at the
 //! first step it calls unstable the loop grows until the actuators saturate (or an FMU refuses a
-//! non-finite value), at several times the stable step's W_k seat RMS.
+//! non-finite value), at several times the stable step's W_k seat RMS, and the controller FMU
+//! warns (`fmi2Warning`, from its `controller.json`'s `communication_steps`).
 //!
 //! Measured (ISO C at 20 m/s, seed 7, W_k seat RMS over the second half of the run, m/s²):
 //! `hinf_sf` 0.058 at 5 ms, 0.47 at 7.5 ms; `ft_of` 0.048 at 7.5 ms, 4.5 at 10 ms; `delay_sf`
@@ -86,6 +87,11 @@ fn each_certificate_says_at_which_communication_steps_its_loop_is_stable() {
                 .unwrap_or_else(|e| panic!("{variant} at {stable} s: {e}"));
             let (calm, saturated) = judge(&r);
             assert!(
+                r.warnings.is_empty(),
+                "{variant} at {stable} s: {:?}",
+                r.warnings
+            );
+            assert!(
                 !saturated && calm < 0.2 * passive,
                 "{variant} at {stable} s (certified stable): W_k seat {calm}, saturated {saturated}"
             );
@@ -104,6 +110,13 @@ fn each_certificate_says_at_which_communication_steps_its_loop_is_stable() {
                     match road_run(variant, h) {
                         Err(e) => line += &format!("; at {h} s refused: {e}"),
                         Ok(r) => {
+                            assert!(
+                                r.warnings.iter().any(|w| w.contains(&format!(
+                                    "communication step {h} s: {variant}'s loop"
+                                ))),
+                                "{variant} at {h} s: the FMU did not warn: {:?}",
+                                r.warnings
+                            );
                             let (wild, saturated) = judge(&r);
                             assert!(
                                 saturated && wild > 5.0 * calm,

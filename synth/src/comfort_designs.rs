@@ -132,6 +132,15 @@ impl CheckedStep {
 }
 
 impl StepStability {
+    /// What the controller FMU warns by (`controller.json`'s `communication_steps`); `None`
+    /// when not even the first checked step is stable (no such design is written).
+    pub fn for_the_fmu(&self) -> Option<crate::controller_file::CommunicationSteps> {
+        Some(crate::controller_file::CommunicationSteps {
+            stable_up_to_s: self.stable_up_to_s?,
+            unstable_at_s: self.checked.iter().find(|c| !c.stable()).map(|c| c.step_s),
+        })
+    }
+
     pub fn check(law: &ControlLaw, nominal: Conditions) -> Self {
         let checked: Vec<CheckedStep> = CHECKED_STEPS
             .iter()

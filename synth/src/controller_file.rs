@@ -3,8 +3,8 @@
 
 use crate::hinf_norm::Controller;
 pub use controller_file::{
-    Accommodation, AntiWindup, ControllerFile, DesignedFor, Extensions, FaultDetection, Guarantee,
-    Predictor, Rows, Signal, FORMAT,
+    Accommodation, AntiWindup, CommunicationSteps, ControllerFile, DesignedFor, Extensions,
+    FaultDetection, Guarantee, Predictor, Rows, Signal, FORMAT,
 };
 use nalgebra::DMatrix;
 
@@ -65,6 +65,7 @@ pub fn controller_json(
         d: matrix_rows(&k.d),
         accommodation: None,
         anti_windup: None,
+        communication_steps: None,
         description: description.into(),
         designed_for: None,
         fault_detection: None,

@@ -506,7 +506,7 @@ fn comfort_all(
             let c = &r.certificate;
             let comfort = &c.comfort;
             let guarantee = comfort_guarantee(design, comfort, c.robust_to);
-            let json = controller_json(
+            let mut json = controller_json(
                 name,
                 &format!("{} — comfort design: {}", name, v.summary),
                 &guarantee,
@@ -514,6 +514,7 @@ fn comfort_all(
                 &r.law.lti,
             )
             .with(r.extensions.clone());
+            json.communication_steps = comfort.communication_steps.for_the_fmu();
             let (certified, nominal_figure) = headline(c);
             let row = SummaryRow {
                 variant: name.to_string(),
@@ -632,8 +633,10 @@ fn held(comfort: &crate::comfort_designs::Comfort) -> String {
 /// `stable at steps to 10 ms`, `stable at steps to 1 ms, unstable at 1.25 ms`.
 fn steps(s: &crate::comfort_designs::StepStability) -> String {
     let ms = |h: f64| format!("{} ms", h * 1e3);
-    let first_unstable = s.checked.iter().find(|c| !c.stable()).map(|c| c.step_s);
-    match (s.stable_up_to_s, first_unstable) {
+    match (
+        s.stable_up_to_s,
+        s.checked.iter().find(|c| !c.stable()).map(|c| c.step_s),
+    ) {
         (Some(up), None) => format!("stable at steps to {}", ms(up)),
         (Some(up), Some(h)) => format!("stable at steps to {}, unstable at {}", ms(up), ms(h)),
         (None, Some(h)) => format!("unstable at {}", ms(h)),
