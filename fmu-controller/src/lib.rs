@@ -290,7 +290,8 @@ pub struct Controller {
     r: DVector<f64>,
     /// A predictor over the actuators' delay, with the delay set for the next run.
     predictor: Option<predictor::Runtime>,
-    /// The last communication step warned about (by its bits): each step size once.
+    /// The last communication step warned about (by its bits): a master that keeps its step
+    /// hears it once.
     warned_step: Option<u64>,
     tau: f64,
     /// Fault accommodation: the effectiveness estimator the commands are divided by.

@@ -9,8 +9,8 @@
 //! warns (`fmi2Warning`, from its `controller.json`'s `communication_steps`).
 //!
 //! Measured (ISO C at 20 m/s, seed 7, W_k seat RMS over the second half of the run, m/s²):
-//! `hinf_sf` 0.058 at 5 ms, 0.47 at 7.5 ms; `ft_of` 0.048 at 7.5 ms, 4.5 at 10 ms; `delay_sf`
-//! 0.0105 at 1 ms, 0.080 at 1.25 ms (its predictor drives the seat command's delay-weight filter,
+//! `hinf_sf` 0.058 at 5 ms, 0.56 at 7.5 ms; `ft_of` 0.049 at 7.5 ms, 4.5 at 10 ms; `delay_sf`
+//! 0.0105 at 1 ms, 0.078 at 1.25 ms (its predictor drives the seat command's delay-weight filter,
 //! a state of the gain's fastest closed-loop mode near −2000 rad/s, by the held command: a
 //! hold of more than about a millisecond cannot follow it; `docs/comfort-designs.md`).
 
