@@ -137,8 +137,13 @@ impl StepStability {
     pub fn for_the_fmu(&self) -> Option<crate::controller_file::CommunicationSteps> {
         Some(crate::controller_file::CommunicationSteps {
             stable_up_to_s: self.stable_up_to_s?,
-            unstable_at_s: self.checked.iter().find(|c| !c.stable()).map(|c| c.step_s),
+            unstable_at_s: self.first_unstable_s(),
         })
+    }
+
+    /// The smallest checked step at which the loop is not stable, if any.
+    pub fn first_unstable_s(&self) -> Option<f64> {
+        self.checked.iter().find(|c| !c.stable()).map(|c| c.step_s)
     }
 
     pub fn check(law: &ControlLaw, nominal: Conditions) -> Self {
@@ -185,9 +190,9 @@ pub struct RoadDescription {
     pub band_hz: [f64; 2],
 }
 
-/// The car model's comfort behind a predictor that predicts it, `J(θ)` ([`crate::predictor::comfort_at`]),
-/// over the whole of `[0, θ_max]`: its worst on an even grid of
-/// `intervals + 1` delays, and a bound that holds between them.
+/// The car model's comfort behind a predictor that predicts it, `J(θ)`
+/// ([`crate::predictor::comfort_at`]), over the whole of `[0, θ_max]`: its worst on an even grid
+/// of `intervals + 1` delays, and a bound that holds between them.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct OverDelays {
     pub delay_max_s: f64,

@@ -233,9 +233,8 @@ pub struct SummaryRow {
     pub guaranteed_wk_rms_seat: Option<f64>,
     /// Comfort designs: the predicted W_k RMS seat acceleration as a master runs the loop at
     /// its communication step (the certificate's `comfort.held`), at the nominal car and worst
-    /// over the design's uncertainty: `0.0103 at 1 ms (stable at steps to 5 ms, unstable at 7.5 ms);
-    /// worst 0.0105` (the cell of both tables,
-    /// `master`'s read from `synthesis.json`).
+    /// over the design's uncertainty: `0.0103 at 1 ms (stable at steps to 5 ms, unstable at
+    /// 7.5 ms); worst 0.0105` (the cell of both tables, `master`'s read from `synthesis.json`).
     pub held: Option<String>,
     /// Thesis designs: the γ the LMI claims, the certified `‖T_zw‖∞` at the nominal car, and
     /// the passive car's on the same generalised plant.
@@ -612,9 +611,9 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
 }
 
 /// A comfort design's prediction as a master runs it: `0.0103 at 1 ms`, the communication
-/// steps its nominal loop is stable at (`(stable at steps to 5 ms, unstable at 7.5 ms)`), and for a robust
-/// design its worst over the uncertainty's conditions (`; worst 0.0105`, or where it is
-/// unstable at the step).
+/// steps its nominal loop is stable at (`(stable at steps to 5 ms, unstable at 7.5 ms)`), and
+/// for a robust design its worst over the uncertainty's conditions (`; worst 0.0105`, or where
+/// it is unstable at the step).
 fn held(comfort: &crate::comfort_designs::Comfort) -> String {
     let h = &comfort.held;
     let nominal = format!(
@@ -633,10 +632,7 @@ fn held(comfort: &crate::comfort_designs::Comfort) -> String {
 /// `stable at steps to 10 ms`, `stable at steps to 1 ms, unstable at 1.25 ms`.
 fn steps(s: &crate::comfort_designs::StepStability) -> String {
     let ms = |h: f64| format!("{} ms", h * 1e3);
-    match (
-        s.stable_up_to_s,
-        s.checked.iter().find(|c| !c.stable()).map(|c| c.step_s),
-    ) {
+    match (s.stable_up_to_s, s.first_unstable_s()) {
         (Some(up), None) => format!("stable at steps to {}", ms(up)),
         (Some(up), Some(h)) => format!("stable at steps to {}, unstable at {}", ms(up), ms(h)),
         (None, Some(h)) => format!("unstable at {}", ms(h)),
