@@ -23,14 +23,8 @@ fn dist() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dist")
 }
 
-/// The plant's default force limits [N] (corners, seat): `plant.fmu`'s `u_max`, `u_max_seat`.
-const LIMITS: [(&str, f64); 5] = [
-    ("f_fl", 2500.0),
-    ("f_fr", 2500.0),
-    ("f_rl", 2500.0),
-    ("f_rr", 2500.0),
-    ("f_seat", 1000.0),
-];
+/// The applied forces, in the order of [`Run::force_limits`] (corners, seat).
+const FORCES: [&str; 5] = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"];
 
 /// 30 s on the design road (ISO C, 20 m/s) at `step`.
 fn road_run(controller: &str, step: f64) -> Result<Run, String> {
@@ -47,8 +41,9 @@ fn road_run(controller: &str, step: f64) -> Result<Run, String> {
 /// W_k seat RMS over the second half of the run, and whether an actuator reached its limit.
 fn judge(r: &Run) -> (f64, bool) {
     let seat = r.column("a_seat_wk").expect("recorded");
-    let saturated = LIMITS
+    let saturated = FORCES
         .iter()
+        .zip(r.force_limits)
         .any(|(name, limit)| peak(&r.column(name).expect("recorded")) >= 0.999 * limit);
     (rms(&seat[seat.len() / 2..]), saturated)
 }
