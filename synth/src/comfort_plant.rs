@@ -55,7 +55,7 @@ pub type Abcd = [DMatrix<f64>; 4];
 
 /// The `[p/p]` Padé approximant of `e^{−sT}`: `Σ c_k (−sT)^k / Σ c_k (sT)^k`,
 /// `c_k = (2p − k)! p! / ((2p)! k! (p − k)!)`, realised for `T = 1` in controllable canonical
-/// form and scaled in time (`A/T`, `B/T`) so its coefficients stay of order one.
+/// form with its states scaled (below), and scaled in time (`A/T`, `B/T`).
 pub fn pade(order: usize, delay: f64) -> Abcd {
     let p = order;
     if p == 0 {
@@ -88,6 +88,15 @@ pub fn pade(order: usize, delay: f64) -> Abcd {
     let mut b = DMatrix::zeros(p, 1);
     b[(p - 1, 0)] = 1.0;
     let cm = DMatrix::from_fn(1, p, |_, k| num[k] - d0 * den[k]);
+    // The companion form's coefficients grow like ω^{p−k}, ω = d_0^{1/p} the size of the roots
+    // (order 8: d_0 = 5·10⁸, and the road velocity `C A ξ` of a car model reached 10¹² s⁻²,
+    // which made its predictor's exponentials lose eight digits). The states scaled by
+    // `ω^{k−p}` (`x = S x̃`) have every coefficient of order ω.
+    let omega = den[0].abs().powf(1.0 / p as f64);
+    let s = |i: usize| omega.powi(i as i32 - p as i32);
+    let a = DMatrix::from_fn(p, p, |i, j| a[(i, j)] * s(j) / s(i));
+    let b = DMatrix::from_fn(p, 1, |i, _| b[(i, 0)] / s(i));
+    let cm = DMatrix::from_fn(1, p, |_, j| cm[(0, j)] * s(j));
     [a / delay, b / delay, cm, DMatrix::from_element(1, 1, d0)]
 }
 
