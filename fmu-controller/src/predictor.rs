@@ -3,27 +3,38 @@
 //!
 //! The controller holds each command over its communication step, as the plant receives it, so
 //! the command history is a list of held segments `(duration, u)`, newest first, ages measured
-//! back from now. Over `[t, t + h)`:
-//! * the command is `u(t) = K e^{Aθ} (S_y y + S_ξ ξ) + Σ_j K e^{A a_j} G(ℓ_j) u_j`, the sum over
-//!   the parts `[a_j, a_j + ℓ_j]` of the segments younger than `θ` (`G(ℓ) = ∫₀^ℓ e^{As} ds B`),
-//!   exactly the integral of the in-flight commands for held segments;
-//! * `ξ` steps exactly with `y` held and the delayed command `u(· − θ)` piecewise constant:
-//!   `ξ(t + h) = Φ_ξ ξ + Γ_ξ (y − D_yu u_r) + Σ_j e^{A_ξ b_j} G'_ξ(ℓ_j) u_j` over the parts of
-//!   the segments whose commands act during the step, `G'_ξ` with `B_ξu + B_ξ D_yu`. `u_r` is
-//!   the command whose force `y` carries (the one sent `θ` ago; with no delay the previous
-//!   one, which a master's plant still applies when it is read): `y` holds the inputs' part
-//!   that moves with the car, and the force reaches `ξ` as the actuators apply it. Held `y`
-//!   alone would carry `u_r`'s force through a step in which the delayed command changes,
-//!   which it does mid-step when `θ` is not a whole number of steps: measured, the sampled loop
-//!   of `delay_sf` then had spectral radius 1.41 at 1.1 ms (unstable), 1.21 at 1.5 ms.
+//! back from now. `ξ` has two kinds of rows:
+//! * the **command's own filters** (the rows `B_ξu` drives, [`Predictor::own`]: the
+//!   unmodelled-delay weight) run in controller time: `φ(t)` filters the commands up to `t`,
+//!   which is exactly the design state's part `θ` ahead (those states and the car's do not
+//!   drive each other, checked on reading, so `e^{Aθ}` does not mix them);
+//! * the **rest** follows the car: driven by `y` held without the force it carries
+//!   (`y − D_yu u_r`, `u_r` the command whose force `y` carries: the one sent `θ` ago, with no
+//!   delay the previous one, which a master's plant still applies when it is read) and by the
+//!   force as the actuators apply it (`B_ξ D_yu u(· − θ)`). Held `y` alone would carry `u_r`'s
+//!   force through a step in which the delayed command changes, which it does mid-step when `θ`
+//!   is not a whole number of steps: measured, the sampled loop of `delay_sf` then had
+//!   spectral radius 1.41 at 1.1 ms (unstable), 1.21 at 1.5 ms.
 //!
-//! Each term's matrix depends only on the part's age and length, so it is computed once (Van
-//! Loan's exponential, [`linsys::discretize`]) and kept: with a constant communication
-//! step every step reuses the same `θ / h + 1` small matrices (`K e^{A a} G` is 5×5); a master
-//! that changes its step pays a few exponentials per new part, and stays exact.
+//! The command is `u = K̃ (e^{Aθ} (S_y y + S_ξ ξ) + I) + K_φ φ`, `K̃` the gain without the
+//! filters' columns, `I = Σ_j e^{A a_j} G(ℓ_j) u_j` the in-flight integral over the parts
+//! `[a_j, a_j + ℓ_j]` of the segments younger than `θ` (`G(ℓ) = ∫₀^ℓ e^{As} ds B`), exact for
+//! held segments. Over a step the filters take the command continuously, `φ̇ = A_φ φ + B_φ
+//! u_v(s)`, `u_v` that formula with the prediction moving on as the commands sent make it
+//! (`İ = A I + B u − e^{Aθ} B u(s − θ)`): the command the design gives at every instant of
+//! the step, so the hold never enters the filters' own loop, which is the gain's fastest
+//! (−2000 rad/s in `delay_sf`). Driving the filters by the held commands instead made
+//! `delay_sf` unstable at every communication step above 1.1 ms. With `w = [ξ; I]`,
+//! `ẇ = Ā w + B̄ [y; u_r; u(· − θ); u]` over the step: one exponential per step length and per
+//! part of a segment acting during the step.
+//!
+//! Each term's matrix depends only on the step length and the part's age and length, so it is
+//! computed once (Van Loan's exponential, [`linsys::discretize`]) and kept: with a constant
+//! communication step every step reuses the same few small matrices; a master that changes its
+//! step pays a few exponentials per new part, and stays exact.
 
 use crate::spec::Predictor;
-use linsys::{discretize, ExpError};
+use linsys::{discretize, expm, ExpError};
 use nalgebra::{DMatrix, DVector, DVectorView};
 use std::collections::{HashMap, VecDeque};
 
@@ -37,44 +48,57 @@ type Key = (u64, u64);
 #[derive(Debug, Clone)]
 pub struct Runtime {
     spec: Predictor,
-    /// `B_ξu + B_ξ D_yu`: how the applied force drives `ξ`.
-    b_force: DMatrix<f64>,
     /// The delay compensated [s].
     theta: f64,
-    /// `K e^{Aθ} S_y`, `K e^{Aθ} S_ξ` at `theta`.
+    /// `K̃`: the gain without the columns of the command's own filters.
+    k_tilde: DMatrix<f64>,
+    /// `K̃ e^{Aθ} S_y`; `K̃ e^{Aθ} S_ξ` with `K_φ` on the filters' columns.
     k_y: DMatrix<f64>,
     k_xi: DMatrix<f64>,
+    /// `Ā`, and `B̄`'s columns `[y | u_r | u(· − θ) | u]`, over `w = [ξ; I]`.
+    a_bar: DMatrix<f64>,
+    b_bar: DMatrix<f64>,
     /// Held commands `(duration, u)`, newest first, back to age `θ`.
     history: VecDeque<(f64, DVector<f64>)>,
-    /// `Σ_j K e^{A a_j} G(ℓ_j) u_j` over the history now.
+    /// `K̃ I` over the history now.
     in_flight: DVector<f64>,
-    prediction: HashMap<Key, DMatrix<f64>>,
+    /// Per part in flight: `e^{A a} G(ℓ)` and `K̃` of it.
+    prediction: HashMap<Key, (DMatrix<f64>, DMatrix<f64>)>,
+    /// Per part in flight at a step's start: what it adds to `ξ` over the step (`h` fixed).
+    carried: HashMap<Key, DMatrix<f64>>,
+    /// Per part of a segment acting during a step (its end's distance to the step's end, its
+    /// length): what its force adds to `ξ`.
     delayed: HashMap<Key, DMatrix<f64>>,
     /// `ξ`'s own matrices at the last step length.
     own: Option<OwnStep>,
 }
 
-/// `Φ_ξ`, `Γ_ξ` and `Γ_ξ D_yu` over a step.
+/// Over a step of `step`: the rows of `ξ` of `e^{Āh}` (on `ξ`, on `I`) and of its input
+/// integrals (on `y`, `u_r`, the command sent).
 #[derive(Debug, Clone)]
 struct OwnStep {
     step: f64,
     phi: DMatrix<f64>,
-    gamma: DMatrix<f64>,
-    gamma_d: DMatrix<f64>,
+    phi_i: DMatrix<f64>,
+    gamma_y: DMatrix<f64>,
+    gamma_r: DMatrix<f64>,
+    gamma_u: DMatrix<f64>,
 }
 
 impl Runtime {
     pub fn new(spec: Predictor) -> Result<Self, String> {
         let nu = spec.k.nrows();
-        let b_force = &spec.b_xiu + &spec.b_xi * &spec.d_yu;
         let mut r = Runtime {
-            b_force,
+            k_tilde: DMatrix::zeros(0, 0),
             k_y: DMatrix::zeros(0, 0),
             k_xi: DMatrix::zeros(0, 0),
+            a_bar: DMatrix::zeros(0, 0),
+            b_bar: DMatrix::zeros(0, 0),
             theta: 0.0,
             history: VecDeque::new(),
             in_flight: DVector::zeros(nu),
             prediction: HashMap::new(),
+            carried: HashMap::new(),
             delayed: HashMap::new(),
             own: None,
             spec,
@@ -106,15 +130,53 @@ impl Runtime {
     /// Compensate `theta` from now on, with no command in flight (the start of a run).
     pub fn reset(&mut self, theta: f64) -> Result<(), String> {
         if theta != self.theta || self.k_y.is_empty() {
-            let e = discretize(&self.spec.a, &DMatrix::zeros(self.spec.a.nrows(), 0), theta)
-                .map_err(|e| format!("cannot predict the state {theta} s ahead: {e}"))?
-                .phi;
+            let p = &self.spec;
+            let e = expm(&(&p.a * theta))
+                .map_err(|e| format!("cannot predict the state {theta} s ahead: {e}"))?;
+            let (nxi, n, ny, nu) = (p.a_xi.nrows(), p.a.nrows(), p.b_xi.ncols(), p.k.nrows());
+            let mut k_tilde = p.k.clone();
+            for &(_, i, _) in &p.own {
+                k_tilde.column_mut(i).fill(0.0);
+            }
+            let k_y = &k_tilde * &e * &p.s_y;
+            let mut k_xi = &k_tilde * &e * &p.s_xi;
+            for &(j, i, s) in &p.own {
+                k_xi.column_mut(j).copy_from(&(p.k.column(i) * s));
+            }
+            // The applied force reaches the car's rows through what they read.
+            let mut b_applied = &p.b_xi * &p.d_yu;
+            for &(j, _, _) in &p.own {
+                b_applied.row_mut(j).fill(0.0);
+            }
+            let mut a_bar = DMatrix::zeros(nxi + n, nxi + n);
+            a_bar
+                .view_mut((0, 0), (nxi, nxi))
+                .copy_from(&(&p.a_xi + &p.b_xiu * &k_xi));
+            a_bar
+                .view_mut((0, nxi), (nxi, n))
+                .copy_from(&(&p.b_xiu * &k_tilde));
+            a_bar.view_mut((nxi, nxi), (n, n)).copy_from(&p.a);
+            let mut b_bar = DMatrix::zeros(nxi + n, ny + 3 * nu);
+            b_bar
+                .view_mut((0, 0), (nxi, ny))
+                .copy_from(&(&p.b_xi + &p.b_xiu * &k_y));
+            b_bar
+                .view_mut((0, ny), (nxi, nu))
+                .copy_from(&(-&p.b_xi * &p.d_yu));
+            b_bar
+                .view_mut((0, ny + nu), (nxi, nu))
+                .copy_from(&b_applied);
+            b_bar
+                .view_mut((nxi, ny + nu), (n, nu))
+                .copy_from(&(-&e * &p.b));
+            b_bar.view_mut((nxi, ny + 2 * nu), (n, nu)).copy_from(&p.b);
             self.theta = theta;
-            let ke = &self.spec.k * e;
-            self.k_y = &ke * &self.spec.s_y;
-            self.k_xi = &ke * &self.spec.s_xi;
+            (self.k_tilde, self.k_y, self.k_xi) = (k_tilde, k_y, k_xi);
+            (self.a_bar, self.b_bar) = (a_bar, b_bar);
             self.prediction.clear();
+            self.carried.clear();
             self.delayed.clear();
+            self.own = None;
         }
         self.history.clear();
         self.in_flight.fill(0.0);
@@ -139,39 +201,40 @@ impl Runtime {
         h: f64,
     ) -> Result<DVector<f64>, String> {
         let failed = |e: ExpError| crate::step_refused(h, e);
+        let (nxi, ny, nu) = (xi.len(), y.len(), u.len());
         if self.own.as_ref().map(|o| o.step.to_bits()) != Some(h.to_bits()) {
-            let d = discretize(&self.spec.a_xi, &self.spec.b_xi, h).map_err(failed)?;
+            let d = discretize(&self.a_bar, &self.b_bar, h).map_err(failed)?;
+            let rows =
+                |c0: usize, cols: usize| d.gamma_hold.view((0, c0), (nxi, cols)).into_owned();
             self.own = Some(OwnStep {
                 step: h,
-                gamma_d: &d.gamma_hold * &self.spec.d_yu,
-                phi: d.phi,
-                gamma: d.gamma_hold,
+                phi: d.phi.view((0, 0), (nxi, nxi)).into_owned(),
+                phi_i: d
+                    .phi
+                    .view((0, nxi), (nxi, d.phi.ncols() - nxi))
+                    .into_owned(),
+                gamma_y: rows(0, ny),
+                gamma_r: rows(ny, nu),
+                gamma_u: rows(ny + 2 * nu, nu),
             });
+            self.carried.clear();
         }
-        let OwnStep {
-            phi,
-            gamma,
-            gamma_d,
-            ..
-        } = self.own.as_ref().expect("set above");
-        let mut next = phi * DVectorView::from_slice(xi, xi.len());
-        next.gemv(1.0, gamma, y, 1.0);
+        let own = self.own.as_ref().expect("set above");
+        let mut next = &own.phi * DVectorView::from_slice(xi, xi.len());
+        next.gemv(1.0, &own.gamma_y, y, 1.0);
+        next.gemv(1.0, &own.gamma_u, u, 1.0);
         if let Some(u_r) = self.read_command(h) {
-            next.gemv(-1.0, gamma_d, u_r, 1.0);
+            next.gemv(1.0, &own.gamma_r, u_r, 1.0);
         }
-        // The history with this step's command, ages from the end of the step (taken back out
-        // if the step fails).
-        self.history.push_front((h, u.clone()));
-        // The delayed command acts during the step with ages (from its end) in [θ, θ + h].
         let theta = self.theta;
-        let mut age = 0.0f64;
         let mut result = Ok(());
+        // The commands in flight at the step's start, ages from now: `Φ̄_ξI e^{Aa} G(ℓ) u_j`.
+        let mut age = 0.0f64;
         for (len, uj) in &self.history {
-            let (lo, hi) = (age.max(theta), (age + len).min(theta + h));
+            let (lo, hi) = (age, (age + len).min(theta));
             if hi > lo {
-                let m = cached(&mut self.delayed, (lo - theta, hi - lo), |b, l| {
-                    let g = discretize(&self.spec.a_xi, &self.b_force, l)?.gamma_hold;
-                    Ok(discretize(&self.spec.a_xi, &DMatrix::zeros(g.nrows(), 0), b)?.phi * g)
+                let m = cached(&mut self.carried, (lo, hi - lo), |a, l| {
+                    Ok(&own.phi_i * predicted(&self.spec, a, l)?)
                 });
                 match m {
                     Ok(m) => next.gemv(1.0, m, uj, 1.0),
@@ -179,6 +242,33 @@ impl Runtime {
                         result = Err(failed(e));
                         break;
                     }
+                }
+            }
+            age += len;
+        }
+        // The history with this step's command, ages from the end of the step (taken back out
+        // if the step fails).
+        self.history.push_front((h, u.clone()));
+        // The delayed command acts during the step with ages (from its end) in [θ, θ + h].
+        let mut age = 0.0f64;
+        for (len, uj) in &self.history {
+            if result.is_err() {
+                break;
+            }
+            let (lo, hi) = (age.max(theta), (age + len).min(theta + h));
+            if hi > lo {
+                let m = cached(&mut self.delayed, (lo - theta, hi - lo), |b, l| {
+                    let g = discretize(
+                        &self.a_bar,
+                        &self.b_bar.columns(ny + nu, nu).into_owned(),
+                        l,
+                    )?
+                    .gamma_hold;
+                    Ok((expm(&(&self.a_bar * b))? * g).rows(0, nxi).into_owned())
+                });
+                match m {
+                    Ok(m) => next.gemv(1.0, m, uj, 1.0),
+                    Err(e) => result = Err(failed(e)),
                 }
             }
             age += len;
@@ -224,7 +314,7 @@ impl Runtime {
         })
     }
 
-    /// `Σ_j K e^{A a_j} G(ℓ_j) u_j` over the newest `keep` segments of the history.
+    /// `K̃ I = Σ_j K̃ e^{A a_j} G(ℓ_j) u_j` over the newest `keep` segments of the history.
     fn in_flight_of(&mut self, keep: usize) -> Result<DVector<f64>, ExpError> {
         let mut sum = DVector::zeros(self.in_flight.len());
         let theta = self.theta;
@@ -232,12 +322,12 @@ impl Runtime {
         for (len, uj) in self.history.iter().take(keep) {
             let (lo, hi) = (age, (age + len).min(theta));
             if hi > lo {
-                let m = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
-                    let g = discretize(&self.spec.a, &self.spec.b, l)?.gamma_hold;
-                    let e = discretize(&self.spec.a, &DMatrix::zeros(g.nrows(), 0), a)?.phi;
-                    Ok(&self.spec.k * e * g)
+                let (_, k) = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
+                    let x = predicted(&self.spec, a, l)?;
+                    let k = &self.k_tilde * &x;
+                    Ok((x, k))
                 })?;
-                sum.gemv(1.0, m, uj, 1.0);
+                sum.gemv(1.0, k, uj, 1.0);
             }
             age += len;
         }
@@ -293,12 +383,17 @@ impl Runtime {
     }
 }
 
+/// `e^{A a} G(ℓ)`: a command held for `ℓ`, `a` before now, in the prediction.
+fn predicted(p: &Predictor, a: f64, l: f64) -> Result<DMatrix<f64>, ExpError> {
+    Ok(expm(&(&p.a * a))? * discretize(&p.a, &p.b, l)?.gamma_hold)
+}
+
 /// `cache[key]`, computed by `make(age, length)` on a miss (a failure is not cached).
-fn cached(
-    cache: &mut HashMap<Key, DMatrix<f64>>,
+fn cached<T>(
+    cache: &mut HashMap<Key, T>,
     (age, len): (f64, f64),
-    make: impl FnOnce(f64, f64) -> Result<DMatrix<f64>, ExpError>,
-) -> Result<&DMatrix<f64>, ExpError> {
+    make: impl FnOnce(f64, f64) -> Result<T, ExpError>,
+) -> Result<&T, ExpError> {
     if cache.len() >= CACHE_LIMIT {
         cache.clear();
     }

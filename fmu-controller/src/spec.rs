@@ -26,6 +26,9 @@ pub struct FaultDetection {
 /// `predictor.rs`): the design state `x = S_y y + S_ξ ξ` from the inputs `y` and the
 /// controller's own states `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u(t − θ)`, and the command
 /// `u(t) = K [e^{Aθ} x(t) + ∫_{t−θ}^{t} e^{A(t−r)} B u(r) dr]`: the design state `θ` ahead.
+/// The rows of `ξ` that `B_ξu` drives (the command's own filters, [`Predictor::own`]) are kept
+/// in controller time by the runtime, as the filter of `u` up to `t`: their part of that
+/// prediction ([`crate::predictor`]).
 /// With `θ = 0` it is the controller `A, B, C, D` of the file (checked on reading). `D_yu` is
 /// how the applied force reaches the inputs at once (the accelerations), so that the runtime,
 /// which holds `y` over a step, can drive `ξ` by the force as the actuators apply it.
@@ -42,6 +45,11 @@ pub struct Predictor {
     pub b_xiu: DMatrix<f64>,
     /// `D_yu` (ny × nu; zero when the file has none).
     pub d_yu: DMatrix<f64>,
+    /// The command's own filters: `(j, i, s)` for each row `j` of `ξ` that `B_ξu` drives,
+    /// read by `S_ξ` into the design state `i` alone (`x_i = s ξ_j`). Checked on reading: they
+    /// read nothing else and nothing else reads them (`A`, `A_ξ`, `B_ξ`, `S_y`), so the
+    /// runtime can keep them in controller time ([`crate::predictor`]).
+    pub own: Vec<(usize, usize, f64)>,
     /// The largest delay it is certified for [s] (the parameter `tau`'s maximum).
     pub delay_max: f64,
     /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`), if any.
@@ -139,7 +147,7 @@ fn predictor(p: &RawPredictor, ny: usize, nu: usize) -> Result<Predictor, SpecEr
             p.delay_max
         )));
     }
-    Ok(Predictor {
+    let mut predictor = Predictor {
         a: matrix("predictor.A", &p.a, n, n)?,
         b: matrix("predictor.B", &p.b, n, nu)?,
         k: matrix("predictor.K", &p.k, nu, n)?,
@@ -158,7 +166,52 @@ fn predictor(p: &RawPredictor, ny: usize, nu: usize) -> Result<Predictor, SpecEr
             .as_ref()
             .map(|u| force_limits("predictor.u_max", u, nu))
             .transpose()?,
-    })
+        own: Vec::new(),
+    };
+    predictor.own = own_filters(&predictor)?;
+    Ok(predictor)
+}
+
+/// [`Predictor::own`], or why the file's filters of the command cannot run in controller time.
+fn own_filters(p: &Predictor) -> Result<Vec<(usize, usize, f64)>, SpecError> {
+    let invalid = |what: String| {
+        SpecError::Invalid(format!(
+            "predictor: {what}; the rows of xi that B_xiu drives must be filters of the command \
+             alone, each read by S_xi into one design state that no other state reads or drives"
+        ))
+    };
+    let (n, m) = (p.a.nrows(), p.a_xi.nrows());
+    let rows: Vec<usize> = (0..m)
+        .filter(|&j| p.b_xiu.row(j).iter().any(|v| *v != 0.0))
+        .collect();
+    let mut own = Vec::new();
+    for &j in &rows {
+        let read: Vec<usize> = (0..n).filter(|&i| p.s_xi[(i, j)] != 0.0).collect();
+        let [i] = read[..] else {
+            return Err(invalid(format!(
+                "S_xi reads xi row {j} into {} design states",
+                read.len()
+            )));
+        };
+        own.push((j, i, p.s_xi[(i, j)]));
+    }
+    let states: Vec<usize> = own.iter().map(|o| o.1).collect();
+    for &(j, i, _) in &own {
+        if p.b_xi.row(j).iter().any(|v| *v != 0.0) || p.s_y.row(i).iter().any(|v| *v != 0.0) {
+            return Err(invalid(format!(
+                "xi row {j} (state {i}) is also driven by or read from y"
+            )));
+        }
+        if (0..m).any(|k| !rows.contains(&k) && (p.a_xi[(j, k)] != 0.0 || p.a_xi[(k, j)] != 0.0))
+            || (0..m).any(|k| k != j && p.s_xi[(i, k)] != 0.0)
+            || (0..n).any(|k| !states.contains(&k) && (p.a[(i, k)] != 0.0 || p.a[(k, i)] != 0.0))
+        {
+            return Err(invalid(format!(
+                "xi row {j} (state {i}) is coupled to the other states"
+            )));
+        }
+    }
+    Ok(own)
 }
 
 /// A block's default force limits: one per output, finite and > 0.

@@ -366,29 +366,36 @@ fn fault_detector_integrates_the_command_sent_and_latches_its_flag() {
     );
 }
 
-/// A scalar predictor: design model `ẋ = −2 x + 1.5 u`, gain `K = −0.8`, `x = y + 0.7 ξ`,
-/// `ξ̇ = −3 ξ + 0.3 y + u(t − θ)`, the input carrying the applied force as `0.4 u(t − θ)`;
-/// `delay_max` 0.3 s. Its undelayed controller (A, B, C, D) is
-/// `A = −3 + 1·(−0.8)·0.7`, `B = 0.3 − 0.8`, `C = −0.8·0.7`, `D = −0.8`.
+/// A predictor of a scalar car with one filter of the command: design model
+/// `ẋ₁ = −2 x₁ + 1.5 u`, `ẋ₂ = −5 x₂ + u` (the filter), gain `K = [−0.8, −2]`, `x₁ = y + 0.7 ξ₁`,
+/// `x₂ = ξ₂`, `ξ̇₁ = −3 ξ₁ + 0.3 y`, `ξ̇₂ = −5 ξ₂ + u`, the input carrying the applied force as
+/// `0.4 u(t − θ)`; `delay_max` 0.3 s. Its undelayed controller (A, B, C, D) is
+/// `C = K S_ξ = [−0.56, −2]`, `D = −0.8`, `A = A_ξ + B_ξu C`, `B = B_ξ + B_ξu D`.
 const PRED_SPEC: &str = r#"{
   "format": "suspension-controller/2", "variant": "test_pred", "description": "test", "guarantee": {"name": "gamma", "value": 1.0, "unit": "1", "description": "test"},
   "inputs": [{"name": "stroke_fl", "unit": "m"}],
   "outputs": [{"name": "u_fl", "unit": "N"}],
-  "A": [[-3.56]], "B": [[-0.5]], "C": [[-0.56]], "D": [[-0.8]],
-  "predictor": {"A": [[-2.0]], "B": [[1.5]], "K": [[-0.8]], "S_y": [[1.0]], "S_xi": [[0.7]],
-                "A_xi": [[-3.0]], "B_xi": [[0.3]], "B_xiu": [[1.0]], "D_yu": [[0.4]], "delay_max": 0.3, "facts": {}}
+  "A": [[-3.0, 0.0], [-0.56, -7.0]], "B": [[0.3], [-0.8]], "C": [[-0.56, -2.0]], "D": [[-0.8]],
+  "predictor": {"A": [[-2.0, 0.0], [0.0, -5.0]], "B": [[1.5], [1.0]], "K": [[-0.8, -2.0]],
+                "S_y": [[1.0], [0.0]], "S_xi": [[0.7, 0.0], [0.0, 1.0]],
+                "A_xi": [[-3.0, 0.0], [0.0, -5.0]], "B_xi": [[0.3], [0.0]], "B_xiu": [[0.0], [1.0]],
+                "D_yu": [[0.4]], "delay_max": 0.3, "facts": {}}
 }"#;
 
-/// The scalar predictor of [`PRED_SPEC`] in closed form, independent of the runtime's matrix
-/// exponentials: the commands held over their steps, `ξ` exact on each piece where the delayed
-/// command is constant, driven by `y` held with its force part `0.4 u_r` (the command sent `θ`
-/// before the step's start; with no delay the previous one) replaced by the force applied on
-/// the piece, the in-flight integral `∫ e^{−2(t−r)} 1.5 u(r) dr` piece by piece.
+/// The predictor of [`PRED_SPEC`] in closed form, independent of the runtime's matrix
+/// exponentials. Over each step the command sent is held; on each piece of the step where the
+/// delayed command is constant, in closed form: the car's copy `ξ₁`, driven by `y` held with its
+/// force part `0.4 u_r` (the command sent `θ` before the step's start; with no delay the
+/// previous one) replaced by the force applied on the piece; the in-flight integral
+/// `I = ∫ e^{−2(t−r)} 1.5 u(r) dr` moving on with the command sent coming in and the applied
+/// one going out; the filter `φ` in controller time taking the command
+/// `−0.8 (e^{−2θ} (y + 0.7 ξ₁) + I) − 2 φ` continuously (sums of exponentials).
 struct ScalarPredictor {
     theta: f64,
     /// The force limit commands are clamped to.
     limit: f64,
     xi: f64,
+    phi: f64,
     /// `(start, end, command)`.
     sent: Vec<(f64, f64, f64)>,
 }
@@ -401,9 +408,8 @@ impl ScalarPredictor {
             .map_or(0.0, |p| p.2)
     }
 
-    fn command(&self, t: f64, y: f64) -> f64 {
-        let in_flight: f64 = self
-            .sent
+    fn in_flight(&self, t: f64) -> f64 {
+        self.sent
             .iter()
             .map(|&(s, e, u)| {
                 let (lo, hi) = (s.max(t - self.theta), e.min(t));
@@ -413,8 +419,12 @@ impl ScalarPredictor {
                     0.0
                 }
             })
-            .sum();
-        -0.8 * ((-2.0 * self.theta).exp() * (y + 0.7 * self.xi) + in_flight)
+            .sum()
+    }
+
+    fn command(&self, t: f64, y: f64) -> f64 {
+        let ahead = (-2.0 * self.theta).exp();
+        -0.8 * (ahead * (y + 0.7 * self.xi) + self.in_flight(t)) - 2.0 * self.phi
     }
 
     fn step(&mut self, t: f64, h: f64, y: f64) -> f64 {
@@ -425,6 +435,7 @@ impl ScalarPredictor {
             // A command's start counts as reached within rounding, as the plant counts it.
             self.sent_at(t - self.theta + 1e-12)
         };
+        let mut i = self.in_flight(t);
         self.sent.push((t, t + h, u));
         let mut cuts = vec![t, t + h];
         for &(s, e, _) in &self.sent {
@@ -435,11 +446,23 @@ impl ScalarPredictor {
             }
         }
         cuts.sort_by(f64::total_cmp);
+        let ahead = (-2.0 * self.theta).exp();
         for w in cuts.windows(2) {
             let d = w[1] - w[0];
             let applied = self.sent_at(0.5 * (w[0] + w[1]) - self.theta);
-            let input = 0.3 * (y + 0.4 * (applied - read)) + applied;
-            self.xi = (-3.0 * d).exp() * self.xi + (1.0 - (-3.0 * d).exp()) / 3.0 * input;
+            // ξ₁ → c/3 at rate 3, I → q/2 at rate 2, φ̇ = −7 φ + g₀ + g₃ e^{−3s} + g₂ e^{−2s}.
+            let c = 0.3 * (y + 0.4 * (applied - read));
+            let q = 1.5 * (u - ahead * applied);
+            let g0 = -0.8 * (ahead * (y + 0.7 * c / 3.0) + q / 2.0);
+            let g3 = -0.8 * ahead * 0.7 * (self.xi - c / 3.0);
+            let g2 = -0.8 * (i - q / 2.0);
+            let e = |rate: f64| (-rate * d).exp();
+            self.phi = self.phi * e(7.0)
+                + g0 * (1.0 - e(7.0)) / 7.0
+                + g3 * (e(3.0) - e(7.0)) / 4.0
+                + g2 * (e(2.0) - e(7.0)) / 5.0;
+            self.xi = c / 3.0 + (self.xi - c / 3.0) * e(3.0);
+            i = q / 2.0 + (i - q / 2.0) * e(2.0);
         }
         u
     }
@@ -487,6 +510,7 @@ fn predictor_commands_are_the_closed_form_over_any_steps_and_restore_whole() {
             theta,
             limit,
             xi: 0.0,
+            phi: 0.0,
             sent: Vec::new(),
         };
         let (text, dir) = if limit.is_finite() {
@@ -554,7 +578,7 @@ fn refusal(text: &str, from: &str, to: &str) -> String {
 fn predictor_blocks_must_be_the_controller_without_delay() {
     assert!(Spec::from_json(PRED_SPEC).unwrap().predictor.is_some());
     // An edited gain no longer matches C, D, A, B.
-    let err = refusal(PRED_SPEC, "\"K\": [[-0.8]]", "\"K\": [[-0.9]]");
+    let err = refusal(PRED_SPEC, "\"K\": [[-0.8, -2.0]]", "\"K\": [[-0.9, -2.0]]");
     assert!(err.contains("without delay"), "{err}");
     let err = refusal(PRED_SPEC, "\"delay_max\": 0.3", "\"delay_max\": -1.0");
     assert!(err.contains("delay_max"), "{err}");
@@ -563,8 +587,47 @@ fn predictor_blocks_must_be_the_controller_without_delay() {
     assert!(err.contains("'tau'") && err.contains("adds"), "{err}");
     let err = refusal(SPEC, "\"name\": \"stroke_fl\"", "\"name\": \"gamma\"");
     assert!(err.contains("'gamma'"), "{err}");
-    let err = refusal(PRED_SPEC, "\"S_y\": [[1.0]]", "\"S_y\": [[1.0, 2.0]]");
+    let err = refusal(
+        PRED_SPEC,
+        "\"S_y\": [[1.0], [0.0]]",
+        "\"S_y\": [[1.0, 2.0], [0.0, 0.0]]",
+    );
     assert!(err.contains("predictor.S_y"), "{err}");
+    // The command's filter must be the command's alone: read from y, or coupled to the car's
+    // states, it could not run in controller time.
+    for (from, to, why) in [
+        (
+            "\"B_xi\": [[0.3], [0.0]]",
+            "\"B_xi\": [[0.3], [0.1]]",
+            "driven by or read from y",
+        ),
+        (
+            "\"S_y\": [[1.0], [0.0]]",
+            "\"S_y\": [[1.0], [0.2]]",
+            "driven by or read from y",
+        ),
+        (
+            "\"A\": [[-2.0, 0.0], [0.0, -5.0]]",
+            "\"A\": [[-2.0, 0.5], [0.0, -5.0]]",
+            "coupled",
+        ),
+        (
+            "\"A_xi\": [[-3.0, 0.0], [0.0, -5.0]]",
+            "\"A_xi\": [[-3.0, 0.0], [0.1, -5.0]]",
+            "coupled",
+        ),
+        (
+            "\"S_xi\": [[0.7, 0.0], [0.0, 1.0]]",
+            "\"S_xi\": [[0.7, 0.3], [0.0, 1.0]]",
+            "into 2 design",
+        ),
+    ] {
+        let err = refusal(PRED_SPEC, from, to);
+        assert!(
+            err.contains(why) && err.contains("B_xiu drives"),
+            "{to}: {err}"
+        );
+    }
     let err = refusal(PRED_SPEC, "\"D_yu\": [[0.4]]", "\"D_yu\": [[0.4], [0.1]]");
     assert!(err.contains("predictor.D_yu"), "{err}");
     for limits in ["[-1.0]", "[1.0, 2.0]", "[0.0]"] {

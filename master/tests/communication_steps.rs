@@ -10,9 +10,10 @@
 //!
 //! Measured (ISO C at 20 m/s, seed 7, W_k seat RMS over the second half of the run, m/s²):
 //! `hinf_sf` 0.058 at 5 ms, 0.56 at 7.5 ms; `ft_of` 0.049 at 7.5 ms, 4.5 at 10 ms; `delay_sf`
-//! 0.0105 at 1 ms, 0.078 at 1.25 ms (its predictor drives the seat command's delay-weight filter,
-//! a state of the gain's fastest closed-loop mode near −2000 rad/s, by the held command: a
-//! hold of more than about a millisecond cannot follow it; `docs/comfort-designs.md`).
+//! 0.0163 at 2 ms (its range holds at every delay of its grid; its first unstable step, 3 ms,
+//! is unstable at delays from 10 ms, radius 1.0011, which grows a state too little in 30 s to
+//! judge here: co-simulated at a 20 ms delay, W_k seat 0.039 at 2 ms and 0.40 at 3 ms with the
+//! seat actuator at its limit, `docs/comfort-designs.md`).
 
 use master::cosim::{run, Run, Scenario};
 use master::metrics::{peak, rms};

@@ -107,9 +107,12 @@ pub const CHECKED_STEPS: [f64; 10] = [
     0.25e-3, 0.5e-3, 1e-3, 1.25e-3, 1.5e-3, 2e-3, 3e-3, 5e-3, 7.5e-3, 10e-3,
 ];
 
-/// The nominal loop as a master runs it at each of [`CHECKED_STEPS`].
+/// The loop as a master runs it at each of [`CHECKED_STEPS`]: the nominal car's, and for a
+/// design that compensates a known delay the loops at the delays of its interval.
 #[derive(Debug, Clone, Serialize)]
 pub struct StepStability {
+    /// The conditions checked at every step.
+    pub conditions: String,
     pub checked: Vec<CheckedStep>,
     /// The largest checked step up to which every checked step is stable (`null`: not even the
     /// first). Checked on this grid only: between two checked steps nothing is claimed.
@@ -120,8 +123,8 @@ pub struct StepStability {
 #[derive(Debug, Clone, Serialize)]
 pub struct CheckedStep {
     pub step_s: f64,
-    /// At the sampling instants; below 1 is stable. `null` where the loop could not be formed
-    /// (an exponential failed).
+    /// At the sampling instants, the largest over the conditions; below 1 is stable. `null`
+    /// where a loop could not be formed (an exponential failed).
     pub spectral_radius: Option<f64>,
 }
 
@@ -146,12 +149,29 @@ impl StepStability {
         self.checked.iter().find(|c| !c.stable()).map(|c| c.step_s)
     }
 
-    pub fn check(law: &ControlLaw, nominal: Conditions) -> Self {
+    /// Each loop (a law at its conditions) at every checked step, the loops described by
+    /// `conditions`.
+    pub fn check(loops: &[(ControlLaw, Conditions)], conditions: &str) -> Self {
+        use rayon::prelude::*;
         let checked: Vec<CheckedStep> = CHECKED_STEPS
-            .iter()
-            .map(|&step_s| CheckedStep {
-                step_s,
-                spectral_radius: crate::sampled::spectral_radius(Some(law), nominal, step_s).ok(),
+            .par_iter()
+            .map(|&step_s| {
+                let radii: Option<Vec<f64>> = loops
+                    .par_iter()
+                    .map(|(law, c)| crate::sampled::spectral_radius(Some(law), *c, step_s).ok())
+                    .collect();
+                CheckedStep {
+                    step_s,
+                    spectral_radius: radii.map(|r| {
+                        r.into_iter().fold(0.0f64, |a, b| {
+                            if a.is_nan() || b.is_nan() {
+                                f64::NAN
+                            } else {
+                                a.max(b)
+                            }
+                        })
+                    }),
+                }
             })
             .collect();
         let stable_up_to_s = checked
@@ -160,6 +180,7 @@ impl StepStability {
             .last()
             .map(|c| c.step_s);
         StepStability {
+            conditions: conditions.into(),
             checked,
             stable_up_to_s,
         }
@@ -994,7 +1015,7 @@ pub fn certify(
     // Predictions, design and passive.
     let predicted = lp.figures(&d.road);
     let held = held_prediction(law, nominal, d).map_err(&fail)?;
-    let communication_steps = StepStability::check(law, nominal);
+    let communication_steps = StepStability::check(&[(law.clone(), nominal)], "the nominal car");
     let passive = predict(None, nominal, &d.road).map_err(|e| fail(e.to_string()))?;
     let seat = predicted.wk_rms_seat_m_s2;
     if seat.is_nan() || seat >= 0.5 * passive.wk_rms_seat_m_s2 {

@@ -102,7 +102,9 @@ impl ControlLaw {
 
 /// A state feedback `u = K x̂` on the design state predicted over the actuators' known delay `θ`
 /// ([`crate::predictor`]): `x̂ = e^{Aθ} x + ∫_{t−θ}^{t} e^{A(t−s)} B u(s) ds`, `x = S_y y + S_ξ ξ`,
-/// `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u(t − θ)`.
+/// `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u(t − θ)`. (Its runtime keeps the rows `B_ξu` drives in
+/// controller time, the filter of `u` up to `t`, which is their part of `x̂`: the same law in
+/// continuous time, [`crate::sampled`] as stepped.)
 #[derive(Debug, Clone)]
 pub struct PredictorLaw {
     pub a: DMatrix<f64>,

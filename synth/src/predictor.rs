@@ -23,7 +23,14 @@
 //! where it covers the predictions on the car at delays across the interval (beside
 //! `hinf_sf`'s). Checked: the margins to a mismatch between the actual and the predicted delay,
 //! and the loop as a master runs it (held inputs and commands, `crate::sampled`) stable at
-//! delays between whole communication steps, where the delayed command changes mid-step.
+//! delays between whole communication steps, where the delayed command changes mid-step, and
+//! at which communication steps it is stable at every delay of the grid.
+//!
+//! The runtime keeps the command's own filters (the unmodelled-delay weight's states, which
+//! the gain reads) in controller time and substitutes the command into them continuously over
+//! each step (`crate::sampled`'s `discrete_predictor`, `fmu-controller/src/predictor.rs`), as
+//! `hinf_sf`'s controller does: equal in continuous time, and the hold no longer enters the
+//! gain's fastest loop (stable to 2 ms at every delay instead of 1.1 ms).
 
 use crate::comfort_controllers::{
     realise_state_feedback, reconstruction, state_feedback_sensors, Reconstruction,
@@ -139,12 +146,14 @@ pub struct PredictorFacts {
     /// predicted one that the loop tolerates.
     pub mismatch_margin_lag_s: f64,
     pub mismatch_margin_lead_s: f64,
-    /// The spectral abscissa of `A_ξ`, below 0 (checked): the controller's own states follow
-    /// what it reads and the forces it commands through stable filters. Its commands are
-    /// clamped to the actuators' limits (the parameters `u_max`, `u_max_seat`), which are the
-    /// forces it integrates as in flight, so under saturation every state stays bounded (before
-    /// the clamp, held commands with the plant saturated ran away at 1 ms: the in-flight
-    /// prediction fed the unapplied commands back).
+    /// The spectral abscissa of the controller's own states as they run, below 0 (checked):
+    /// `A_ξ` with the command's own filters closed through their part of the gain
+    /// (`A_φ + B_φ K_φ`: they take the command the design gives, unclamped, over each step),
+    /// so they follow what it reads and the forces it commands through stable filters. Its
+    /// commands are clamped to the actuators' limits (the parameters `u_max`, `u_max_seat`),
+    /// which are the forces it integrates as in flight, so under saturation every state stays
+    /// bounded (before the clamp, held commands with the plant saturated ran away at 1 ms: the
+    /// in-flight prediction fed the unapplied commands back).
     pub own_states_abscissa: f64,
     /// The loop as a master runs it at `step_s` with the delay not a whole number of steps (the
     /// delayed command changes mid-step): `fractional_delays` delays checked stable, the largest
@@ -152,6 +161,28 @@ pub struct PredictorFacts {
     pub step_s: f64,
     pub fractional_delays: Vec<f64>,
     pub fractional_worst_radius: f64,
+}
+
+/// `A_ξ + B_ξu K_φ`, `K_φ` the gain's columns of the command's own filters on their rows of
+/// `ξ` ([`crate::sampled::own_filters`]): the controller's own states as its runtime steps them.
+fn own_loop(p: &Option<PredictorLaw>) -> DMatrix<f64> {
+    let Some(p) = p else {
+        return DMatrix::zeros(0, 0);
+    };
+    let r = &p.reconstruction;
+    let mut k_own = DMatrix::zeros(p.k.nrows(), r.a_xi.nrows());
+    for (j, i, s) in crate::sampled::own_filters(p) {
+        k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
+    }
+    &r.a_xi + &r.b_xiu * k_own
+}
+
+/// `0, 0.005, …, 0.05`.
+fn list_delays(delays: &[f64]) -> String {
+    match delays {
+        [first, second, .., last] => format!("{first}, {second}, ..., {last}"),
+        _ => format!("{delays:?}"),
+    }
 }
 
 /// Delays off the step grid where the held loop is checked stable: a quarter, a half and
@@ -365,6 +396,17 @@ pub fn predictor_design(
             .map_err(|e| fail(format!("at a delay of {theta} s, between whole steps: {e}")))
         })
         .collect::<Result<Vec<f64>, ComfortError>>()?;
+    // The communication steps, at every delay of the grid (the held loop's history, and so
+    // what the hold does to it, grows with the delay).
+    let loops: Vec<(ControlLaw, Conditions)> =
+        conditions.iter().map(|c| (law_at(c.delay), *c)).collect();
+    certificate.comfort.communication_steps = crate::comfort_designs::StepStability::check(
+        &loops,
+        &format!(
+            "the nominal car at each delay of {} s, the predictor matched",
+            list_delays(&delays)
+        ),
+    );
     let seat = g.c_z.rows(0, 1).into_owned();
     let over = over_delays(g, k, &seat, d.delay_max, DELAY_INTERVALS)
         .ok_or_else(|| fail("the car model's comfort over the delays".into()))?;
@@ -375,7 +417,7 @@ pub fn predictor_design(
         open_loop_abscissa: crate::eig::spectral_abscissa(&g.a),
         mismatch_margin_lag_s: lag,
         mismatch_margin_lead_s: lead,
-        own_states_abscissa: crate::eig::spectral_abscissa(&r.a_xi),
+        own_states_abscissa: crate::eig::spectral_abscissa(&own_loop(&law.predictor)),
         step_s: d.communication_step,
         fractional_worst_radius: fractional.iter().fold(0.0f64, |worst, r| worst.max(*r)),
         fractional_delays: fractional_at,
@@ -549,10 +591,12 @@ mod tests {
 
     /// Between whole steps the loop a master runs is stable only if `ξ` sees the force as the
     /// actuators apply it: with `D_yu` zeroed (the held inputs carrying the force of the step's
-    /// start through the step), the sampled loop at 1.1 and 1.5 ms is refused as unstable (it
-    /// was the shipped runtime's behaviour: measured radius 1.41 and 1.21, the co-simulations
-    /// diverged or limit-cycled); with it, every delay of [`fractional_delays`] is stable, and
-    /// the whole steps are as before (the correction cancels there).
+    /// start through the step), the sampled loop at a quarter of a step past a whole step is
+    /// unstable at 2 and 2.5 ms steps (measured radius 1.08 and 1.14; before the command's
+    /// filters ran in controller time it was so at the design step of 1 ms, 1.41 at 1.1 ms, and
+    /// the co-simulations diverged or limit-cycled); with it, those loops and every delay of
+    /// [`fractional_delays`] are stable, and the whole steps are as before (the correction
+    /// cancels there).
     #[test]
     fn the_held_loop_is_stable_between_whole_steps_with_the_force_as_applied() {
         let (d, p, g, sf, _) = nominal();
@@ -563,17 +607,25 @@ mod tests {
             }
             predictor_law(&g, &sf.k, reconstruction, theta)
         };
+        let at = |theta: f64| Conditions {
+            delay: theta,
+            ..Conditions::nominal(p)
+        };
+        for (step, theta) in [(2e-3, 2.5e-3), (2.5e-3, 3.125e-3)] {
+            let radius = |d_yu: bool| {
+                crate::sampled::spectral_radius(Some(&law_at(theta, d_yu)), at(theta), step)
+                    .unwrap()
+            };
+            let (with, without) = (radius(true), radius(false));
+            assert!(
+                with < 1.0 && without > 1.04,
+                "{step}, {theta}: {with}, {without}"
+            );
+        }
         let h = d.communication_step;
         let held = |theta: f64, d_yu: bool| {
-            let c = Conditions {
-                delay: theta,
-                ..Conditions::nominal(p)
-            };
-            crate::sampled::SampledLoop::new(Some(&law_at(theta, d_yu)), c, h)
+            crate::sampled::SampledLoop::new(Some(&law_at(theta, d_yu)), at(theta), h)
         };
-        for theta in [1.1e-3, 1.5e-3] {
-            assert!(held(theta, false).is_err(), "{theta}");
-        }
         let delays = fractional_delays(d.delay_max, h);
         assert_eq!(delays.len(), 24, "{delays:?}");
         for &theta in &delays {
@@ -595,6 +647,46 @@ mod tests {
                 println!("no delay: W_k seat {a} with the correction, {b} without");
                 assert!((a / b - 1.0).abs() < 0.05, "{a} vs {b}");
             }
+        }
+    }
+
+    /// The command's own filters run in controller time, the command substituted continuously
+    /// over each step: with no delay and no force correction (`D_yu` zeroed) the predictor is
+    /// the state feedback's own controller stepped with `y` held, so its held loop is
+    /// `hinf_sf`'s to rounding, at every step (both stable to 5 ms). With the correction and at
+    /// a delay, it is stable at 2 ms, where driving the filters by the held commands made the
+    /// loop unstable above 1.1 ms (radius 2.2 at 2 ms).
+    #[test]
+    fn the_command_filters_in_controller_time_make_the_undelayed_predictor_the_state_feedback() {
+        let (d, p, g, sf, _) = nominal();
+        let state_feedback = ControlLaw {
+            predictor: None,
+            ..predictor_law(&g, &sf.k, reconstruction(&g), 0.0)
+        };
+        let mut uncorrected = reconstruction(&g);
+        uncorrected.d_yu.fill(0.0);
+        let predictor = predictor_law(&g, &sf.k, uncorrected, 0.0);
+        let nominal = Conditions::nominal(p);
+        for step in [1e-3, 2e-3, 5e-3] {
+            let figures = |law: &ControlLaw| {
+                let l = crate::sampled::SampledLoop::new(Some(law), nominal, step).unwrap();
+                (
+                    l.radius(),
+                    l.figures(&d.road).time_averaged.wk_rms_seat_m_s2,
+                )
+            };
+            let ((r1, w1), (r2, w2)) = (figures(&state_feedback), figures(&predictor));
+            assert!((r1 - r2).abs() < 1e-9 && r1 < 1.0, "{step}: {r1} vs {r2}");
+            assert!((w1 / w2 - 1.0).abs() < 1e-7, "{step}: {w1} vs {w2}");
+        }
+        for theta in [0.0, 0.02] {
+            let law = predictor_law(&g, &sf.k, reconstruction(&g), theta);
+            let c = Conditions {
+                delay: theta,
+                ..nominal
+            };
+            let radius = crate::sampled::spectral_radius(Some(&law), c, 2e-3).unwrap();
+            assert!(radius < 1.0, "{theta}: {radius}");
         }
     }
 

@@ -226,65 +226,133 @@ impl DiscreteController {
 
 /// A predictor (`fmu-controller`'s runtime) at a step `h`, its delay `θ = d h + ε`
 /// (`0 ≤ ε < h`). At `t_k` the commands in flight are `u_{k−1} … u_{k−d}` whole and the first
-/// `ε` of `u_{k−d−1}`:
-/// `u_k = K e^{Aθ} (S_y y_k + S_ξ ξ_k) + Σ_{j<d} K e^{A jh} G(h) u_{k−1−j} + K e^{A dh} G(ε) u_{k−d−1}`
-/// (`G(ℓ) = ∫₀^ℓ e^{As} ds B`). Over the step the delayed command is `u_{k−d−1}` until
-/// `t_k + ε`, then `u_{k−d}`, and `ξ` sees the force as applied, `y_k` without the force it
-/// carries (that of `u_{k−r}`, [`read_lag`]):
-/// `ξ_{k+1} = Φ_ξ ξ_k + Γ_ξ (y_k − D_yu u_{k−r}) + e^{A_ξ(h−ε)} G'_ξ(ε) u_{k−d−1} + G'_ξ(h − ε) u_{k−d}`,
-/// `G'_ξ` with `B_ξu + B_ξ D_yu`, and `u_k` substituted where `d = 0`.
+/// `ε` of `u_{k−d−1}`: `I_k = Σ_{j<d} e^{A jh} G(h) u_{k−1−j} + e^{A dh} G(ε) u_{k−d−1}`
+/// (`G(ℓ) = ∫₀^ℓ e^{As} ds B`).
+///
+/// `ξ` has two kinds of rows. The **command's own filters** (the rows `B_ξu` drives: the
+/// unmodelled-delay weight) are kept in controller time, `φ(t)` the filter of the commands up to
+/// `t`, which is exactly the design state's part `θ` ahead (those states and the car's do not
+/// drive each other, so `e^{Aθ}` does not mix them); the **rest** follows the car, driven by
+/// `y_k − D_yu u_{k−r}` held and the force as the actuators apply it (`u_{k−d−1}` until
+/// `t_k + ε`, then `u_{k−d}`; `u_{k−r}` the command whose force `y_k` carries, [`read_lag`]).
+/// The command is `u = K̃ (e^{Aθ} x + I) + K_φ φ`, `K̃` the gain without the filters' columns,
+/// `x = S_y y + S_ξ ξ`: `u = K_x ξ + K_y y + K̃ I`.
+///
+/// Over the step the controller substitutes that command continuously into the filters,
+/// `φ̇ = A_φ φ + B_φ u_v(s)`, with the prediction moving on as the commands sent make it:
+/// `İ = A I + B u_k − e^{Aθ} B u_a(s)` (`u_k` held, `u_a` the applied force), so `u_v(s)` is
+/// the command the design would give at every instant of the step. The hold never enters the
+/// filters' own loop, which is the gain's fastest (−2000 rad/s): driving `φ` by the held
+/// command instead made `delay_sf` unstable at every step above 1.1 ms (a hold of `h` cannot
+/// follow a mode faster than about `2 / h`). At `θ = 0` with `D_yu = 0` this is exactly the
+/// state feedback's own controller stepped with `y` held (tested). Over `[0, h]` with
+/// `w = [ξ; I]`: `ẇ = Ā w + B̄ [y_k; u_{k−r}; u_a; u_k]`, one Van Loan exponential per part of
+/// the step.
 fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<DiscreteController, PredictionError> {
     let (d, eps) = whole_steps(p.delay, h);
     let fail = |e| PredictionError::Unstable(format!("the predictor at h = {h}: {e}"));
     let r = &p.reconstruction;
-    let (nxi, nu) = (r.a_xi.nrows(), p.k.nrows());
-    let own = discretize(&r.a_xi, &r.b_xi, h).map_err(fail)?;
-    // The applied force drives ξ through `B_ξu` and through what it reads, `B_ξ D_yu`.
-    let b_force = &r.b_xiu + &r.b_xi * &r.d_yu;
-    let late = discretize(&r.a_xi, &b_force, h - eps).map_err(fail)?;
-    let early = &late.phi * discretize(&r.a_xi, &b_force, eps).map_err(fail)?.gamma_hold;
+    let (nxi, nu, n, ny) = (r.a_xi.nrows(), p.k.nrows(), p.a.nrows(), r.b_xi.ncols());
+    let own = own_filters(p);
+    let mut k_tilde = p.k.clone();
+    for &(_, i, _) in &own {
+        k_tilde.column_mut(i).fill(0.0);
+    }
+    let e_theta = expm(&(&p.a * p.delay)).map_err(fail)?;
+    let mut kx = &k_tilde * &e_theta * &r.s_xi;
+    for &(j, i, s) in &own {
+        kx.column_mut(j).copy_from(&(p.k.column(i) * s));
+    }
+    let ky = &k_tilde * &e_theta * &r.s_y;
+    // The applied force drives the car's rows through what they read, `B_ξ D_yu`.
+    let mut b_applied = &r.b_xi * &r.d_yu;
+    for &(j, _, _) in &own {
+        b_applied.row_mut(j).fill(0.0);
+    }
+    // Ā, B̄ over w = [ξ; I], inputs [y; u_{k−r}; u_a; u_k] (`B_ξu` is zero off the filters).
+    let (nw, (cy, cr, ca, ck)) = (nxi + n, (0, ny, ny + nu, ny + 2 * nu));
+    let mut a_bar = DMatrix::zeros(nw, nw);
+    a_bar
+        .view_mut((0, 0), (nxi, nxi))
+        .copy_from(&(&r.a_xi + &r.b_xiu * &kx));
+    a_bar
+        .view_mut((0, nxi), (nxi, n))
+        .copy_from(&(&r.b_xiu * &k_tilde));
+    a_bar.view_mut((nxi, nxi), (n, n)).copy_from(&p.a);
+    let mut b_bar = DMatrix::zeros(nw, ny + 3 * nu);
+    b_bar
+        .view_mut((0, cy), (nxi, ny))
+        .copy_from(&(&r.b_xi + &r.b_xiu * &ky));
+    b_bar
+        .view_mut((0, cr), (nxi, nu))
+        .copy_from(&(-&r.b_xi * &r.d_yu));
+    b_bar.view_mut((0, ca), (nxi, nu)).copy_from(&b_applied);
+    b_bar
+        .view_mut((nxi, ca), (n, nu))
+        .copy_from(&(-&e_theta * &p.b));
+    b_bar.view_mut((nxi, ck), (n, nu)).copy_from(&p.b);
+    let full = discretize(&a_bar, &b_bar, h).map_err(fail)?;
+    let late = discretize(&a_bar, &b_bar.columns(ca, nu).into_owned(), h - eps).map_err(fail)?;
+    let early = discretize(&a_bar, &b_bar.columns(ca, nu).into_owned(), eps).map_err(fail)?;
+    let top = |m: &DMatrix<f64>, c0: usize, cols: usize| m.view((0, c0), (nxi, cols)).into_owned();
+    // The applied force before `t_k + ε` and after.
+    let applied_early = top(&(&late.phi * &early.gamma_hold), 0, nu);
+    let applied_late = top(&late.gamma_hold, 0, nu);
+    // The commands in flight at `t_k`, `I_k = Σ_j M_j c_j`.
     let g = discretize(&p.a, &p.b, h).map_err(fail)?.gamma_hold;
     let g_eps = discretize(&p.a, &p.b, eps).map_err(fail)?.gamma_hold;
     let step = expm(&(&p.a * h)).map_err(fail)?;
-    let ke = &p.k * expm(&(&p.a * p.delay)).map_err(fail)?;
-    let (k_y, k_xi) = (&ke * &r.s_y, &ke * &r.s_xi);
-    // Commands read: the in-flight `u_{k−1} … u_{k−d}` (and part of `u_{k−d−1}`), and the one
-    // whose force `y_k` carries.
     let in_flight = d + usize::from(eps > 0.0);
     let read = read_lag(p.delay, d, eps);
     let commands = in_flight.max(read);
+    let phi_on_i = full.phi.view((0, nxi), (nxi, n)).into_owned();
     let mut k_u = DMatrix::zeros(nu, commands * nu);
-    let mut age = DMatrix::identity(p.a.nrows(), p.a.nrows());
+    let mut g_u = DMatrix::zeros(nxi, commands * nu);
+    let mut age = DMatrix::identity(n, n);
     for j in 0..in_flight {
-        let part = if j < d { &g } else { &g_eps };
-        k_u.columns_mut(j * nu, nu).copy_from(&(&p.k * &age * part));
+        let m = &age * if j < d { &g } else { &g_eps };
+        k_u.columns_mut(j * nu, nu).copy_from(&(&k_tilde * &m));
+        g_u.columns_mut(j * nu, nu).copy_from(&(&phi_on_i * &m));
         age = &step * age;
     }
-    let (mut phi, mut gamma) = (own.phi, own.gamma_hold);
-    let mut g_u = DMatrix::zeros(nxi, commands * nu);
-    {
-        let mut on_read = g_u.columns_mut((read - 1) * nu, nu);
-        on_read -= &gamma * &r.d_yu;
-    }
+    let mut on_read = g_u.columns_mut((read - 1) * nu, nu);
+    on_read += top(&full.gamma_hold, cr, nu);
     if eps > 0.0 {
         let mut on_early = g_u.columns_mut(d * nu, nu);
-        on_early += &early;
+        on_early += &applied_early;
     }
+    // `u_k` itself: held into the prediction, and applied after `t_k + ε` when `d = 0`.
+    let mut on_sent = top(&full.gamma_hold, ck, nu);
     if d == 0 {
-        // `u_k` itself drives ξ: substitute `u_k = K_ξ ξ + K_y y + K_u c`.
-        phi += &late.gamma_hold * &k_xi;
-        gamma += &late.gamma_hold * &k_y;
-        g_u += &late.gamma_hold * &k_u;
+        on_sent += &applied_late;
     } else {
         let mut on_late = g_u.columns_mut((d - 1) * nu, nu);
-        on_late += &late.gamma_hold;
-    }
+        on_late += &applied_late;
+    } // Substitute `u_k = K_x ξ + K_y y + K_u c`.
+    let phi = full.phi.view((0, 0), (nxi, nxi)) + &on_sent * &kx;
+    let gamma = top(&full.gamma_hold, cy, ny) + &on_sent * &ky;
+    g_u += &on_sent * &k_u;
     Ok(DiscreteController {
-        lti: Lti::new(phi, gamma, k_xi, k_y),
+        lti: Lti::new(phi, gamma, kx, ky),
         commands,
         g_u,
         k_u,
     })
+}
+
+/// The command's own filters of a predictor: `(row j of ξ, design state i, s)` for each row
+/// that the command drives (`B_ξu`), which `S_ξ` reads into that one state (`x_i = s ξ_j`).
+/// They drive no other state and no other drives them (the controller FMU refuses a file where
+/// they do).
+pub(crate) fn own_filters(p: &PredictorLaw) -> Vec<(usize, usize, f64)> {
+    let r = &p.reconstruction;
+    (0..r.a_xi.nrows())
+        .filter(|&j| r.b_xiu.row(j).iter().any(|v| *v != 0.0))
+        .filter_map(|j| {
+            let i = (0..r.s_xi.nrows()).find(|&i| r.s_xi[(i, j)] != 0.0)?;
+            Some((j, i, r.s_xi[(i, j)]))
+        })
+        .collect()
 }
 
 /// Which past command `u_{k−j}` the plant's outputs at `t_k` carry the force of: with no delay
