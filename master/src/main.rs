@@ -269,6 +269,20 @@ fn compare(
         }
         report += "\n";
     }
+    let warned: Vec<_> = runs.iter().filter(|r| !r.2.warnings.is_empty()).collect();
+    if !warned.is_empty() {
+        report += "## Warnings of the FMUs\n\nWhat an FMU answered `fmi2Warning` for in a run that went on: a controller stepped beyond the communication steps its certificate calls stable (`comfort.communication_steps`), whose figures above are then not those of the loop it was designed for.\n\n| scenario | controller | warning |\n|---|---|---|\n";
+        for (i, c, r) in warned {
+            for w in &r.warnings {
+                report += &format!(
+                    "| {} | `{c}` | {} |\n",
+                    scenarios[*i].name,
+                    w.replace('|', "\\|")
+                );
+            }
+        }
+        report += "\n";
+    }
     report += "## Scenarios\n\n";
     report += &tables;
     std::fs::write(out.join("report.md"), report).map_err(io)?;

@@ -395,6 +395,9 @@ pub struct Row {
     pub job: Job,
     pub outcome: Outcome,
     pub loop_seconds: f64,
+    /// What the FMUs warned of in a run that went through ([`Run::warnings`]: a controller
+    /// stepped beyond the communication steps its loop is stable at).
+    pub warnings: Vec<String>,
 }
 
 /// The FMUs of a sweep, loaded once and shared by every run.
@@ -430,11 +433,13 @@ impl Fmus {
                 outcome: outcome(&r, &job.scenario),
                 loop_seconds: r.loop_seconds,
                 job: job.clone(),
+                warnings: r.warnings,
             },
             Err(e) => Row {
                 outcome: Outcome::Failed(e.0),
                 loop_seconds: 0.0,
                 job: job.clone(),
+                warnings: Vec::new(),
             },
         }
     }

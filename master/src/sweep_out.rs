@@ -35,6 +35,8 @@ enum Column {
     Swept(usize),
     Status,
     Message,
+    /// What the FMUs warned of, `; `-separated.
+    Warnings,
     /// The `m`-th of [`METRICS`].
     Metric(usize),
     StrokeExceeded,
@@ -57,7 +59,7 @@ fn columns(parameters: usize) -> Vec<Column> {
     use Column::*;
     let mut c = vec![Run, Point, Controller];
     c.extend((0..parameters).map(Swept));
-    c.extend([Status, Message]);
+    c.extend([Status, Message, Warnings]);
     c.extend((0..METRICS.len()).map(Metric));
     c.extend([StrokeExceeded, TyreLiftOff, SaturatedShare, LoopSeconds]);
     c
@@ -72,6 +74,7 @@ impl Column {
             Column::Swept(i) => names[i].clone(),
             Column::Status => "status".into(),
             Column::Message => "message".into(),
+            Column::Warnings => "warnings".into(),
             Column::Metric(m) => METRICS[m].into(),
             Column::StrokeExceeded => "stroke_exceeded".into(),
             Column::TyreLiftOff => "tyre_lift_off".into(),
@@ -92,6 +95,7 @@ impl Column {
                 Outcome::Ok(..) => String::new(),
                 Outcome::Failed(m) => m.clone(),
             }),
+            Column::Warnings => Cell::Text(r.warnings.join("; ")),
             Column::Metric(m) => Cell::Real(done.map(|f| metric_values(f)[m])),
             Column::StrokeExceeded => Cell::Bool(done.map(|f| f.flags.stroke_exceeded)),
             Column::TyreLiftOff => Cell::Bool(done.map(|f| f.flags.tyre_lift_off)),
@@ -104,7 +108,7 @@ impl Column {
     fn parquet(self) -> (Physical, Repetition) {
         match self {
             Column::Run | Column::Point => (Physical::INT64, REQUIRED),
-            Column::Controller | Column::Status | Column::Message => {
+            Column::Controller | Column::Status | Column::Message | Column::Warnings => {
                 (Physical::BYTE_ARRAY, REQUIRED)
             }
             Column::Swept(_) | Column::LoopSeconds => (Physical::DOUBLE, REQUIRED),
@@ -147,7 +151,7 @@ pub fn csv(names: &[String], rows: &[Row]) -> String {
 }
 
 /// The rows as one Parquet row group, the columns of [`columns`] typed by [`Column::parquet`]:
-/// `run`, `point` INT64; `controller`, `status`, `message` UTF-8; the swept values and
+/// `run`, `point` INT64; `controller`, `status`, `message`, `warnings` UTF-8; the swept values and
 /// `loop_seconds` DOUBLE; the metrics and `saturated_share` optional DOUBLE and the two flags
 /// optional BOOLEAN (null for a failed run).
 pub fn write_parquet(path: &Path, names: &[String], rows: &[Row]) -> Result<(), MasterError> {
@@ -323,7 +327,7 @@ pub fn report(sweep: &Sweep, rows: &[Row], map: Option<&WorstMap>, wall_seconds:
     t += "\n## Limits and failures (share of runs)\n\n";
     writeln!(
         t,
-        "| controller | runs | failed | stroke > {} m | tyre lift-off | saturated at any time | mean time saturated |\n|---|---|---|---|---|---|---|",
+        "| controller | runs | failed | stroke > {} m | tyre lift-off | saturated at any time | mean time saturated | an FMU warned |\n|---|---|---|---|---|---|---|---|",
         sweep.base.stroke_max
     )
     .unwrap();
@@ -344,14 +348,30 @@ pub fn report(sweep: &Sweep, rows: &[Row], map: Option<&WorstMap>, wall_seconds:
             flags.iter().fold(0.0, |a, f| a + f.saturated_share) / flags.len().max(1) as f64;
         writeln!(
             t,
-            "| `{c}` | {n} | {} | {} | {} | {} | {:.2} % |",
+            "| `{c}` | {n} | {} | {} | {} | {} | {:.2} % | {} |",
             share(n - flags.len(), n),
             share(count(&|f| f.stroke_exceeded), n),
             share(count(&|f| f.tyre_lift_off), n),
             share(count(&|f| f.saturated_share > 0.0), n),
-            100.0 * mean_sat
+            100.0 * mean_sat,
+            share(mine.iter().filter(|r| !r.warnings.is_empty()).count(), n)
         )
         .unwrap();
+    }
+    // Each distinct warning once, with how many runs gave it.
+    let mut warned: Vec<(&str, usize)> = Vec::new();
+    for w in rows.iter().flat_map(|r| &r.warnings) {
+        match warned.iter_mut().find(|(m, _)| *m == w.as_str()) {
+            Some((_, k)) => *k += 1,
+            None => warned.push((w, 1)),
+        }
+    }
+    if !warned.is_empty() {
+        t +=
+            "\nWarnings of the FMUs (each distinct message, first 10, with its count of runs):\n\n";
+        for (m, k) in warned.iter().take(10) {
+            writeln!(t, "- {k} × {m}").unwrap();
+        }
     }
     let failures: Vec<&Row> = rows
         .iter()

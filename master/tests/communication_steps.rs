@@ -132,3 +132,57 @@ fn each_certificate_says_at_which_communication_steps_its_loop_is_stable() {
         println!("{line}");
     }
 }
+
+/// `master compare` of a scenario at a step beyond `delay_sf`'s stable range and within
+/// `hinf_sf`'s (3 ms) lists `delay_sf`'s warning in its report, and no other.
+#[test]
+fn master_compare_reports_a_controller_stepped_beyond_its_stable_steps() {
+    let dir = std::env::temp_dir().join(format!("master-compare-warn-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("scenarios")).unwrap();
+    std::fs::write(
+        dir.join("scenarios/coarse.json"),
+        r#"{"name": "coarse", "duration": 2.0, "step": 0.003,
+            "road": {"profile": 1, "bump_height": 0.05, "bump_length": 5.0, "side": 0,
+                     "speed": 15.0, "start_distance": 1.5}}"#,
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_master"))
+        .arg("--dist")
+        .arg(dist())
+        .args([
+            "compare",
+            "--controllers",
+            "hinf_sf,delay_sf",
+            "--scenarios",
+        ])
+        .arg(dir.join("scenarios"))
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = std::fs::read_to_string(dir.join("out/report.md")).unwrap();
+    let section = report
+        .split("## Warnings of the FMUs")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .unwrap_or_else(|| panic!("no warnings section: {report}"));
+    let rows: Vec<&str> = section
+        .lines()
+        .filter(|l| l.starts_with("| coarse |"))
+        .collect();
+    assert_eq!(rows.len(), 1, "{section}");
+    assert!(
+        rows[0].starts_with(
+            "| coarse | `delay_sf` | delay_sf: fmi2DoStep: communication step 0.003 s"
+        ),
+        "{}",
+        rows[0]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -307,3 +307,76 @@ fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditi
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A controller stepped beyond the communication steps its certificate calls stable
+/// (`delay_sf` at 3 ms; `hinf_sf` is stable there) still runs, and its rows carry the FMU's
+/// warning: the `warnings` column, the report's share of runs an FMU warned in, and the
+/// message once with its count.
+#[test]
+fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
+    let dir = std::env::temp_dir().join(format!("master-sweep-warn-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("bump.json"),
+        r#"{"name": "coarse_bump", "duration": 1.5, "step": 0.003,
+            "road": {"profile": 1, "bump_height": 0.05, "bump_length": 5.0, "side": 0,
+                     "speed": 15.0, "start_distance": 1.5}}"#,
+    )
+    .unwrap();
+    let spec = dir.join("sweep.json");
+    std::fs::write(
+        &spec,
+        r#"{"name": "w", "base": "bump.json", "controllers": ["hinf_sf", "delay_sf"],
+            "parameters": {"plant.m_s": {"grid": [1400, 1600]}}}"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let msg = master(&[
+        "sweep",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(msg.starts_with("4 runs (0 failed)"), "{msg}");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let row = |c: &str| {
+        report
+            .lines()
+            .find(|l| l.starts_with(&format!("| `{c}` | 2 |")))
+            .unwrap_or_else(|| panic!("{c}: {report}"))
+            .to_string()
+    };
+    assert!(row("delay_sf").ends_with("| 100.0 % |"), "{report}");
+    assert!(row("hinf_sf").ends_with("| 0.0 % |"), "{report}");
+    assert!(
+        report.contains("- 2 × delay_sf: fmi2DoStep: communication step 0.003 s"),
+        "{report}"
+    );
+    let reader =
+        SerializedFileReader::new(std::fs::File::open(out.join("runs.parquet")).unwrap()).unwrap();
+    let mut seen = 0;
+    for record in reader.get_row_iter(None).unwrap() {
+        let record = record.unwrap();
+        let field = |n: &str| {
+            record
+                .get_column_iter()
+                .find(|(name, _)| *name == n)
+                .map(|(_, f)| f.clone())
+                .unwrap()
+        };
+        let (Field::Str(controller), Field::Str(warnings)) =
+            (field("controller"), field("warnings"))
+        else {
+            panic!("controller and warnings are strings: {record:?}");
+        };
+        assert_eq!(
+            warnings.contains("communication step 0.003 s"),
+            controller == "delay_sf",
+            "{controller}: {warnings}"
+        );
+        seen += 1;
+    }
+    assert_eq!(seen, 4);
+    let _ = std::fs::remove_dir_all(&dir);
+}
