@@ -22,13 +22,7 @@ fn sweep_dir(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("master-sweep-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(
-        dir.join("bump.json"),
-        r#"{"name": "short_bump", "duration": 1.5, "step": 0.001,
-            "road": {"profile": 1, "bump_height": 0.05, "bump_length": 5.0, "side": 0,
-                     "speed": 15.0, "start_distance": 1.5}}"#,
-    )
-    .unwrap();
+    write_bump(&dir, 0.001);
     std::fs::write(
         dir.join("sweep.json"),
         r#"{"name": "t", "base": "bump.json", "controllers": ["passive", "hinf_sf"],
@@ -39,6 +33,16 @@ fn sweep_dir(tag: &str) -> PathBuf {
     )
     .unwrap();
     dir
+}
+
+/// `dir/bump.json`: 1.5 s over a 5 cm bump at 15 m/s, at a communication step of `step`.
+fn write_bump(dir: &Path, step: f64) {
+    let scenario = serde_json::json!({
+        "name": "short_bump", "duration": 1.5, "step": step,
+        "road": {"profile": 1, "bump_height": 0.05, "bump_length": 5.0, "side": 0,
+                 "speed": 15.0, "start_distance": 1.5},
+    });
+    std::fs::write(dir.join("bump.json"), scenario.to_string()).unwrap();
 }
 
 fn master(args: &[&str]) -> String {
@@ -317,13 +321,7 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
     let dir = std::env::temp_dir().join(format!("master-sweep-warn-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(
-        dir.join("bump.json"),
-        r#"{"name": "coarse_bump", "duration": 1.5, "step": 0.003,
-            "road": {"profile": 1, "bump_height": 0.05, "bump_length": 5.0, "side": 0,
-                     "speed": 15.0, "start_distance": 1.5}}"#,
-    )
-    .unwrap();
+    write_bump(&dir, 0.003);
     let spec = dir.join("sweep.json");
     std::fs::write(
         &spec,
