@@ -62,8 +62,8 @@ pub struct Runtime {
     history: VecDeque<(f64, DVector<f64>)>,
     /// `K̃ I` over the history now.
     in_flight: DVector<f64>,
-    /// Per part in flight: `e^{A a} G(ℓ)` and `K̃` of it.
-    prediction: HashMap<Key, (DMatrix<f64>, DMatrix<f64>)>,
+    /// Per part in flight: `K̃ e^{A a} G(ℓ)`.
+    prediction: HashMap<Key, DMatrix<f64>>,
     /// Per part in flight at a step's start: what it adds to `ξ` over the step (`h` fixed).
     carried: HashMap<Key, DMatrix<f64>>,
     /// Per part of a segment acting during a step (its end's distance to the step's end, its
@@ -322,10 +322,8 @@ impl Runtime {
         for (len, uj) in self.history.iter().take(keep) {
             let (lo, hi) = (age, (age + len).min(theta));
             if hi > lo {
-                let (_, k) = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
-                    let x = predicted(&self.spec, a, l)?;
-                    let k = &self.k_tilde * &x;
-                    Ok((x, k))
+                let k = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
+                    Ok(&self.k_tilde * predicted(&self.spec, a, l)?)
                 })?;
                 sum.gemv(1.0, k, uj, 1.0);
             }
@@ -389,11 +387,11 @@ fn predicted(p: &Predictor, a: f64, l: f64) -> Result<DMatrix<f64>, ExpError> {
 }
 
 /// `cache[key]`, computed by `make(age, length)` on a miss (a failure is not cached).
-fn cached<T>(
-    cache: &mut HashMap<Key, T>,
+fn cached(
+    cache: &mut HashMap<Key, DMatrix<f64>>,
     (age, len): (f64, f64),
-    make: impl FnOnce(f64, f64) -> Result<T, ExpError>,
-) -> Result<&T, ExpError> {
+    make: impl FnOnce(f64, f64) -> Result<DMatrix<f64>, ExpError>,
+) -> Result<&DMatrix<f64>, ExpError> {
     if cache.len() >= CACHE_LIMIT {
         cache.clear();
     }
