@@ -211,6 +211,20 @@ fn own_filters(p: &Predictor) -> Result<Vec<(usize, usize, f64)>, SpecError> {
             )));
         }
     }
+    // Their dynamics are the design model's (`x_i = s ξ_j`), or the filter of the commands is
+    // not that state's prediction.
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
+    for &(j, i, s) in &own {
+        let same_a = own
+            .iter()
+            .all(|&(j2, i2, s2)| close(p.a_xi[(j, j2)], p.a[(i, i2)] * s2 / s));
+        let same_b = (0..p.b.ncols()).all(|c| close(p.b_xiu[(j, c)], p.b[(i, c)] / s));
+        if !(same_a && same_b) {
+            return Err(invalid(format!(
+                "xi row {j} does not follow the design model's state {i} (A_xi, B_xiu against A, B)"
+            )));
+        }
+    }
     Ok(own)
 }
 

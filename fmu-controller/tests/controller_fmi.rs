@@ -621,6 +621,11 @@ fn predictor_blocks_must_be_the_controller_without_delay() {
             "\"S_xi\": [[0.7, 0.3], [0.0, 1.0]]",
             "into 2 design",
         ),
+        (
+            "\"B\": [[1.5], [1.0]]",
+            "\"B\": [[1.5], [0.8]]",
+            "does not follow the design model",
+        ),
     ] {
         let err = refusal(PRED_SPEC, from, to);
         assert!(
