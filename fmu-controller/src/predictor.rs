@@ -16,17 +16,17 @@
 //!   is not a whole number of steps: measured, the sampled loop of `delay_sf` then had
 //!   spectral radius 1.41 at 1.1 ms (unstable), 1.21 at 1.5 ms.
 //!
-//! The command is `u = K̃ (e^{Aθ} (S_y y + S_ξ ξ) + I) + K_φ φ`, `K̃` the gain without the
-//! filters' columns, `I = Σ_j e^{A a_j} G(ℓ_j) u_j` the in-flight integral over the parts
-//! `[a_j, a_j + ℓ_j]` of the segments younger than `θ` (`G(ℓ) = ∫₀^ℓ e^{As} ds B`), exact for
-//! held segments. Over a step the filters take the command continuously, `φ̇ = A_φ φ + B_φ
-//! u_v(s)`, `u_v` that formula with the prediction moving on as the commands sent make it
-//! (`İ = A I + B u − e^{Aθ} B u(s − θ)`): the command the design gives at every instant of
-//! the step, so the hold never enters the filters' own loop, which is the gain's fastest
-//! (−2000 rad/s in `delay_sf`). Driving the filters by the held commands instead made
-//! `delay_sf` unstable at every communication step above 1.1 ms. With `w = [ξ; I]`,
-//! `ẇ = Ā w + B̄ [y; u_r; u(· − θ); u]` over the step: one exponential per step length and per
-//! part of a segment acting during the step.
+//! The command is `u = K̃ z + K_φ φ`, `z = e^{Aθ} (S_y y + S_ξ ξ) + I` the design state
+//! predicted `θ` ahead, `K̃` the gain without the filters' columns, `I = Σ_j e^{A a_j} G(ℓ_j)
+//! u_j` the in-flight integral over the parts `[a_j, a_j + ℓ_j]` of the segments younger than
+//! `θ` (`G(ℓ) = ∫₀^ℓ e^{As} ds B`), exact for held segments. Over a step the controller runs
+//! the design's loop on its model: the prediction moves on as the model says with the command
+//! sent, `ż = A z + B u`, and the filters take the command the design gives at every instant,
+//! `φ̇ = A_φ φ + B_φ (K̃ z + K_φ φ)`, so the hold never enters the filters' own loop, which is
+//! the gain's fastest (−2000 rad/s in `delay_sf`). Driving the filters by the held commands
+//! instead made `delay_sf` unstable at every communication step above 1.1 ms. With
+//! `w = [ξ; z]`, `ẇ = Ā w + B̄ [y; u_r; u(· − θ); u]` over the step: one exponential per step
+//! length and per part of a segment acting during the step.
 //!
 //! Each term's matrix depends only on the step length and the part's age and length, so it is
 //! computed once (Van Loan's exponential, [`linsys::discretize`]) and kept: with a constant
@@ -55,7 +55,10 @@ pub struct Runtime {
     /// `K̃ e^{Aθ} S_y`; `K̃ e^{Aθ} S_ξ` with `K_φ` on the filters' columns.
     k_y: DMatrix<f64>,
     k_xi: DMatrix<f64>,
-    /// `Ā`, and `B̄`'s columns `[y | u_r | u(· − θ) | u]`, over `w = [ξ; I]`.
+    /// `e^{Aθ} S_ξ`, `e^{Aθ} S_y`: the prediction `z = e^{Aθ} x + I` of `ξ` and `y`.
+    z_xi: DMatrix<f64>,
+    z_y: DMatrix<f64>,
+    /// `Ā`, and `B̄`'s columns `[y | u_r | u(· − θ) | u]`, over `w = [ξ; z]`.
     a_bar: DMatrix<f64>,
     b_bar: DMatrix<f64>,
     /// Held commands `(duration, u)`, newest first, back to age `θ`.
@@ -73,8 +76,9 @@ pub struct Runtime {
     own: Option<OwnStep>,
 }
 
-/// Over a step of `step`: the rows of `ξ` of `e^{Āh}` (on `ξ`, on `I`) and of its input
-/// integrals (on `y`, `u_r`, the command sent).
+/// Over a step of `step`, the rows of `ξ`: `e^{Āh}` on `ξ` and on `y` with `z`'s part
+/// `e^{Aθ} (S_y y + S_ξ ξ)` folded in, on `z` (for the commands in flight), and the input
+/// integrals on `y`, `u_r` and the command sent.
 #[derive(Debug, Clone)]
 struct OwnStep {
     step: f64,
@@ -92,6 +96,8 @@ impl Runtime {
             k_tilde: DMatrix::zeros(0, 0),
             k_y: DMatrix::zeros(0, 0),
             k_xi: DMatrix::zeros(0, 0),
+            z_xi: DMatrix::zeros(0, 0),
+            z_y: DMatrix::zeros(0, 0),
             a_bar: DMatrix::zeros(0, 0),
             b_bar: DMatrix::zeros(0, 0),
             theta: 0.0,
@@ -134,15 +140,13 @@ impl Runtime {
             let e = expm(&(&p.a * theta))
                 .map_err(|e| format!("cannot predict the state {theta} s ahead: {e}"))?;
             let (nxi, n, ny, nu) = (p.a_xi.nrows(), p.a.nrows(), p.b_xi.ncols(), p.k.nrows());
-            let mut k_tilde = p.k.clone();
-            for &(_, i, _) in &p.own {
+            let (mut k_tilde, mut k_own) = (p.k.clone(), DMatrix::zeros(nu, nxi));
+            for &(j, i, s) in &p.own {
+                k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
                 k_tilde.column_mut(i).fill(0.0);
             }
-            let k_y = &k_tilde * &e * &p.s_y;
-            let mut k_xi = &k_tilde * &e * &p.s_xi;
-            for &(j, i, s) in &p.own {
-                k_xi.column_mut(j).copy_from(&(p.k.column(i) * s));
-            }
+            let (z_xi, z_y) = (&e * &p.s_xi, &e * &p.s_y);
+            let (k_xi, k_y) = (&k_tilde * &z_xi + &k_own, &k_tilde * &z_y);
             // The applied force reaches the car's rows through what they read.
             let mut b_applied = &p.b_xi * &p.d_yu;
             for &(j, _, _) in &p.own {
@@ -151,26 +155,22 @@ impl Runtime {
             let mut a_bar = DMatrix::zeros(nxi + n, nxi + n);
             a_bar
                 .view_mut((0, 0), (nxi, nxi))
-                .copy_from(&(&p.a_xi + &p.b_xiu * &k_xi));
+                .copy_from(&(&p.a_xi + &p.b_xiu * &k_own));
             a_bar
                 .view_mut((0, nxi), (nxi, n))
                 .copy_from(&(&p.b_xiu * &k_tilde));
             a_bar.view_mut((nxi, nxi), (n, n)).copy_from(&p.a);
             let mut b_bar = DMatrix::zeros(nxi + n, ny + 3 * nu);
-            b_bar
-                .view_mut((0, 0), (nxi, ny))
-                .copy_from(&(&p.b_xi + &p.b_xiu * &k_y));
+            b_bar.view_mut((0, 0), (nxi, ny)).copy_from(&p.b_xi);
             b_bar
                 .view_mut((0, ny), (nxi, nu))
                 .copy_from(&(-&p.b_xi * &p.d_yu));
             b_bar
                 .view_mut((0, ny + nu), (nxi, nu))
                 .copy_from(&b_applied);
-            b_bar
-                .view_mut((nxi, ny + nu), (n, nu))
-                .copy_from(&(-&e * &p.b));
             b_bar.view_mut((nxi, ny + 2 * nu), (n, nu)).copy_from(&p.b);
             self.theta = theta;
+            (self.z_xi, self.z_y) = (z_xi, z_y);
             (self.k_tilde, self.k_y, self.k_xi) = (k_tilde, k_y, k_xi);
             (self.a_bar, self.b_bar) = (a_bar, b_bar);
             self.prediction.clear();
@@ -206,14 +206,17 @@ impl Runtime {
             let d = discretize(&self.a_bar, &self.b_bar, h).map_err(failed)?;
             let rows =
                 |c0: usize, cols: usize| d.gamma_hold.view((0, c0), (nxi, cols)).into_owned();
+            // `z` at the step's start: `e^{Aθ} (S_y y + S_ξ ξ)` here, the commands in flight
+            // below (`carried`).
+            let phi_z = d
+                .phi
+                .view((0, nxi), (nxi, d.phi.ncols() - nxi))
+                .into_owned();
             self.own = Some(OwnStep {
                 step: h,
-                phi: d.phi.view((0, 0), (nxi, nxi)).into_owned(),
-                phi_i: d
-                    .phi
-                    .view((0, nxi), (nxi, d.phi.ncols() - nxi))
-                    .into_owned(),
-                gamma_y: rows(0, ny),
+                phi: d.phi.view((0, 0), (nxi, nxi)) + &phi_z * &self.z_xi,
+                gamma_y: rows(0, ny) + &phi_z * &self.z_y,
+                phi_i: phi_z,
                 gamma_r: rows(ny, nu),
                 gamma_u: rows(ny + 2 * nu, nu),
             });
@@ -228,7 +231,8 @@ impl Runtime {
         }
         let theta = self.theta;
         let mut result = Ok(());
-        // The commands in flight at the step's start, ages from now: `Φ̄_ξI e^{Aa} G(ℓ) u_j`.
+        // The commands in flight at the step's start (their part of `z`), ages from now:
+        // `Φ̄_ξz e^{Aa} G(ℓ) u_j`.
         let mut age = 0.0f64;
         for (len, uj) in &self.history {
             let (lo, hi) = (age, (age + len).min(theta));

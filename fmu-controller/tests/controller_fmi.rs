@@ -383,13 +383,14 @@ const PRED_SPEC: &str = r#"{
 }"#;
 
 /// The predictor of [`PRED_SPEC`] in closed form, independent of the runtime's matrix
-/// exponentials. Over each step the command sent is held; on each piece of the step where the
-/// delayed command is constant, in closed form: the car's copy `ξ₁`, driven by `y` held with its
-/// force part `0.4 u_r` (the command sent `θ` before the step's start; with no delay the
-/// previous one) replaced by the force applied on the piece; the in-flight integral
-/// `I = ∫ e^{−2(t−r)} 1.5 u(r) dr` moving on with the command sent coming in and the applied
-/// one going out; the filter `φ` in controller time taking the command
-/// `−0.8 (e^{−2θ} (y + 0.7 ξ₁) + I) − 2 φ` continuously (sums of exponentials).
+/// exponentials. Over each step the command sent is held; in closed form (sums of
+/// exponentials): the car's copy `ξ₁`, on each piece of the step where the delayed command is
+/// constant, driven by `y` held with its force part `0.4 u_r` (the command sent `θ` before the
+/// step's start; with no delay the previous one) replaced by the force applied on the piece;
+/// the model's prediction of the car state `θ` ahead, `z = e^{−2θ} (y + 0.7 ξ₁) + I` at the
+/// step's start (`I = ∫ e^{−2(t−r)} 1.5 u(r) dr` over the commands in flight), moving on as the
+/// model says with the command sent, `ż = −2 z + 1.5 u`; the filter `φ` in controller time
+/// taking the command `−0.8 z − 2 φ` continuously.
 struct ScalarPredictor {
     theta: f64,
     /// The force limit commands are clamped to.
@@ -435,7 +436,8 @@ impl ScalarPredictor {
             // A command's start counts as reached within rounding, as the plant counts it.
             self.sent_at(t - self.theta + 1e-12)
         };
-        let mut i = self.in_flight(t);
+        let ahead = (-2.0 * self.theta).exp();
+        let mut z = ahead * (y + 0.7 * self.xi) + self.in_flight(t);
         self.sent.push((t, t + h, u));
         let mut cuts = vec![t, t + h];
         for &(s, e, _) in &self.sent {
@@ -446,23 +448,17 @@ impl ScalarPredictor {
             }
         }
         cuts.sort_by(f64::total_cmp);
-        let ahead = (-2.0 * self.theta).exp();
         for w in cuts.windows(2) {
             let d = w[1] - w[0];
             let applied = self.sent_at(0.5 * (w[0] + w[1]) - self.theta);
-            // ξ₁ → c/3 at rate 3, I → q/2 at rate 2, φ̇ = −7 φ + g₀ + g₃ e^{−3s} + g₂ e^{−2s}.
+            // ξ₁ → c/3 at rate 3, z → q/2 at rate 2, φ̇ = −7 φ + g₀ + g₂ e^{−2s}.
             let c = 0.3 * (y + 0.4 * (applied - read));
-            let q = 1.5 * (u - ahead * applied);
-            let g0 = -0.8 * (ahead * (y + 0.7 * c / 3.0) + q / 2.0);
-            let g3 = -0.8 * ahead * 0.7 * (self.xi - c / 3.0);
-            let g2 = -0.8 * (i - q / 2.0);
+            let q = 1.5 * u;
+            let (g0, g2) = (-0.8 * q / 2.0, -0.8 * (z - q / 2.0));
             let e = |rate: f64| (-rate * d).exp();
-            self.phi = self.phi * e(7.0)
-                + g0 * (1.0 - e(7.0)) / 7.0
-                + g3 * (e(3.0) - e(7.0)) / 4.0
-                + g2 * (e(2.0) - e(7.0)) / 5.0;
+            self.phi = self.phi * e(7.0) + g0 * (1.0 - e(7.0)) / 7.0 + g2 * (e(2.0) - e(7.0)) / 5.0;
             self.xi = c / 3.0 + (self.xi - c / 3.0) * e(3.0);
-            i = q / 2.0 + (i - q / 2.0) * e(2.0);
+            z = q / 2.0 + (z - q / 2.0) * e(2.0);
         }
         u
     }

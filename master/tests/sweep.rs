@@ -313,7 +313,7 @@ fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditi
 }
 
 /// A controller stepped beyond the communication steps its certificate calls stable
-/// (`delay_sf` at 3 ms; `hinf_sf` is stable there) still runs, and its rows carry the FMU's
+/// (`delay_sf` at 10 ms; `hinf_of` is stable there) still runs, and its rows carry the FMU's
 /// warning: the `warnings` column, the report's share of runs an FMU warned in, and the
 /// message once with its count.
 #[test]
@@ -321,11 +321,11 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
     let dir = std::env::temp_dir().join(format!("master-sweep-warn-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    write_bump(&dir, 0.003);
+    write_bump(&dir, 0.01);
     let spec = dir.join("sweep.json");
     std::fs::write(
         &spec,
-        r#"{"name": "w", "base": "bump.json", "controllers": ["hinf_sf", "delay_sf"],
+        r#"{"name": "w", "base": "bump.json", "controllers": ["hinf_of", "delay_sf"],
             "parameters": {"plant.m_s": {"grid": [1400, 1600]}}}"#,
     )
     .unwrap();
@@ -346,9 +346,9 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
             .to_string()
     };
     assert!(row("delay_sf").ends_with("| 100.0 % |"), "{report}");
-    assert!(row("hinf_sf").ends_with("| 0.0 % |"), "{report}");
+    assert!(row("hinf_of").ends_with("| 0.0 % |"), "{report}");
     assert!(
-        report.contains("- 2 × delay_sf: fmi2DoStep: communication step 0.003 s"),
+        report.contains("- 2 × delay_sf: fmi2DoStep: communication step 0.01 s"),
         "{report}"
     );
     let reader =
@@ -369,7 +369,7 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
             panic!("controller and warnings are strings: {record:?}");
         };
         assert_eq!(
-            warnings.contains("communication step 0.003 s"),
+            warnings.contains("communication step 0.01 s"),
             controller == "delay_sf",
             "{controller}: {warnings}"
         );

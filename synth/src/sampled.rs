@@ -235,84 +235,75 @@ impl DiscreteController {
 /// drive each other, so `e^{Aθ}` does not mix them); the **rest** follows the car, driven by
 /// `y_k − D_yu u_{k−r}` held and the force as the actuators apply it (`u_{k−d−1}` until
 /// `t_k + ε`, then `u_{k−d}`; `u_{k−r}` the command whose force `y_k` carries, [`read_lag`]).
-/// The command is `u = K̃ (e^{Aθ} x + I) + K_φ φ`, `K̃` the gain without the filters' columns,
-/// `x = S_y y + S_ξ ξ`: `u = K_x ξ + K_y y + K̃ I`.
+/// The command is `u = K̃ z + K_φ φ`, `z = e^{Aθ} x + I` the design state predicted `θ` ahead,
+/// `K̃` the gain without the filters' columns, `x = S_y y + S_ξ ξ`: `u = K_x ξ + K_y y + K̃ I`.
 ///
-/// Over the step the controller substitutes that command continuously into the filters,
-/// `φ̇ = A_φ φ + B_φ u_v(s)`, with the prediction moving on as the commands sent make it:
-/// `İ = A I + B u_k − e^{Aθ} B u_a(s)` (`u_k` held, `u_a` the applied force), so `u_v(s)` is
-/// the command the design would give at every instant of the step. The hold never enters the
-/// filters' own loop, which is the gain's fastest (−2000 rad/s): driving `φ` by the held
+/// Over the step the controller runs the design's loop on its model: the prediction moves on
+/// as the model says with the command sent, `ż = A z + B u_k`, and the filters take the command
+/// the design gives at every instant, `φ̇ = A_φ φ + B_φ (K̃ z + K_φ φ)`. The hold never enters
+/// the filters' own loop, which is the gain's fastest (−2000 rad/s): driving `φ` by the held
 /// command instead made `delay_sf` unstable at every step above 1.1 ms (a hold of `h` cannot
-/// follow a mode faster than about `2 / h`). At `θ = 0` with `D_yu = 0` this is exactly the
-/// state feedback's own controller stepped with `y` held (tested). Over `[0, h]` with
-/// `w = [ξ; I]`: `ẇ = Ā w + B̄ [y_k; u_{k−r}; u_a; u_k]`, one Van Loan exponential per part of
-/// the step.
+/// follow a mode faster than about `2 / h`). Over `[0, h]` with `w = [ξ; z]`:
+/// `ẇ = Ā w + B̄ [y_k; u_{k−r}; u_a; u_k]`, one Van Loan exponential per part of the step.
 fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<DiscreteController, PredictionError> {
     let (d, eps) = whole_steps(p.delay, h);
     let fail = |e| PredictionError::Unstable(format!("the predictor at h = {h}: {e}"));
     let r = &p.reconstruction;
     let (nxi, nu, n, ny) = (r.a_xi.nrows(), p.k.nrows(), p.a.nrows(), r.b_xi.ncols());
     let own = own_filters(p);
-    let mut k_tilde = p.k.clone();
-    for &(_, i, _) in &own {
+    let (mut k_tilde, mut k_own) = (p.k.clone(), DMatrix::zeros(nu, nxi));
+    for &(j, i, s) in &own {
+        k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
         k_tilde.column_mut(i).fill(0.0);
     }
     let e_theta = expm(&(&p.a * p.delay)).map_err(fail)?;
-    let mut kx = &k_tilde * &e_theta * &r.s_xi;
-    for &(j, i, s) in &own {
-        kx.column_mut(j).copy_from(&(p.k.column(i) * s));
-    }
-    let ky = &k_tilde * &e_theta * &r.s_y;
+    let (z_xi, z_y) = (&e_theta * &r.s_xi, &e_theta * &r.s_y);
+    let (kx, ky) = (&k_tilde * &z_xi + &k_own, &k_tilde * &z_y);
     // The applied force drives the car's rows through what they read, `B_ξ D_yu`.
     let mut b_applied = &r.b_xi * &r.d_yu;
     for &(j, _, _) in &own {
         b_applied.row_mut(j).fill(0.0);
     }
-    // Ā, B̄ over w = [ξ; I], inputs [y; u_{k−r}; u_a; u_k] (`B_ξu` is zero off the filters).
+    // Ā, B̄ over w = [ξ; z], inputs [y; u_{k−r}; u_a; u_k] (`B_ξu` is zero off the filters).
     let (nw, (cy, cr, ca, ck)) = (nxi + n, (0, ny, ny + nu, ny + 2 * nu));
     let mut a_bar = DMatrix::zeros(nw, nw);
     a_bar
         .view_mut((0, 0), (nxi, nxi))
-        .copy_from(&(&r.a_xi + &r.b_xiu * &kx));
+        .copy_from(&(&r.a_xi + &r.b_xiu * &k_own));
     a_bar
         .view_mut((0, nxi), (nxi, n))
         .copy_from(&(&r.b_xiu * &k_tilde));
     a_bar.view_mut((nxi, nxi), (n, n)).copy_from(&p.a);
     let mut b_bar = DMatrix::zeros(nw, ny + 3 * nu);
-    b_bar
-        .view_mut((0, cy), (nxi, ny))
-        .copy_from(&(&r.b_xi + &r.b_xiu * &ky));
+    b_bar.view_mut((0, cy), (nxi, ny)).copy_from(&r.b_xi);
     b_bar
         .view_mut((0, cr), (nxi, nu))
         .copy_from(&(-&r.b_xi * &r.d_yu));
     b_bar.view_mut((0, ca), (nxi, nu)).copy_from(&b_applied);
-    b_bar
-        .view_mut((nxi, ca), (n, nu))
-        .copy_from(&(-&e_theta * &p.b));
     b_bar.view_mut((nxi, ck), (n, nu)).copy_from(&p.b);
     let full = discretize(&a_bar, &b_bar, h).map_err(fail)?;
-    let late = discretize(&a_bar, &b_bar.columns(ca, nu).into_owned(), h - eps).map_err(fail)?;
-    let early = discretize(&a_bar, &b_bar.columns(ca, nu).into_owned(), eps).map_err(fail)?;
+    let applied = b_bar.columns(ca, nu).into_owned();
+    let late = discretize(&a_bar, &applied, h - eps).map_err(fail)?;
+    let early = discretize(&a_bar, &applied, eps).map_err(fail)?;
     let top = |m: &DMatrix<f64>, c0: usize, cols: usize| m.view((0, c0), (nxi, cols)).into_owned();
     // The applied force before `t_k + ε` and after.
     let applied_early = top(&(&late.phi * &early.gamma_hold), 0, nu);
     let applied_late = top(&late.gamma_hold, 0, nu);
-    // The commands in flight at `t_k`, `I_k = Σ_j M_j c_j`.
+    // `z(t_k) = Z_ξ ξ + Z_y y + Σ_j M_j c_j`, the commands in flight `I_k = Σ_j M_j c_j`.
     let g = discretize(&p.a, &p.b, h).map_err(fail)?.gamma_hold;
     let g_eps = discretize(&p.a, &p.b, eps).map_err(fail)?.gamma_hold;
     let step = expm(&(&p.a * h)).map_err(fail)?;
     let in_flight = d + usize::from(eps > 0.0);
     let read = read_lag(p.delay, d, eps);
     let commands = in_flight.max(read);
-    let phi_on_i = full.phi.view((0, nxi), (nxi, n)).into_owned();
+    let phi_on_z = full.phi.view((0, nxi), (nxi, n)).into_owned();
     let mut k_u = DMatrix::zeros(nu, commands * nu);
     let mut g_u = DMatrix::zeros(nxi, commands * nu);
     let mut age = DMatrix::identity(n, n);
     for j in 0..in_flight {
         let m = &age * if j < d { &g } else { &g_eps };
         k_u.columns_mut(j * nu, nu).copy_from(&(&k_tilde * &m));
-        g_u.columns_mut(j * nu, nu).copy_from(&(&phi_on_i * &m));
+        g_u.columns_mut(j * nu, nu).copy_from(&(&phi_on_z * &m));
         age = &step * age;
     }
     let mut on_read = g_u.columns_mut((read - 1) * nu, nu);
@@ -321,16 +312,17 @@ fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<DiscreteController, Pr
         let mut on_early = g_u.columns_mut(d * nu, nu);
         on_early += &applied_early;
     }
-    // `u_k` itself: held into the prediction, and applied after `t_k + ε` when `d = 0`.
+    // `u_k` itself: into the prediction, and applied after `t_k + ε` when `d = 0`.
     let mut on_sent = top(&full.gamma_hold, ck, nu);
     if d == 0 {
         on_sent += &applied_late;
     } else {
         let mut on_late = g_u.columns_mut((d - 1) * nu, nu);
         on_late += &applied_late;
-    } // Substitute `u_k = K_x ξ + K_y y + K_u c`.
-    let phi = full.phi.view((0, 0), (nxi, nxi)) + &on_sent * &kx;
-    let gamma = top(&full.gamma_hold, cy, ny) + &on_sent * &ky;
+    }
+    // `z(t_k)` and the substitution `u_k = K_x ξ + K_y y + K_u c`.
+    let phi = full.phi.view((0, 0), (nxi, nxi)) + &phi_on_z * &z_xi + &on_sent * &kx;
+    let gamma = top(&full.gamma_hold, cy, ny) + &phi_on_z * &z_y + &on_sent * &ky;
     g_u += &on_sent * &k_u;
     Ok(DiscreteController {
         lti: Lti::new(phi, gamma, kx, ky),
