@@ -27,10 +27,11 @@
 //! at which communication steps it is stable at every delay of the grid.
 //!
 //! The runtime keeps the command's own filters (the unmodelled-delay weight's states, which
-//! the gain reads) in controller time and substitutes the command into them continuously over
-//! each step (`crate::sampled`'s `discrete_predictor`, `fmu-controller/src/predictor.rs`), as
-//! `hinf_sf`'s controller does: equal in continuous time, and the hold no longer enters the
-//! gain's fastest loop (stable to 2 ms at every delay instead of 1.1 ms).
+//! the gain reads) in controller time and, over each step, runs the design's loop on its model:
+//! the prediction moves on with the command sent, and the filters take the command the design
+//! gives at every instant (`crate::sampled`'s `discrete_predictor`,
+//! `fmu-controller/src/predictor.rs`). Equal in continuous time; the hold no longer enters the
+//! gain's fastest loop (stable to 7.5 ms at every delay instead of 1.1 ms).
 
 use crate::comfort_controllers::{
     realise_state_feedback, reconstruction, state_feedback_sensors, Reconstruction,

@@ -148,11 +148,11 @@ fn predicted(case: &Case, f: f64) -> [Complex<f64>; 6] {
 /// diagonal similarity of the controller's realisation (the factors LAPACK's balancing picks)
 /// moves its predicted amplitude by 1.0·10⁻⁶, and running the co-simulation 240 s instead of
 /// 60 s moves nothing, so it is no transient. One exception, held to 10⁻⁴: the unweighted seat
-/// acceleration of `delay_sf` with no delay (measured 7.8·10⁻⁶ and 1.2·10⁻⁵; its weighted seat
-/// 3.4·10⁻⁹). There the force correction closes the seat command's loop through the seat
-/// acceleration within the step, and the prediction of that one signal is good to a few 10⁻⁵
-/// only: changing the gain by 10⁻¹⁴ moves it by up to 4.9·10⁻⁵, and by 10⁻¹² no more (rounding,
-/// not sensitivity), while every other figure moves by less than 5·10⁻⁷.
+/// acceleration of `delay_sf` with no delay (measured 6.4·10⁻⁶ and 1.9·10⁻⁵). There the force
+/// correction closes the seat command's loop through the seat acceleration within the step, and
+/// the prediction of that one signal is good to a few 10⁻⁵ only: changing the gain by 10⁻¹⁴
+/// moved it by up to 4.9·10⁻⁵, and by 10⁻¹² no more (rounding, not sensitivity; with the
+/// correction zeroed, 10⁻⁹), while every other figure moved by less than 5·10⁻⁷.
 #[test]
 fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
     let healthy = [1.0; 5];
