@@ -10,7 +10,7 @@
 //!
 //! Measured (ISO C at 20 m/s, seed 7, W_k seat RMS over the second half of the run, m/s²):
 //! `hinf_sf` 0.058 at 5 ms, 0.56 at 7.5 ms; `ft_of` 0.049 at 7.5 ms, 4.5 at 10 ms; `delay_sf`
-//! 0.050 at 7.5 ms, 2.8 at 10 ms (its range holds at every delay of its grid: at a 20 ms delay
+//! 0.050 at 7.5 ms, 2.8 at 10 ms (its range holds at delays of 0, 10, …, 50 ms: at a 20 ms delay
 //! 0.0099 at 1 and 2 ms, 0.026 at 7.5 ms; `docs/comfort-designs.md`).
 
 use master::cosim::{run, Run, Scenario};

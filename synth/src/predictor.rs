@@ -24,7 +24,7 @@
 //! `hinf_sf`'s). Checked: the margins to a mismatch between the actual and the predicted delay,
 //! and the loop as a master runs it (held inputs and commands, `crate::sampled`) stable at
 //! delays between whole communication steps, where the delayed command changes mid-step, and
-//! at which communication steps it is stable at every delay of the grid.
+//! at which communication steps it is stable at delays across the interval.
 //!
 //! The runtime keeps the command's own filters (the unmodelled-delay weight's states, which
 //! the gain reads) in controller time and, over each step, runs the design's loop on its model:
@@ -397,15 +397,20 @@ pub fn predictor_design(
             .map_err(|e| fail(format!("at a delay of {theta} s, between whole steps: {e}")))
         })
         .collect::<Result<Vec<f64>, ComfortError>>()?;
-    // The communication steps, at every delay of the grid (the held loop's history, and so
+    // The communication steps at delays across the interval (the held loop's history, and so
     // what the hold does to it, grows with the delay).
-    let loops: Vec<(ControlLaw, Conditions)> =
-        conditions.iter().map(|c| (law_at(c.delay), *c)).collect();
+    // Every other delay of the grid: at 0.25 ms a held loop at 50 ms has 1080 states, and the
+    // whole grid took the synthesis from 22.6 to 26–30 s.
+    let step_delays: Vec<f64> = delays.iter().step_by(2).copied().collect();
+    let loops: Vec<(ControlLaw, Conditions)> = step_delays
+        .iter()
+        .map(|&theta| (law_at(theta), at_delay(theta)))
+        .collect();
     certificate.comfort.communication_steps = crate::comfort_designs::StepStability::check(
         &loops,
         &format!(
             "the nominal car at each delay of {} s, the predictor matched",
-            list_delays(&delays)
+            list_delays(&step_delays)
         ),
     );
     let seat = g.c_z.rows(0, 1).into_owned();

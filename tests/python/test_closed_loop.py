@@ -161,7 +161,7 @@ def test_every_fmu_in_dist_validates():
 
 def test_fmpy_hears_a_controller_stepped_beyond_its_stable_communication_steps(capfd):
     """delay_sf's certificate finds its loop as a master runs it stable at steps up to 7.5 ms at
-    every delay it compensates (`comfort.communication_steps`): FMPy stepping it at 10 ms gets
+    delays of 0, 10, ..., 50 ms (`comfort.communication_steps`): FMPy stepping it at 10 ms gets
     fmi2Warning (and goes on) with the message through its default logger, once for that step
     size; 7.5 ms is silent."""
     steps = json.loads((ROOT / "dist" / "delay_sf" / "controller.json").read_text())["communication_steps"]
