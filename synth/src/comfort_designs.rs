@@ -162,15 +162,7 @@ impl StepStability {
                     .collect();
                 CheckedStep {
                     step_s,
-                    spectral_radius: radii.map(|r| {
-                        r.into_iter().fold(0.0f64, |a, b| {
-                            if a.is_nan() || b.is_nan() {
-                                f64::NAN
-                            } else {
-                                a.max(b)
-                            }
-                        })
-                    }),
+                    spectral_radius: radii.map(|r| crate::eig::max_or_nan(0.0, r)),
                 }
             })
             .collect();

@@ -25,29 +25,25 @@ pub fn eigenvalues(m: &DMatrix<f64>) -> Vec<Complex<f64>> {
     }
 }
 
-/// The largest real part of the eigenvalues (NaN if they could not be computed).
-pub fn spectral_abscissa(m: &DMatrix<f64>) -> f64 {
-    eigenvalues(m)
-        .iter()
-        .map(|l| l.re)
-        .fold(f64::NEG_INFINITY, |a, b| {
-            if b.is_nan() || a.is_nan() {
-                f64::NAN
-            } else {
-                a.max(b)
-            }
-        })
-}
-
-/// The largest modulus of the eigenvalues (NaN if they could not be computed).
-pub fn spectral_radius(m: &DMatrix<f64>) -> f64 {
-    eigenvalues(m).iter().map(|l| l.norm()).fold(0.0, |a, b| {
+/// The largest of `values` and `floor`, NaN if any of them is (where `f64::max` would drop it).
+pub fn max_or_nan(floor: f64, values: impl IntoIterator<Item = f64>) -> f64 {
+    values.into_iter().fold(floor, |a, b| {
         if b.is_nan() || a.is_nan() {
             f64::NAN
         } else {
             a.max(b)
         }
     })
+}
+
+/// The largest real part of the eigenvalues (NaN if they could not be computed).
+pub fn spectral_abscissa(m: &DMatrix<f64>) -> f64 {
+    max_or_nan(f64::NEG_INFINITY, eigenvalues(m).iter().map(|l| l.re))
+}
+
+/// The largest modulus of the eigenvalues (NaN if they could not be computed).
+pub fn spectral_radius(m: &DMatrix<f64>) -> f64 {
+    max_or_nan(0.0, eigenvalues(m).iter().map(|l| l.norm()))
 }
 
 /// The real Schur form of `m` with the eigenvalues of negative real part first, after balancing

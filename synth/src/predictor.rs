@@ -164,18 +164,11 @@ pub struct PredictorFacts {
     pub fractional_worst_radius: f64,
 }
 
-/// `A_ξ + B_ξu K_φ`, `K_φ` the gain's columns of the command's own filters on their rows of
-/// `ξ` ([`crate::sampled::own_filters`]): the controller's own states as its runtime steps them.
-fn own_loop(p: &Option<PredictorLaw>) -> DMatrix<f64> {
-    let Some(p) = p else {
-        return DMatrix::zeros(0, 0);
-    };
-    let r = &p.reconstruction;
-    let mut k_own = DMatrix::zeros(p.k.nrows(), r.a_xi.nrows());
-    for (j, i, s) in crate::sampled::own_filters(p) {
-        k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
-    }
-    &r.a_xi + &r.b_xiu * k_own
+/// `A_ξ + B_ξu K_φ` ([`crate::sampled::split_gain`]): the controller's own states as its
+/// runtime steps them, the command's filters closed through their part of the gain.
+fn own_loop(p: &PredictorLaw) -> DMatrix<f64> {
+    let (_, k_own) = crate::sampled::split_gain(p, &crate::sampled::own_filters(p));
+    &p.reconstruction.a_xi + &p.reconstruction.b_xiu * k_own
 }
 
 /// `0, 0.005, …, 0.05`.
@@ -423,7 +416,11 @@ pub fn predictor_design(
         open_loop_abscissa: crate::eig::spectral_abscissa(&g.a),
         mismatch_margin_lag_s: lag,
         mismatch_margin_lead_s: lead,
-        own_states_abscissa: crate::eig::spectral_abscissa(&own_loop(&law.predictor)),
+        own_states_abscissa: crate::eig::spectral_abscissa(&own_loop(
+            law.predictor
+                .as_ref()
+                .expect("predictor_law sets the predictor"),
+        )),
         step_s: d.communication_step,
         fractional_worst_radius: fractional.iter().fold(0.0f64, |worst, r| worst.max(*r)),
         fractional_delays: fractional_at,

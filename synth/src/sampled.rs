@@ -251,11 +251,7 @@ fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<DiscreteController, Pr
     let r = &p.reconstruction;
     let (nxi, nu, n, ny) = (r.a_xi.nrows(), p.k.nrows(), p.a.nrows(), r.b_xi.ncols());
     let own = own_filters(p);
-    let (mut k_tilde, mut k_own) = (p.k.clone(), DMatrix::zeros(nu, nxi));
-    for &(j, i, s) in &own {
-        k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
-        k_tilde.column_mut(i).fill(0.0);
-    }
+    let (k_tilde, k_own) = split_gain(p, &own);
     let e_theta = expm(&(&p.a * p.delay)).map_err(fail)?;
     let (z_xi, z_y) = (&e_theta * &r.s_xi, &e_theta * &r.s_y);
     let (kx, ky) = (&k_tilde * &z_xi + &k_own, &k_tilde * &z_y);
@@ -330,6 +326,23 @@ fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<DiscreteController, Pr
         g_u,
         k_u,
     })
+}
+
+/// The gain split at the command's own filters: `K̃`, the gain without their columns of the
+/// design state, and `K_φ`, theirs on their rows of `ξ` (`u = K̃ z + K_φ φ`).
+pub(crate) fn split_gain(
+    p: &PredictorLaw,
+    own: &[(usize, usize, f64)],
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (mut k_tilde, mut k_own) = (
+        p.k.clone(),
+        DMatrix::zeros(p.k.nrows(), p.reconstruction.a_xi.nrows()),
+    );
+    for &(j, i, s) in own {
+        k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
+        k_tilde.column_mut(i).fill(0.0);
+    }
+    (k_tilde, k_own)
 }
 
 /// The command's own filters of a predictor: `(row j of ξ, design state i, s)` for each row
