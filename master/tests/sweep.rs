@@ -60,6 +60,18 @@ fn master(args: &[&str]) -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
+/// `master sweep SPEC --out OUT` with `extra` arguments; its standard output.
+fn sweep_into(spec: &Path, out: &Path, extra: &[&str]) -> String {
+    let mut args = vec![
+        "sweep",
+        spec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    master(&args)
+}
+
 fn csv_rows(path: &Path) -> Vec<Vec<String>> {
     // No field of these sweeps is quoted (messages have no commas here: checked below).
     std::fs::read_to_string(path)
@@ -74,12 +86,7 @@ fn a_sweep_is_its_runs_row_by_row_and_a_chunk_is_the_same_rows() {
     let dir = sweep_dir("whole");
     let spec = dir.join("sweep.json");
     let out = dir.join("out");
-    let msg = master(&[
-        "sweep",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let msg = sweep_into(&spec, &out, &[]);
     // 3 masses × 3 draws × 2 controllers; the 6 runs at m_s = −1 fail, are recorded, and the
     // sweep goes on.
     assert!(msg.starts_with("18 runs (6 failed)"), "{msg}");
@@ -153,14 +160,7 @@ fn a_sweep_is_its_runs_row_by_row_and_a_chunk_is_the_same_rows() {
 
     // A chunk: runs 7..12 only, the same rows with the same numbers (loop time aside).
     let chunk = dir.join("chunk");
-    master(&[
-        "sweep",
-        spec.to_str().unwrap(),
-        "--out",
-        chunk.to_str().unwrap(),
-        "--runs",
-        "7..12",
-    ]);
+    sweep_into(&spec, &chunk, &["--runs", "7..12"]);
     let part = csv_rows(&chunk.join("runs.csv"));
     assert_eq!(part.len(), 1 + 5);
     let last = header.len() - 1;
@@ -251,12 +251,7 @@ fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditi
     )
     .unwrap();
     let out = dir.join("out");
-    master(&[
-        "sweep",
-        dir.join("sweep.json").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    sweep_into(&dir.join("sweep.json"), &out, &[]);
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     let section = &report[report.find("## Predicted beside measured").unwrap()..];
     let rows: Vec<Vec<&str>> = section
@@ -330,12 +325,7 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
     )
     .unwrap();
     let out = dir.join("out");
-    let msg = master(&[
-        "sweep",
-        spec.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let msg = sweep_into(&spec, &out, &[]);
     assert!(msg.starts_with("4 runs (0 failed)"), "{msg}");
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     let row = |c: &str| {
