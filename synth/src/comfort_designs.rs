@@ -1007,7 +1007,6 @@ pub fn certify(
     // Predictions, design and passive.
     let predicted = lp.figures(&d.road);
     let held = held_prediction(law, nominal, d).map_err(&fail)?;
-    let communication_steps = StepStability::check(&[(law.clone(), nominal)], "the nominal car");
     let passive = predict(None, nominal, &d.road).map_err(|e| fail(e.to_string()))?;
     let seat = predicted.wk_rms_seat_m_s2;
     if seat.is_nan() || seat >= 0.5 * passive.wk_rms_seat_m_s2 {
@@ -1064,6 +1063,22 @@ pub fn certify(
     if let Some(u) = uncertainty.as_mut() {
         u.predict_held(law, d);
     }
+    // The communication steps at the nominal car and at every condition of the uncertainty:
+    // the hold's effect on a loop moves with the car it closes.
+    let communication_steps = match &uncertainty {
+        None => StepStability::check(&[(law.clone(), nominal)], "the nominal car"),
+        Some(u) => {
+            let loops: Vec<(ControlLaw, Conditions)> = std::iter::once(nominal)
+                .chain(u.conditions.iter().copied())
+                .map(|c| (law.clone(), c))
+                .collect();
+            let labels: Vec<&str> = u.predictions.iter().map(|(l, _)| l.as_str()).collect();
+            StepStability::check(
+                &loops,
+                &format!("the nominal car and {}", labels.join(", ")),
+            )
+        }
+    };
     // The prediction for a nominal design; for a robust one the car model's bound, claimed
     // only where it covers every prediction on the exact car (the car model's Padé rear track
     // and band-unlimited weightings differ from the car; a bound that does not cover is no
