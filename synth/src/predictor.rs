@@ -721,6 +721,13 @@ mod tests {
                 .map(|l| l.figures(&d.road).time_averaged.wk_rms_seat_m_s2)
         };
         let matched = held(0.0, 1e-3).unwrap();
+        let matched_at_10ms = crate::sampled::spectral_radius(
+            Some(&predictor_law(&g, &k, r.clone(), 0.0)),
+            none,
+            1e-2,
+        )
+        .unwrap();
+        assert!(matched_at_10ms > 1.0, "matched at 10 ms: {matched_at_10ms}");
         for h in [1e-3, 2.5e-3, 5e-3, 7.5e-3, 1e-2] {
             let told = held(h, h).unwrap_or_else(|e| panic!("told {h} s at {h} s: {e}"));
             println!("step {h}: told one step {told:.5}, matched at 1 ms {matched:.5}");
