@@ -521,6 +521,20 @@ mod tests {
         (d, p, g, sf, seat)
     }
 
+    /// `delay_sf`'s model and gain as shipped, from [`nominal`]'s.
+    fn shipped(
+        d: &ComfortDesign,
+        p: &VehicleParams,
+        g_design: &ComfortPlant,
+        sf: &StateFeedback,
+    ) -> (ComfortPlant, DMatrix<f64>) {
+        let ctx = Context {
+            params: p,
+            design: d,
+        };
+        predictor_model(&ctx, g_design, &sf.k).unwrap()
+    }
+
     /// The grid's recurrences give [`comfort_at`]'s figures: the worst over a grid equals the
     /// worst of the point-by-point formula, on a grid where `J(θ)` varies by a factor of
     /// several. To 1e-4: the two go through different Lyapunov equations of this stiff loop (the
@@ -708,12 +722,8 @@ mod tests {
     /// certifies the matched loops.
     #[test]
     fn with_no_delay_a_predictor_told_one_step_runs_a_better_held_loop() {
-        let (d, p, g0, sf, _) = nominal();
-        let ctx = Context {
-            params: &p,
-            design: &d,
-        };
-        let (g, k) = predictor_model(&ctx, &g0, &sf.k).unwrap();
+        let (d, p, g_design, sf, _) = nominal();
+        let (g, k) = shipped(&d, &p, &g_design, &sf);
         let r = reconstruction(&g);
         let none = Conditions::nominal(p);
         let held = |tau: f64, h: f64| {
@@ -773,11 +783,7 @@ mod tests {
     #[test]
     fn the_predictor_loop_matches_the_closed_form_comfort_at_every_delay() {
         let (d, p, g_design, sf, _) = nominal();
-        let ctx = Context {
-            params: &p,
-            design: &d,
-        };
-        let (g, k) = predictor_model(&ctx, &g_design, &sf.k).unwrap();
+        let (g, k) = shipped(&d, &p, &g_design, &sf);
         let seat = g.c_z.rows(0, 1).into_owned();
         let ratio = |theta: f64| {
             let law = predictor_law(&g, &k, reconstruction(&g), theta);
