@@ -19,9 +19,7 @@ fn root() -> PathBuf {
 /// A small sweep beside a short bump scenario, in a fresh directory: masses on a grid (one that
 /// makes no car: the plant refuses it when it is set), delays drawn, two controllers.
 fn sweep_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("master-sweep-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir(tag);
     write_bump(&dir, 0.001);
     std::fs::write(
         dir.join("sweep.json"),
@@ -32,6 +30,14 @@ fn sweep_dir(tag: &str) -> PathBuf {
             "map": ["plant.m_s", "plant.tau"]}"#,
     )
     .unwrap();
+    dir
+}
+
+/// An empty directory of this test process, `master-sweep-{tag}-{pid}` in the temporary one.
+fn fresh_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("master-sweep-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
     dir
 }
 
@@ -231,9 +237,7 @@ fn bad_sweeps_and_chunks_are_refused_with_the_reason() {
 /// measured mean near the prediction (20 s runs past the fade-in, two seeds).
 #[test]
 fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditions() {
-    let dir = std::env::temp_dir().join(format!("master-sweep-predicted-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("predicted");
     std::fs::write(
         dir.join("iso.json"),
         r#"{"name": "iso_c_20s", "duration": 20.0, "step": 0.001, "metrics_from": 2.0,
@@ -313,9 +317,7 @@ fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditi
 /// message once with its count.
 #[test]
 fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
-    let dir = std::env::temp_dir().join(format!("master-sweep-warn-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("warn");
     write_bump(&dir, 0.01);
     let spec = dir.join("sweep.json");
     std::fs::write(
