@@ -107,8 +107,9 @@ pub const CHECKED_STEPS: [f64; 10] = [
     0.25e-3, 0.5e-3, 1e-3, 1.25e-3, 1.5e-3, 2e-3, 3e-3, 5e-3, 7.5e-3, 10e-3,
 ];
 
-/// The loop as a master runs it at each of [`CHECKED_STEPS`]: the nominal car's, and for a
-/// design that compensates a known delay the loops at the delays of its interval.
+/// The loop as a master runs it at each of [`CHECKED_STEPS`]: the nominal car's, for a robust
+/// design also the loops at its uncertainty's conditions, and for a design that compensates a
+/// known delay the loops at delays across its interval.
 #[derive(Debug, Clone, Serialize)]
 pub struct StepStability {
     /// The conditions checked at every step.

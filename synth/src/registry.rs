@@ -611,7 +611,8 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
 }
 
 /// A comfort design's prediction as a master runs it: `0.0103 at 1 ms`, the communication
-/// steps its nominal loop is stable at (`(stable at steps to 5 ms, unstable at 7.5 ms)`), and
+/// steps its loop is stable at over the checked conditions (`(stable at steps to 5 ms,
+/// unstable at 7.5 ms)`, [`crate::comfort_designs::StepStability`]), and
 /// for a robust design its worst over the uncertainty's conditions (`; worst 0.0105`, or where
 /// it is unstable at the step).
 fn held(comfort: &crate::comfort_designs::Comfort) -> String {
