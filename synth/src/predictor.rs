@@ -422,7 +422,7 @@ pub fn predictor_design(
                 .expect("predictor_law sets the predictor"),
         )),
         step_s: d.communication_step,
-        fractional_worst_radius: fractional.iter().fold(0.0f64, |worst, r| worst.max(*r)),
+        fractional_worst_radius: crate::eig::max_or_nan(0.0, fractional.iter().copied()),
         fractional_delays: fractional_at,
     };
     if !(facts.closed_loop_abscissa < 0.0 && facts.open_loop_abscissa < 0.0) {
