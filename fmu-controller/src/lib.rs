@@ -198,7 +198,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
                 vr::DELAY,
                 Causality::Parameter,
                 "s",
-                "Actuator delay the predictor compensates (set it equal to the plant's tau)",
+                "Actuator delay the predictor compensates (set it equal to the plant's tau); it predicts over at least one communication step",
             )
             .with_start(0.0)
             .with_min(0.0)
@@ -540,11 +540,12 @@ impl Model for Controller {
     }
 
     /// The commands read in Initialization Mode are those of the first step: predicted over the
-    /// delay set.
+    /// delay set (no step length is known yet).
     fn prepare_initial_outputs(&mut self, _start_time: f64) -> Result<(), ModelError> {
         self.check_parameters()?;
+        let tau = self.tau.to_bits();
         match &mut self.predictor {
-            Some(p) if p.theta().to_bits() != self.tau.to_bits() => {
+            Some(p) if p.tau().to_bits() != tau || p.theta().to_bits() != tau => {
                 self.valid = false;
                 p.reset(self.tau).map_err(ModelError::from)
             }
@@ -668,9 +669,8 @@ impl Model for Controller {
         let predictor = match &self.predictor {
             Some(p) => {
                 let tau = input.f64()?;
-                p.check(tau)?;
                 let mut p = p.clone();
-                p.restore(&input.f64s()?)?;
+                p.restore(tau, &input.f64s()?)?;
                 Some((tau, p))
             }
             None => None,

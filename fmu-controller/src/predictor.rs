@@ -28,6 +28,12 @@
 //! `w = [ξ; z]`, `ẇ = Ā w + B̄ [y; u_r; u(· − θ); u]` over the step: one exponential per step
 //! length and per part of a segment acting during the step.
 //!
+//! It predicts over `θ = max(tau, h)`, `tau` the delay it is told and `h` the communication
+//! step ([`predicted_delay`]): a master reads the plant before it sets a new command, so below
+//! one step the inputs carry the previous command's force, which predicting over one step
+//! counts (matched, `θ < h` cost `delay_sf` 15 % of its held comfort at 1 ms with no delay and
+//! made it unstable at 10 ms steps).
+//!
 //! Each term's matrix depends only on the step length and the part's age and length, so it is
 //! computed once (Van Loan's exponential, [`linsys::discretize`]) and kept: with a constant
 //! communication step every step reuses the same few small matrices; a master that changes its
@@ -48,7 +54,20 @@ type Key = (u64, u64);
 #[derive(Debug, Clone)]
 pub struct Runtime {
     spec: Predictor,
-    /// The delay compensated [s].
+    /// The actuators' delay it is told (parameter `tau`) [s].
+    tau: f64,
+    /// What depends on the delay predicted over.
+    at: Prediction,
+    /// Held commands `(duration, u)`, newest first, back to age `θ`.
+    history: VecDeque<(f64, DVector<f64>)>,
+    /// `K̃ I` over the history now.
+    in_flight: DVector<f64>,
+}
+
+/// The prediction over a delay `θ`: its matrices, and the exponentials cached for it.
+#[derive(Debug, Clone)]
+struct Prediction {
+    /// The delay predicted over [s].
     theta: f64,
     /// `K̃`: the gain without the columns of the command's own filters.
     k_tilde: DMatrix<f64>,
@@ -61,10 +80,6 @@ pub struct Runtime {
     /// `Ā`, and `B̄`'s columns `[y | u_r | u(· − θ) | u]`, over `w = [ξ; z]`.
     a_bar: DMatrix<f64>,
     b_bar: DMatrix<f64>,
-    /// Held commands `(duration, u)`, newest first, back to age `θ`.
-    history: VecDeque<(f64, DVector<f64>)>,
-    /// `K̃ I` over the history now.
-    in_flight: DVector<f64>,
     /// Per part in flight: `K̃ e^{A a} G(ℓ)`.
     prediction: HashMap<Key, DMatrix<f64>>,
     /// Per part in flight at a step's start: what it adds to `ξ` over the step (`h` fixed).
@@ -89,36 +104,103 @@ struct OwnStep {
     gamma_u: DMatrix<f64>,
 }
 
-impl Runtime {
-    pub fn new(spec: Predictor) -> Result<Self, String> {
-        let nu = spec.k.nrows();
-        let mut r = Runtime {
-            k_tilde: DMatrix::zeros(0, 0),
-            k_y: DMatrix::zeros(0, 0),
-            k_xi: DMatrix::zeros(0, 0),
-            z_xi: DMatrix::zeros(0, 0),
-            z_y: DMatrix::zeros(0, 0),
-            a_bar: DMatrix::zeros(0, 0),
-            b_bar: DMatrix::zeros(0, 0),
-            theta: 0.0,
-            history: VecDeque::new(),
-            in_flight: DVector::zeros(nu),
+impl Prediction {
+    fn new(p: &Predictor, theta: f64) -> Result<Self, String> {
+        let e = expm(&(&p.a * theta))
+            .map_err(|e| format!("cannot predict the state {theta} s ahead: {e}"))?;
+        let (nxi, n, ny, nu) = (p.a_xi.nrows(), p.a.nrows(), p.b_xi.ncols(), p.k.nrows());
+        let (mut k_tilde, mut k_own) = (p.k.clone(), DMatrix::zeros(nu, nxi));
+        for &(j, i, s) in &p.own {
+            k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
+            k_tilde.column_mut(i).fill(0.0);
+        }
+        let (z_xi, z_y) = (&e * &p.s_xi, &e * &p.s_y);
+        let (k_xi, k_y) = (&k_tilde * &z_xi + &k_own, &k_tilde * &z_y);
+        // The applied force reaches the car's rows through what they read.
+        let mut b_applied = &p.b_xi * &p.d_yu;
+        for &(j, _, _) in &p.own {
+            b_applied.row_mut(j).fill(0.0);
+        }
+        let mut a_bar = DMatrix::zeros(nxi + n, nxi + n);
+        a_bar
+            .view_mut((0, 0), (nxi, nxi))
+            .copy_from(&(&p.a_xi + &p.b_xiu * &k_own));
+        a_bar
+            .view_mut((0, nxi), (nxi, n))
+            .copy_from(&(&p.b_xiu * &k_tilde));
+        a_bar.view_mut((nxi, nxi), (n, n)).copy_from(&p.a);
+        let mut b_bar = DMatrix::zeros(nxi + n, ny + 3 * nu);
+        b_bar.view_mut((0, 0), (nxi, ny)).copy_from(&p.b_xi);
+        b_bar
+            .view_mut((0, ny), (nxi, nu))
+            .copy_from(&(-&p.b_xi * &p.d_yu));
+        b_bar
+            .view_mut((0, ny + nu), (nxi, nu))
+            .copy_from(&b_applied);
+        b_bar.view_mut((nxi, ny + 2 * nu), (n, nu)).copy_from(&p.b);
+        Ok(Prediction {
+            theta,
+            k_tilde,
+            k_y,
+            k_xi,
+            z_xi,
+            z_y,
+            a_bar,
+            b_bar,
             prediction: HashMap::new(),
             carried: HashMap::new(),
             delayed: HashMap::new(),
             own: None,
+        })
+    }
+
+    /// `K̃ I = Σ_j K̃ e^{A a_j} G(ℓ_j) u_j` over the newest `keep` segments of `history`.
+    fn in_flight_of(
+        &mut self,
+        spec: &Predictor,
+        history: &VecDeque<(f64, DVector<f64>)>,
+        keep: usize,
+    ) -> Result<DVector<f64>, ExpError> {
+        let mut sum = DVector::zeros(self.k_tilde.nrows());
+        let mut age = 0.0f64;
+        for (len, uj) in history.iter().take(keep) {
+            let (lo, hi) = (age, (age + len).min(self.theta));
+            if hi > lo {
+                let k = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
+                    Ok(&self.k_tilde * predicted(spec, a, l)?)
+                })?;
+                sum.gemv(1.0, k, uj, 1.0);
+            }
+            age += len;
+        }
+        Ok(sum)
+    }
+}
+
+impl Runtime {
+    pub fn new(spec: Predictor) -> Result<Self, String> {
+        let nu = spec.k.nrows();
+        Ok(Runtime {
+            tau: 0.0,
+            at: Prediction::new(&spec, 0.0)?,
+            history: VecDeque::new(),
+            in_flight: DVector::zeros(nu),
             spec,
-        };
-        r.reset(0.0)?;
-        Ok(r)
+        })
     }
 
     pub fn delay_max(&self) -> f64 {
         self.spec.delay_max
     }
 
+    /// The delay it is told.
+    pub fn tau(&self) -> f64 {
+        self.tau
+    }
+
+    /// The delay it predicts over now.
     pub fn theta(&self) -> f64 {
-        self.theta
+        self.at.theta
     }
 
     /// Why `theta` cannot be compensated, if it cannot.
@@ -133,51 +215,13 @@ impl Runtime {
         }
     }
 
-    /// Compensate `theta` from now on, with no command in flight (the start of a run).
-    pub fn reset(&mut self, theta: f64) -> Result<(), String> {
-        if theta != self.theta || self.k_y.is_empty() {
-            let p = &self.spec;
-            let e = expm(&(&p.a * theta))
-                .map_err(|e| format!("cannot predict the state {theta} s ahead: {e}"))?;
-            let (nxi, n, ny, nu) = (p.a_xi.nrows(), p.a.nrows(), p.b_xi.ncols(), p.k.nrows());
-            let (mut k_tilde, mut k_own) = (p.k.clone(), DMatrix::zeros(nu, nxi));
-            for &(j, i, s) in &p.own {
-                k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
-                k_tilde.column_mut(i).fill(0.0);
-            }
-            let (z_xi, z_y) = (&e * &p.s_xi, &e * &p.s_y);
-            let (k_xi, k_y) = (&k_tilde * &z_xi + &k_own, &k_tilde * &z_y);
-            // The applied force reaches the car's rows through what they read.
-            let mut b_applied = &p.b_xi * &p.d_yu;
-            for &(j, _, _) in &p.own {
-                b_applied.row_mut(j).fill(0.0);
-            }
-            let mut a_bar = DMatrix::zeros(nxi + n, nxi + n);
-            a_bar
-                .view_mut((0, 0), (nxi, nxi))
-                .copy_from(&(&p.a_xi + &p.b_xiu * &k_own));
-            a_bar
-                .view_mut((0, nxi), (nxi, n))
-                .copy_from(&(&p.b_xiu * &k_tilde));
-            a_bar.view_mut((nxi, nxi), (n, n)).copy_from(&p.a);
-            let mut b_bar = DMatrix::zeros(nxi + n, ny + 3 * nu);
-            b_bar.view_mut((0, 0), (nxi, ny)).copy_from(&p.b_xi);
-            b_bar
-                .view_mut((0, ny), (nxi, nu))
-                .copy_from(&(-&p.b_xi * &p.d_yu));
-            b_bar
-                .view_mut((0, ny + nu), (nxi, nu))
-                .copy_from(&b_applied);
-            b_bar.view_mut((nxi, ny + 2 * nu), (n, nu)).copy_from(&p.b);
-            self.theta = theta;
-            (self.z_xi, self.z_y) = (z_xi, z_y);
-            (self.k_tilde, self.k_y, self.k_xi) = (k_tilde, k_y, k_xi);
-            (self.a_bar, self.b_bar) = (a_bar, b_bar);
-            self.prediction.clear();
-            self.carried.clear();
-            self.delayed.clear();
-            self.own = None;
+    /// Told the delay `tau` from now on, with no command in flight (the start of a run). Until
+    /// a step is taken it predicts over `tau` (no step length is known yet).
+    pub fn reset(&mut self, tau: f64) -> Result<(), String> {
+        if tau.to_bits() != self.at.theta.to_bits() {
+            self.at = Prediction::new(&self.spec, tau)?;
         }
+        self.tau = tau;
         self.history.clear();
         self.in_flight.fill(0.0);
         Ok(())
@@ -186,13 +230,19 @@ impl Runtime {
     /// The command for inputs `y` and own states `xi`.
     pub fn command(&self, y: &DVector<f64>, xi: &[f64], u: &mut DVector<f64>) {
         u.copy_from(&self.in_flight);
-        u.gemv(1.0, &self.k_y, y, 1.0);
-        u.gemv(1.0, &self.k_xi, &DVectorView::from_slice(xi, xi.len()), 1.0);
+        u.gemv(1.0, &self.at.k_y, y, 1.0);
+        u.gemv(
+            1.0,
+            &self.at.k_xi,
+            &DVectorView::from_slice(xi, xi.len()),
+            1.0,
+        );
     }
 
-    /// `ξ` after a step of `h` with `y` held and `u` sent (held over the step); the history
-    /// and the in-flight sum move on. Returns the new `ξ` without changing anything when it is
-    /// not finite (the caller discards the step).
+    /// `ξ` after a step of `h` with `y` held and `u` sent (held over the step, predicted over
+    /// the delay it was computed with); the history and the in-flight sum move on, and the
+    /// next command is predicted over `max(tau, h)` ([`predicted_delay`]). Returns the new `ξ`
+    /// without changing anything when it is not finite (the caller discards the step).
     pub fn step(
         &mut self,
         xi: &[f64],
@@ -202,8 +252,9 @@ impl Runtime {
     ) -> Result<DVector<f64>, String> {
         let failed = |e: ExpError| crate::step_refused(h, e);
         let (nxi, ny, nu) = (xi.len(), y.len(), u.len());
-        if self.own.as_ref().map(|o| o.step.to_bits()) != Some(h.to_bits()) {
-            let d = discretize(&self.a_bar, &self.b_bar, h).map_err(failed)?;
+        let at = &mut self.at;
+        if at.own.as_ref().map(|o| o.step.to_bits()) != Some(h.to_bits()) {
+            let d = discretize(&at.a_bar, &at.b_bar, h).map_err(failed)?;
             let rows =
                 |c0: usize, cols: usize| d.gamma_hold.view((0, c0), (nxi, cols)).into_owned();
             // `z` at the step's start: `e^{Aθ} (S_y y + S_ξ ξ)` here, the commands in flight
@@ -212,24 +263,24 @@ impl Runtime {
                 .phi
                 .view((0, nxi), (nxi, d.phi.ncols() - nxi))
                 .into_owned();
-            self.own = Some(OwnStep {
+            at.own = Some(OwnStep {
                 step: h,
-                phi: d.phi.view((0, 0), (nxi, nxi)) + &phi_z * &self.z_xi,
-                gamma_y: rows(0, ny) + &phi_z * &self.z_y,
+                phi: d.phi.view((0, 0), (nxi, nxi)) + &phi_z * &at.z_xi,
+                gamma_y: rows(0, ny) + &phi_z * &at.z_y,
                 phi_i: phi_z,
                 gamma_r: rows(ny, nu),
                 gamma_u: rows(ny + 2 * nu, nu),
             });
-            self.carried.clear();
+            at.carried.clear();
         }
-        let own = self.own.as_ref().expect("set above");
+        let own = at.own.as_ref().expect("set above");
         let mut next = &own.phi * DVectorView::from_slice(xi, xi.len());
         next.gemv(1.0, &own.gamma_y, y, 1.0);
         next.gemv(1.0, &own.gamma_u, u, 1.0);
-        if let Some(u_r) = self.read_command(h) {
+        let theta = at.theta;
+        if let Some(u_r) = read_command(&self.history, theta, h) {
             next.gemv(1.0, &own.gamma_r, u_r, 1.0);
         }
-        let theta = self.theta;
         let mut result = Ok(());
         // The commands in flight at the step's start (their part of `z`), ages from now:
         // `Φ̄_ξz e^{Aa} G(ℓ) u_j`.
@@ -237,7 +288,7 @@ impl Runtime {
         for (len, uj) in &self.history {
             let (lo, hi) = (age, (age + len).min(theta));
             if hi > lo {
-                let m = cached(&mut self.carried, (lo, hi - lo), |a, l| {
+                let m = cached(&mut at.carried, (lo, hi - lo), |a, l| {
                     Ok(&own.phi_i * predicted(&self.spec, a, l)?)
                 });
                 match m {
@@ -261,14 +312,10 @@ impl Runtime {
             }
             let (lo, hi) = (age.max(theta), (age + len).min(theta + h));
             if hi > lo {
-                let m = cached(&mut self.delayed, (lo - theta, hi - lo), |b, l| {
-                    let g = discretize(
-                        &self.a_bar,
-                        &self.b_bar.columns(ny + nu, nu).into_owned(),
-                        l,
-                    )?
-                    .gamma_hold;
-                    Ok((expm(&(&self.a_bar * b))? * g).rows(0, nxi).into_owned())
+                let m = cached(&mut at.delayed, (lo - theta, hi - lo), |b, l| {
+                    let g = discretize(&at.a_bar, &at.b_bar.columns(ny + nu, nu).into_owned(), l)?
+                        .gamma_hold;
+                    Ok((expm(&(&at.a_bar * b))? * g).rows(0, nxi).into_owned())
                 });
                 match m {
                     Ok(m) => next.gemv(1.0, m, uj, 1.0),
@@ -280,20 +327,40 @@ impl Runtime {
         if result.is_ok() && !next.iter().all(|v| v.is_finite()) {
             result = Err("controller state became non-finite; the step was discarded".into());
         }
-        // Keep what the next steps need: the segments younger than θ, and the one sent θ ago
-        // (at θ = 0 the command just sent, whose force the next inputs carry).
+        // The next command's prediction, over a new delay when this step's length sets one.
+        let target = predicted_delay(self.tau, h);
+        let mut moved = None;
+        if result.is_ok() && target.to_bits() != theta.to_bits() {
+            match Prediction::new(&self.spec, target) {
+                Ok(p) => moved = Some(p),
+                Err(e) => result = Err(format!("the step of {h} s was refused: {e}")),
+            }
+        }
+        // Keep what the next steps need: the segments younger than the delay predicted over,
+        // and the one sent that long ago (with no delay the command just sent, whose force the
+        // next inputs carry).
+        let next_theta = moved.as_ref().map_or(theta, |p| p.theta);
         let mut age = 0.0f64;
         let mut keep = 0;
         for (len, _) in &self.history {
-            if age > theta {
+            if age > next_theta {
                 break;
             }
             keep += 1;
             age += len;
         }
-        let in_flight = result.and_then(|()| self.in_flight_of(keep).map_err(failed));
+        let in_flight = result.and_then(|()| {
+            moved
+                .as_mut()
+                .unwrap_or(&mut self.at)
+                .in_flight_of(&self.spec, &self.history, keep)
+                .map_err(failed)
+        });
         match in_flight {
             Ok(v) => {
+                if let Some(p) = moved {
+                    self.at = p;
+                }
                 self.history.truncate(keep);
                 self.in_flight = v;
                 Ok(next)
@@ -305,41 +372,10 @@ impl Runtime {
         }
     }
 
-    /// The command whose force the inputs read at the start of a step carry: the newest
-    /// segment reaching back to `θ` (at a whole number of steps, the one taking over now, as the
-    /// plant counts a command's start as reached within rounding; at `θ = 0` the previous one).
-    /// `None` before the first step (no force yet).
-    fn read_command(&self, h: f64) -> Option<&DVector<f64>> {
-        let reach = self.theta - 1e-9 * h;
-        let mut age = 0.0f64;
-        self.history.iter().find_map(|(len, u)| {
-            age += len;
-            (age >= reach).then_some(u)
-        })
-    }
-
-    /// `K̃ I = Σ_j K̃ e^{A a_j} G(ℓ_j) u_j` over the newest `keep` segments of the history.
-    fn in_flight_of(&mut self, keep: usize) -> Result<DVector<f64>, ExpError> {
-        let mut sum = DVector::zeros(self.in_flight.len());
-        let theta = self.theta;
-        let mut age = 0.0f64;
-        for (len, uj) in self.history.iter().take(keep) {
-            let (lo, hi) = (age, (age + len).min(theta));
-            if hi > lo {
-                let k = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
-                    Ok(&self.k_tilde * predicted(&self.spec, a, l)?)
-                })?;
-                sum.gemv(1.0, k, uj, 1.0);
-            }
-            age += len;
-        }
-        Ok(sum)
-    }
-
-    /// The state the runtime carries between steps: `θ`, then per segment its duration and
-    /// command.
+    /// The state the runtime carries between steps: the delay predicted over, then per segment
+    /// its duration and command.
     pub fn save(&self) -> Vec<f64> {
-        let mut out = vec![self.theta];
+        let mut out = vec![self.at.theta];
         for (len, u) in &self.history {
             out.push(*len);
             out.extend(u.iter());
@@ -347,13 +383,21 @@ impl Runtime {
         out
     }
 
-    /// Restore what [`Runtime::save`] wrote, checked like a parameter and an input.
-    pub fn restore(&mut self, saved: &[f64]) -> Result<(), String> {
+    /// Restore what [`Runtime::save`] wrote, told `tau` (the controller's parameter, saved
+    /// beside it and checked as one), the rest checked like an input.
+    pub fn restore(&mut self, tau: f64, saved: &[f64]) -> Result<(), String> {
+        self.check(tau)?;
         let nu = self.in_flight.len();
         let (&theta, rest) = saved
             .split_first()
             .ok_or("predictor state: empty".to_string())?;
-        self.check(theta)?;
+        // Over `tau`, or over a step longer than `tau` (`max(tau, h)`).
+        if !(theta.is_finite() && theta >= tau) {
+            return Err(format!(
+                "predictor state: the delay predicted over, {theta} s, is not a finite delay of \
+                 at least tau = {tau} s"
+            ));
+        }
         if rest.len() % (nu + 1) != 0 {
             return Err(format!(
                 "predictor state: {} values are not segments of {} values",
@@ -373,16 +417,48 @@ impl Runtime {
                 "predictor state: segment durations must be finite and > 0, commands finite".into(),
             );
         }
-        let mut candidate = self.clone();
-        candidate.reset(theta)?;
-        candidate.history = history;
-        let keep = candidate.history.len();
-        candidate.in_flight = candidate
-            .in_flight_of(keep)
+        let mut at = if theta.to_bits() == self.at.theta.to_bits() {
+            self.at.clone()
+        } else {
+            Prediction::new(&self.spec, theta)?
+        };
+        let in_flight = at
+            .in_flight_of(&self.spec, &history, history.len())
             .map_err(|e| format!("predictor state: {e}"))?;
-        *self = candidate;
+        (self.tau, self.at, self.history, self.in_flight) = (tau, at, history, in_flight);
         Ok(())
     }
+}
+
+/// The delay a predictor told `tau` predicts over when stepped at `h`: never less than one
+/// step. A master reads the plant's outputs before it sets the new command, so at any
+/// actuator delay `θ ≤ h` they carry the previous command's force; predicting over `h` counts
+/// exactly that command (the car at the step's end under it), where predicting over `θ < h`
+/// leaves in the inputs a force the prediction does not count, which the filters must correct.
+/// The rule's only error is the new command acting over `[t_k + θ, t_k + h)`, and at `θ = h` it
+/// is the matched predictor. The command at a step's start is computed before the master says
+/// the step's length: it is predicted over the last step's (over `tau` before the first), so a
+/// master with a constant step gets the rule from its second step. `synth::sampled` certifies
+/// the loop under the same rule.
+pub fn predicted_delay(tau: f64, h: f64) -> f64 {
+    tau.max(h)
+}
+
+/// The command whose force the inputs read at the start of a step carry: the newest segment
+/// of `history` reaching back to `theta` (at a whole number of steps, the one taking over now,
+/// as the plant counts a command's start as reached within rounding; at `θ = 0` the previous
+/// one). `None` before the first step (no force yet).
+fn read_command(
+    history: &VecDeque<(f64, DVector<f64>)>,
+    theta: f64,
+    h: f64,
+) -> Option<&DVector<f64>> {
+    let reach = theta - 1e-9 * h;
+    let mut age = 0.0f64;
+    history.iter().find_map(|(len, u)| {
+        age += len;
+        (age >= reach).then_some(u)
+    })
 }
 
 /// `e^{A a} G(ℓ)`: a command held for `ℓ`, `a` before now, in the prediction.
@@ -402,5 +478,71 @@ fn cached(
     match cache.entry((age.to_bits(), len.to_bits())) {
         std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
         std::collections::hash_map::Entry::Vacant(e) => Ok(e.insert(make(age, len)?)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The scalar predictor of `tests/controller_fmi.rs` (`PRED_SPEC`).
+    fn runtime() -> Runtime {
+        let m = |r: usize, c: usize, v: &[f64]| DMatrix::from_row_slice(r, c, v);
+        Runtime::new(Predictor {
+            a: m(2, 2, &[-2.0, 0.0, 0.0, -5.0]),
+            b: m(2, 1, &[1.5, 1.0]),
+            k: m(1, 2, &[-0.8, -2.0]),
+            s_y: m(2, 1, &[1.0, 0.0]),
+            s_xi: m(2, 2, &[0.7, 0.0, 0.0, 1.0]),
+            a_xi: m(2, 2, &[-3.0, 0.0, 0.0, -5.0]),
+            b_xi: m(2, 1, &[0.3, 0.0]),
+            b_xiu: m(2, 1, &[0.0, 1.0]),
+            d_yu: m(1, 1, &[0.4]),
+            own: vec![(1, 1, 1.0)],
+            delay_max: 0.3,
+            u_max: None,
+        })
+        .unwrap()
+    }
+
+    /// Told no delay, it predicts over `tau` until the first step and over each step's length
+    /// after it; a saved state restores whole (the delay predicted over included), and a
+    /// corrupt one is refused with its reason and changes nothing.
+    #[test]
+    fn it_predicts_over_the_last_step_and_refuses_a_corrupt_state() {
+        let mut r = runtime();
+        r.reset(0.0).unwrap();
+        assert_eq!(r.theta(), 0.0);
+        let (y, mut u) = (DVector::from_element(1, 0.5), DVector::zeros(1));
+        let mut xi = DVector::zeros(2);
+        for h in [0.1, 0.05] {
+            r.command(&y, xi.as_slice(), &mut u);
+            xi = r.step(xi.as_slice(), &y, &u, h).unwrap();
+            assert_eq!(r.theta(), h);
+        }
+        let saved = r.save();
+        let command = |r: &Runtime| {
+            let mut u = DVector::zeros(1);
+            r.command(&y, xi.as_slice(), &mut u);
+            u[0]
+        };
+        let before = command(&r);
+        let mut fresh = runtime();
+        fresh.restore(0.0, &saved).unwrap();
+        assert_eq!((fresh.theta(), command(&fresh)), (0.05, before));
+        for (tau, state, reason) in [
+            (0.0, vec![], "empty"),
+            (0.1, saved.clone(), "at least tau"),
+            (0.0, [&[f64::NAN][..], &saved[1..]].concat(), "finite delay"),
+            (0.31, saved.clone(), "[0, 0.3]"),
+            (0.0, saved[..saved.len() - 1].to_vec(), "not segments"),
+            (0.0, [&saved[..], &[0.0, 1.0]].concat(), "durations"),
+            (0.0, [&saved[..], &[0.1, f64::INFINITY]].concat(), "finite"),
+        ] {
+            let err = fresh.restore(tau, &state).unwrap_err();
+            assert!(err.contains(reason), "{tau}, {state:?}: {err}");
+            assert_eq!(fresh.save(), saved);
+            assert_eq!(command(&fresh), before);
+        }
     }
 }

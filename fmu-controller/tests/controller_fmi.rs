@@ -390,8 +390,11 @@ const PRED_SPEC: &str = r#"{
 /// the model's prediction of the car state `θ` ahead, `z = e^{−2θ} (y + 0.7 ξ₁) + I` at the
 /// step's start (`I = ∫ e^{−2(t−r)} 1.5 u(r) dr` over the commands in flight), moving on as the
 /// model says with the command sent, `ż = −2 z + 1.5 u`; the filter `φ` in controller time
-/// taking the command `−0.8 z − 2 φ` continuously.
+/// taking the command `−0.8 z − 2 φ` continuously. It predicts over `θ = max(τ, h)`, `h` the
+/// last step's length (`τ` before the first step), the commands and the force as applied all
+/// counted over that `θ` during the step.
 struct ScalarPredictor {
+    tau: f64,
     theta: f64,
     /// The force limit commands are clamped to.
     limit: f64,
@@ -460,6 +463,7 @@ impl ScalarPredictor {
             self.xi = c / 3.0 + (self.xi - c / 3.0) * e(3.0);
             z = q / 2.0 + (z - q / 2.0) * e(2.0);
         }
+        self.theta = self.tau.max(h);
         u
     }
 }
@@ -483,9 +487,11 @@ fn predictor_commands_are_the_closed_form_over_any_steps_and_restore_whole() {
         fmi2FreeInstance(c);
     }
     assert!(log.contains("0.31"), "{:?}", log.messages());
-    // θ = 0.25 s: not a multiple of the steps, which change on the way; θ = 0 (the inputs
-    // carry the previous command's force); θ = 0.2 s, whole steps at first; and θ = 0.25 s
-    // with the commands clamped to a force limit of 0.2 (what is in flight is then clamped too).
+    // τ = 0.25 s: not a multiple of the steps, which change on the way; τ = 0 (predicted over
+    // the last step, whose command the inputs carry the force of; 0 before the first step);
+    // τ = 0.12 s, between the steps' lengths, so predicted over τ after the short steps and over
+    // the step after the long one; τ = 0.2 s, whole steps at first; and τ = 0.25 s with the
+    // commands clamped to a force limit of 0.2 (what is in flight is then clamped too).
     let steps = [
         0.1, 0.1, 0.1, 0.1, 0.05, 0.15, 0.1, 0.02, 0.1, 0.1, 0.1, 0.1, 0.1,
     ];
@@ -499,10 +505,12 @@ fn predictor_commands_are_the_closed_form_over_any_steps_and_restore_whole() {
     for (theta, limit) in [
         (0.25, infinite),
         (0.0, infinite),
+        (0.12, infinite),
         (0.2, infinite),
         (0.25, 0.2),
     ] {
         let mut reference = ScalarPredictor {
+            tau: theta,
             theta,
             limit,
             xi: 0.0,

@@ -312,7 +312,7 @@ fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditi
 }
 
 /// A controller stepped beyond the communication steps its certificate calls stable
-/// (`delay_sf` at 10 ms; `hinf_of` is stable there) still runs, and its rows carry the FMU's
+/// (`ft_of` at 10 ms; `hinf_of` is stable there) still runs, and its rows carry the FMU's
 /// warning: the `warnings` column, the report's share of runs an FMU warned in, and the
 /// message once with its count.
 #[test]
@@ -322,7 +322,7 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
     let spec = dir.join("sweep.json");
     std::fs::write(
         &spec,
-        r#"{"name": "w", "base": "bump.json", "controllers": ["hinf_of", "delay_sf"],
+        r#"{"name": "w", "base": "bump.json", "controllers": ["hinf_of", "ft_of"],
             "parameters": {"plant.m_s": {"grid": [1400, 1600]}}}"#,
     )
     .unwrap();
@@ -337,10 +337,10 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
             .unwrap_or_else(|| panic!("{c}: {report}"))
             .to_string()
     };
-    assert!(row("delay_sf").ends_with("| 100.0 % |"), "{report}");
+    assert!(row("ft_of").ends_with("| 100.0 % |"), "{report}");
     assert!(row("hinf_of").ends_with("| 0.0 % |"), "{report}");
     assert!(
-        report.contains("- 2 × delay_sf: fmi2DoStep: communication step 0.01 s"),
+        report.contains("- 2 × ft_of: fmi2DoStep: communication step 0.01 s"),
         "{report}"
     );
     let reader =
@@ -362,7 +362,7 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
         };
         assert_eq!(
             warnings.contains("communication step 0.01 s"),
-            controller == "delay_sf",
+            controller == "ft_of",
             "{controller}: {warnings}"
         );
         seen += 1;
