@@ -225,9 +225,9 @@ impl DiscreteController {
 }
 
 /// A predictor (`fmu-controller`'s runtime) at a step `h`, predicting over
-/// `θ = max(τ, h) = d h + ε` (`0 ≤ ε < h`, [`predicted_delay`]). At `t_k` the commands in flight are `u_{k−1} … u_{k−d}` whole and the first
-/// `ε` of `u_{k−d−1}`: `I_k = Σ_{j<d} e^{A jh} G(h) u_{k−1−j} + e^{A dh} G(ε) u_{k−d−1}`
-/// (`G(ℓ) = ∫₀^ℓ e^{As} ds B`).
+/// `θ = max(τ, h) = d h + ε` (`0 ≤ ε < h`, [`predicted_delay`]). At `t_k` the commands in
+/// flight are `u_{k−1} … u_{k−d}` whole and the first `ε` of `u_{k−d−1}`:
+/// `I_k = Σ_{j<d} e^{A jh} G(h) u_{k−1−j} + e^{A dh} G(ε) u_{k−d−1}` (`G(ℓ) = ∫₀^ℓ e^{As} ds B`).
 ///
 /// `ξ` has two kinds of rows. The **command's own filters** (the rows `B_ξu` drives: the
 /// unmodelled-delay weight) are kept in controller time, `φ(t)` the filter of the commands up to
