@@ -32,7 +32,9 @@
 //! step ([`predicted_delay`]): a master reads the plant before it sets a new command, so below
 //! one step the inputs carry the previous command's force, which predicting over one step
 //! counts (matched, `θ < h` cost `delay_sf` 15 % of its held comfort at 1 ms with no delay and
-//! made it unstable at 10 ms steps).
+//! made it unstable at 10 ms steps). The command at a step's start is computed before the
+//! master says the step's length: it is predicted over the last step's (over `tau` before the
+//! first), so a master with a constant step gets the rule from its second step.
 //!
 //! Each term's matrix depends only on the step length and the part's age and length, so it is
 //! computed once (Van Loan's exponential, [`linsys::discretize`]) and kept: with a constant
@@ -40,6 +42,7 @@
 //! step pays a few exponentials per new part, and stays exact.
 
 use crate::spec::Predictor;
+use linsys::predictor::{predicted_delay, PredictionMatrices, PredictorBlocks};
 use linsys::{discretize, expm, ExpError};
 use nalgebra::{DMatrix, DVector, DVectorView};
 use std::collections::{HashMap, VecDeque};
@@ -69,17 +72,7 @@ pub struct Runtime {
 struct Prediction {
     /// The delay predicted over [s].
     theta: f64,
-    /// `K̃`: the gain without the columns of the command's own filters.
-    k_tilde: DMatrix<f64>,
-    /// `K̃ e^{Aθ} S_y`; `K̃ e^{Aθ} S_ξ` with `K_φ` on the filters' columns.
-    k_y: DMatrix<f64>,
-    k_xi: DMatrix<f64>,
-    /// `e^{Aθ} S_ξ`, `e^{Aθ} S_y`: the prediction `z = e^{Aθ} x + I` of `ξ` and `y`.
-    z_xi: DMatrix<f64>,
-    z_y: DMatrix<f64>,
-    /// `Ā`, and `B̄`'s columns `[y | u_r | u(· − θ) | u]`, over `w = [ξ; z]`.
-    a_bar: DMatrix<f64>,
-    b_bar: DMatrix<f64>,
+    m: PredictionMatrices,
     /// Per part in flight: `K̃ e^{A a} G(ℓ)`.
     prediction: HashMap<Key, DMatrix<f64>>,
     /// Per part in flight at a step's start: what it adds to `ξ` over the step (`h` fixed).
@@ -106,47 +99,23 @@ struct OwnStep {
 
 impl Prediction {
     fn new(p: &Predictor, theta: f64) -> Result<Self, String> {
-        let e = expm(&(&p.a * theta))
+        let blocks = PredictorBlocks {
+            a: &p.a,
+            b: &p.b,
+            k: &p.k,
+            s_y: &p.s_y,
+            s_xi: &p.s_xi,
+            a_xi: &p.a_xi,
+            b_xi: &p.b_xi,
+            b_xiu: &p.b_xiu,
+            d_yu: &p.d_yu,
+            own: &p.own,
+        };
+        let m = PredictionMatrices::new(&blocks, theta)
             .map_err(|e| format!("cannot predict the state {theta} s ahead: {e}"))?;
-        let (nxi, n, ny, nu) = (p.a_xi.nrows(), p.a.nrows(), p.b_xi.ncols(), p.k.nrows());
-        let (mut k_tilde, mut k_own) = (p.k.clone(), DMatrix::zeros(nu, nxi));
-        for &(j, i, s) in &p.own {
-            k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
-            k_tilde.column_mut(i).fill(0.0);
-        }
-        let (z_xi, z_y) = (&e * &p.s_xi, &e * &p.s_y);
-        let (k_xi, k_y) = (&k_tilde * &z_xi + &k_own, &k_tilde * &z_y);
-        // The applied force reaches the car's rows through what they read.
-        let mut b_applied = &p.b_xi * &p.d_yu;
-        for &(j, _, _) in &p.own {
-            b_applied.row_mut(j).fill(0.0);
-        }
-        let mut a_bar = DMatrix::zeros(nxi + n, nxi + n);
-        a_bar
-            .view_mut((0, 0), (nxi, nxi))
-            .copy_from(&(&p.a_xi + &p.b_xiu * &k_own));
-        a_bar
-            .view_mut((0, nxi), (nxi, n))
-            .copy_from(&(&p.b_xiu * &k_tilde));
-        a_bar.view_mut((nxi, nxi), (n, n)).copy_from(&p.a);
-        let mut b_bar = DMatrix::zeros(nxi + n, ny + 3 * nu);
-        b_bar.view_mut((0, 0), (nxi, ny)).copy_from(&p.b_xi);
-        b_bar
-            .view_mut((0, ny), (nxi, nu))
-            .copy_from(&(-&p.b_xi * &p.d_yu));
-        b_bar
-            .view_mut((0, ny + nu), (nxi, nu))
-            .copy_from(&b_applied);
-        b_bar.view_mut((nxi, ny + 2 * nu), (n, nu)).copy_from(&p.b);
         Ok(Prediction {
             theta,
-            k_tilde,
-            k_y,
-            k_xi,
-            z_xi,
-            z_y,
-            a_bar,
-            b_bar,
+            m,
             prediction: HashMap::new(),
             carried: HashMap::new(),
             delayed: HashMap::new(),
@@ -161,13 +130,13 @@ impl Prediction {
         history: &VecDeque<(f64, DVector<f64>)>,
         keep: usize,
     ) -> Result<DVector<f64>, ExpError> {
-        let mut sum = DVector::zeros(self.k_tilde.nrows());
+        let mut sum = DVector::zeros(self.m.k_tilde.nrows());
         let mut age = 0.0f64;
         for (len, uj) in history.iter().take(keep) {
             let (lo, hi) = (age, (age + len).min(self.theta));
             if hi > lo {
                 let k = cached(&mut self.prediction, (lo, hi - lo), |a, l| {
-                    Ok(&self.k_tilde * predicted(spec, a, l)?)
+                    Ok(&self.m.k_tilde * predicted(spec, a, l)?)
                 })?;
                 sum.gemv(1.0, k, uj, 1.0);
             }
@@ -230,10 +199,10 @@ impl Runtime {
     /// The command for inputs `y` and own states `xi`.
     pub fn command(&self, y: &DVector<f64>, xi: &[f64], u: &mut DVector<f64>) {
         u.copy_from(&self.in_flight);
-        u.gemv(1.0, &self.at.k_y, y, 1.0);
+        u.gemv(1.0, &self.at.m.k_y, y, 1.0);
         u.gemv(
             1.0,
-            &self.at.k_xi,
+            &self.at.m.k_xi,
             &DVectorView::from_slice(xi, xi.len()),
             1.0,
         );
@@ -252,9 +221,10 @@ impl Runtime {
     ) -> Result<DVector<f64>, String> {
         let failed = |e: ExpError| crate::step_refused(h, e);
         let (nxi, ny, nu) = (xi.len(), y.len(), u.len());
+        let (cy, cr, ca, cu) = PredictionMatrices::columns(ny, nu);
         let at = &mut self.at;
         if at.own.as_ref().map(|o| o.step.to_bits()) != Some(h.to_bits()) {
-            let d = discretize(&at.a_bar, &at.b_bar, h).map_err(failed)?;
+            let d = discretize(&at.m.a_bar, &at.m.b_bar, h).map_err(failed)?;
             let rows =
                 |c0: usize, cols: usize| d.gamma_hold.view((0, c0), (nxi, cols)).into_owned();
             // `z` at the step's start: `e^{Aθ} (S_y y + S_ξ ξ)` here, the commands in flight
@@ -265,11 +235,11 @@ impl Runtime {
                 .into_owned();
             at.own = Some(OwnStep {
                 step: h,
-                phi: d.phi.view((0, 0), (nxi, nxi)) + &phi_z * &at.z_xi,
-                gamma_y: rows(0, ny) + &phi_z * &at.z_y,
+                phi: d.phi.view((0, 0), (nxi, nxi)) + &phi_z * &at.m.z_xi,
+                gamma_y: rows(cy, ny) + &phi_z * &at.m.z_y,
                 phi_i: phi_z,
-                gamma_r: rows(ny, nu),
-                gamma_u: rows(ny + 2 * nu, nu),
+                gamma_r: rows(cr, nu),
+                gamma_u: rows(cu, nu),
             });
             at.carried.clear();
         }
@@ -313,9 +283,9 @@ impl Runtime {
             let (lo, hi) = (age.max(theta), (age + len).min(theta + h));
             if hi > lo {
                 let m = cached(&mut at.delayed, (lo - theta, hi - lo), |b, l| {
-                    let g = discretize(&at.a_bar, &at.b_bar.columns(ny + nu, nu).into_owned(), l)?
+                    let g = discretize(&at.m.a_bar, &at.m.b_bar.columns(ca, nu).into_owned(), l)?
                         .gamma_hold;
-                    Ok((expm(&(&at.a_bar * b))? * g).rows(0, nxi).into_owned())
+                    Ok((expm(&(&at.m.a_bar * b))? * g).rows(0, nxi).into_owned())
                 });
                 match m {
                     Ok(m) => next.gemv(1.0, m, uj, 1.0),
@@ -428,20 +398,6 @@ impl Runtime {
         (self.tau, self.at, self.history, self.in_flight) = (tau, at, history, in_flight);
         Ok(())
     }
-}
-
-/// The delay a predictor told `tau` predicts over when stepped at `h`: never less than one
-/// step. A master reads the plant's outputs before it sets the new command, so at any
-/// actuator delay `θ ≤ h` they carry the previous command's force; predicting over `h` counts
-/// exactly that command (the car at the step's end under it), where predicting over `θ < h`
-/// leaves in the inputs a force the prediction does not count, which the filters must correct.
-/// The rule's only error is the new command acting over `[t_k + θ, t_k + h)`, and at `θ = h` it
-/// is the matched predictor. The command at a step's start is computed before the master says
-/// the step's length: it is predicted over the last step's (over `tau` before the first), so a
-/// master with a constant step gets the rule from its second step. `synth::sampled` certifies
-/// the loop under the same rule.
-pub fn predicted_delay(tau: f64, h: f64) -> f64 {
-    tau.max(h)
 }
 
 /// The command whose force the inputs read at the start of a step carry: the newest segment

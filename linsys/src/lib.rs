@@ -6,13 +6,16 @@
 //!   plant the synthesis builds, and the controller a controller FMU runs (its `controller.json`
 //!   core); the synthesis's norms of it are `synth::hinf_norm::Analysis`;
 //! * [`discretize`], [`expm`]: exact discretisation over a step with held or ramped inputs;
-//! * [`mat_vec_sum`]: the FMUs' inner-loop matrix-vector sum.
+//! * [`mat_vec_sum`]: the FMUs' inner-loop matrix-vector sum;
+//! * [`predictor`]: a predictor's matrices over a delay, as the controller FMU runs it and the
+//!   synthesis certifies it.
 //!
 //! The car's own first-order model (`vehicle::model::StateSpace`: `A`, and the input matrices of
 //! forces and road apart) stays with the car.
 
 mod exact;
 mod lti;
+pub mod predictor;
 
 pub use exact::*;
 pub use lti::Lti;

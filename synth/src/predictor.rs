@@ -164,10 +164,12 @@ pub struct PredictorFacts {
     pub fractional_worst_radius: f64,
 }
 
-/// `A_ξ + B_ξu K_φ` ([`crate::sampled::split_gain`]): the controller's own states as its
+/// `A_ξ + B_ξu K_φ` ([`linsys::predictor::split_gain`]): the controller's own states as its
 /// runtime steps them, the command's filters closed through their part of the gain.
 fn own_loop(p: &PredictorLaw) -> DMatrix<f64> {
-    let (_, k_own) = crate::sampled::split_gain(p, &crate::sampled::own_filters(p));
+    let r = &p.reconstruction;
+    let (_, k_own) =
+        linsys::predictor::split_gain(&p.k, r.a_xi.nrows(), &crate::sampled::own_filters(p));
     &p.reconstruction.a_xi + &p.reconstruction.b_xiu * k_own
 }
 
@@ -714,7 +716,7 @@ mod tests {
     }
 
     /// With an actuator delay `θ` below one communication step `h` the predictor predicts over
-    /// `h` ([`crate::sampled::predicted_delay`]): the car at the step's end under the previous
+    /// `h` ([`linsys::predictor::predicted_delay`]): the car at the step's end under the previous
     /// command, whose force the plant's outputs carry (a master reads them before it sets the
     /// new one). Its held loop beats `hinf_sf`'s (the same gain, no predictor) at every `θ` of
     /// a step (measured, W_k seat on the design road, m/s²): at 1 ms 0.0089, 0.0090, 0.0092,

@@ -38,6 +38,7 @@ use crate::prediction::{
     Figures, HessenbergResponse, PredictionError, PredictorLaw, SensorRows, N_CHANNELS,
     WEIGHTED_SIGNALS,
 };
+use linsys::predictor::{predicted_delay, PredictionMatrices, PredictorBlocks};
 use linsys::{discretize, expm};
 use nalgebra::{Complex, DMatrix, DVector};
 use vehicle::iso2631::{ComfortMeter, Forces, METER_OUTPUTS};
@@ -225,7 +226,7 @@ impl DiscreteController {
 }
 
 /// A predictor (`fmu-controller`'s runtime) at a step `h`, predicting over
-/// `θ = max(τ, h) = d h + ε` (`0 ≤ ε < h`, [`predicted_delay`]). At `t_k` the commands in
+/// `θ = max(τ, h) = d h + ε` (`0 ≤ ε < h`, [`linsys::predictor::predicted_delay`]). At `t_k` the commands in
 /// flight are `u_{k−1} … u_{k−d}` whole and the first `ε` of `u_{k−d−1}`:
 /// `I_k = Σ_{j<d} e^{A jh} G(h) u_{k−1−j} + e^{A dh} G(ε) u_{k−d−1}` (`G(ℓ) = ∫₀^ℓ e^{As} ds B`).
 ///
@@ -247,103 +248,79 @@ impl DiscreteController {
 /// `ẇ = Ā w + B̄ [y_k; u_{k−r}; u_a; u_k]`, one Van Loan exponential per part of the step.
 fn discrete_predictor(p: &PredictorLaw, h: f64) -> Result<DiscreteController, PredictionError> {
     let theta = predicted_delay(p.delay, h);
+    // At least one whole step (`θ ≥ h`): `u_k` acts only from the next step on, and the
+    // inputs carry the force of the oldest command in flight (`u_{k−d}`, or `u_{k−d−1}` when
+    // the delayed command changes mid-step).
     let (d, eps) = whole_steps(theta, h);
+    debug_assert!(d >= 1, "θ = {theta} below one step {h}");
     let fail = |e| PredictionError::Unstable(format!("the predictor at h = {h}: {e}"));
     let r = &p.reconstruction;
     let (nxi, nu, n, ny) = (r.a_xi.nrows(), p.k.nrows(), p.a.nrows(), r.b_xi.ncols());
     let own = own_filters(p);
-    let (k_tilde, k_own) = split_gain(p, &own);
-    let e_theta = expm(&(&p.a * theta)).map_err(fail)?;
-    let (z_xi, z_y) = (&e_theta * &r.s_xi, &e_theta * &r.s_y);
-    let (kx, ky) = (&k_tilde * &z_xi + &k_own, &k_tilde * &z_y);
-    // The applied force drives the car's rows through what they read, `B_ξ D_yu`.
-    let mut b_applied = &r.b_xi * &r.d_yu;
-    for &(j, _, _) in &own {
-        b_applied.row_mut(j).fill(0.0);
-    }
-    // Ā, B̄ over w = [ξ; z], inputs [y; u_{k−r}; u_a; u_k] (`B_ξu` is zero off the filters).
-    let (nw, (cy, cr, ca, ck)) = (nxi + n, (0, ny, ny + nu, ny + 2 * nu));
-    let mut a_bar = DMatrix::zeros(nw, nw);
-    a_bar
-        .view_mut((0, 0), (nxi, nxi))
-        .copy_from(&(&r.a_xi + &r.b_xiu * &k_own));
-    a_bar
-        .view_mut((0, nxi), (nxi, n))
-        .copy_from(&(&r.b_xiu * &k_tilde));
-    a_bar.view_mut((nxi, nxi), (n, n)).copy_from(&p.a);
-    let mut b_bar = DMatrix::zeros(nw, ny + 3 * nu);
-    b_bar.view_mut((0, cy), (nxi, ny)).copy_from(&r.b_xi);
-    b_bar
-        .view_mut((0, cr), (nxi, nu))
-        .copy_from(&(-&r.b_xi * &r.d_yu));
-    b_bar.view_mut((0, ca), (nxi, nu)).copy_from(&b_applied);
-    b_bar.view_mut((nxi, ck), (n, nu)).copy_from(&p.b);
-    let full = discretize(&a_bar, &b_bar, h).map_err(fail)?;
-    let applied = b_bar.columns(ca, nu).into_owned();
-    let late = discretize(&a_bar, &applied, h - eps).map_err(fail)?;
-    let early = discretize(&a_bar, &applied, eps).map_err(fail)?;
-    let top = |m: &DMatrix<f64>, c0: usize, cols: usize| m.view((0, c0), (nxi, cols)).into_owned();
-    // The applied force before `t_k + ε` and after.
-    let applied_early = top(&(&late.phi * &early.gamma_hold), 0, nu);
-    let applied_late = top(&late.gamma_hold, 0, nu);
+    let m = PredictionMatrices::new(&blocks(p, &own), theta).map_err(fail)?;
+    let (cy, cr, ca, cu) = PredictionMatrices::columns(ny, nu);
+    let full = discretize(&m.a_bar, &m.b_bar, h).map_err(fail)?;
+    let applied = m.b_bar.columns(ca, nu).into_owned();
+    let late = discretize(&m.a_bar, &applied, h - eps).map_err(fail)?;
+    let early = discretize(&m.a_bar, &applied, eps).map_err(fail)?;
+    let top = |x: &DMatrix<f64>, c0: usize, cols: usize| x.view((0, c0), (nxi, cols)).into_owned();
     // `z(t_k) = Z_ξ ξ + Z_y y + Σ_j M_j c_j`, the commands in flight `I_k = Σ_j M_j c_j`.
     let g = discretize(&p.a, &p.b, h).map_err(fail)?.gamma_hold;
     let g_eps = discretize(&p.a, &p.b, eps).map_err(fail)?.gamma_hold;
     let step = expm(&(&p.a * h)).map_err(fail)?;
-    let in_flight = d + usize::from(eps > 0.0);
-    let read = read_lag(theta, d, eps);
-    let commands = in_flight.max(read);
+    let commands = d + usize::from(eps > 0.0);
+    debug_assert_eq!(commands, read_lag(theta, d, eps));
     let phi_on_z = full.phi.view((0, nxi), (nxi, n)).into_owned();
     let mut k_u = DMatrix::zeros(nu, commands * nu);
     let mut g_u = DMatrix::zeros(nxi, commands * nu);
     let mut age = DMatrix::identity(n, n);
-    for j in 0..in_flight {
-        let m = &age * if j < d { &g } else { &g_eps };
-        k_u.columns_mut(j * nu, nu).copy_from(&(&k_tilde * &m));
-        g_u.columns_mut(j * nu, nu).copy_from(&(&phi_on_z * &m));
+    for j in 0..commands {
+        let in_flight = &age * if j < d { &g } else { &g_eps };
+        k_u.columns_mut(j * nu, nu)
+            .copy_from(&(&m.k_tilde * &in_flight));
+        g_u.columns_mut(j * nu, nu)
+            .copy_from(&(&phi_on_z * &in_flight));
         age = &step * age;
     }
-    let mut on_read = g_u.columns_mut((read - 1) * nu, nu);
+    // The command whose force the inputs carry, and the applied force: the one taking over at
+    // `t_k + ε` (`u_{k−d}`) after it, the one before (`u_{k−d−1}`) until then.
+    let mut on_read = g_u.columns_mut((commands - 1) * nu, nu);
     on_read += top(&full.gamma_hold, cr, nu);
     if eps > 0.0 {
         let mut on_early = g_u.columns_mut(d * nu, nu);
-        on_early += &applied_early;
+        on_early += top(&(&late.phi * &early.gamma_hold), 0, nu);
     }
-    // `u_k` itself: into the prediction, and applied after `t_k + ε` when `d = 0`.
-    let mut on_sent = top(&full.gamma_hold, ck, nu);
-    if d == 0 {
-        on_sent += &applied_late;
-    } else {
-        let mut on_late = g_u.columns_mut((d - 1) * nu, nu);
-        on_late += &applied_late;
-    }
-    // `z(t_k)` and the substitution `u_k = K_x ξ + K_y y + K_u c`.
-    let phi = full.phi.view((0, 0), (nxi, nxi)) + &phi_on_z * &z_xi + &on_sent * &kx;
-    let gamma = top(&full.gamma_hold, cy, ny) + &phi_on_z * &z_y + &on_sent * &ky;
+    let mut on_late = g_u.columns_mut((d - 1) * nu, nu);
+    on_late += top(&late.gamma_hold, 0, nu);
+    // `u_k` itself goes into the prediction; `z(t_k)` and the substitution
+    // `u_k = K_x ξ + K_y y + K_u c`.
+    let on_sent = top(&full.gamma_hold, cu, nu);
+    let phi = full.phi.view((0, 0), (nxi, nxi)) + &phi_on_z * &m.z_xi + &on_sent * &m.k_xi;
+    let gamma = top(&full.gamma_hold, cy, ny) + &phi_on_z * &m.z_y + &on_sent * &m.k_y;
     g_u += &on_sent * &k_u;
     Ok(DiscreteController {
-        lti: Lti::new(phi, gamma, kx, ky),
+        lti: Lti::new(phi, gamma, m.k_xi, m.k_y),
         commands,
         g_u,
         k_u,
     })
 }
 
-/// The gain split at the command's own filters: `K̃`, the gain without their columns of the
-/// design state, and `K_φ`, theirs on their rows of `ξ` (`u = K̃ z + K_φ φ`).
-pub(crate) fn split_gain(
-    p: &PredictorLaw,
-    own: &[(usize, usize, f64)],
-) -> (DMatrix<f64>, DMatrix<f64>) {
-    let (mut k_tilde, mut k_own) = (
-        p.k.clone(),
-        DMatrix::zeros(p.k.nrows(), p.reconstruction.a_xi.nrows()),
-    );
-    for &(j, i, s) in own {
-        k_own.column_mut(j).copy_from(&(p.k.column(i) * s));
-        k_tilde.column_mut(i).fill(0.0);
+/// `p`'s blocks, its command's own filters `own` ([`own_filters`]).
+fn blocks<'a>(p: &'a PredictorLaw, own: &'a [(usize, usize, f64)]) -> PredictorBlocks<'a> {
+    let r = &p.reconstruction;
+    PredictorBlocks {
+        a: &p.a,
+        b: &p.b,
+        k: &p.k,
+        s_y: &r.s_y,
+        s_xi: &r.s_xi,
+        a_xi: &r.a_xi,
+        b_xi: &r.b_xi,
+        b_xiu: &r.b_xiu,
+        d_yu: &r.d_yu,
+        own,
     }
-    (k_tilde, k_own)
 }
 
 /// The command's own filters of a predictor: `(row j of ξ, design state i, s)` for each row
@@ -359,20 +336,6 @@ pub(crate) fn own_filters(p: &PredictorLaw) -> Vec<(usize, usize, f64)> {
             Some((j, i, r.s_xi[(i, j)]))
         })
         .collect()
-}
-
-/// The delay a predictor told `tau` predicts over when stepped at `h`: never less than one
-/// step, as `fmu-controller`'s runtime does. A master reads the plant's outputs before it sets
-/// the new command, so at any actuator delay `θ ≤ h` they carry the previous command's force;
-/// predicting over `h` counts exactly that command (the car at the step's end under it), where
-/// predicting over `θ < h` has the inputs carry a force the prediction does not count, which
-/// its filters must correct. The rule's only error is the new command acting over
-/// `[t_k + θ, t_k + h)`, and it is the matched predictor at `θ = h`. Measured on `delay_sf`
-/// (held `W_k` seat on the design road, the predictor over `θ` → over `max(θ, h)`): at 1 ms
-/// and no delay 0.0102 → 0.0089 (`hinf_sf` 0.0103), at 2.5 ms 0.0145 → 0.0102, at 5 ms
-/// 0.0272 → 0.0142, better at every `θ` in `[0, h)`.
-pub fn predicted_delay(tau: f64, h: f64) -> f64 {
-    tau.max(h)
 }
 
 /// Which past command `u_{k−j}` the plant's outputs at `t_k` carry the force of: with no delay
