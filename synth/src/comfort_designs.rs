@@ -30,7 +30,7 @@ use crate::comfort_controllers::{
 };
 use crate::comfort_plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
 use crate::controller_file::{matrix_rows, Accommodation, AntiWindup, Extensions};
-use crate::design::{ComfortDesign, RearWheels};
+use crate::design::{ComfortDesign, ComfortRoad, RearWheels};
 use crate::fault::FaultBox;
 use crate::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
 use crate::hinf_norm::{Analysis, Lti};
@@ -96,7 +96,8 @@ pub struct Comfort {
     pub uncertainty: Option<OverUncertainty>,
     /// At the nominal car as a master runs the loop: sampled and held at a communication step.
     pub held: Held,
-    /// The nominal loop as a master runs it, checked for stability at other communication steps.
+    /// The loop as a master runs it at other communication steps: stable, and from the design
+    /// file's step up what each costs in comfort.
     pub communication_steps: StepStability,
 }
 
@@ -109,7 +110,9 @@ pub const CHECKED_STEPS: [f64; 10] = [
 
 /// The loop as a master runs it at each of [`CHECKED_STEPS`]: the nominal car's, for a robust
 /// design also the loops at its uncertainty's conditions, and for a design that compensates a
-/// known delay the loops at delays across its interval.
+/// known delay the loops at delays across its interval. Stability at every checked step, and
+/// from the design file's step up the held comfort on the design road: a step the loop is
+/// stable at can still cost most of the comfort (`delay_sf` with a 50 ms delay at 10 ms).
 #[derive(Debug, Clone, Serialize)]
 pub struct StepStability {
     /// The conditions checked at every step.
@@ -127,6 +130,21 @@ pub struct CheckedStep {
     /// At the sampling instants, the largest over the conditions; below 1 is stable. `null`
     /// where a loop could not be formed (an exponential failed).
     pub spectral_radius: Option<f64>,
+    /// From the design file's step up, where every loop is stable: the held `W_k` seat on the
+    /// design road ([`crate::sampled::step_check`]). `null` below the design file's step, where
+    /// stability alone is checked (the held loop tends to the continuous one as the step
+    /// shrinks, and at 0.25 ms a 50 ms delay's loop has 1080 states), and where a loop is
+    /// unstable.
+    pub comfort: Option<StepComfort>,
+}
+
+/// The held `W_k` seat at a checked step.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct StepComfort {
+    /// The nominal car's (the first loop checked): time-averaged, and as a master records it.
+    pub nominal: crate::sampled::HeldSeat,
+    /// The worst time-averaged over every loop checked.
+    pub worst_predicted_wk_rms_seat_m_s2: f64,
 }
 
 impl CheckedStep {
@@ -150,20 +168,41 @@ impl StepStability {
         self.checked.iter().find(|c| !c.stable()).map(|c| c.step_s)
     }
 
-    /// Each loop (a law at its conditions) at every checked step, the loops described by
-    /// `conditions`.
-    pub fn check(loops: &[(ControlLaw, Conditions)], conditions: &str) -> Self {
+    /// Each loop (a law at its conditions; the nominal car's first) at every checked step, the
+    /// loops described by `conditions`, with their comfort on `road` from `design_step` up.
+    pub fn check(
+        loops: &[(ControlLaw, Conditions)],
+        conditions: &str,
+        road: &ComfortRoad,
+        design_step: f64,
+    ) -> Self {
         use rayon::prelude::*;
         let checked: Vec<CheckedStep> = CHECKED_STEPS
             .par_iter()
             .map(|&step_s| {
-                let radii: Option<Vec<f64>> = loops
+                let seat_on = (step_s >= design_step * (1.0 - 1e-9)).then_some(road);
+                let checks: Option<Vec<crate::sampled::StepCheck>> = loops
                     .par_iter()
-                    .map(|(law, c)| crate::sampled::spectral_radius(Some(law), *c, step_s).ok())
+                    .map(|(law, c)| crate::sampled::step_check(Some(law), *c, step_s, seat_on).ok())
                     .collect();
+                let radius = checks
+                    .as_ref()
+                    .map(|c| crate::eig::max_or_nan(0.0, c.iter().map(|c| c.radius)));
+                let seats: Option<Vec<crate::sampled::HeldSeat>> = checks
+                    .filter(|_| radius.is_some_and(|r| r < 1.0))
+                    .and_then(|c| c.iter().map(|c| c.seat).collect());
                 CheckedStep {
                     step_s,
-                    spectral_radius: radii.map(|r| crate::eig::max_or_nan(0.0, r)),
+                    spectral_radius: radius,
+                    comfort: seats.and_then(|s| {
+                        Some(StepComfort {
+                            nominal: *s.first()?,
+                            worst_predicted_wk_rms_seat_m_s2: s
+                                .iter()
+                                .map(|s| s.predicted_wk_rms_seat_m_s2)
+                                .fold(0.0, f64::max),
+                        })
+                    }),
                 }
             })
             .collect();
@@ -1067,7 +1106,12 @@ pub fn certify(
     // The communication steps at the nominal car and at every condition of the uncertainty:
     // the hold's effect on a loop moves with the car it closes.
     let communication_steps = match &uncertainty {
-        None => StepStability::check(&[(law.clone(), nominal)], "the nominal car"),
+        None => StepStability::check(
+            &[(law.clone(), nominal)],
+            "the nominal car",
+            &d.road,
+            d.communication_step,
+        ),
         Some(u) => {
             let loops: Vec<(ControlLaw, Conditions)> = std::iter::once(nominal)
                 .chain(u.conditions.iter().copied())
@@ -1077,6 +1121,8 @@ pub fn certify(
             StepStability::check(
                 &loops,
                 &format!("the nominal car and {}", labels.join(", ")),
+                &d.road,
+                d.communication_step,
             )
         }
     };

@@ -407,6 +407,8 @@ pub fn predictor_design(
             "the nominal car at each delay of {} s, the predictor matched",
             list_delays(&step_delays)
         ),
+        &d.road,
+        d.communication_step,
     );
     let seat = g.c_z.rows(0, 1).into_owned();
     let over = over_delays(g, k, &seat, d.delay_max, DELAY_INTERVALS)

@@ -236,6 +236,11 @@ pub struct SummaryRow {
     /// over the design's uncertainty: `0.0103 at 1 ms (stable at steps to 5 ms, unstable at
     /// 7.5 ms); worst 0.0105` (the cell of both tables, `master`'s read from `synthesis.json`).
     pub held: Option<String>,
+    /// Comfort designs: the held `W_k` seat at each checked communication step from the
+    /// design file's up (`comfort.communication_steps`), as `(step [s], cell)`:
+    /// [`step_cells`].
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub steps: Vec<(f64, String)>,
     /// Thesis designs: the γ the LMI claims, the certified `‖T_zw‖∞` at the nominal car, and
     /// the passive car's on the same generalised plant.
     pub gamma: Option<f64>,
@@ -344,6 +349,7 @@ fn thesis_all(
                 passive_wk_rms_seat: comfort.as_ref().map(|(_, passive)| *passive),
                 guaranteed_wk_rms_seat: None,
                 held: None,
+                steps: Vec::new(),
                 gamma: Some(r.gamma),
                 norm: Some(s.certificate.norm_upper),
                 passive_norm: s.certificate.passive_norm,
@@ -523,6 +529,7 @@ fn comfort_all(
                 passive_wk_rms_seat: Some(comfort.passive_wk_rms_seat_m_s2),
                 guaranteed_wk_rms_seat: comfort.guaranteed_wk_rms_seat_m_s2,
                 held: Some(held(comfort)),
+                steps: step_cells(&comfort.communication_steps),
                 gamma: None,
                 norm: None,
                 passive_norm: None,
@@ -627,6 +634,45 @@ fn held(comfort: &crate::comfort_designs::Comfort) -> String {
         None => nominal,
         Some(u) => format!("{nominal}; {}", held_over(&u.held, &u.predictions)),
     }
+}
+
+/// Below this relative half-width a held loop's resonance is marked in the per-step table: a
+/// mode that barely decays, whose narrow peak decides the figure.
+const SHARP: f64 = 0.01;
+
+/// The per-step table's cells of a design: from the design file's step up, the nominal car's
+/// held `W_k` seat, the worst over the checked conditions in brackets where it differs, `*`
+/// where its sharpest resonance is under [`SHARP`] wide; `unstable` where a checked loop is.
+pub fn step_cells(s: &crate::comfort_designs::StepStability) -> Vec<(f64, String)> {
+    s.checked
+        .iter()
+        .filter_map(|c| {
+            let cell = match (&c.comfort, c.spectral_radius) {
+                (Some(k), _) => {
+                    let (n, w) = (
+                        k.nominal.predicted_wk_rms_seat_m_s2,
+                        k.worst_predicted_wk_rms_seat_m_s2,
+                    );
+                    let mut cell = format!("{n:.4}");
+                    if w > n * (1.0 + 1e-9) {
+                        cell += &format!(" ({w:.4})");
+                    }
+                    if k.nominal
+                        .sharpest_resonance
+                        .is_some_and(|r| r.relative_half_width < SHARP)
+                    {
+                        cell += "*";
+                    }
+                    cell
+                }
+                (None, Some(r)) if r >= 1.0 => "unstable".into(),
+                (None, None) => "-".into(),
+                // Below the design file's step: stability alone is checked there.
+                (None, Some(_)) => return None,
+            };
+            Some((c.step_s, cell))
+        })
+        .collect()
 }
 
 /// Where the nominal loop as a master runs it is stable over the checked communication steps:
@@ -771,5 +817,28 @@ pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
         "\nAll {} designs in {wall_seconds:.2} s wall time (designs in parallel, one BLAS thread each).\n",
         rows.len()
     );
+    if let Some(first) = rows.iter().find(|r| !r.steps.is_empty()) {
+        let ms = |h: f64| format!("{} ms", h * 1e3);
+        let passive = first
+            .passive_wk_rms_seat
+            .map_or("-".into(), |p| format!("{p:.4}"));
+        t += &format!(
+            "\nPredicted W_k seat [m/s²] as a master runs the loop at each communication step \
+              (`comfort.communication_steps`): the nominal car, in brackets the worst over the \
+              step check's conditions where it differs; `*` a mode of the held loop under 1 % \
+              wide in the road's band. The passive car: {passive}.\n\n| variant |"
+        );
+        for (h, _) in &first.steps {
+            t += &format!(" {} |", ms(*h));
+        }
+        t += &format!("\n|---|{}\n", "---|".repeat(first.steps.len()));
+        for r in rows.iter().filter(|r| !r.steps.is_empty()) {
+            t += &format!("| `{}` |", r.variant);
+            for (_, cell) in &r.steps {
+                t += &format!(" {cell} |");
+            }
+            t += "\n";
+        }
+    }
     t
 }

@@ -34,8 +34,8 @@
 use crate::design::ComfortRoad;
 use crate::hinf_norm::Lti;
 use crate::prediction::{
-    plain_signals, plant_outputs, road_integral, sensor_rows, track_input, Conditions, ControlLaw,
-    Figures, HessenbergResponse, PredictionError, PredictorLaw, SensorRows, N_CHANNELS,
+    plain_signals, plant_outputs, resonances, road_integral, sensor_rows, track_input, Conditions,
+    ControlLaw, Figures, HessenbergResponse, PredictionError, PredictorLaw, SensorRows, N_CHANNELS,
     WEIGHTED_SIGNALS,
 };
 use linsys::predictor::{predicted_delay, PredictionMatrices, PredictorBlocks};
@@ -112,13 +112,19 @@ impl WeightedCar {
         f
     }
 
-    /// `Q_c = (1/h) ∫₀^τ e^{Fᵀs} m_cᵀ m_c e^{Fs} ds` per figure `c`, `F` the
+    /// `Q_c = (1/h) ∫₀^τ e^{Fᵀs} m_cᵀ m_c e^{Fs} ds` per figure `c` of the first `channels`
+    /// (in [`N_CHANNELS`]' order, `W_k` seat first), `F` the
     /// [`WeightedCar::held_generator`]: Van Loan's `exp([[−Fᵀ, mᵀm], [0, F]] τ) =
     /// [[·, E₁₂], [0, E₂₂]]`, `∫ = E₂₂ᵀ E₁₂`.
-    fn power_forms(&self, tau: f64, h: f64) -> Result<Vec<DMatrix<f64>>, PredictionError> {
+    fn power_forms(
+        &self,
+        tau: f64,
+        h: f64,
+        channels: usize,
+    ) -> Result<Vec<DMatrix<f64>>, PredictionError> {
         let n = self.order() + N_HELD;
         let f = self.held_generator();
-        (0..N_CHANNELS)
+        (0..channels)
             .map(|c| {
                 let row = self.m.row(c);
                 let mut big = DMatrix::zeros(2 * n, 2 * n);
@@ -151,15 +157,15 @@ struct FactoredForms {
     /// `λ_i`, in the order of `rows`.
     weights: Vec<f64>,
     /// Channel `c`'s rows are `end[c − 1] .. end[c]` (`0 ..` for the first).
-    end: [usize; N_CHANNELS],
+    end: Vec<usize>,
 }
 
 impl FactoredForms {
     fn new(forms: &[DMatrix<f64>]) -> Self {
         let n = forms.first().map_or(0, |f| f.nrows());
         let (mut vectors, mut weights) = (Vec::new(), Vec::new());
-        let mut end = [0; N_CHANNELS];
-        for (c, form) in forms.iter().enumerate() {
+        let mut end = Vec::with_capacity(forms.len());
+        for form in forms {
             let eig = nalgebra::SymmetricEigen::new(form.clone());
             let largest = eig.eigenvalues.amax();
             for (i, &l) in eig.eigenvalues.iter().enumerate() {
@@ -168,7 +174,7 @@ impl FactoredForms {
                     weights.push(l);
                 }
             }
-            end[c] = weights.len();
+            end.push(weights.len());
         }
         let rows = match vectors.is_empty() {
             true => DMatrix::zeros(0, n),
@@ -177,8 +183,9 @@ impl FactoredForms {
         FactoredForms { rows, weights, end }
     }
 
-    /// Adds `xᵀ Q_c x` for the real and imaginary parts of `x` to `out[c]`.
-    fn add(&self, x: &DVector<C64>, out: &mut [f64; N_CHANNELS]) {
+    /// Adds `xᵀ Q_c x` for the real and imaginary parts of `x` to `out[c]`, for each channel
+    /// the forms have.
+    fn add(&self, x: &DVector<C64>, out: &mut [f64]) {
         if self.weights.is_empty() {
             return;
         }
@@ -375,17 +382,21 @@ pub struct SampledLoop {
     forms: (FactoredForms, FactoredForms),
     /// The spectral radius of the loop at the sampling instants (below 1).
     radius: f64,
+    /// The loop's poles at the sampling instants: its resonances guide the frequency grid.
+    poles: Vec<C64>,
 }
 
 /// The loop at the sampling instants before its power forms: what [`SampledLoop::new`] and
 /// [`spectral_radius`] share.
 struct Instants {
     car: WeightedCar,
+    step: f64,
     wheelbase: f64,
     eps: f64,
     first: (DMatrix<f64>, DMatrix<f64>),
     lti: Lti,
     radius: f64,
+    poles: Vec<C64>,
 }
 
 /// The spectral radius at the sampling instants of the loop a master runs at `step` (`≥ 1`:
@@ -503,7 +514,8 @@ impl Instants {
             a_cl.view_mut((hist0 + j * nu, hist0 + (j - 1) * nu), (nu, nu))
                 .fill_with_identity();
         }
-        let radius = crate::eig::spectral_radius(&a_cl);
+        let poles = crate::eig::eigenvalues(&a_cl);
+        let radius = crate::eig::max_or_nan(0.0, poles.iter().map(|z| z.norm()));
         // Out: x_k (the meter's states included), then the held inputs `[r; ρ u]` before and
         // after `t_k + ε`, then the accelerations the meter weights as the plant outputs them
         // at `t_k` (with the force it applies then; `recorded`).
@@ -524,11 +536,13 @@ impl Instants {
         }
         Ok(Instants {
             wheelbase: p.l1 + p.l2,
+            step: h,
             car,
             eps,
             first: (first.phi, first.gamma_hold),
             lti: Lti::new(a_cl, b_cl, c_out, d_out),
             radius,
+            poles,
         })
     }
 }
@@ -540,8 +554,13 @@ impl SampledLoop {
         conditions: Conditions,
         step: f64,
     ) -> Result<Self, PredictionError> {
-        let i = Instants::new(law, conditions, step)?;
-        let (h, eps, radius) = (step, i.eps, i.radius);
+        Self::of(Instants::new(law, conditions, step)?, N_CHANNELS)
+    }
+
+    /// The loop at its instants with the power forms of the first `channels` figures (in
+    /// [`N_CHANNELS`]' order).
+    fn of(i: Instants, channels: usize) -> Result<Self, PredictionError> {
+        let (h, eps, radius) = (i.step, i.eps, i.radius);
         if radius.is_nan() || radius >= 1.0 {
             return Err(PredictionError::Unstable(format!(
                 "spectral radius {radius} at the sampling instants (step {h} s)"
@@ -549,11 +568,11 @@ impl SampledLoop {
         }
         let forms = (
             FactoredForms::new(&if eps > 0.0 {
-                i.car.power_forms(eps, h)?
+                i.car.power_forms(eps, h, channels)?
             } else {
                 Vec::new()
             }),
-            FactoredForms::new(&i.car.power_forms(h - eps, h)?),
+            FactoredForms::new(&i.car.power_forms(h - eps, h, channels)?),
         );
         Ok(SampledLoop {
             instants: HessenbergResponse::new(&i.lti),
@@ -564,6 +583,7 @@ impl SampledLoop {
             first: i.first,
             forms,
             radius,
+            poles: i.poles,
         })
     }
 
@@ -574,7 +594,7 @@ impl SampledLoop {
 
     /// Adds the time-averaged power of each figure over a step, from `q`: the loop's response
     /// at the sampling instants (`instants`' outputs) to a road vector.
-    fn power(&self, q: &DVector<C64>, out: &mut [f64; N_CHANNELS]) {
+    fn power(&self, q: &DVector<C64>, out: &mut [f64]) {
         let na = self.car.order();
         let x0 = q.rows(0, na);
         let (va, vb) = (q.rows(na, N_HELD), q.rows(na + N_HELD, N_HELD));
@@ -635,18 +655,11 @@ impl SampledLoop {
     /// records them (the meter's outputs at the communication points). One pass over the
     /// frequencies for both (a solve at the sampling instants per frequency and track).
     pub fn figures(&self, road: &ComfortRoad) -> HeldFigures {
-        let delay = self.wheelbase / road.speed;
-        let h = self.step;
-        let mean_squares = road_integral(road, |omega, _| {
-            let tracks = DMatrix::from_columns(&[0, 1].map(|t| track_input(t, omega, delay)));
-            let at_z = self
-                .instants
-                .applied(C64::from_polar(1.0, omega * h), &tracks);
+        let mean_squares = road_integral(road, &self.resonances(road), |omega, _| {
             let mut out = [0.0; N_CHANNELS + METER_OUTPUTS.len()];
-            for track in 0..2 {
-                let q = at_z.column(track).into_owned();
+            for q in self.tracks(road, omega) {
                 let (power, recorded) = out.split_at_mut(N_CHANNELS);
-                self.power(&q, power.try_into().expect("N_CHANNELS figures"));
+                self.power(&q, power);
                 for (o, y) in recorded.iter_mut().zip(self.meter(&q)) {
                     *o += y.norm_sqr();
                 }
@@ -660,6 +673,99 @@ impl SampledLoop {
             recorded_weighted: [0, 1, 2].map(|k| mean_squares[N_CHANNELS + k].sqrt()),
         }
     }
+}
+
+impl SampledLoop {
+    /// The loop's response at the sampling instants (`instants`' outputs) to a unit road
+    /// velocity on each track at `omega`, the rear wheels `wheelbase / V` behind.
+    fn tracks(&self, road: &ComfortRoad, omega: f64) -> [DVector<C64>; 2] {
+        let delay = self.wheelbase / road.speed;
+        let tracks = DMatrix::from_columns(&[0, 1].map(|t| track_input(t, omega, delay)));
+        let at_z = self
+            .instants
+            .applied(C64::from_polar(1.0, omega * self.step), &tracks);
+        [0, 1].map(|t| at_z.column(t).into_owned())
+    }
+
+    /// Its resonances over the road's band, for the frequency grid.
+    fn resonances(&self, road: &ComfortRoad) -> Vec<(f64, f64)> {
+        resonances(&self.poles, self.step, road.band_hz().1)
+    }
+
+    /// [`Self::figures`]' `W_k` seat alone: a loop made by [`step_check`] has the seat's power
+    /// forms only.
+    fn seat(&self, road: &ComfortRoad) -> HeldSeat {
+        let [felt, recorded] = road_integral(road, &self.resonances(road), |omega, _| {
+            let mut out = [0.0; 2];
+            for q in self.tracks(road, omega) {
+                self.power(&q, &mut out[..1]);
+                out[1] += self.meter(&q)[0].norm_sqr();
+            }
+            out
+        });
+        let (f_lo, f_hi) = road.band_hz();
+        HeldSeat {
+            predicted_wk_rms_seat_m_s2: felt.max(0.0).sqrt(),
+            recorded_wk_rms_seat_m_s2: recorded.sqrt(),
+            sharpest_resonance: self
+                .resonances(road)
+                .into_iter()
+                .filter(|(f, _)| (f_lo..=f_hi).contains(f))
+                .map(|(f, width)| Resonance {
+                    frequency_hz: f,
+                    relative_half_width: width / f,
+                })
+                .min_by(|a, b| a.relative_half_width.total_cmp(&b.relative_half_width)),
+        }
+    }
+}
+
+/// A held loop's `W_k` seat RMS on the design road ([`step_check`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct HeldSeat {
+    /// Time-averaged over the steps: what the occupant feels.
+    pub predicted_wk_rms_seat_m_s2: f64,
+    /// Of the plant's weighted output sampled at the communication points, as a master
+    /// measures it.
+    pub recorded_wk_rms_seat_m_s2: f64,
+    /// The loop's sharpest resonance over the road's band: a hold near its limit leaves a
+    /// mode barely damped, whose narrow peak can dominate the figures.
+    pub sharpest_resonance: Option<Resonance>,
+}
+
+/// A resonance of a loop at the sampling instants, seen at a road frequency.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Resonance {
+    pub frequency_hz: f64,
+    /// Its half-width over its frequency (the damping ratio of a lightly damped mode).
+    pub relative_half_width: f64,
+}
+
+/// One communication step checked ([`step_check`]).
+#[derive(Debug, Clone, Copy)]
+pub struct StepCheck {
+    /// At the sampling instants (`≥ 1`: unstable).
+    pub radius: f64,
+    /// Where asked and stable, the held `W_k` seat on the road.
+    pub seat: Option<HeldSeat>,
+}
+
+/// The loop a master runs at `step`: its spectral radius, and with `seat_on` a road and the
+/// loop stable, its held `W_k` seat there, from one power form instead of
+/// [`SampledLoop::figures`]' [`N_CHANNELS`].
+pub fn step_check(
+    law: Option<&ControlLaw>,
+    conditions: Conditions,
+    step: f64,
+    seat_on: Option<&ComfortRoad>,
+) -> Result<StepCheck, PredictionError> {
+    let i = Instants::new(law, conditions, step)?;
+    let radius = i.radius;
+    let seat = match seat_on {
+        Some(road) if radius < 1.0 => Some(SampledLoop::of(i, 1)?.seat(road)),
+        _ => None,
+    };
+    Ok(StepCheck { radius, seat })
 }
 
 /// The predicted figures of a held loop ([`SampledLoop::figures`]).
@@ -752,7 +858,7 @@ mod tests {
         let p = vehicle::VehicleParams::default();
         let car = WeightedCar::new(&p, &plant_outputs(&p));
         let (h, tau) = (1e-3, 0.7e-3);
-        let forms = car.power_forms(tau, h).unwrap();
+        let forms = car.power_forms(tau, h, N_CHANNELS).unwrap();
         let n = car.order() + N_HELD;
         let f = car.held_generator();
         let q = DVector::from_fn(n, |i, _| ((i * 37 % 11) as f64 - 5.0) * 0.1);
@@ -789,7 +895,7 @@ mod tests {
         let car = WeightedCar::new(&p, &plant_outputs(&p));
         let n = car.order() + N_HELD;
         for (tau, h) in [(0.7e-3, 1e-3), (1e-3, 1e-3), (0.2e-3, 1e-3), (5e-3, 5e-3)] {
-            let forms = car.power_forms(tau, h).unwrap();
+            let forms = car.power_forms(tau, h, N_CHANNELS).unwrap();
             let factored = FactoredForms::new(&forms);
             assert!(
                 factored.weights.len() < N_CHANNELS * n / 3,
@@ -816,6 +922,54 @@ mod tests {
             }
         }
         assert!(FactoredForms::new(&[]).weights.is_empty());
+    }
+
+    /// The check of a step gives [`SampledLoop::figures`]' `W_k` seat (time-averaged and as
+    /// recorded) from its own seat-only forms, with the car's force
+    /// changing between whole steps (a delay of 2.6 steps) and not; and no figure where the
+    /// loop is unstable.
+    #[test]
+    fn a_step_check_is_the_held_figures_seat() {
+        let road = road();
+        let nominal = Conditions::nominal(vehicle::VehicleParams::default());
+        for (h, delay) in [(1e-3, 0.0), (1e-3, 2.6e-3), (5e-3, 0.0), (5e-3, 13e-3)] {
+            let c = Conditions { delay, ..nominal };
+            let t = std::time::Instant::now();
+            let full = SampledLoop::new(Some(&skyhook()), c, h)
+                .unwrap()
+                .figures(&road);
+            let t_full = t.elapsed();
+            let t = std::time::Instant::now();
+            let check = step_check(Some(&skyhook()), c, h, Some(&road)).unwrap();
+            let t_check = t.elapsed();
+            let seat = check.seat.unwrap();
+            let pairs = [
+                (
+                    seat.predicted_wk_rms_seat_m_s2,
+                    full.time_averaged.wk_rms_seat_m_s2,
+                ),
+                (seat.recorded_wk_rms_seat_m_s2, full.recorded_weighted[0]),
+            ];
+            println!("{h} s, delay {delay} s: {pairs:?}, {t_check:?} against {t_full:?}");
+            for (got, want) in pairs {
+                assert!(
+                    (got - want).abs() < 1e-12 * want,
+                    "{h}, {delay}: {got} vs {want}"
+                );
+            }
+            assert_eq!(
+                check.radius,
+                spectral_radius(Some(&skyhook()), c, h).unwrap()
+            );
+            assert!(step_check(Some(&skyhook()), c, h, None)
+                .unwrap()
+                .seat
+                .is_none());
+        }
+        let mut stiff = skyhook();
+        stiff.lti.d[(4, 1)] = -2e5;
+        let check = step_check(Some(&stiff), nominal, 5e-3, Some(&road)).unwrap();
+        assert!(check.radius >= 1.0 && check.seat.is_none(), "{check:?}");
     }
 
     /// An unstable sampled loop is refused, not integrated: a seat damper of 2·10⁵ N s/m
