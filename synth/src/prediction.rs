@@ -1072,14 +1072,13 @@ fn nodes(lo: f64, hi: f64, peaks: &[(f64, f64)]) -> Vec<f64> {
         if centre + reach < lo || centre - reach > hi {
             continue;
         }
-        let mut xs: Vec<f64> = offsets
+        let xs: Vec<f64> = offsets
             .iter()
             .rev()
             .map(|o| centre - o)
             .chain(offsets.iter().skip(1).map(|o| centre + o))
             .filter(|x| (lo..=hi).contains(x))
             .collect();
-        xs.dedup();
         refined.push((centre - reach, centre + reach, xs));
     }
     let mut x: Vec<f64> = (0..FREQUENCIES)

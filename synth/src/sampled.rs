@@ -386,8 +386,8 @@ pub struct SampledLoop {
     poles: Vec<C64>,
 }
 
-/// The loop at the sampling instants before its power forms: what [`SampledLoop::new`] and
-/// [`spectral_radius`] share.
+/// The loop at the sampling instants before its power forms: what [`SampledLoop::new`],
+/// [`spectral_radius`] and [`step_check`] share.
 struct Instants {
     car: WeightedCar,
     step: f64,
@@ -673,9 +673,7 @@ impl SampledLoop {
             recorded_weighted: [0, 1, 2].map(|k| mean_squares[N_CHANNELS + k].sqrt()),
         }
     }
-}
 
-impl SampledLoop {
     /// The loop's response at the sampling instants (`instants`' outputs) to a unit road
     /// velocity on each track at `omega`, the rear wheels `wheelbase / V` behind.
     fn tracks(&self, road: &ComfortRoad, omega: f64) -> [DVector<C64>; 2] {
@@ -695,7 +693,8 @@ impl SampledLoop {
     /// [`Self::figures`]' `W_k` seat alone: a loop made by [`step_check`] has the seat's power
     /// forms only.
     fn seat(&self, road: &ComfortRoad) -> HeldSeat {
-        let [felt, recorded] = road_integral(road, &self.resonances(road), |omega, _| {
+        let resonances = self.resonances(road);
+        let [felt, recorded] = road_integral(road, &resonances, |omega, _| {
             let mut out = [0.0; 2];
             for q in self.tracks(road, omega) {
                 self.power(&q, &mut out[..1]);
@@ -707,8 +706,7 @@ impl SampledLoop {
         HeldSeat {
             predicted_wk_rms_seat_m_s2: felt.max(0.0).sqrt(),
             recorded_wk_rms_seat_m_s2: recorded.sqrt(),
-            sharpest_resonance: self
-                .resonances(road)
+            sharpest_resonance: resonances
                 .into_iter()
                 .filter(|(f, _)| (f_lo..=f_hi).contains(f))
                 .map(|(f, width)| Resonance {
