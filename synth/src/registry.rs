@@ -825,8 +825,9 @@ pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
         t += &format!(
             "\nPredicted W_k seat [m/s²] as a master runs the loop at each communication step \
               (`comfort.communication_steps`): the nominal car, in brackets the worst over the \
-              step check's conditions where it differs; `*` a mode of the held loop under 1 % \
-              wide in the road's band. The passive car: {passive}.\n\n| variant |"
+              step check's conditions where it differs; `*` a mode of the held loop under {} % \
+              wide in the road's band. The passive car: {passive}.\n\n| variant |",
+            100.0 * SHARP
         );
         for (h, _) in &first.steps {
             t += &format!(" {} |", ms(*h));
