@@ -188,9 +188,9 @@ impl StepStability {
                 let radius = checks
                     .as_ref()
                     .map(|c| crate::eig::max_or_nan(0.0, c.iter().map(|c| c.radius)));
-                let seats: Option<Vec<crate::sampled::HeldSeat>> = checks
-                    .filter(|_| radius.is_some_and(|r| r < 1.0))
-                    .and_then(|c| c.iter().map(|c| c.seat).collect());
+                // A seat only where its loop is stable: all of them or none.
+                let seats: Option<Vec<crate::sampled::HeldSeat>> =
+                    checks.and_then(|c| c.iter().map(|c| c.seat).collect());
                 CheckedStep {
                     step_s,
                     spectral_radius: radius,

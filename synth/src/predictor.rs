@@ -170,7 +170,7 @@ fn own_loop(p: &PredictorLaw) -> DMatrix<f64> {
     let r = &p.reconstruction;
     let (_, k_own) =
         linsys::predictor::split_gain(&p.k, r.a_xi.nrows(), &crate::sampled::own_filters(p));
-    &p.reconstruction.a_xi + &p.reconstruction.b_xiu * k_own
+    &r.a_xi + &r.b_xiu * k_own
 }
 
 /// `0, 0.005, …, 0.05`.
