@@ -4,6 +4,7 @@
 # `make test`  every test: rustfmt and clippy, Rust (unit + integration, incl. the fmi crate loading
 #              dist/) and pytest
 # `make bench` benchmarks (criterion)
+# `make bench-floor` (opt-in) the closed loop of `make bench` with the FMUs' products free (bench/floor.py)
 # `make CROSS=0 …` the fast path: this machine's linux64 libraries only (no win64, no ARM)
 # `make thesis` (opt-in) the thesis's H-inf designs (synth/designs/thesis.json) in dist/thesis/
 # `make constrained` (opt-in) the thesis designs with their limits imposed as LMIs
@@ -70,7 +71,7 @@ PLATFORM_FMUS := dist/plant.fmu
 endif
 RUST_SOURCES := $(shell find linsys vehicle fmu-core fmu-plant fmu-controller controller-file fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
-.PHONY: all setup fmus harnesses validate compare sweep constrained thesis test lint test-rust test-python bench descriptions schemas readme clean
+.PHONY: all setup fmus harnesses validate compare sweep constrained thesis test lint test-rust test-python bench bench-floor descriptions schemas readme clean
 
 all: fmus validate compare sweep
 	@echo
@@ -261,6 +262,11 @@ bench: $(FMU_FILES) $(STAMP)/venv-bench
 	./target/release/synth --design synth/designs/thesis.json --out $(STAMP)/bench-synth-thesis
 	$(PY) bench/master_vs_fmpy.py
 	./target/release/master sweep sweeps/study_10k.json --out $(STAMP)/bench-study
+
+# The loop targets against a floor: the same loop with every matrix-vector product of the FMUs'
+# steps free (bench/floor.py; builds the three FMUs from a patched copy into target/floor).
+bench-floor: $(FMU_FILES) $(STAMP)/venv-bench
+	$(PY) bench/floor.py
 
 clean:
 	rm -rf dist results $(STAMP)

@@ -19,10 +19,10 @@ import test_closed_loop as py  # noqa: E402
 SECONDS, STEP = 10.0, 1e-3
 
 
-def rust(scenario):
+def rust(scenario, dist=ROOT / "dist"):
     best = float("inf")
     for _ in range(3):
-        out = subprocess.run([str(ROOT / "target" / "release" / "master"), "--dist", str(ROOT / "dist"), "run", "--scenario", scenario,
+        out = subprocess.run([str(ROOT / "target" / "release" / "master"), "--dist", str(dist), "run", "--scenario", scenario,
                               "--controller", "hinf_of", "--out", str(pathlib.Path(tempfile.gettempdir()) / "bench_master.csv")],
                              check=True, capture_output=True, text=True).stdout
         best = min(best, float(re.search(r"loop ([0-9.]+) s", out).group(1)))
@@ -53,11 +53,11 @@ def python(road_params):
     return best
 
 
-def scenario_file(name):
-    """scenarios/<name>.json cut to 10 s at 1 kHz, in the temporary directory."""
+def scenario_file(name, seconds=SECONDS):
+    """scenarios/<name>.json cut to `seconds` at 1 kHz, in the temporary directory."""
     scenario = json.loads((ROOT / "scenarios" / f"{name}.json").read_text())
-    scenario.update(name=f"bench_{name}_10s", duration=SECONDS, step=STEP)
-    path = pathlib.Path(tempfile.gettempdir()) / f"bench_{name}_10s.json"
+    scenario.update(name=f"bench_{name}_{seconds:g}s", duration=seconds, step=STEP)
+    path = pathlib.Path(tempfile.gettempdir()) / f"bench_{name}_{seconds:g}s.json"
     path.write_text(json.dumps(scenario))
     return scenario, str(path)
 
