@@ -643,6 +643,17 @@ impl Simulator {
 mod tests {
     use super::*;
 
+    /// The default car with an actuator delay `tau`, started at rest at t = 0.
+    fn started_with_delay(tau: f64) -> Simulator {
+        let actuator = ActuatorParams {
+            tau,
+            ..ActuatorParams::default()
+        };
+        let mut sim = Simulator::new(VehicleParams::default(), actuator);
+        sim.start(0.0);
+        sim
+    }
+
     /// With the delay a whole number of steps, the force applied at each communication point
     /// is the command sent exactly that many steps earlier, at every step: the times `k h` the
     /// master passes and the plant's own `t + h` differ by rounding, and before the tolerance
@@ -651,12 +662,7 @@ mod tests {
     #[test]
     fn a_whole_step_delay_applies_the_command_of_that_many_steps_ago_at_every_step() {
         for (tau, h) in [(0.02, 1e-3), (0.01, 1e-4), (0.03, 1e-3)] {
-            let actuator = ActuatorParams {
-                tau,
-                ..ActuatorParams::default()
-            };
-            let mut sim = Simulator::new(VehicleParams::default(), actuator);
-            sim.start(0.0);
+            let mut sim = started_with_delay(tau);
             let lag = (tau / h).round() as usize;
             let command = |k: usize| (k % 7) as f64 + 1.0;
             for k in 0..3000 {
@@ -681,12 +687,7 @@ mod tests {
     #[test]
     fn a_run_at_a_constant_step_discretises_once() {
         for (tau, h) in [(0.0, 1e-3), (0.02, 1e-3), (0.0, 1e-4)] {
-            let actuator = ActuatorParams {
-                tau,
-                ..ActuatorParams::default()
-            };
-            let mut sim = Simulator::new(VehicleParams::default(), actuator);
-            sim.start(0.0);
+            let mut sim = started_with_delay(tau);
             for k in 0..200_000 {
                 sim.command = [(k % 5) as f64; N_ACTUATORS];
                 sim.step(k as f64 * h, h).unwrap();
