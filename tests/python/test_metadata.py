@@ -2,15 +2,20 @@
 Cargo manifest names exist, CITATION.cff is valid CFF 1.2.0 and names the version every FMU
 reports (`version`, and `generationTool` with it), the changelog has that version, the README's
 comparison is the one `make` measures, and the Makefile builds every variant synth knows."""
+import ctypes
 import json
 import math
+import os
 import re
+import shutil
 import subprocess
 import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+
+from readme_figures import disagreements, largest_share_of_tolerance
 
 ROOT = Path(__file__).resolve().parents[2]
 VENV_BIN = Path(__file__).resolve().parents[2] / ".venv" / "bin"
@@ -53,16 +58,37 @@ def without_timing(table):
     return "\n".join(line for line in table.splitlines() if not re.match(r"^\d+ runs in [\d.]+ s", line))
 
 
-@pytest.mark.parametrize("heading,tag", [("## Summary: W_k RMS seat acceleration [m/s²]", "comparison"),
-                                         ("## Limits and model validity", "limits")])
-def test_the_readme_comparison_is_the_measured_one(heading, tag):
+# The report's sections the README carries (`make readme`), by marker.
+REPORT_SECTIONS = {"comparison": "## Summary: W_k RMS seat acceleration [m/s²]",
+                   "limits": "## Limits and model validity"}
+
+
+def report_section(report, tag):
+    return report.split(REPORT_SECTIONS[tag] + "\n")[1].split("\n## ")[0]
+
+
+def readme_disagreements(tag, fresh):
+    """How the README's block `tag` differs from the freshly measured text beyond the tolerance
+    of `readme_figures` (the wall-time line left out: it differs from run to run)."""
+    spliced = without_timing(block((ROOT / "README.md").read_text(), tag))
+    return disagreements(spliced, without_timing(fresh))
+
+
+def assert_readme_holds(tag, fresh, where):
+    found = readme_disagreements(tag, fresh)
+    spliced = without_timing(block((ROOT / "README.md").read_text(), tag))
+    share = largest_share_of_tolerance(spliced, without_timing(fresh))
+    print(f"README {tag} against {where}: the largest difference is {share:.0%} of its tolerance")
+    assert not found, f"README {tag} disagrees with {where} (run `make readme`):\n" + "\n".join(found)
+
+
+@pytest.mark.parametrize("tag", ["comparison", "limits"])
+def test_the_readme_comparison_is_the_measured_one(tag):
     """`make test` runs `master compare` first (results/report.md); `make readme` splices its
-    summary and the runs it flags into the README. The figures are deterministic to the digits
-    printed."""
+    summary and the runs it flags into the README. Words, flags and counts agree exactly, each
+    figure within the stated tolerance (`readme_figures.py`: machines differ in the last digits)."""
     report = (ROOT / "results" / "report.md").read_text()
-    section = report.split(heading + "\n")[1].split("\n## ")[0]
-    readme = block((ROOT / "README.md").read_text(), tag)
-    assert without_timing(readme).strip() == without_timing(section).strip(), f"README {tag} is stale: run `make readme`"
+    assert_readme_holds(tag, report_section(report, tag), "results/report.md")
 
 
 @pytest.mark.parametrize("tag,path", [("modes", "dist/car.md"), ("gamma", "dist/thesis/gamma.md")])
@@ -71,8 +97,74 @@ def test_the_readme_blocks_are_what_synth_writes(tag, path):
     file, what γ says about comfort (dist/thesis/gamma.md: each design's certified norm beside the
     passive car's on the same plant, and the comfort predicted beside the passive car's);
     `make readme` splices them."""
-    written = (ROOT / path).read_text()
-    assert block((ROOT / "README.md").read_text(), tag).strip() == written.strip(), f"README {tag} is stale: run `make readme`"
+    assert_readme_holds(tag, (ROOT / path).read_text(), path)
+
+
+def test_the_figure_check_takes_machine_differences_and_refuses_real_changes():
+    """The figures two machines measured for the same commit (`hinf_of_aw` on `saturation`,
+    the thesis designs' comfort range) agree; a changed figure, a changed flag or word, a changed
+    count and a figure printed with other digits do not."""
+    row = "| `hinf_of_aw` | 0.0037 (-98.0 %) | 0.4840 (-30.1 %) ⚠ |"
+    assert disagreements(row, row.replace("0.4840", "0.4837")) == []
+    gamma = "the predicted comfort 48.8–96.3 % better, 7 thesis designs, 0.0206 m/s²"
+    assert disagreements(gamma, gamma.replace("48.8", "48.7").replace("0.0206", "0.0207")) == []
+    for changed in [row.replace("0.4840", "0.4940"), row.replace("(-30.1 %)", "(-31.9 %)"),
+                    row.replace(" ⚠", ""), row.replace("0.4840", "0.484")]:
+        assert disagreements(row, changed), changed
+    assert disagreements(gamma, gamma.replace("7 thesis", "6 thesis"))
+    assert disagreements(gamma, gamma.replace("0.0206", "0.0216"))
+
+
+def native_blas_core():
+    """The kernel family OpenBLAS picked for this CPU (Debian's build carries them all)."""
+    lib = ctypes.CDLL("libopenblas.so.0")
+    lib.openblas_get_corename.restype = ctypes.c_char_p
+    return lib.openblas_get_corename().decode()
+
+
+@pytest.fixture(scope="module")
+def other_kernel_run(tmp_path_factory):
+    """Every design synthesised again with OpenBLAS forced onto another CPU's kernels
+    (`OPENBLAS_CORETYPE`, what differs between two machines), packed, and compared over the
+    scenarios like `make`: another machine's run, made on this one (about 45 s)."""
+    core = "Nehalem" if native_blas_core().lower() == "sandybridge" else "Sandybridge"
+    out = tmp_path_factory.mktemp("other-kernel")
+    env = dict(os.environ, OPENBLAS_CORETYPE=core)
+    release = ROOT / "target" / "release"
+    variants = subprocess.run([str(release / "synth"), "--list"], capture_output=True, text=True,
+                              check=True).stdout.split()
+    for design, folder in [("comfort", "designs"), ("thesis", "thesis")]:
+        subprocess.run([str(release / "synth"), "--design", str(ROOT / "synth" / "designs" / f"{design}.json"),
+                        "--out", str(out / folder), *variants], env=env, check=True, capture_output=True)
+    dist = out / "dist"
+    dist.mkdir()
+    for fmu in ["road", "plant"]:
+        shutil.copy(ROOT / "dist" / f"{fmu}.fmu", dist)
+    for v in variants:
+        subprocess.run([str(release / "fmu-pack"), "fmu", "--lib", str(release / "libfmu_controller.so"),
+                        "--resources", str(out / "designs" / v), "--out", str(dist / f"{v}.fmu")],
+                       check=True, capture_output=True)
+    subprocess.run([str(release / "master"), "--dist", str(dist), "compare", "--scenarios", str(ROOT / "scenarios"),
+                    "--controllers", ",".join(variants), "--out", str(out / "results"),
+                    "--designs", str(out / "designs" / "synthesis.json")], check=True, capture_output=True)
+    return core, out
+
+
+def test_the_readme_figures_hold_against_another_machines_synthesis(other_kernel_run):
+    """The README's figures hold for a synthesis on another machine's BLAS kernels, whose designs
+    differ in their last digits (the output feedbacks' gains by up to 6e-4 relative, measured)
+    and whose saturated runs differ in the 4th digit: the failure of `make test` on a fresh
+    Intel machine, reproduced here. A check bit for bit fails on it; the stated tolerance holds."""
+    core, out = other_kernel_run
+    report = (out / "results" / "report.md").read_text()
+    shipped = (ROOT / "results" / "report.md").read_text()
+    fresh = {tag: report_section(report, tag) for tag in REPORT_SECTIONS}
+    assert any(without_timing(fresh[tag]) != without_timing(report_section(shipped, tag)) for tag in REPORT_SECTIONS), \
+        f"OpenBLAS's {core} kernels gave this machine's figures bit for bit: the check is not exercised"
+    for tag, text in fresh.items():
+        assert_readme_holds(tag, text, f"a synthesis on OpenBLAS's {core} kernels")
+    assert_readme_holds("gamma", (out / "thesis" / "gamma.md").read_text(), f"the thesis designs on {core} kernels")
+    assert_readme_holds("modes", (out / "designs" / "car.md").read_text(), f"the car on {core} kernels")
 
 
 def test_what_the_readme_says_around_the_gamma_figures_holds_on_every_thesis_certificate():
