@@ -168,7 +168,8 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
                     "N",
                     format!("Force limit {role} (set it equal to the plant's {name})"),
                 )
-                .with_start(u_max[outputs[0]]),
+                .with_start(u_max[outputs[0]])
+                .with_min(0.0),
             );
         }
     }
@@ -414,6 +415,62 @@ impl Controller {
         self.update_commands();
         self.u[i]
     }
+
+    /// One step of `step` s, or why not with nothing changed.
+    fn step_or_keep(&mut self, step: f64) -> Result<(), String> {
+        if self.predictor.is_some() {
+            self.update_commands();
+            let p = self.predictor.as_mut().expect("checked above");
+            self.x = p.step(self.x.as_slice(), &self.y, &self.u, step)?;
+            self.valid = false;
+            return Ok(());
+        }
+        if self.a.nrows() == 0 {
+            self.update_commands();
+            self.step_estimator(step);
+            return Ok(());
+        }
+        if self.cache.as_ref().map(|d| d.step.to_bits()) != Some(step.to_bits()) {
+            self.cache =
+                Some(discretize(&self.a, &self.b, step).map_err(|e| step_refused(step, e))?);
+        }
+        // The detector latches on the values at the start of the step (what a master read).
+        let detected_before = self.detected;
+        self.detected = self.fault_detected();
+        // Measurements held over the step; with anti-windup the saturation excess u − y_c too,
+        // with a detector the command sent (evaluated at the start of the step, as a
+        // sampled-data implementation does and as the plant receives it).
+        self.update_commands();
+        let ny = self.y.len();
+        self.v.rows_mut(0, ny).copy_from(&self.y);
+        match (&self.spec.anti_windup, &self.spec.fault_detection) {
+            (Some(_), _) => {
+                for (v, (u, yc)) in self.v.as_mut_slice()[ny..]
+                    .iter_mut()
+                    .zip(self.u.iter().zip(&self.yc))
+                {
+                    *v = u - yc;
+                }
+            }
+            (None, Some(_)) => self.v.rows_mut(ny, self.u.len()).copy_from(&self.u),
+            (None, None) => {}
+        }
+        let d = self.cache.as_ref().unwrap();
+        mat_vec_sum(
+            self.next.as_mut_slice(),
+            &[
+                (&d.phi, self.x.as_slice()),
+                (&d.gamma_hold, self.v.as_slice()),
+            ],
+        );
+        if !self.next.iter().all(|v| v.is_finite()) {
+            self.detected = detected_before;
+            return Err("controller state became non-finite; the step was discarded".into());
+        }
+        std::mem::swap(&mut self.x, &mut self.next);
+        self.step_estimator(step);
+        Ok(())
+    }
 }
 
 impl Model for Controller {
@@ -521,14 +578,16 @@ impl Model for Controller {
     }
 
     fn check_parameters(&self) -> Result<(), ModelError> {
-        if let Some(bad) = self.limits.iter().find(|l| !(**l > 0.0 && l.is_finite())) {
-            return Err(format!("force limits must be finite and > 0, got {bad}").into());
+        // FMI's bounds are inclusive: the declared minimum 0 is allowed (a limit of 0 is an
+        // actuator that gives no force; a threshold of 0 flags any residual).
+        if let Some(bad) = self.limits.iter().find(|l| !(**l >= 0.0 && l.is_finite())) {
+            return Err(format!("force limits must be finite and >= 0, got {bad}").into());
         }
         if self.spec.fault_detection.is_some()
-            && !(self.threshold > 0.0 && self.threshold.is_finite())
+            && !(self.threshold >= 0.0 && self.threshold.is_finite())
         {
             return Err(format!(
-                "fault_threshold must be finite and > 0, got {}",
+                "fault_threshold must be finite and >= 0, got {}",
                 self.threshold
             )
             .into());
@@ -587,59 +646,11 @@ impl Model for Controller {
         ))
     }
 
+    /// Every failure of a step leaves the controller as it was and comes from the step's
+    /// length (an exponential or a state that overflows): `fmi2Discard`, after which a master
+    /// may go on in shorter steps, as with the plant.
     fn do_step(&mut self, _time: f64, step: f64) -> Result<(), ModelError> {
-        if self.predictor.is_some() {
-            self.update_commands();
-            let p = self.predictor.as_mut().expect("checked above");
-            self.x = p.step(self.x.as_slice(), &self.y, &self.u, step)?;
-            self.valid = false;
-            return Ok(());
-        }
-        if self.a.nrows() == 0 {
-            self.update_commands();
-            self.step_estimator(step);
-            return Ok(());
-        }
-        if self.cache.as_ref().map(|d| d.step.to_bits()) != Some(step.to_bits()) {
-            self.cache =
-                Some(discretize(&self.a, &self.b, step).map_err(|e| step_refused(step, e))?);
-        }
-        // The detector latches on the values at the start of the step (what a master read).
-        let detected_before = self.detected;
-        self.detected = self.fault_detected();
-        // Measurements held over the step; with anti-windup the saturation excess u − y_c too,
-        // with a detector the command sent (evaluated at the start of the step, as a
-        // sampled-data implementation does and as the plant receives it).
-        self.update_commands();
-        let ny = self.y.len();
-        self.v.rows_mut(0, ny).copy_from(&self.y);
-        match (&self.spec.anti_windup, &self.spec.fault_detection) {
-            (Some(_), _) => {
-                for (v, (u, yc)) in self.v.as_mut_slice()[ny..]
-                    .iter_mut()
-                    .zip(self.u.iter().zip(&self.yc))
-                {
-                    *v = u - yc;
-                }
-            }
-            (None, Some(_)) => self.v.rows_mut(ny, self.u.len()).copy_from(&self.u),
-            (None, None) => {}
-        }
-        let d = self.cache.as_ref().unwrap();
-        mat_vec_sum(
-            self.next.as_mut_slice(),
-            &[
-                (&d.phi, self.x.as_slice()),
-                (&d.gamma_hold, self.v.as_slice()),
-            ],
-        );
-        if !self.next.iter().all(|v| v.is_finite()) {
-            self.detected = detected_before;
-            return Err("controller state became non-finite; the step was discarded".into());
-        }
-        std::mem::swap(&mut self.x, &mut self.next);
-        self.step_estimator(step);
-        Ok(())
+        self.step_or_keep(step).map_err(ModelError::discard)
     }
 
     fn save(&self, out: &mut StateWriter) {

@@ -136,7 +136,10 @@ impl Logger {
         }
         if let Some(callback) = self.callback {
             let category_c = to_cstring(category.name());
-            let message_c = to_cstring(message);
+            // FMI 2.0.4 §2.1.5: in a logged message `#` starts a value-reference escape
+            // (`#r12#`), and `##` is a literal `#`. Our messages name variables, never escape
+            // them, so every `#` (a URI's fragment, a user's instance name) is literal.
+            let message_c = to_cstring(&message.replace('#', "##"));
             // SAFETY: the importer gave us this callback for exactly this signature; every
             // pointer is a valid NUL-terminated string for the duration of the call.
             unsafe {

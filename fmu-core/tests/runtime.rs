@@ -258,6 +258,14 @@ fn wrong_guid_wrong_type_and_bad_uri_give_null_with_a_message() {
     assert!(log.contains("GUID mismatch"), "{:?}", log.messages());
     assert!(Fmu::with(&log, GUID, Some("http://example.org/res"), false).is_none());
     assert!(log.contains("is not a file: URI"));
+    // FMI's log format reads `#` as the start of a value-reference escape: a `#` of the
+    // importer's URI reaches the logger as `##`, a literal `#`.
+    assert!(Fmu::with(&log, GUID, Some("http://example.org/res#frag"), false).is_none());
+    assert!(
+        log.contains("http://example.org/res##frag") && !log.contains("res#frag"),
+        "{:?}",
+        log.messages()
+    );
     let cb = log.callbacks();
     let name = CString::new("x").unwrap();
     let guid = CString::new(GUID).unwrap();

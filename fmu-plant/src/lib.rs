@@ -49,21 +49,18 @@ struct ActuatorSpec {
     description: &'static str,
     min: f64,
     max: Option<f64>,
-    /// Must the value be strictly above `min`?
-    strict: bool,
     get: fn(&ActuatorParams) -> f64,
     set: fn(&mut ActuatorParams, f64),
 }
 
 macro_rules! act {
-    ($name:literal, $unit:literal, $min:expr, $max:expr, $strict:expr, $desc:literal, |$p:ident| $field:expr) => {
+    ($name:literal, $unit:literal, $min:expr, $max:expr, $desc:literal, |$p:ident| $field:expr) => {
         ActuatorSpec {
             name: $name,
             unit: $unit,
             description: $desc,
             min: $min,
             max: $max,
-            strict: $strict,
             get: |$p| $field,
             set: |$p, v| $field = v,
         }
@@ -77,8 +74,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "N",
         0.0,
         None,
-        true,
-        "Force limit of each corner actuator (saturation)",
+        "Force limit of each corner actuator (saturation; 0 = the actuator gives no force)",
         |p| p.u_max
     ),
     act!(
@@ -86,8 +82,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "N",
         0.0,
         None,
-        true,
-        "Force limit of the seat actuator (saturation)",
+        "Force limit of the seat actuator (saturation; 0 = the actuator gives no force)",
         |p| p.u_max_seat
     ),
     act!(
@@ -95,7 +90,6 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "s",
         0.0,
         Some(1.0),
-        false,
         "Transport delay between force command and actuator (0 = none)",
         |p| p.tau
     ),
@@ -104,7 +98,6 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Hz",
         0.0,
         Some(1e5),
-        false,
         "Bandwidth of the first-order actuator lag (0 = ideal actuator)",
         |p| p.bandwidth
     ),
@@ -113,7 +106,6 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "s",
         f64::NEG_INFINITY,
         None,
-        false,
         "Time at which the actuator faults start (thesis fig. 8.2)",
         |p| p.fault_time
     ),
@@ -122,7 +114,6 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "1",
         0.0,
         Some(1.0),
-        false,
         "Loss of effectiveness of the FL actuator after fault_time (0 = healthy, 1 = dead)",
         |p| p.fault_loss[0]
     ),
@@ -131,7 +122,6 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "1",
         0.0,
         Some(1.0),
-        false,
         "Loss of effectiveness of the FR actuator after fault_time",
         |p| p.fault_loss[1]
     ),
@@ -140,7 +130,6 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "1",
         0.0,
         Some(1.0),
-        false,
         "Loss of effectiveness of the RL actuator after fault_time",
         |p| p.fault_loss[2]
     ),
@@ -149,7 +138,6 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "1",
         0.0,
         Some(1.0),
-        false,
         "Loss of effectiveness of the RR actuator after fault_time",
         |p| p.fault_loss[3]
     ),
@@ -158,7 +146,6 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "1",
         0.0,
         Some(1.0),
-        false,
         "Loss of effectiveness of the seat actuator after fault_time",
         |p| p.fault_loss[4]
     ),
@@ -471,17 +458,9 @@ impl Model for Plant {
                 .map_err(|e| ModelError::error(e.to_string()));
         }
         if let Some(spec) = actuator_param(vr) {
-            let below = if spec.strict {
-                value <= spec.min
-            } else {
-                value < spec.min
-            };
-            if below || spec.max.is_some_and(|m| value > m) {
-                let lower = if spec.strict {
-                    format!("> {}", spec.min)
-                } else {
-                    format!(">= {}", spec.min)
-                };
+            // FMI's bounds are inclusive: the declared `min` and `max` are allowed values.
+            if value < spec.min || spec.max.is_some_and(|m| value > m) {
+                let lower = format!(">= {}", spec.min);
                 let upper = spec.max.map(|m| format!(" and <= {m}")).unwrap_or_default();
                 return Err(format!(
                     "{} must be {lower}{upper} {}, got {value}",

@@ -313,7 +313,7 @@ impl Simulator {
             road_slope: [0.0; N_ROAD],
             command: [0.0; N_ACTUATORS],
             command_slope: [0.0; N_ACTUATORS],
-            xi: DVector::zeros(N_STATES),
+            xi: DVector::zeros(state_count(&actuator)),
             history: VecDeque::new(),
             time: 0.0,
             system: None,
@@ -332,9 +332,15 @@ impl Simulator {
         self.history.clear();
     }
 
-    /// Parameters changed: rebuild the matrices before the next use.
+    /// Parameters changed (before the start): rebuild the matrices before the next use, and
+    /// size the state for them, so that a state saved now restores into an instance with the
+    /// same parameters.
     pub fn invalidate(&mut self) {
         self.system = None;
+        let n = state_count(&self.actuator);
+        if self.xi.len() != n {
+            self.xi = DVector::zeros(n);
+        }
     }
 
     fn system(&mut self) -> &mut System {

@@ -61,7 +61,12 @@ impl<'a> Plant<'a> {
     fn get(&self, name: &str) -> f64 {
         let vr = self.vr(name);
         let mut v = f64::NAN;
-        assert_eq!(unsafe { fmi2GetReal(self.c, &vr, 1, &mut v) }, OK);
+        assert_eq!(
+            unsafe { fmi2GetReal(self.c, &vr, 1, &mut v) },
+            OK,
+            "{name}: {:?}",
+            self._log.messages()
+        );
         v
     }
     fn states(&self) -> Vec<f64> {
@@ -407,7 +412,7 @@ fn inadmissible_parameters_are_refused_with_a_message() {
         ("I_y", 0.0, "below its minimum 0.01"),
         ("c_seat", -1.0, "below its minimum 0"),
         ("actuator_bandwidth", 1e40, "above its maximum"),
-        ("u_max", 0.0, "u_max must be > 0 N, got 0"),
+        ("u_max", -1.0, "-1 of 'u_max' is below its minimum 0"),
         ("tau", -0.01, "value -0.01 of 'tau' is below its minimum 0"),
         (
             "fault_loss_rr",
@@ -424,6 +429,125 @@ fn inadmissible_parameters_are_refused_with_a_message() {
         assert!(log.contains(msg), "{name}: {:?}", log.messages());
         // The instance is now in Error, where GetReal is legal: the parameter is unchanged.
         assert_eq!(p.get(name), default, "{name} unchanged");
+    }
+}
+
+/// FMI's bounds are inclusive: the declared minimum 0 of a force limit is accepted, and an
+/// actuator limited to 0 N gives no force whatever it is commanded (a lost actuator).
+#[test]
+fn a_force_limit_of_zero_is_accepted_and_the_actuator_gives_no_force() {
+    let log = LogCapture::default();
+    let p = Plant::new(&log);
+    assert_eq!(p.set("u_max_seat", 0.0), OK, "{:?}", log.messages());
+    assert_eq!(p.set("u_max", 0.0), OK, "{:?}", log.messages());
+    p.init(0.0);
+    for k in 0..50 {
+        p.set("u_seat", 800.0);
+        p.set("u_fl", -1500.0);
+        assert_eq!(p.step(k as f64 * 1e-3, 1e-3), OK);
+    }
+    assert_eq!(p.get("f_seat"), 0.0);
+    assert_eq!(p.get("f_fl"), 0.0);
+    assert_eq!(
+        max_abs(&p.states()),
+        0.0,
+        "a flat road and no force: nothing moves"
+    );
+}
+
+/// The state as a byte string, from `fmi2GetFMUstate` and `fmi2SerializeFMUstate`.
+fn serialized(p: &Plant) -> Vec<Fmi2Byte> {
+    let mut s: Fmi2FmuState = null_mut();
+    assert_eq!(unsafe { fmi2GetFMUstate(p.c, &mut s) }, OK);
+    let mut size = 0;
+    assert_eq!(unsafe { fmi2SerializedFMUstateSize(p.c, s, &mut size) }, OK);
+    let mut bytes = vec![0 as Fmi2Byte; size];
+    assert_eq!(
+        unsafe { fmi2SerializeFMUstate(p.c, s, bytes.as_mut_ptr(), size) },
+        OK
+    );
+    unsafe { fmi2FreeFMUstate(p.c, &mut s) };
+    bytes
+}
+
+/// Restore `bytes` into `p` (deserialise, set, free).
+fn restore_serialized(p: &Plant, bytes: &[Fmi2Byte]) -> i32 {
+    let mut s: Fmi2FmuState = null_mut();
+    let status = unsafe { fmi2DeSerializeFMUstate(p.c, bytes.as_ptr(), bytes.len(), &mut s) };
+    if status != OK {
+        return status;
+    }
+    let status = unsafe { fmi2SetFMUstate(p.c, s) };
+    unsafe { fmi2FreeFMUstate(p.c, &mut s) };
+    status
+}
+
+/// FMI 2.0.4 allows getting and setting the state once instantiated and in Initialization
+/// Mode. A state taken there, with or without parameters that change the state's size
+/// (`actuator_bandwidth` adds five lag states), restores into the same instance and into a
+/// fresh one, which then runs bit-identically with one that was never restored.
+#[test]
+fn a_state_saved_before_initialisation_restores_and_runs_as_the_original() {
+    let log = LogCapture::default();
+    let setups: [&[(&str, f64)]; 3] = [
+        &[],
+        &[("m_s", 1650.0)],
+        &[("m_s", 1650.0), ("actuator_bandwidth", 8.0), ("tau", 0.004)],
+    ];
+    for setup in setups {
+        for in_init_mode in [false, true] {
+            let reference = Plant::new(&log);
+            let saved = Plant::new(&log);
+            for (n, v) in setup {
+                assert_eq!(reference.set(n, *v), OK);
+                assert_eq!(saved.set(n, *v), OK);
+            }
+            if in_init_mode {
+                unsafe {
+                    assert_eq!(fmi2SetupExperiment(saved.c, 0, 0.0, 0.0, 0, 0.0), OK);
+                    assert_eq!(fmi2EnterInitializationMode(saved.c), OK);
+                }
+            }
+            let bytes = serialized(&saved);
+            let what = format!("{setup:?}, in initialization mode: {in_init_mode}");
+            assert_eq!(
+                restore_serialized(&saved, &bytes),
+                OK,
+                "{what}: {:?}",
+                log.messages()
+            );
+            let fresh = Plant::new(&log);
+            assert_eq!(
+                restore_serialized(&fresh, &bytes),
+                OK,
+                "{what}: {:?}",
+                log.messages()
+            );
+            reference.init(0.0);
+            if in_init_mode {
+                // The state carries the FMI state it was taken in: Initialization Mode.
+                assert_eq!(unsafe { fmi2ExitInitializationMode(fresh.c) }, OK, "{what}");
+            } else {
+                fresh.init(0.0);
+            }
+            for (n, v) in setup {
+                assert_eq!(fresh.get(n), *v, "{what}: {n} restored");
+            }
+            for k in 0..300 {
+                let t = k as f64 * 1e-3;
+                for p in [&reference, &fresh] {
+                    p.set("u_seat", 500.0 * (9.0 * t).sin());
+                    p.set("road_z_fl", 0.02 * (3.0 * t).sin());
+                    assert_eq!(p.step(t, 1e-3), OK, "{what}");
+                }
+            }
+            let (a, b) = (reference.states(), fresh.states());
+            assert!(max_abs(&a) > 0.0);
+            assert!(
+                a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "{what}: the restored instance diverged"
+            );
+        }
     }
 }
 
@@ -450,24 +574,11 @@ fn serialized_state_with_delay_history_continues_bit_identically_in_another_inst
         a.set("road_z_rl", 0.01 * t);
         a.step(t, 1e-3);
     }
-    let mut s: Fmi2FmuState = null_mut();
-    assert_eq!(unsafe { fmi2GetFMUstate(a.c, &mut s) }, OK);
-    let mut size = 0;
-    unsafe { fmi2SerializedFMUstateSize(a.c, s, &mut size) };
-    let mut bytes = vec![0 as Fmi2Byte; size];
-    assert_eq!(
-        unsafe { fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size) },
-        OK
-    );
+    let bytes = serialized(&a);
 
     // A fresh instance with default parameters takes the whole state, parameters included.
     let b = Plant::new(&log);
-    let mut sb: Fmi2FmuState = null_mut();
-    assert_eq!(
-        unsafe { fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut sb) },
-        OK
-    );
-    assert_eq!(unsafe { fmi2SetFMUstate(b.c, sb) }, OK);
+    assert_eq!(restore_serialized(&b, &bytes), OK);
     assert_eq!(b.get("m_s"), 1650.0);
     for k in 137..400 {
         let t = k as f64 * 1e-3;
@@ -618,7 +729,7 @@ fn forged_states_are_refused_and_change_nothing() {
     let before = b.states();
     for (old, new, why) in [
         (1234.5, f64::NAN, "must be finite"),
-        (1234.5, 0.0, "u_max must be > 0"),
+        (1234.5, -1.0, "value -1 of 'u_max' is below its minimum 0"),
         (191234.0, 1e-12, "k_t"),
         (0.375, 1.5, "above its maximum 1"),
         (0.0123, f64::INFINITY, "finite"),

@@ -24,21 +24,51 @@ pub mod vr {
     pub const OUTPUT: u32 = 300;
 }
 
-/// Real parameters: name, unit, start, description (all validated together by `Road::new`).
-const REALS: [(&str, &str, f64, &str); N_REALS] = [
-    ("speed", "m/s", 20.0, "Vehicle speed"),
-    ("wheelbase", "m", 2.4, "Front-to-rear axle distance (the plant's L1 + L2): the rear wheels see the front track this much later"),
-    ("start_distance", "m", 5.0, "Distance from the front wheels at t = 0 to the start of the profile (negative: already on it)"),
-    ("bump_height", "m", 0.05, "profile 1: height of the 1 - cos bump"),
-    ("bump_length", "m", 5.0, "profile 1: length of the bump"),
-    ("sweep_amplitude", "m", 0.01, "profile 3: amplitude of the sine sweep"),
-    ("sweep_f_start", "Hz", 0.5, "profile 3: frequency at the start of the sweep (at the wheel, in time)"),
-    ("sweep_f_end", "Hz", 20.0, "profile 3: frequency at the end of the sweep"),
-    ("sweep_duration", "s", 10.0, "profile 3: duration of the linear sweep (half-cosine tapers of min(0.5 s, duration/4) at both ends)"),
-    ("pothole_depth", "m", -0.05, "profile 4: height of the step (negative: a pothole)"),
-    ("pothole_length", "m", 0.6, "profile 4: length of the pothole, ramps included; 0 = a permanent step"),
-    ("pothole_ramp", "m", 0.1, "profile 4: length of each half-cosine ramp"),
-    ("fade_in", "s", 1.0, "profile 2: the random road is faded in over this time (the car starts at rest on a flat road)"),
+/// A Real parameter of the road.
+struct RealParameter {
+    name: &'static str,
+    unit: &'static str,
+    start: f64,
+    /// The plausible range, declared in the model description and enforced on every value
+    /// (when it is set, and when a state is restored): inside it every output is finite (the
+    /// steepest velocity, a 1 m bump 1 cm long at 100 m/s, is 3·10⁴ m/s).
+    min: f64,
+    max: f64,
+    description: &'static str,
+}
+
+const fn real(
+    name: &'static str,
+    unit: &'static str,
+    start: f64,
+    [min, max]: [f64; 2],
+    description: &'static str,
+) -> RealParameter {
+    RealParameter {
+        name,
+        unit,
+        start,
+        min,
+        max,
+        description,
+    }
+}
+
+/// The Real parameters (validated together by `Road::new`, each against its range here).
+const REALS: [RealParameter; N_REALS] = [
+    real("speed", "m/s", 20.0, [0.1, 100.0], "Vehicle speed"),
+    real("wheelbase", "m", 2.4, [0.5, 20.0], "Front-to-rear axle distance (the plant's L1 + L2): the rear wheels see the front track this much later"),
+    real("start_distance", "m", 5.0, [-1e5, 1e5], "Distance from the front wheels at t = 0 to the start of the profile (negative: already on it)"),
+    real("bump_height", "m", 0.05, [-1.0, 1.0], "profile 1: height of the 1 - cos bump"),
+    real("bump_length", "m", 5.0, [0.01, 1e3], "profile 1: length of the bump"),
+    real("sweep_amplitude", "m", 0.01, [-1.0, 1.0], "profile 3: amplitude of the sine sweep"),
+    real("sweep_f_start", "Hz", 0.5, [0.01, 1e3], "profile 3: frequency at the start of the sweep (at the wheel, in time)"),
+    real("sweep_f_end", "Hz", 20.0, [0.01, 1e3], "profile 3: frequency at the end of the sweep"),
+    real("sweep_duration", "s", 10.0, [0.01, 1e5], "profile 3: duration of the linear sweep (half-cosine tapers of min(0.5 s, duration/4) at both ends)"),
+    real("pothole_depth", "m", -0.05, [-1.0, 1.0], "profile 4: height of the step (negative: a pothole)"),
+    real("pothole_length", "m", 0.6, [0.0, 1e4], "profile 4: length of the pothole, ramps included; 0 = a permanent step"),
+    real("pothole_ramp", "m", 0.1, [0.001, 1e3], "profile 4: length of each half-cosine ramp"),
+    real("fade_in", "s", 1.0, [0.0, 1e4], "profile 2: the random road is faded in over this time (the car starts at rest on a flat road)"),
 ];
 const N_REALS: usize = 13;
 
@@ -54,16 +84,18 @@ use vehicle::model::ROAD_PORTS as OUTPUT_NAMES;
 
 pub fn model_description() -> ModelDescription {
     let mut vars = Vec::new();
-    for (i, (name, unit, start, desc)) in REALS.iter().enumerate() {
+    for (i, p) in REALS.iter().enumerate() {
         vars.push(
             Variable::real(
-                *name,
+                p.name,
                 vr::REAL + i as u32,
                 Causality::Parameter,
-                unit,
-                *desc,
+                p.unit,
+                p.description,
             )
-            .with_start(*start),
+            .with_start(p.start)
+            .with_min(p.min)
+            .with_max(p.max),
         );
     }
     for (i, (name, start, desc)) in INTEGERS.iter().enumerate() {
@@ -111,6 +143,19 @@ pub fn model_description() -> ModelDescription {
     .with_derived_guid()
 }
 
+/// Every Real parameter in its declared range, or which is not.
+fn in_range(reals: &[f64; N_REALS]) -> Result<(), String> {
+    for (p, v) in REALS.iter().zip(reals) {
+        if !(p.min..=p.max).contains(v) {
+            return Err(format!(
+                "{} must be in [{}, {}] {}, got {v}",
+                p.name, p.min, p.max, p.unit
+            ));
+        }
+    }
+    Ok(())
+}
+
 pub struct RoadFmu {
     reals: [f64; N_REALS],
     integers: [i32; 4],
@@ -127,7 +172,7 @@ impl RoadFmu {
     fn real(&self, name: &str) -> f64 {
         self.reals[REALS
             .iter()
-            .position(|r| r.0 == name)
+            .position(|r| r.name == name)
             .expect("known parameter")]
     }
 
@@ -138,6 +183,7 @@ impl RoadFmu {
 
     /// The road of the current parameters, or why they do not make one.
     pub fn build(&self) -> Result<Road, String> {
+        in_range(&self.reals)?;
         let [profile, side, class, seed] = self.integers;
         let side = match side {
             0 => Side::Left,
@@ -183,7 +229,7 @@ impl Model for RoadFmu {
     fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {
         let mut reals = [0.0; N_REALS];
         for (slot, r) in reals.iter_mut().zip(&REALS) {
-            *slot = r.2;
+            *slot = r.start;
         }
         Ok(RoadFmu {
             reals,
@@ -276,8 +322,10 @@ impl Model for RoadFmu {
         let identical = input.bool()?;
         let time = input.f64()?;
         input.finish()?;
+        let reals: [f64; N_REALS] = reals.try_into().expect("length checked");
+        in_range(&reals).map_err(|e| format!("FMU state: {e}"))?;
         let mut next = RoadFmu {
-            reals: reals.try_into().expect("length checked"),
+            reals,
             integers: [0; 4],
             identical_tracks: identical,
             time,
