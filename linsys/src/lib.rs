@@ -4,7 +4,7 @@
 //!
 //! * [`Lti`]: `ẋ = A x + B u`, `y = C x + D u` — every controller, closed loop and generalised
 //!   plant the synthesis builds, and the controller a controller FMU runs (its `controller.json`
-//!   core); the synthesis's norms of it are `synth::hinf_norm::Analysis`;
+//!   core); the synthesis's norms of it are `synth::numerics::hinf_norm::Analysis`;
 //! * [`discretize`], [`expm`]: exact discretisation over a step with held or ramped inputs;
 //! * [`mat_vec_sum`]: the FMUs' inner-loop matrix-vector sum;
 //! * [`predictor`]: a predictor's matrices over a delay, as the controller FMU runs it and the

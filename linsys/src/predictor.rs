@@ -1,6 +1,6 @@
 //! A predictor's matrices over a delay `θ` (the controller file's `predictor` block): one
 //! construction for the controller FMU's runtime (`fmu-controller/src/predictor.rs`) and for
-//! the synthesis's model of it as a master steps it (`synth::sampled`), so the loop a
+//! the synthesis's model of it as a master steps it (`synth::predict::sampled`), so the loop a
 //! certificate checks is built from the matrices the FMU runs.
 //!
 //! The command is `u = K̃ z + K_φ φ`: `z = e^{Aθ} (S_y y + S_ξ ξ) + I` the design state predicted

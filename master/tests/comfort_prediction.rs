@@ -1,5 +1,5 @@
 //! Prediction meets simulation: every comfort design's certificate predicts the ISO 2631-1
-//! figures of the car on its design road (`synth::prediction`, a frequency integral on the
+//! figures of the car on its design road (`synth::predict::continuous`, a frequency integral on the
 //! car's own model, independent of the design's LMIs and Riccati equations); the co-simulation
 //! of the shipped FMUs — road FMU on the design road, plant FMU, controller FMU, the master's
 //! loop — measures them. They agree within 5 % for every design and the passive car, and for
@@ -25,7 +25,7 @@
 //! Each controller runs three times. At a 0.1 ms communication step against the certificate's
 //! continuous-time prediction (a sample-and-hold acts on a loop like a delay of half a step),
 //! at the certificate's own step (1 ms, the scenarios') against `comfort.held`, the
-//! prediction of the sampled-data loop a master runs (`synth::sampled`; exact against a
+//! prediction of the sampled-data loop a master runs (`synth::predict::sampled`; exact against a
 //! sinusoidal road in `tests/tests/sampled_loop.rs`), and at the largest step whose held
 //! `W_k` seat the certificate gives (`comfort.communication_steps`) and the road FMU can
 //! excite (below), on 12 seeds or more. The passive car has

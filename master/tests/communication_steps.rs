@@ -1,7 +1,7 @@
 //! Each comfort certificate says at which communication steps its nominal loop, as a master
 //! runs it (commands and measurements held over each step), is stable
 //! (`comfort.communication_steps`: the spectral radius at the sampling instants,
-//! `synth::sampled`). The co-simulation of the shipped FMUs checks it from outside: at the
+//! `synth::predict::sampled`). The co-simulation of the shipped FMUs checks it from outside: at the
 //! largest step the certificate calls stable the car on the design road stays controlled (no
 //! actuator reaches its force limit, the W_k seat RMS well below the passive car's), and at the
 //! first step it calls unstable the loop grows until the actuators saturate (or an FMU refuses a

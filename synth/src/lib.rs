@@ -1,33 +1,17 @@
 //! H∞ synthesis for the active suspension (thesis ch. 5–8, corrected per SPEC §3): LMIs on
 //! Clarabel, controller reconstruction, and certificates computed independently of the LMIs.
 //!
-//! Where to look: the LMI layer is [`lmi`]; the generalised plant and its scaling
-//! [`generalized`]; the state-feedback LMI [`state_feedback`]; the independent check
-//! [`hinf_norm`] and [`certificate`]; the shipped variants [`variants`].
+//! Where to look, one folder per idea:
+//! - [`numerics`]: LMIs on Clarabel, Riccati equations, eigenvalues, H∞ norms, interconnection;
+//! - [`thesis`]: the thesis's H∞ LMI designs and their certificates (`make thesis`);
+//! - [`comfort`]: the comfort designs `make` ships, with their certificates;
+//! - [`predict`]: the comfort a controller gives on an ISO 8608 road, continuous and sampled;
+//! - [`shipping`]: design files, the registry of variants, `controller.json`.
 
-pub mod anti_windup;
-pub mod certificate;
-pub mod comfort_controllers;
-pub mod comfort_designs;
-pub mod comfort_plant;
-pub mod controller_file;
-pub mod delay;
-pub mod design;
-pub mod eig;
-pub mod fault;
-pub mod generalized;
-pub mod guaranteed;
-pub mod hinf_norm;
-pub mod interconnect;
-pub mod lmi;
-pub mod output_feedback;
-pub mod prediction;
-pub mod predictor;
-pub mod registry;
-pub mod riccati;
-pub mod robust;
-pub mod sampled;
-pub mod state_feedback;
+pub mod comfort;
+pub mod numerics;
+pub mod predict;
+pub mod shipping;
 pub mod thesis;
 
 /// Why a synthesis run failed.
@@ -41,18 +25,18 @@ pub enum SynthError {
     #[error("{0}")]
     Refused(String),
     #[error(transparent)]
-    Design(#[from] design::DesignError),
+    Design(#[from] shipping::design::DesignError),
     #[error("{0}: {1}")]
-    Lmi(String, lmi::LmiError),
+    Lmi(String, numerics::lmi::LmiError),
     #[error(transparent)]
-    Certificate(#[from] certificate::CertificateError),
+    Certificate(#[from] thesis::certificate::CertificateError),
     #[error(transparent)]
-    Comfort(#[from] comfort_designs::ComfortError),
+    Comfort(#[from] comfort::designs::ComfortError),
     #[error("{variant}: the constraint LMIs cannot all hold for the design bump {bump:?}: the best common energy-to-peak bound any state feedback proves is {best:.4} of the limits (the bound grows with the bump height: feasible up to about {:.4} m at this bump's length and speed)", bump.height / best)]
     ConstraintsInfeasible {
         variant: String,
         best: f64,
-        bump: design::Bump,
+        bump: shipping::design::Bump,
     },
 }
 

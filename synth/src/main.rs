@@ -7,7 +7,7 @@
 use clap::Parser;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use synth::registry::{self, DesignFile};
+use synth::shipping::registry::{self, DesignFile};
 use synth::SynthError;
 use vehicle::VehicleParams;
 

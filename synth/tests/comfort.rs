@@ -3,7 +3,7 @@
 //! the car (exact wheelbase delay) and against the nominal counterparts at the same conditions.
 
 use serde_json::Value;
-use synth::registry::{synthesise_all, DesignFile, Outcome};
+use synth::shipping::registry::{synthesise_all, DesignFile, Outcome};
 use vehicle::VehicleParams;
 
 fn outcome() -> Outcome {

@@ -4,9 +4,9 @@
 //! generalised plant the LMIs saw), read by the controller through its named inputs.
 
 use nalgebra::DMatrix;
-use synth::design::{Bump, Design, RoadModel, CONSTRAINED_DESIGN_FILE};
-use synth::generalized::GeneralizedPlant;
-use synth::thesis::synthesise;
+use synth::shipping::design::{Bump, Design, RoadModel, CONSTRAINED_DESIGN_FILE};
+use synth::thesis::generalized::GeneralizedPlant;
+use synth::thesis::synthesis::synthesise;
 use synth::SynthError;
 use vehicle::model::{physical_outputs, StateSpace, StaticEquilibrium, CORNERS, N_STATES};
 use vehicle::VehicleParams;

@@ -1,4 +1,4 @@
-//! The sampled-data prediction (`synth::sampled`) against the co-simulation it describes, on a
+//! The sampled-data prediction (`synth::predict::sampled`) against the co-simulation it describes, on a
 //! road whose answer is deterministic: a sinusoidal road on one track (the rear wheel the
 //! wheelbase later), the shipped plant and controller FMUs run by the master at the scenarios'
 //! 1 ms step. Once settled, each recorded output is a sampled sinusoid `Re(A e^{jω t_k})`; its
@@ -11,8 +11,8 @@
 use integration_tests::*;
 use master::cosim::RoadSource;
 use nalgebra::Complex;
-use synth::prediction::{track_input, Conditions, ControlLaw};
-use synth::sampled::SampledLoop;
+use synth::predict::continuous::{track_input, Conditions, ControlLaw};
+use synth::predict::sampled::SampledLoop;
 
 const STEP: f64 = 1e-3;
 /// Road velocity amplitude [m/s]: small enough that no actuator reaches its force limit.
@@ -22,7 +22,8 @@ fn law(variant: &str) -> ControlLaw {
     let path = dist().join(variant).join("controller.json");
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("{}: {e} (run `make`)", path.display()));
-    let file: synth::controller_file::ControllerFile = serde_json::from_str(&text).unwrap();
+    let file: synth::shipping::controller_file::ControllerFile =
+        serde_json::from_str(&text).unwrap();
     ControlLaw::from_file(&file, 0.0).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 

@@ -182,7 +182,7 @@ pub enum Forces {
 /// through), so a weighting run on the samples (joined by lines) misjudges the RMS: by up to
 /// a sixth for the shipped designs at 1 ms. Integrated with the car, the weighted signal is
 /// continuous (every weighting's band-limiting low-pass has no feedthrough, so `D = 0`) and
-/// its samples' mean square is the time average's (`synth::sampled` predicts both).
+/// its samples' mean square is the time average's (`synth::predict::sampled` predicts both).
 #[derive(Debug, Clone)]
 pub struct ComfortMeter {
     /// `n_w × n_w`: the weightings' cascades, one diagonal block per signal.

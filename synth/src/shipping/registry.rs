@@ -3,24 +3,24 @@
 //! each kind of design file. The CLI (`synth --list`, the Makefile's list), the summary table
 //! and the comparisons all derive from [`VARIANTS`].
 //!
-//! Two kinds of design file ([`DesignFile`]): the comfort designs ([`crate::comfort_designs`],
+//! Two kinds of design file ([`DesignFile`]): the comfort designs ([`crate::comfort::designs`],
 //! `synth/designs/comfort.json`, what `make` ships) and the thesis's H∞ designs
-//! ([`crate::thesis`], `synth/designs/thesis.json`, `constrained.json`).
+//! ([`crate::thesis::synthesis`], `synth/designs/thesis.json`, `constrained.json`).
 //!
 //! To add a variant: one entry in [`VARIANTS`] with its comfort synthesis (a function of the
 //! [`Context`] and the [`Shared`] designs it builds on) and its thesis synthesis (the match of
-//! [`crate::thesis::synthesise`]); the Makefile, the tables and the comparisons follow.
+//! [`crate::thesis::synthesis::synthesise`]); the Makefile, the tables and the comparisons follow.
 
-use crate::comfort_designs::{
+use crate::comfort::designs::{
     anti_windup_design, fault_tolerant_design, held_at, nominal_gain, output_feedback_design,
     robust_gain, robust_output_feedback_design, robust_state_feedback_design,
     state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, Uncertainty,
 };
-use crate::controller_file::{controller_json, ControllerFile, Guarantee};
-use crate::design::{ComfortDesign, Design, DesignError};
-use crate::guaranteed::StateFeedback;
-use crate::prediction::{predict, Conditions, ControlLaw, Figures};
-use crate::{comfort_plant::ComfortPlant, SynthError};
+use crate::comfort::guaranteed::StateFeedback;
+use crate::predict::continuous::{predict, Conditions, ControlLaw, Figures};
+use crate::shipping::controller_file::{controller_json, ControllerFile, Guarantee};
+use crate::shipping::design::{ComfortDesign, Design, DesignError};
+use crate::{comfort::plant::ComfortPlant, SynthError};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
@@ -142,7 +142,7 @@ pub const VARIANTS: [Variant; 7] = [
         robust_to: Uncertainty::InputDelay,
         output_feedback: false,
         summary: "state feedback for a known actuator delay (thesis Prop. 7.1)",
-        comfort: |ctx, s| crate::predictor::predictor_design(ctx, s.nominal(ctx)?),
+        comfort: |ctx, s| crate::comfort::predictor::predictor_design(ctx, s.nominal(ctx)?),
     },
     Variant {
         name: "ft_of",
@@ -299,7 +299,7 @@ pub fn synthesise_all(
     // Every controller file records the car it is for, and a mass-robust design its range.
     for (name, s) in &mut outcome.designs {
         let robust_to_mass = variant(name).is_some_and(|v| v.robust_to == Uncertainty::SprungMass);
-        s.controller_json.designed_for = Some(crate::controller_file::DesignedFor {
+        s.controller_json.designed_for = Some(crate::shipping::controller_file::DesignedFor {
             mass_range_kg: robust_to_mass.then_some([mass_min, mass_max]),
             vehicle: vehicle::params::PARAMETERS
                 .iter()
@@ -315,8 +315,8 @@ fn thesis_all(
     params: &VehicleParams,
     design: &Design,
 ) -> Result<Vec<(String, Synthesised)>, SynthError> {
-    let results = crate::thesis::synthesise_all(names, params, design)?;
-    let rows = crate::thesis::summary_rows(&results);
+    let results = crate::thesis::synthesis::synthesise_all(names, params, design)?;
+    let rows = crate::thesis::synthesis::summary_rows(&results);
     // The road the design file names for comfort, and the passive car's figure on it.
     let comfort = match design.comfort_road {
         None => None,
@@ -554,7 +554,7 @@ fn comfort_all(
 }
 
 /// The certified figure over the design's uncertainty and the nominal design's over the same.
-fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<String>) {
+fn headline(c: &crate::comfort::designs::ComfortCertificate) -> (String, Option<String>) {
     let comfort = &c.comfort;
     match &comfort.uncertainty {
         None => (
@@ -619,10 +619,10 @@ fn headline(c: &crate::comfort_designs::ComfortCertificate) -> (String, Option<S
 
 /// A comfort design's prediction as a master runs it: `0.0103 at 1 ms`, the communication
 /// steps its loop is stable at over the checked conditions (`(stable at steps to 5 ms,
-/// unstable at 7.5 ms)`, [`crate::comfort_designs::StepStability`]), and
+/// unstable at 7.5 ms)`, [`crate::comfort::designs::StepStability`]), and
 /// for a robust design its worst over the uncertainty's conditions (`; worst 0.0105`, or where
 /// it is unstable at the step).
-fn held(comfort: &crate::comfort_designs::Comfort) -> String {
+fn held(comfort: &crate::comfort::designs::Comfort) -> String {
     let h = &comfort.held;
     let nominal = format!(
         "{:.4} at {} ms ({})",
@@ -643,7 +643,7 @@ const SHARP: f64 = 0.01;
 /// The per-step table's cells of a design: from the design file's step up, the nominal car's
 /// held `W_k` seat, the worst over the checked conditions in brackets where it differs, `*`
 /// where its sharpest resonance is under [`SHARP`] wide; `unstable` where a checked loop is.
-pub fn step_cells(s: &crate::comfort_designs::StepStability) -> Vec<(f64, String)> {
+pub fn step_cells(s: &crate::comfort::designs::StepStability) -> Vec<(f64, String)> {
     s.checked
         .iter()
         .filter_map(|c| {
@@ -677,7 +677,7 @@ pub fn step_cells(s: &crate::comfort_designs::StepStability) -> Vec<(f64, String
 
 /// Where the nominal loop as a master runs it is stable over the checked communication steps:
 /// `stable at steps to 10 ms`, `stable at steps to 1 ms, unstable at 1.25 ms`.
-fn steps(s: &crate::comfort_designs::StepStability) -> String {
+fn steps(s: &crate::comfort::designs::StepStability) -> String {
     let ms = |h: f64| format!("{} ms", h * 1e3);
     match (s.stable_up_to_s, s.first_unstable_s()) {
         (Some(up), None) => format!("stable at steps to {}", ms(up)),
@@ -690,8 +690,8 @@ fn steps(s: &crate::comfort_designs::StepStability) -> String {
 /// Held predictions over an uncertainty's conditions: `worst 0.0105`, or the conditions where
 /// the loop is unstable at the step (the first and last of them beyond two).
 fn held_over(
-    held: &[Option<crate::comfort_designs::Held>],
-    conditions: &[(String, crate::prediction::Figures)],
+    held: &[Option<crate::comfort::designs::Held>],
+    conditions: &[(String, crate::predict::continuous::Figures)],
 ) -> String {
     let unstable: Vec<&str> = held
         .iter()
@@ -700,7 +700,7 @@ fn held_over(
         .map(|(_, (label, _))| label.as_str())
         .collect();
     match unstable[..] {
-        [] => format!("worst {:.4}", crate::comfort_designs::worst_held(held)),
+        [] => format!("worst {:.4}", crate::comfort::designs::worst_held(held)),
         [_] | [_, _] => format!("unstable at {}", unstable.join(", ")),
         [first, .., last] => format!(
             "unstable at {} of {} conditions ({first} … {last})",
@@ -714,7 +714,10 @@ fn held_over(
 /// γ"): the thesis design γ favours most beside the passive car on the same generalised plant,
 /// and its predicted comfort on `road` beside the passive car's; then the range over every
 /// design. `None` without a design that has all four figures.
-pub fn gamma_in_words(rows: &[SummaryRow], road: &crate::design::IsoRoad) -> Option<String> {
+pub fn gamma_in_words(
+    rows: &[SummaryRow],
+    road: &crate::shipping::design::IsoRoad,
+) -> Option<String> {
     // Per design: how far below the passive car's its certified norm and its predicted W_k
     // seat RMS are [%], and the four figures.
     struct Scores<'a> {

@@ -51,7 +51,7 @@ pub trait Analysis {
 impl Analysis for Lti {
     /// Largest real part of the eigenvalues of `A`.
     fn spectral_abscissa(&self) -> f64 {
-        crate::eig::spectral_abscissa(&self.a)
+        crate::numerics::eig::spectral_abscissa(&self.a)
     }
 
     /// `σ_max(G(jω))`.
@@ -75,7 +75,7 @@ impl Analysis for Lti {
         require_stable(self)?;
         let (n, m, p) = (self.a.nrows(), self.b.ncols(), self.c.nrows());
         // Initial lower bound: D, DC gain, and the most lightly damped pole's frequency.
-        let poles = crate::eig::eigenvalues(&self.a);
+        let poles = crate::numerics::eig::eigenvalues(&self.a);
         let w_p = poles
             .iter()
             .max_by(|x, y| {
@@ -134,7 +134,7 @@ impl Analysis for Lti {
                 &(-self.a.transpose() + self.c.transpose() * &self.d * &r_inv * self.b.transpose()),
             );
             let scale = h.norm().max(1.0);
-            let mut freqs: Vec<f64> = crate::eig::eigenvalues(&h)
+            let mut freqs: Vec<f64> = crate::numerics::eig::eigenvalues(&h)
                 .iter()
                 .filter(|l| l.re.abs() <= 1e-8 * scale.max(l.norm()) && l.im >= 0.0)
                 .map(|l| l.im)
@@ -172,7 +172,7 @@ impl Analysis for Lti {
     }
 
     /// The controllability Gramian `P`, `AP + PAᵀ + BBᵀ = 0` (the state covariance under unit
-    /// white noise), by Bartels–Stewart ([`crate::riccati::lyapunov`]): exact and independent
+    /// white noise), by Bartels–Stewart ([`crate::numerics::riccati::lyapunov`]): exact and independent
     /// of any LMI bound.
     fn controllability_gramian(&self) -> Result<DMatrix<f64>, NormError> {
         require_stable(self)?;
@@ -180,7 +180,7 @@ impl Analysis for Lti {
             return Err(NormError::Feedthrough(self.d.norm()));
         }
         let abscissa = self.spectral_abscissa();
-        crate::riccati::lyapunov(&self.a, &(&self.b * self.b.transpose()))
+        crate::numerics::riccati::lyapunov(&self.a, &(&self.b * self.b.transpose()))
             .map_err(|_| NormError::Unstable(abscissa))
     }
 

@@ -27,13 +27,13 @@
 //! The block-diagonal `P` is a restriction (sound, possibly conservative); the certificate
 //! recomputes the closed-loop H∞ norm at every vertex by Hamiltonian bisection.
 
-use crate::certificate::{closed_loop, CertificateError, NORM_TOLERANCE};
-use crate::controller_file::{matrix_rows, FaultDetection};
-use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
-use crate::hinf_norm::Controller;
-use crate::hinf_norm::{Analysis, Lti};
-use crate::lmi::{Affine, LmiError, Problem};
-use crate::state_feedback::NormBounded;
+use crate::numerics::hinf_norm::Controller;
+use crate::numerics::hinf_norm::{Analysis, Lti};
+use crate::numerics::lmi::{Affine, LmiError, Problem};
+use crate::shipping::controller_file::{matrix_rows, FaultDetection};
+use crate::thesis::certificate::{closed_loop, CertificateError, NORM_TOLERANCE};
+use crate::thesis::generalized::{GeneralizedPlant, FORCE_UNIT};
+use crate::thesis::state_feedback::NormBounded;
 use nalgebra::DMatrix;
 use vehicle::model::N_ACTUATORS;
 
@@ -551,8 +551,8 @@ pub fn certify_faults(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::Design;
-    use crate::state_feedback::hinf_sf_robust;
+    use crate::shipping::design::Design;
+    use crate::thesis::state_feedback::hinf_sf_robust;
     use vehicle::VehicleParams;
 
     #[test]

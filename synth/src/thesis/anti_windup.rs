@@ -27,8 +27,8 @@
 //! `He(W (I + T(jω))) ≻ 0` for `T(s) = F (sI − A − B_u F)⁻¹ B_u`, on a dense frequency grid — the
 //! frequency-domain (KYP) equivalent of the LMI's stability part.
 
-use crate::generalized::GeneralizedPlant;
-use crate::lmi::{Affine, LmiError, Problem};
+use crate::numerics::lmi::{Affine, LmiError, Problem};
+use crate::thesis::generalized::GeneralizedPlant;
 use nalgebra::{Complex, DMatrix, DVector};
 
 #[derive(Debug, Clone)]
@@ -181,7 +181,7 @@ pub fn circle_check(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::Design;
+    use crate::shipping::design::Design;
 
     #[test]
     fn the_sector_lmi_solution_passes_the_circle_criterion_and_a_destabilising_gain_fails_it() {

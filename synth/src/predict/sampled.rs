@@ -1,5 +1,5 @@
 //! What a controller does on an ISO 8608 road **when a master runs it at a communication step
-//! `h`**: the prediction of [`crate::prediction`] for the sampled-data loop the co-simulation
+//! `h`**: the prediction of [`crate::predict::continuous`] for the sampled-data loop the co-simulation
 //! actually is, not the continuous-time loop the synthesis designs.
 //!
 //! The master's loop (`master::cosim::simulate`, Gauss–Seidel, the same for FMPy's and
@@ -18,7 +18,7 @@
 //! `U e^{jωkh}` and a state `X e^{jωkh}` at the sampling instants: the closed loop at the
 //! sampling instants is one discrete-time system (the car with its weighting filters, the
 //! controller's state, the commands in flight), evaluated at `z = e^{jωh}` by the Hessenberg
-//! solve of [`crate::prediction`]. Between the instants the state follows the held inputs, and
+//! solve of [`crate::predict::continuous`]. Between the instants the state follows the held inputs, and
 //! the **time-averaged** power of each figure over a step is an exact quadratic form in the
 //! state and inputs at `t_k`: `(1/h) ∫₀^h |M e^{Fs} q|² ds = qᴴ Q q`, with
 //! `F = [[A, B], [0, 0]]` (the held inputs as constant states) and `Q = (1/h) ∫ e^{Fᵀs} MᵀM e^{Fs}
@@ -27,17 +27,17 @@
 //!
 //! For a stationary random road, the time-averaged mean square of a figure is
 //! `∫ S(f) Σ_track P(f) df`, `P` that power per unit road velocity (the loop's response to
-//! different frequencies is uncorrelated); the integral is [`crate::prediction`]'s, over the road
+//! different frequencies is uncorrelated); the integral is [`crate::predict::continuous`]'s, over the road
 //! FMU's band, with the rear wheels exactly `L / V` behind. As `h → 0` this is the continuous
 //! prediction (tested).
 
-use crate::design::ComfortRoad;
-use crate::hinf_norm::Lti;
-use crate::prediction::{
+use crate::numerics::hinf_norm::Lti;
+use crate::predict::continuous::{
     plain_signals, plant_outputs, resonances, road_integral, sensor_rows, track_input, Conditions,
     ControlLaw, Figures, HessenbergResponse, PredictionError, PredictorLaw, SensorRows, N_CHANNELS,
     WEIGHTED_SIGNALS,
 };
+use crate::shipping::design::ComfortRoad;
 use linsys::predictor::{predicted_delay, PredictionMatrices, PredictorBlocks};
 use linsys::{discretize, expm};
 use nalgebra::{Complex, DMatrix, DVector};
@@ -514,8 +514,8 @@ impl Instants {
             a_cl.view_mut((hist0 + j * nu, hist0 + (j - 1) * nu), (nu, nu))
                 .fill_with_identity();
         }
-        let poles = crate::eig::eigenvalues(&a_cl);
-        let radius = crate::eig::max_or_nan(0.0, poles.iter().map(|z| z.norm()));
+        let poles = crate::numerics::eig::eigenvalues(&a_cl);
+        let radius = crate::numerics::eig::max_or_nan(0.0, poles.iter().map(|z| z.norm()));
         // Out: x_k (the meter's states included), then the held inputs `[r; ρ u]` before and
         // after `t_k + ε`, then the accelerations the meter weights as the plant outputs them
         // at `t_k` (with the force it applies then; `recorded`).
@@ -615,7 +615,7 @@ impl SampledLoop {
     }
 
     /// The values the plant outputs at the communication points, as complex amplitudes: a road
-    /// `r e^{jωt}` (unit road velocity on a track: [`crate::prediction::track_input`]) gives
+    /// `r e^{jωt}` (unit road velocity on a track: [`crate::predict::continuous::track_input`]) gives
     /// samples `Re(A e^{jω t_k})` once settled. `a_seat`, `alpha_roll`, `alpha_pitch` (as read
     /// with the force the plant applies at `t_k`), then its vibration meter's
     /// [`METER_OUTPUTS`] (filter states: no force reaches them at once).
@@ -779,11 +779,11 @@ pub struct HeldFigures {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::ComfortDesign;
-    use crate::prediction::predict;
+    use crate::predict::continuous::predict;
+    use crate::shipping::design::ComfortDesign;
 
     fn road() -> ComfortRoad {
-        ComfortDesign::from_json(include_str!("../designs/comfort.json"))
+        ComfortDesign::from_json(include_str!("../../designs/comfort.json"))
             .unwrap()
             .road
     }
@@ -813,7 +813,7 @@ mod tests {
     }
 
     /// As the step shrinks the sampled-data loop becomes the continuous one: the time-averaged
-    /// figures converge to [`crate::prediction`]'s (first order in `h`, a hold being a delay of
+    /// figures converge to [`crate::predict::continuous`]'s (first order in `h`, a hold being a delay of
     /// half a step). At every step the samples of the plant's weighted outputs have the time
     /// average's mean square (the meter integrates the jumps a held force makes).
     #[test]

@@ -1,28 +1,32 @@
-//! The designs the project ships, by variant name: synthesis, certificate and `controller.json`.
+//! The thesis's designs by variant name: synthesis, certificate and `controller.json`.
 //!
 //! A [`Synthesiser`] keeps every design it has made, so a robust variant compares itself with
 //! its nominal counterpart without synthesising it twice.
 
-use crate::anti_windup::{circle_check, mraw};
-use crate::certificate::{
+use crate::numerics::hinf_norm::{Analysis, Controller};
+use crate::shipping::controller_file::{
+    controller_json, matrix_rows, AntiWindup, ControllerFile, Guarantee,
+};
+use crate::shipping::design::{Design, RoadModel};
+use crate::thesis::anti_windup::{circle_check, mraw};
+use crate::thesis::certificate::{
     certify, certify_h2, certify_peaks, closed_loop, matrix_json, Certificate,
 };
-use crate::controller_file::{controller_json, matrix_rows, AntiWindup, ControllerFile, Guarantee};
-use crate::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
-use crate::design::{Design, RoadModel};
-use crate::fault::{
+use crate::thesis::delay::{delay_margin, delay_sf, delayed_hinf_sweep};
+use crate::thesis::fault::{
     certify_faults, observer_for_faults, with_detection, with_effectiveness, DetectionResidual,
     FaultBox,
 };
-use crate::generalized::FORCE_UNIT;
-use crate::generalized::{GeneralizedPlant, Measurement, MEASUREMENTS};
-use crate::hinf_norm::{Analysis, Controller};
-use crate::output_feedback::{
+use crate::thesis::generalized::FORCE_UNIT;
+use crate::thesis::generalized::{GeneralizedPlant, Measurement, MEASUREMENTS};
+use crate::thesis::output_feedback::{
     hinf_of, hinf_of_common_x, hinf_of_constrained, optimal_gamma, OfPlant, OfSettings,
     OutputFeedback,
 };
-use crate::robust::{mass_grid_certificate, MassGrid, MassUncertainty};
-use crate::state_feedback::{best_constraint_peak, hinf_sf_mixed, hinf_sf_robust, StateFeedback};
+use crate::thesis::robust::{mass_grid_certificate, MassGrid, MassUncertainty};
+use crate::thesis::state_feedback::{
+    best_constraint_peak, hinf_sf_mixed, hinf_sf_robust, StateFeedback,
+};
 use crate::SynthError;
 use nalgebra::DMatrix;
 use std::collections::BTreeMap;
@@ -578,7 +582,7 @@ fn certify_constraints(
 }
 
 /// Thesis §5.1.4, Th. 5.3 (corrected): `hinf_of` plus a decoupled anti-windup compensator whose
-/// `F` comes from the sector LMI of [`crate::anti_windup`]; the linear behaviour (and so γ) is
+/// `F` comes from the sector LMI of [`crate::thesis::anti_windup`]; the linear behaviour (and so γ) is
 /// `hinf_of`'s whenever nothing saturates.
 fn hinf_of_aw(
     of: &Synthesised,
@@ -591,7 +595,7 @@ fn hinf_of_aw(
     let check = circle_check(&g.a, &g.b_u, &aw.f, &aw.w);
     if !check.holds() {
         return Err(SynthError::Certificate(
-            crate::certificate::CertificateError::AntiWindup {
+            crate::thesis::certificate::CertificateError::AntiWindup {
                 variant: variant.into(),
                 abscissa: check.spectral_abscissa,
                 margin: check.min_margin,
@@ -650,7 +654,7 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
     let sf = delay_sf(&g, tau, epsilon, design.lmi_margin)
         .map_err(|e| SynthError::Lmi(variant.into(), e))?;
     let fail = |reason: String| {
-        SynthError::Certificate(crate::certificate::CertificateError::Delay {
+        SynthError::Certificate(crate::thesis::certificate::CertificateError::Delay {
             variant: variant.into(),
             reason,
         })
@@ -662,7 +666,7 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
         )));
     }
     let delayed_norm = delayed_hinf_sweep(&g, &sf.k, tau);
-    if delayed_norm > sf.gamma * (1.0 + crate::certificate::NORM_TOLERANCE) {
+    if delayed_norm > sf.gamma * (1.0 + crate::thesis::certificate::NORM_TOLERANCE) {
         return Err(fail(format!(
             "H-infinity norm {delayed_norm} with the delay exceeds gamma {}",
             sf.gamma
@@ -692,7 +696,7 @@ fn delay_sf_variant(params: &VehicleParams, design: &Design) -> Result<Synthesis
     })
 }
 
-/// Thesis Th. 8.1, corrected (see [`crate::fault`]): observer-based output feedback robust to
+/// Thesis Th. 8.1, corrected (see [`crate::thesis::fault`]): observer-based output feedback robust to
 /// every actuator's effectiveness in `[fault_rho_min, 1]`, with a road-decoupled detection residual.
 fn ft_of(params: &VehicleParams, design: &Design) -> Result<Synthesised, SynthError> {
     let variant = "ft_of";

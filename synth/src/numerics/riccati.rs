@@ -4,7 +4,7 @@
 //! Our own, on nalgebra, because they are this crate's core and no maintained Rust crate solves
 //! them on nalgebra's matrices:
 //! * [`lyapunov`]: Bartels–Stewart (CACM 15(9), 1972) on nalgebra's real Schur form: backward
-//!   stable, `O(n³)`, where the Kronecker form of [`crate::hinf_norm`] is `O(n⁶)` (a 60-state
+//!   stable, `O(n³)`, where the Kronecker form of [`crate::numerics::hinf_norm`] is `O(n⁶)` (a 60-state
 //!   closed loop: milliseconds instead of minutes);
 //! * [`care`]: the stabilising solution from the stable invariant subspace of the Hamiltonian
 //!   (Laub's Schur method, IEEE TAC 24(6), 1979, with LAPACK's balancing and ordered Schur form,
@@ -35,7 +35,7 @@ type SchurBlocks = (DMatrix<f64>, DMatrix<f64>, Vec<(usize, usize)>);
 /// The real Schur form `A = U T Uᵀ` with the start and size (1 or 2) of each diagonal block.
 fn schur_blocks(a: &DMatrix<f64>) -> Result<SchurBlocks, RiccatiError> {
     let n = a.nrows();
-    let (u, t) = crate::eig::real_schur(a).ok_or(RiccatiError::Schur)?;
+    let (u, t) = crate::numerics::eig::real_schur(a).ok_or(RiccatiError::Schur)?;
     let mut blocks = Vec::new();
     let mut i = 0;
     while i < n {
@@ -64,7 +64,7 @@ pub fn lyapunov(a: &DMatrix<f64>, c: &DMatrix<f64>) -> Result<DMatrix<f64>, Ricc
     }
     // Balanced (exactly, by powers of two): `A = D Ã D⁻¹`, `X = D X̃ D` with
     // `Ã X̃ + X̃ Ãᵀ + D⁻¹ C D⁻¹ = 0`.
-    let (a, d) = crate::eig::balance(a).ok_or(RiccatiError::Schur)?;
+    let (a, d) = crate::numerics::eig::balance(a).ok_or(RiccatiError::Schur)?;
     let c = DMatrix::from_fn(n, n, |i, j| c[(i, j)] / (d[i] * d[j]));
     let (u, t, blocks) = schur_blocks(&a)?;
     // T Y + Y Tᵀ = F, F = −Uᵀ C U, solved block by block from the bottom right:
@@ -140,7 +140,7 @@ pub fn care(
     h.view_mut((n, 0), (n, n)).copy_from(&(-&qt));
     h.view_mut((n, n), (n, n)).copy_from(&(-f.transpose()));
     // The stable invariant subspace [U₁; U₂] of H: X = U₂ U₁⁻¹.
-    let (basis, k) = crate::eig::stable_subspace(&h).ok_or_else(|| {
+    let (basis, k) = crate::numerics::eig::stable_subspace(&h).ok_or_else(|| {
         RiccatiError::NoStabilisingSolution("the Schur form of the Hamiltonian failed".into())
     })?;
     if k != n {
@@ -184,7 +184,7 @@ pub fn care(
     if res.is_nan() || res > 1e-8 {
         return Err(RiccatiError::Inaccurate(res));
     }
-    let abscissa = crate::eig::spectral_abscissa(&(a - b * &k));
+    let abscissa = crate::numerics::eig::spectral_abscissa(&(a - b * &k));
     if abscissa.is_nan() || abscissa >= 0.0 {
         return Err(RiccatiError::NoStabilisingSolution(format!(
             "A − B K has spectral abscissa {abscissa:e}"
@@ -200,7 +200,7 @@ pub fn care(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hinf_norm::{Analysis, Lti};
+    use crate::numerics::hinf_norm::{Analysis, Lti};
 
     fn random(n: usize, m: usize, seed: u64) -> DMatrix<f64> {
         let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1);

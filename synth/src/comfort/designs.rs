@@ -8,14 +8,14 @@
 //!   [`mass_channel`]), the guaranteed-cost gain over it, and for `robust_of` a Kalman filter
 //!   that trusts its heave dynamics less (fictitious noise on the mass channel);
 //! * `delay_sf`: any known actuator delay up to `delay_max`, by a predictor in the controller
-//!   ([`crate::predictor`]) in front of `hinf_sf`'s gain;
+//!   ([`crate::comfort::predictor`]) in front of `hinf_sf`'s gain;
 //! * `ft_of`: every actuator effectiveness in `[fault_rho_min, 1]`, by an observer driven by the
 //!   measured applied forces and fault accommodation: each actuator's effectiveness estimated
 //!   from its load cell and divided out of its command ([`fault_tolerant_design`]);
 //! * `hinf_of_aw`: saturation, by `hinf_of` plus the decoupled anti-windup of thesis Th. 5.3.
 //!
 //! Certificates ([`ComfortCertificate`]): the comfort figures predicted on the car as the FMUs
-//! run it ([`crate::prediction`], exact wheelbase delay, full weightings) beside the passive
+//! run it ([`crate::predict::continuous`], exact wheelbase delay, full weightings) beside the passive
 //! car's; robust stability to the unmodelled delay (the small-gain norm by Hamiltonian bisection
 //! and the exact delay margin); the design's guaranteed bound over its uncertainty
 //! ([`UncertainLoop::bound`], one Lyapunov matrix, checked by eigenvalues, on the car model of
@@ -23,19 +23,19 @@
 //! uncertainty; predictions over the uncertainty; the limits at `limit_sigmas` standard
 //! deviations. A failed check is an error.
 
-use crate::comfort_controllers::{
+use crate::comfort::controllers::{
     applied_force_names, force_sensing_sensors, kalman_gain, observer_based,
     output_feedback_sensors, plant_of, realise_state_feedback, state_feedback_sensors,
     ObserverInput,
 };
-use crate::comfort_plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
-use crate::controller_file::{matrix_rows, Accommodation, AntiWindup, Extensions};
-use crate::design::{ComfortDesign, ComfortRoad, RearWheels};
-use crate::fault::FaultBox;
-use crate::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
-use crate::hinf_norm::{Analysis, Lti};
-use crate::interconnect::{close, ClosedLoop, Plant, Sensors};
-use crate::prediction::{predict, Conditions, ControlLaw, Figures, Loop};
+use crate::comfort::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
+use crate::comfort::plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
+use crate::numerics::hinf_norm::{Analysis, Lti};
+use crate::numerics::interconnect::{close, ClosedLoop, Plant, Sensors};
+use crate::predict::continuous::{predict, Conditions, ControlLaw, Figures, Loop};
+use crate::shipping::controller_file::{matrix_rows, Accommodation, AntiWindup, Extensions};
+use crate::shipping::design::{ComfortDesign, ComfortRoad, RearWheels};
+use crate::thesis::fault::FaultBox;
 use nalgebra::DMatrix;
 use serde::Serialize;
 use vehicle::model::N_ACTUATORS;
@@ -131,7 +131,7 @@ pub struct CheckedStep {
     /// where a loop could not be formed (an exponential failed).
     pub spectral_radius: Option<f64>,
     /// From the design file's step up, where every loop is stable: the held `W_k` seat on the
-    /// design road ([`crate::sampled::step_check`]). `null` below the design file's step, where
+    /// design road ([`crate::predict::sampled::step_check`]). `null` below the design file's step, where
     /// stability alone is checked (the held loop tends to the continuous one as the step
     /// shrinks, and at 0.25 ms a 50 ms delay's loop has 1080 states), and where a loop is
     /// unstable.
@@ -142,7 +142,7 @@ pub struct CheckedStep {
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct StepComfort {
     /// The nominal car's (the first loop checked): time-averaged, and as a master records it.
-    pub nominal: crate::sampled::HeldSeat,
+    pub nominal: crate::predict::sampled::HeldSeat,
     /// The worst time-averaged over every loop checked.
     pub worst_predicted_wk_rms_seat_m_s2: f64,
 }
@@ -156,8 +156,8 @@ impl CheckedStep {
 impl StepStability {
     /// What the controller FMU warns by (`controller.json`'s `communication_steps`); `None`
     /// when not even the first checked step is stable (no such design is written).
-    pub fn for_the_fmu(&self) -> Option<crate::controller_file::CommunicationSteps> {
-        Some(crate::controller_file::CommunicationSteps {
+    pub fn for_the_fmu(&self) -> Option<crate::shipping::controller_file::CommunicationSteps> {
+        Some(crate::shipping::controller_file::CommunicationSteps {
             stable_up_to_s: self.stable_up_to_s?,
             unstable_at_s: self.first_unstable_s(),
         })
@@ -181,15 +181,17 @@ impl StepStability {
             .par_iter()
             .map(|&step_s| {
                 let seat_on = (step_s >= design_step * (1.0 - 1e-9)).then_some(road);
-                let checks: Option<Vec<crate::sampled::StepCheck>> = loops
+                let checks: Option<Vec<crate::predict::sampled::StepCheck>> = loops
                     .par_iter()
-                    .map(|(law, c)| crate::sampled::step_check(Some(law), *c, step_s, seat_on).ok())
+                    .map(|(law, c)| {
+                        crate::predict::sampled::step_check(Some(law), *c, step_s, seat_on).ok()
+                    })
                     .collect();
                 let radius = checks
                     .as_ref()
-                    .map(|c| crate::eig::max_or_nan(0.0, c.iter().map(|c| c.radius)));
+                    .map(|c| crate::numerics::eig::max_or_nan(0.0, c.iter().map(|c| c.radius)));
                 // A seat only where its loop is stable: all of them or none.
-                let seats: Option<Vec<crate::sampled::HeldSeat>> =
+                let seats: Option<Vec<crate::predict::sampled::HeldSeat>> =
                     checks.and_then(|c| c.iter().map(|c| c.seat).collect());
                 CheckedStep {
                     step_s,
@@ -219,7 +221,7 @@ impl StepStability {
     }
 }
 
-/// The nominal prediction for the sampled-data loop of a co-simulation ([`crate::sampled`]):
+/// The nominal prediction for the sampled-data loop of a co-simulation ([`crate::predict::sampled`]):
 /// road and commands held over each step, the controller stepped exactly.
 #[derive(Debug, Clone, Serialize)]
 pub struct Held {
@@ -244,7 +246,7 @@ pub struct RoadDescription {
 }
 
 /// The car model's comfort behind a predictor that predicts it, `J(θ)`
-/// ([`crate::predictor::comfort_at`]), over the whole of `[0, θ_max]`: its worst on an even grid
+/// ([`crate::comfort::predictor::comfort_at`]), over the whole of `[0, θ_max]`: its worst on an even grid
 /// of `intervals + 1` delays, and a bound that holds between them.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct OverDelays {
@@ -693,7 +695,7 @@ pub fn robust_output_feedback_design(
 /// the box, and while it settles the loop's gain `ρ/ρ̂` stays in the box (the estimate falls
 /// from above), whose frozen loops are the check grid.
 ///
-/// Plus the road-decoupled detection residual of [`crate::fault::DetectionResidual`] (thesis
+/// Plus the road-decoupled detection residual of [`crate::thesis::fault::DetectionResidual`] (thesis
 /// fig. 8.1), which compares the command with what the body's momentum says was applied.
 pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "ft_of";
@@ -714,7 +716,7 @@ pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, Comfo
     // the certificate (its small-gain norm and its check grid, the box's vertices).
     // The detection residual, from the car alone (the parity relations are the body's).
     let car = StateSpaceRows::of(ctx.params);
-    let det = crate::fault::DetectionResidual::from_car(
+    let det = crate::thesis::fault::DetectionResidual::from_car(
         &car.a,
         &car.b_r,
         &car.b_u,
@@ -812,11 +814,11 @@ impl StateSpaceRows {
         let ss = vehicle::StateSpace::new(p);
         let rows = vehicle::model::physical_outputs(p);
         let c_y = DMatrix::from_fn(
-            crate::comfort_plant::OF_MEASUREMENTS.len(),
+            crate::comfort::plant::OF_MEASUREMENTS.len(),
             vehicle::model::N_STATES,
             |i, j| {
                 rows.iter()
-                    .find(|r| r.name == crate::comfort_plant::OF_MEASUREMENTS[i])
+                    .find(|r| r.name == crate::comfort::plant::OF_MEASUREMENTS[i])
                     .expect("a plant output")
                     .c[j]
             },
@@ -831,7 +833,7 @@ impl StateSpaceRows {
 }
 
 /// `hinf_of_aw`: `hinf_of` plus the decoupled anti-windup compensator of thesis Th. 5.3
-/// ([`crate::anti_windup`]): `F` from the sector LMI on the car (performance: the comfort
+/// ([`crate::thesis::anti_windup`]): `F` from the sector LMI on the car (performance: the comfort
 /// accelerations with their ISO factors), re-checked by the circle criterion. Its linear
 /// behaviour, and so every prediction, is `hinf_of`'s.
 pub fn anti_windup_design(
@@ -842,7 +844,7 @@ pub fn anti_windup_design(
     let d = ctx.design;
     let car = StateSpaceRows::of(ctx.params);
     let rows = vehicle::model::physical_outputs(ctx.params);
-    let perf: Vec<(&str, f64)> = crate::comfort_plant::COMFORT_OUTPUTS.to_vec();
+    let perf: Vec<(&str, f64)> = crate::comfort::plant::COMFORT_OUTPUTS.to_vec();
     let row = |name: &str| {
         rows.iter()
             .find(|r| r.name == name)
@@ -852,14 +854,14 @@ pub fn anti_windup_design(
         row(perf[i].0).c[j] * perf[i].1
     });
     // Forces in kN inside the LMI (its conditioning), as elsewhere in the synthesis.
-    let ku = crate::generalized::FORCE_UNIT;
+    let ku = crate::thesis::generalized::FORCE_UNIT;
     let d_zu = DMatrix::from_fn(perf.len(), N_ACTUATORS, |i, j| {
         row(perf[i].0).d_u[j] * perf[i].1 * ku
     });
     let b_u = &car.b_u * ku;
-    let aw = crate::anti_windup::mraw_for(&car.a, &b_u, &c_z, &d_zu, 1e-6)
+    let aw = crate::thesis::anti_windup::mraw_for(&car.a, &b_u, &c_z, &d_zu, 1e-6)
         .map_err(|e| ctx.fail(variant, e))?;
-    let check = crate::anti_windup::circle_check(&car.a, &b_u, &aw.f, &aw.w);
+    let check = crate::thesis::anti_windup::circle_check(&car.a, &b_u, &aw.f, &aw.w);
     if !check.holds() {
         return Err(ComfortError::Certificate {
             variant: variant.into(),
@@ -908,18 +910,18 @@ fn design_loop(plant: &Plant, sensors: &Sensors, law: &ControlLaw) -> Result<Clo
 }
 
 fn spectral_abscissa(a: &DMatrix<f64>) -> f64 {
-    crate::eig::spectral_abscissa(a)
+    crate::numerics::eig::spectral_abscissa(a)
 }
 
 /// `‖q ← p‖∞` of the unmodelled-delay channel of a closed loop: `W` of
-/// [`crate::comfort_plant::delay_cover`] on the command, `p` added to the applied forces, both in
+/// [`crate::comfort::plant::delay_cover`] on the command, `p` added to the applied forces, both in
 /// units of the force limits.
 fn unmodelled_delay_norm(
     cl: &ClosedLoop,
     tau: f64,
     limits: &[f64; N_ACTUATORS],
 ) -> Result<f64, String> {
-    let (c, d) = crate::comfort_plant::delay_cover();
+    let (c, d) = crate::comfort::plant::delay_cover();
     let (n, m) = (cl.a.nrows(), N_ACTUATORS);
     let lim = DMatrix::from_fn(m, m, |i, j| if i == j { limits[i] } else { 0.0 });
     let inv = DMatrix::from_fn(m, m, |i, j| if i == j { 1.0 / limits[i] } else { 0.0 });
@@ -968,14 +970,13 @@ fn held_prediction(
     nominal: Conditions,
     d: &ComfortDesign,
 ) -> Result<Held, String> {
-    let lp = crate::sampled::SampledLoop::new(Some(law), nominal, d.communication_step).map_err(
-        |e| {
+    let lp = crate::predict::sampled::SampledLoop::new(Some(law), nominal, d.communication_step)
+        .map_err(|e| {
             format!(
                 "run by a master at a step of {} s: {e}",
                 d.communication_step
             )
-        },
-    )?;
+        })?;
     let held = lp.figures(&d.road);
     let (predicted, [seat, roll, pitch]) = (held.time_averaged, held.recorded_weighted);
     Ok(Held {
@@ -1094,7 +1095,7 @@ pub fn certify(
             .map_err(|e| fail(e.to_string()))?,
     );
     let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
-    let mut poles: Vec<[f64; 2]> = crate::eig::eigenvalues(&cl.a)
+    let mut poles: Vec<[f64; 2]> = crate::numerics::eig::eigenvalues(&cl.a)
         .iter()
         .map(|l| [l.re, l.im])
         .collect();
@@ -1200,10 +1201,10 @@ pub fn certify(
         closed_loop_poles: poles,
         measurements: law.inputs.clone(),
         controller: serde_json::json!({
-            "A": crate::certificate::matrix_json(&law.lti.a),
-            "B": crate::certificate::matrix_json(&law.lti.b),
-            "C": crate::certificate::matrix_json(&law.lti.c),
-            "D": crate::certificate::matrix_json(&law.lti.d),
+            "A": crate::thesis::certificate::matrix_json(&law.lti.a),
+            "B": crate::thesis::certificate::matrix_json(&law.lti.b),
+            "C": crate::thesis::certificate::matrix_json(&law.lti.c),
+            "D": crate::thesis::certificate::matrix_json(&law.lti.d),
         }),
         notes,
     })
@@ -1355,7 +1356,7 @@ fn over_uncertainty(
     for g in &grid {
         let (plant, sensors) = wiring(g);
         let cl = design_loop(&plant, &sensors, law)?;
-        if !crate::eig::is_hurwitz(&cl.a) {
+        if !crate::numerics::eig::is_hurwitz(&cl.a) {
             return Err("the car model is unstable at a point of the check grid".into());
         }
         let rows = comfort_rows(g0, &cl, &[0]);
@@ -1480,7 +1481,7 @@ mod tests {
     /// weightings' band limits), where the design model's perfect preview is 7 % optimistic.
     #[test]
     fn the_bound_model_is_the_car_up_to_its_band_limits() {
-        let design = ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap();
+        let design = ComfortDesign::from_json(include_str!("../../designs/comfort.json")).unwrap();
         let p = VehicleParams::default();
         let ctx = Context {
             params: &p,

@@ -15,7 +15,7 @@
 //!   road) dynamic tyre loads over the static loads, without feed-through from `w` (an
 //!   energy-to-peak bound needs none).
 
-use crate::design::{Design, RoadModel};
+use crate::shipping::design::{Design, RoadModel};
 use nalgebra::DMatrix;
 use vehicle::model::{
     physical_outputs, OutputRow, StateSpace, N_ACTUATORS, N_ROAD, N_STATES, N_WHEELS,
@@ -277,7 +277,7 @@ impl GeneralizedPlant {
     }
 
     /// The closed loop's constraint outputs as a plant whose performance output they are
-    /// (`C_z = C_c`, `D_zu = D_cu`, `D_zw = 0`), e.g. for [`crate::certificate::closed_loop`].
+    /// (`C_z = C_c`, `D_zu = D_cu`, `D_zw = 0`), e.g. for [`crate::thesis::certificate::closed_loop`].
     pub fn constraint_plant(&self) -> GeneralizedPlant {
         GeneralizedPlant {
             c_z: self.c_c.clone(),

@@ -1,7 +1,7 @@
 //! `controller.json`, the resource every controller FMU reads: the controller in the plant's
 //! units, and the plant outputs it reads (its inputs) by name, with units.
 
-use crate::hinf_norm::Controller;
+use crate::numerics::hinf_norm::Controller;
 pub use controller_file::{
     Accommodation, AntiWindup, CommunicationSteps, ControllerFile, DesignedFor, Extensions,
     FaultDetection, Guarantee, Predictor, Rows, Signal, FORMAT,

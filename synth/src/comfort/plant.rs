@@ -7,7 +7,7 @@
 //!   lower edge `n_lo` of the road FMU's spatial band: below it neither road has content. The
 //!   left and right tracks are independent; the rear wheels see the front track `T = L/V` later,
 //!   here a Padé approximant of `e^{−sT}` of the design's order (or, `independent`, four
-//!   independent tracks). The certificates use the exact delay ([`crate::prediction`]).
+//!   independent tracks). The certificates use the exact delay ([`crate::predict::continuous`]).
 //! * **Comfort output** `z`: the seat's vertical acceleration weighted by `W_k`, the body's roll
 //!   and pitch acceleration (the seat's, which has no rotation of its own) weighted by `W_e` and
 //!   the ISO 2631-1 comfort factors 0.63 and 0.40 m/rad ([`vehicle::iso2631`]): `E|z|²` is the
@@ -20,8 +20,8 @@
 //!
 //! State `x = [car (16); road; W_k seat; W_e roll; W_e pitch]`, control `u` the five forces in N.
 
-use crate::design::{ComfortDesign, ComfortRoad, RearWheels};
-use crate::generalized::row;
+use crate::shipping::design::{ComfortDesign, ComfortRoad, RearWheels};
+use crate::thesis::generalized::row;
 use nalgebra::DMatrix;
 use std::ops::Range;
 use vehicle::iso2631::{Weighting, PITCH_FACTOR, ROLL_FACTOR};
@@ -32,7 +32,7 @@ use vehicle::model::{
 use vehicle::VehicleParams;
 
 /// The plant outputs the output-feedback designs measure: the thesis designs' eight sensors.
-pub use crate::generalized::MEASUREMENTS as OF_MEASUREMENTS;
+pub use crate::thesis::generalized::MEASUREMENTS as OF_MEASUREMENTS;
 
 /// The accelerations the comfort output weights, in the order of `z`, with their factors.
 pub const COMFORT_OUTPUTS: [(&str, f64); 3] = [
@@ -544,7 +544,7 @@ pub fn mass_channel(p: &VehicleParams, d: &ComfortDesign) -> (ComfortPlant, Chan
 /// the fault channel.
 pub fn fault_channel(g0: &ComfortPlant, d: &ComfortDesign) -> (ComfortPlant, Channel, Channel) {
     let limits = force_limits(d);
-    let (rc, r) = crate::fault::FaultBox {
+    let (rc, r) = crate::thesis::fault::FaultBox {
         rho_min: d.fault_rho_min,
     }
     .center_radius();
@@ -568,11 +568,11 @@ pub fn fault_channel(g0: &ComfortPlant, d: &ComfortDesign) -> (ComfortPlant, Cha
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hinf_norm::{Analysis, Lti};
+    use crate::numerics::hinf_norm::{Analysis, Lti};
     use nalgebra::Complex;
 
     pub(crate) fn design() -> ComfortDesign {
-        ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap()
+        ComfortDesign::from_json(include_str!("../../designs/comfort.json")).unwrap()
     }
 
     #[test]

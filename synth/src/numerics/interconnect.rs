@@ -6,7 +6,7 @@
 //! input for what disturbs the actuators (an uncertainty channel's `p`). With
 //! `M = (I − D_c D_yu)⁻¹` the command is `u = M (D_c C_y x + C_c ξ + D_c D_yw w + D_c D_yu f)`.
 
-use crate::hinf_norm::Lti;
+use crate::numerics::hinf_norm::Lti;
 use nalgebra::DMatrix;
 
 /// `ẋ = A x + B_w w + B_u u_a`.

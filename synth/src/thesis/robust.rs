@@ -12,11 +12,11 @@
 //! The certificate does not rely on either: it computes the closed-loop H∞ norm by Hamiltonian
 //! bisection at every mass of a uniform grid ([`mass_grid_certificate`]).
 
-use crate::certificate::{closed_loop, NORM_TOLERANCE};
-use crate::design::Design;
-use crate::generalized::{GeneralizedPlant, Measurement};
-use crate::hinf_norm::{Analysis, Controller};
-use crate::state_feedback::NormBounded;
+use crate::numerics::hinf_norm::{Analysis, Controller};
+use crate::shipping::design::Design;
+use crate::thesis::certificate::{closed_loop, NORM_TOLERANCE};
+use crate::thesis::generalized::{GeneralizedPlant, Measurement};
+use crate::thesis::state_feedback::NormBounded;
 use nalgebra::DMatrix;
 use serde::Serialize;
 use vehicle::VehicleParams;
@@ -174,12 +174,12 @@ pub fn mass_grid_certificate(
     meas: &Measurement,
     k: &Controller,
     gamma: f64,
-) -> Result<MassGrid, crate::certificate::CertificateError> {
+) -> Result<MassGrid, crate::thesis::certificate::CertificateError> {
     let grid = MassGrid::evaluate(unc, meas, k);
     if grid.holds(gamma) {
         Ok(grid)
     } else {
-        Err(crate::certificate::CertificateError::NotRobust {
+        Err(crate::thesis::certificate::CertificateError::NotRobust {
             variant: variant.into(),
             mass: grid.worst_mass,
             norm: grid.worst_norm.unwrap_or(f64::INFINITY),
@@ -191,8 +191,8 @@ pub fn mass_grid_certificate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::certificate::CertificateError;
-    use crate::state_feedback::{hinf_sf, hinf_sf_robust};
+    use crate::thesis::certificate::CertificateError;
+    use crate::thesis::state_feedback::{hinf_sf, hinf_sf_robust};
 
     #[test]
     fn both_robust_formulations_hold_over_the_grid_and_the_nominal_design_does_not() {

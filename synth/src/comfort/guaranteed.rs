@@ -18,11 +18,11 @@
 //!
 //! **Synthesis** (state feedback on the design state): the same inequality for the closed loop
 //! `A + B_u K` with the cost `C = [C_z; Λ^½ C_l; …]` is the game Riccati equation of
-//! full-information H∞ control ([`crate::riccati::care`] with an indefinite `R`); its gain
+//! full-information H∞ control ([`crate::numerics::riccati::care`] with an indefinite `R`); its gain
 //! minimises the bound.
 
-use crate::comfort_plant::{Channel, ComfortPlant};
-use crate::riccati::{care, lyapunov, RiccatiError};
+use crate::comfort::plant::{Channel, ComfortPlant};
+use crate::numerics::riccati::{care, lyapunov, RiccatiError};
 use nalgebra::{DMatrix, DVector};
 
 /// A closed loop `ẋ = A x + B_w w + Σⱼ B_pj pⱼ`, `qⱼ = C_qj x`, with `pⱼ = Δⱼ qⱼ`.
@@ -240,7 +240,7 @@ fn state_feedback_at(
     let min_x = ((&s.x + s.x.transpose()) * 0.5)
         .symmetric_eigenvalues()
         .min();
-    let abscissa = crate::eig::spectral_abscissa(&(&g.a + &g.b_u * &k));
+    let abscissa = crate::numerics::eig::spectral_abscissa(&(&g.a + &g.b_u * &k));
     if min_x < -1e-9 * s.x.norm() || abscissa.is_nan() || abscissa >= 0.0 {
         return Err(RiccatiError::NoStabilisingSolution(format!(
             "X has eigenvalue {min_x:e}, A + B_u K spectral abscissa {abscissa:e}"
@@ -358,7 +358,7 @@ pub fn state_feedback(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hinf_norm::{Analysis, Lti};
+    use crate::numerics::hinf_norm::{Analysis, Lti};
 
     /// A scalar loop `ẋ = −a x + b w + h p`, `q = e x`, `z = x`, `p = δ q`: the bound at the
     /// best multiplier matches the worst real δ (the closed form `b²/(2(a − h e δ))` at

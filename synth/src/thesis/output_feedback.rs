@@ -19,9 +19,9 @@
 //! maximise `t` with `[X I; I Y] ⪰ tI`; (3) reconstruct from that better-conditioned point.
 //! The certificate then checks the reconstructed closed loop independently.
 
-use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
-use crate::hinf_norm::{Controller, Lti};
-use crate::lmi::{Affine, LmiError, Problem, Var};
+use crate::numerics::hinf_norm::{Controller, Lti};
+use crate::numerics::lmi::{Affine, LmiError, Problem, Var};
+use crate::thesis::generalized::{GeneralizedPlant, FORCE_UNIT};
 use nalgebra::DMatrix;
 
 /// The plant as the output-feedback LMI sees it.
@@ -657,7 +657,7 @@ pub fn hinf_of(p: &OfPlant, settings: OfSettings) -> Result<OutputFeedback, LmiE
 }
 
 /// [`hinf_of`] with the constraint LMIs (force, stroke, tyre load; see
-/// [`crate::state_feedback`]): every output `cᵢ = C_c,i x + D_cu,i u` of the closed loop stays
+/// [`crate::thesis::state_feedback`]): every output `cᵢ = C_c,i x + D_cu,i u` of the closed loop stays
 /// within `|cᵢ(t)| ≤ 1` for every disturbance of energy `energy`. With the Lyapunov matrix `P` of
 /// the H∞ LMI (common, as for state feedback) and, by the congruence with `Π₁ = [X I; Mᵀ 0]`
 /// (Scherer, Gahinet & Chilali 1997, §IV), in the same linearising variables:
@@ -957,10 +957,10 @@ mod tests {
         delta: 0.02,
         beta: 1e3,
     };
-    use crate::certificate::closed_loop;
-    use crate::design::Design;
-    use crate::generalized::GeneralizedPlant;
-    use crate::hinf_norm::Analysis;
+    use crate::numerics::hinf_norm::Analysis;
+    use crate::shipping::design::Design;
+    use crate::thesis::certificate::closed_loop;
+    use crate::thesis::generalized::GeneralizedPlant;
 
     /// The constrained synthesis on a quarter car (u in kN): the closed loop it rebuilds meets
     /// its γ (Hamiltonian bisection) and each constraint's exact energy-to-peak gain (Gramian) is
@@ -1024,7 +1024,7 @@ mod tests {
             d_cu,
             constraint_names: vec!["stroke".into(), "force".into()],
             road_scale: Vec::new(),
-            road_model: crate::design::RoadModel::Independent,
+            road_model: crate::shipping::design::RoadModel::Independent,
         };
         let p = OfPlant::of(&g);
         // The energy at which the unconstrained design's stroke peaks at 1.5 of its limit (its
@@ -1052,7 +1052,7 @@ mod tests {
         );
         // Each Gramian peak within the LMI's bound and within 1 (the certificate's check).
         let claimed: Vec<(String, f64)> = g.constraint_names.iter().cloned().zip(bounds).collect();
-        crate::certificate::certify_peaks(
+        crate::thesis::certificate::certify_peaks(
             "test",
             &g,
             &g.output_measurement(),

@@ -22,29 +22,29 @@
 //! `J(θ)` bounded at every delay of the interval ([`over_delays`]), which is the guarantee
 //! where it covers the predictions on the car at delays across the interval (beside
 //! `hinf_sf`'s). Checked: the margins to a mismatch between the actual and the predicted delay,
-//! and the loop as a master runs it (held inputs and commands, `crate::sampled`) stable at
+//! and the loop as a master runs it (held inputs and commands, `crate::predict::sampled`) stable at
 //! delays between whole communication steps, where the delayed command changes mid-step, and
 //! at which communication steps it is stable at delays across the interval.
 //!
 //! The runtime keeps the command's own filters (the unmodelled-delay weight's states, which
 //! the gain reads) in controller time and, over each step, runs the design's loop on its model:
 //! the prediction moves on with the command sent, and the filters take the command the design
-//! gives at every instant (`crate::sampled`'s `discrete_predictor`,
+//! gives at every instant (`crate::predict::sampled`'s `discrete_predictor`,
 //! `fmu-controller/src/predictor.rs`). Equal in continuous time; the hold no longer enters the
 //! gain's fastest loop (stable to 7.5 ms at every delay instead of 1.1 ms).
 
-use crate::comfort_controllers::{
+use crate::comfort::controllers::{
     realise_state_feedback, reconstruction, state_feedback_sensors, Reconstruction,
 };
-use crate::comfort_designs::{
+use crate::comfort::designs::{
     bound_model, certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context,
     OverDelays, OverUncertainty, Uncertainty,
 };
-use crate::comfort_plant::ComfortPlant;
-use crate::design::RearWheels;
-use crate::guaranteed::StateFeedback;
-use crate::prediction::{Conditions, ControlLaw, Loop, PredictorLaw};
-use crate::riccati::lyapunov;
+use crate::comfort::guaranteed::StateFeedback;
+use crate::comfort::plant::ComfortPlant;
+use crate::numerics::riccati::lyapunov;
+use crate::predict::continuous::{Conditions, ControlLaw, Loop, PredictorLaw};
+use crate::shipping::design::RearWheels;
 use linsys::expm;
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -168,8 +168,11 @@ pub struct PredictorFacts {
 /// runtime steps them, the command's filters closed through their part of the gain.
 fn own_loop(p: &PredictorLaw) -> DMatrix<f64> {
     let r = &p.reconstruction;
-    let (_, k_own) =
-        linsys::predictor::split_gain(&p.k, r.a_xi.nrows(), &crate::sampled::own_filters(p));
+    let (_, k_own) = linsys::predictor::split_gain(
+        &p.k,
+        r.a_xi.nrows(),
+        &crate::predict::sampled::own_filters(p),
+    );
     &r.a_xi + &r.b_xiu * k_own
 }
 
@@ -219,7 +222,7 @@ fn predictor_law(
 
 /// The model `delay_sf`'s predictor runs, and the gain on it: the car model of
 /// [`bound_model`] (the rear wheels on the front track through a Padé approximant of order
-/// [`crate::comfort_designs::BOUND_MODEL_PADE_ORDER`]) with the design model's preview states
+/// [`crate::comfort::designs::BOUND_MODEL_PADE_ORDER`]) with the design model's preview states
 /// (its order-2 rear track, which the gain reads) beside it as filters of the front road that
 /// drive nothing. `k` on the design model's state `g` (with its delay weight) is mapped onto
 /// it, zero on the car model's rear-track states.
@@ -298,7 +301,7 @@ pub fn predictor_model(
         ..car.clone()
     };
     let (augmented, _) =
-        augmented.with_delay_weight(d.unmodelled_delay, &crate::comfort_plant::force_limits(d));
+        augmented.with_delay_weight(d.unmodelled_delay, &crate::comfort::plant::force_limits(d));
     debug_assert!(map.iter().all(|m| *m < augmented.n()));
     let mut k_ext = DMatrix::zeros(k.nrows(), augmented.n());
     for (j, m) in map.iter().enumerate() {
@@ -332,7 +335,7 @@ pub fn predictor_design(
          the roots of A + B K and of A for every theta (finite spectrum assignment): stable \
          over the whole interval.",
         d.delay_max,
-        crate::comfort_designs::BOUND_MODEL_PADE_ORDER
+        crate::comfort::designs::BOUND_MODEL_PADE_ORDER
     )];
     let mut certificate = certify(
         ctx,
@@ -376,14 +379,14 @@ pub fn predictor_design(
     // The loops as a master runs them, each with the predictor matched to its delay.
     let held = conditions
         .par_iter()
-        .map(|c| crate::comfort_designs::held_at(&law_at(c.delay), *c, d))
+        .map(|c| crate::comfort::designs::held_at(&law_at(c.delay), *c, d))
         .collect();
     // Between the whole steps: stable, or refused.
     let fractional_at = fractional_delays(d.delay_max, d.communication_step);
     let fractional = fractional_at
         .par_iter()
         .map(|&theta| {
-            crate::sampled::SampledLoop::new(
+            crate::predict::sampled::SampledLoop::new(
                 Some(&law_at(theta)),
                 at_delay(theta),
                 d.communication_step,
@@ -401,7 +404,7 @@ pub fn predictor_design(
         .iter()
         .map(|&theta| (law_at(theta), at_delay(theta)))
         .collect();
-    certificate.comfort.communication_steps = crate::comfort_designs::StepStability::check(
+    certificate.comfort.communication_steps = crate::comfort::designs::StepStability::check(
         &loops,
         &format!(
             "the nominal car at each delay of {} s, the predictor matched",
@@ -416,17 +419,17 @@ pub fn predictor_design(
     let a_cl = &g.a + &g.b_u * k;
     let facts = PredictorFacts {
         delay_max_s: d.delay_max,
-        closed_loop_abscissa: crate::eig::spectral_abscissa(&a_cl),
-        open_loop_abscissa: crate::eig::spectral_abscissa(&g.a),
+        closed_loop_abscissa: crate::numerics::eig::spectral_abscissa(&a_cl),
+        open_loop_abscissa: crate::numerics::eig::spectral_abscissa(&g.a),
         mismatch_margin_lag_s: lag,
         mismatch_margin_lead_s: lead,
-        own_states_abscissa: crate::eig::spectral_abscissa(&own_loop(
+        own_states_abscissa: crate::numerics::eig::spectral_abscissa(&own_loop(
             law.predictor
                 .as_ref()
                 .expect("predictor_law sets the predictor"),
         )),
         step_s: d.communication_step,
-        fractional_worst_radius: crate::eig::max_or_nan(0.0, fractional.iter().copied()),
+        fractional_worst_radius: crate::numerics::eig::max_or_nan(0.0, fractional.iter().copied()),
         fractional_delays: fractional_at,
     };
     if !(facts.closed_loop_abscissa < 0.0 && facts.open_loop_abscissa < 0.0) {
@@ -473,9 +476,9 @@ pub fn predictor_design(
         facts.fractional_delays.len(),
         facts.fractional_worst_radius,
     ));
-    let m = crate::controller_file::matrix_rows;
-    let extensions = crate::controller_file::Extensions {
-        predictor: Some(crate::controller_file::Predictor {
+    let m = crate::shipping::controller_file::matrix_rows;
+    let extensions = crate::shipping::controller_file::Extensions {
+        predictor: Some(crate::shipping::controller_file::Predictor {
             a: m(&g.a),
             b: m(&g.b_u),
             k: m(k),
@@ -485,7 +488,7 @@ pub fn predictor_design(
             b_xi: m(&r.b_xi),
             b_xiu: m(&r.b_xiu),
             d_yu: Some(m(&r.d_yu)),
-            u_max: Some(crate::comfort_plant::force_limits(d).to_vec()),
+            u_max: Some(crate::comfort::plant::force_limits(d).to_vec()),
             delay_max: d.delay_max,
             facts: serde_json::to_value(&facts).expect("serialisable"),
         }),
@@ -501,9 +504,9 @@ pub fn predictor_design(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::comfort_designs::nominal_gain;
-    use crate::design::ComfortDesign;
-    use crate::prediction::Figures;
+    use crate::comfort::designs::nominal_gain;
+    use crate::predict::continuous::Figures;
+    use crate::shipping::design::ComfortDesign;
     use vehicle::VehicleParams;
 
     /// The checked-in comfort design, the default car, `hinf_sf`'s gain and the seat's row.
@@ -514,7 +517,7 @@ mod tests {
         StateFeedback,
         DMatrix<f64>,
     ) {
-        let d = ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap();
+        let d = ComfortDesign::from_json(include_str!("../../designs/comfort.json")).unwrap();
         let p = VehicleParams::default();
         let (g, sf) = nominal_gain(&Context {
             params: &p,
@@ -634,8 +637,12 @@ mod tests {
         };
         for (step, theta) in [(2e-3, 2.5e-3), (2.5e-3, 3.125e-3)] {
             let radius = |d_yu: bool| {
-                crate::sampled::spectral_radius(Some(&law_at(theta, d_yu)), at(theta), step)
-                    .unwrap()
+                crate::predict::sampled::spectral_radius(
+                    Some(&law_at(theta, d_yu)),
+                    at(theta),
+                    step,
+                )
+                .unwrap()
             };
             let (with, without) = (radius(true), radius(false));
             assert!(
@@ -645,7 +652,7 @@ mod tests {
         }
         let h = d.communication_step;
         let held = |theta: f64, d_yu: bool| {
-            crate::sampled::SampledLoop::new(Some(&law_at(theta, d_yu)), at(theta), h)
+            crate::predict::sampled::SampledLoop::new(Some(&law_at(theta, d_yu)), at(theta), h)
         };
         let delays = fractional_delays(d.delay_max, h);
         assert_eq!(delays.len(), 24, "{delays:?}");
@@ -685,7 +692,7 @@ mod tests {
                 .figures(&d.road)
                 .wk_rms_seat_m_s2;
             let held = |step: f64| {
-                crate::sampled::SampledLoop::new(Some(&law), c, step)
+                crate::predict::sampled::SampledLoop::new(Some(&law), c, step)
                     .unwrap()
                     .figures(&d.road)
                     .time_averaged
@@ -701,7 +708,7 @@ mod tests {
                 (coarse / continuous - 1.0).abs() > (fine / continuous - 1.0).abs(),
                 "{theta}"
             );
-            let radius = crate::sampled::spectral_radius(Some(&law), c, 5e-3).unwrap();
+            let radius = crate::predict::sampled::spectral_radius(Some(&law), c, 5e-3).unwrap();
             assert!(radius < 1.0, "{theta}: {radius}");
         }
     }
@@ -737,16 +744,18 @@ mod tests {
             delay: theta,
             ..Conditions::nominal(p)
         };
-        let seat =
-            |l: crate::sampled::SampledLoop| l.figures(&d.road).time_averaged.wk_rms_seat_m_s2;
+        let seat = |l: crate::predict::sampled::SampledLoop| {
+            l.figures(&d.road).time_averaged.wk_rms_seat_m_s2
+        };
         let plain = plain_law(&g_design, &sf.k);
         for h in [1e-3, 2.5e-3] {
             let reference =
-                seat(crate::sampled::SampledLoop::new(Some(&plain), at(0.0), h).unwrap());
+                seat(crate::predict::sampled::SampledLoop::new(Some(&plain), at(0.0), h).unwrap());
             for theta in [0.0, 0.25 * h, 0.5 * h, 0.75 * h, h] {
                 let law = predictor_law(&g, &k, r.clone(), theta);
-                let held =
-                    seat(crate::sampled::SampledLoop::new(Some(&law), at(theta), h).unwrap());
+                let held = seat(
+                    crate::predict::sampled::SampledLoop::new(Some(&law), at(theta), h).unwrap(),
+                );
                 println!(
                     "step {h}, delay {theta}: {held:.5} (hinf_sf with no delay {reference:.5})"
                 );
@@ -759,8 +768,9 @@ mod tests {
         }
         for h in [5e-3, 7.5e-3, 1e-2] {
             let law = predictor_law(&g, &k, r.clone(), 0.0);
-            let radius = crate::sampled::spectral_radius(Some(&law), at(0.0), h).unwrap();
-            let plain_radius = crate::sampled::spectral_radius(Some(&plain), at(0.0), h).unwrap();
+            let radius = crate::predict::sampled::spectral_radius(Some(&law), at(0.0), h).unwrap();
+            let plain_radius =
+                crate::predict::sampled::spectral_radius(Some(&plain), at(0.0), h).unwrap();
             println!("step {h}: radius {radius:.5}, hinf_sf's {plain_radius:.5}");
             assert!(radius < 1.0, "{h}: {radius}");
             assert!(

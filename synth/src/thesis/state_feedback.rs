@@ -23,8 +23,8 @@
 //! gives `xᵀQ⁻¹x < ‖w‖₂²`, and `[[Q, (CᵢQ + DᵢY)ᵀ], [CᵢQ + DᵢY, 1/E]] ⪰ 0` then bounds
 //! `|cᵢ(t)| ≤ 1` for every disturbance of energy `‖w‖₂² ≤ E` (the design bump's energy).
 
-use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
-use crate::lmi::{Affine, LmiError, Problem};
+use crate::numerics::lmi::{Affine, LmiError, Problem};
+use crate::thesis::generalized::{GeneralizedPlant, FORCE_UNIT};
 use nalgebra::DMatrix;
 
 #[derive(Debug, Clone)]
@@ -423,9 +423,9 @@ fn state_feedback(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::certificate::closed_loop;
-    use crate::design::Design;
-    use crate::hinf_norm::{Analysis, Controller};
+    use crate::numerics::hinf_norm::{Analysis, Controller};
+    use crate::shipping::design::Design;
+    use crate::thesis::certificate::closed_loop;
 
     #[test]
     fn the_mixed_design_keeps_its_gamma_and_lowers_the_true_h2_norm() {

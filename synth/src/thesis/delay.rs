@@ -14,8 +14,8 @@
 //! ```
 //! with `P̄₁, S̄, R̄ ≻ 0`: then `ẋ = A x + B_u K x(t − τ) + B_w w` is stable with `‖z‖ < γ‖w‖`.
 
-use crate::generalized::{GeneralizedPlant, FORCE_UNIT};
-use crate::lmi::{Affine, LmiError, Problem};
+use crate::numerics::lmi::{Affine, LmiError, Problem};
+use crate::thesis::generalized::{GeneralizedPlant, FORCE_UNIT};
 use nalgebra::{Complex, DMatrix};
 
 #[derive(Debug, Clone)]
@@ -232,7 +232,7 @@ pub fn delayed_hinf_sweep(g: &GeneralizedPlant, k: &DMatrix<f64>, tau: f64) -> f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::Design;
+    use crate::shipping::design::Design;
 
     #[test]
     fn delay_margin_of_a_scalar_loop_matches_the_closed_form() {

@@ -1,10 +1,10 @@
 //! Certificates: every design is checked independently of its LMI solution before it may
 //! become an FMU — closed-loop eigenvalues and the closed-loop H∞ norm by Hamiltonian bisection
-//! ([`crate::hinf_norm`]), which must not exceed the claimed γ by more than 1e-6 relative.
+//! ([`crate::numerics::hinf_norm`]), which must not exceed the claimed γ by more than 1e-6 relative.
 //! The JSON written beside the FMU holds everything needed to re-check the claim elsewhere.
 
-use crate::generalized::{GeneralizedPlant, Measurement, FORCE_UNIT};
-use crate::hinf_norm::{Analysis, Controller, Lti, NormError};
+use crate::numerics::hinf_norm::{Analysis, Controller, Lti, NormError};
+use crate::thesis::generalized::{GeneralizedPlant, Measurement, FORCE_UNIT};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -107,7 +107,7 @@ pub enum CertificateError {
 }
 
 pub fn matrix_json(m: &DMatrix<f64>) -> serde_json::Value {
-    serde_json::json!(crate::controller_file::matrix_rows(m))
+    serde_json::json!(crate::shipping::controller_file::matrix_rows(m))
 }
 
 /// The mixed H2/H∞ designs' second claim: the closed loop's H2 norm on the rows `rows` of `z`
@@ -210,7 +210,7 @@ pub fn certify(
             gamma,
         });
     }
-    let poles = crate::eig::eigenvalues(&cl.a);
+    let poles = crate::numerics::eig::eigenvalues(&cl.a);
     let mut poles: Vec<[f64; 2]> = poles.iter().map(|l| [l.re, l.im]).collect();
     poles.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     Ok(Certificate {
@@ -248,8 +248,8 @@ pub fn certify(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::Design;
-    use crate::state_feedback::hinf_sf;
+    use crate::shipping::design::Design;
+    use crate::thesis::state_feedback::hinf_sf;
     use nalgebra::DMatrix;
 
     fn sf() -> (GeneralizedPlant, Controller, f64) {
@@ -303,7 +303,7 @@ mod tests {
     #[test]
     fn peak_claims_are_checked_against_the_gramian() {
         let d = Design {
-            road_model: crate::design::RoadModel::Shaped { corner: 1.0 },
+            road_model: crate::shipping::design::RoadModel::Shaped { corner: 1.0 },
             constraints: true,
             ..Design::default()
         };

@@ -7,8 +7,8 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-pub const THESIS_DESIGN_FILE: &str = include_str!("../designs/thesis.json");
-pub const CONSTRAINED_DESIGN_FILE: &str = include_str!("../designs/constrained.json");
+pub const THESIS_DESIGN_FILE: &str = include_str!("../../designs/thesis.json");
+pub const CONSTRAINED_DESIGN_FILE: &str = include_str!("../../designs/constrained.json");
 
 /// How the road enters the generalised plant's disturbance `w`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -229,7 +229,7 @@ pub struct SensorNoise {
 
 /// The comfort designs (`synth/designs/comfort.json`, what `make` ships): every variant
 /// minimises the ISO 2631-1 comfort norm on one ISO 8608 road, subject to its own guarantee
-/// ([`crate::comfort_designs`]).
+/// ([`crate::comfort::designs`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ComfortDesign {
@@ -268,7 +268,7 @@ pub struct ComfortDesign {
     /// (fault accommodation).
     pub accommodation_time_constant: f64,
     /// The communication step a master runs the controllers at [s]; the certificates predict
-    /// the co-simulation at it too (`comfort.held`, [`crate::sampled`]). Default: the
+    /// the co-simulation at it too (`comfort.held`, [`crate::predict::sampled`]). Default: the
     /// scenarios' 1 ms.
     #[serde(default = "default_communication_step")]
     pub communication_step: f64,
@@ -562,7 +562,7 @@ mod tests {
 
     #[test]
     fn output_feedback_designs_get_their_own_rear_wheel_model() {
-        let text = include_str!("../designs/comfort.json");
+        let text = include_str!("../../designs/comfort.json");
         let d = ComfortDesign::from_json(text).unwrap();
         assert_eq!(d.road.rear_wheels, RearWheels::Pade { order: 2 });
         let of = d.for_output_feedback();

@@ -13,11 +13,11 @@
 //!
 //! Both are plain LTI systems `ξ̇ = A ξ + B y`, `u = C ξ + D y` for the controller FMU.
 
-use crate::comfort_plant::{ComfortPlant, COMFORT_OUTPUTS, OF_MEASUREMENTS};
-use crate::design::SensorNoise;
-use crate::hinf_norm::Lti;
-use crate::interconnect::{Plant, Sensors};
-use crate::riccati::{care, RiccatiError};
+use crate::comfort::plant::{ComfortPlant, COMFORT_OUTPUTS, OF_MEASUREMENTS};
+use crate::numerics::hinf_norm::Lti;
+use crate::numerics::interconnect::{Plant, Sensors};
+use crate::numerics::riccati::{care, RiccatiError};
+use crate::shipping::design::SensorNoise;
 use nalgebra::DMatrix;
 use vehicle::iso2631::Weighting;
 use vehicle::model::{coord, CORNERS, N_STATES};
@@ -345,14 +345,14 @@ pub fn force_sensing_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, S
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::ComfortDesign;
-    use crate::guaranteed::state_feedback;
-    use crate::hinf_norm::Analysis;
-    use crate::interconnect::close;
+    use crate::comfort::guaranteed::state_feedback;
+    use crate::numerics::hinf_norm::Analysis;
+    use crate::numerics::interconnect::close;
+    use crate::shipping::design::ComfortDesign;
     use vehicle::VehicleParams;
 
     fn design() -> ComfortDesign {
-        ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap()
+        ComfortDesign::from_json(include_str!("../../designs/comfort.json")).unwrap()
     }
 
     /// The realised state feedback, reading plant outputs, closes the same loop as `A + B_u K` on

@@ -17,8 +17,8 @@
 //! applied forces and the road, `K` the controller's response (its `A` reduced to Hessenberg
 //! form once, so a frequency costs `O(n²)`).
 
-use crate::design::ComfortRoad;
-use crate::hinf_norm::Lti;
+use crate::numerics::hinf_norm::Lti;
+use crate::shipping::design::ComfortRoad;
 use linsys::expm;
 use nalgebra::{Complex, DMatrix, DVector, Hessenberg};
 use serde::Serialize;
@@ -61,10 +61,10 @@ impl ControlLaw {
     /// do not act on the commands of a loop in its linear range without a fault, and are left
     /// out. A matrix of the wrong shape is refused by name.
     pub fn from_file(
-        file: &crate::controller_file::ControllerFile,
+        file: &crate::shipping::controller_file::ControllerFile,
         tau: f64,
     ) -> Result<ControlLaw, String> {
-        use crate::controller_file::matrix;
+        use crate::shipping::controller_file::matrix;
         let (n, ny, nu) = (file.a.len(), file.inputs.len(), file.outputs.len());
         let lti = Lti::new(
             matrix("A", &file.a, n, n)?,
@@ -80,7 +80,7 @@ impl ControlLaw {
                     a: matrix("predictor.A", &p.a, np, np)?,
                     b: matrix("predictor.B", &p.b, np, nu)?,
                     k: matrix("predictor.K", &p.k, nu, np)?,
-                    reconstruction: crate::comfort_controllers::Reconstruction {
+                    reconstruction: crate::comfort::controllers::Reconstruction {
                         s_y: matrix("predictor.S_y", &p.s_y, np, ny)?,
                         s_xi: matrix("predictor.S_xi", &p.s_xi, np, m)?,
                         a_xi: matrix("predictor.A_xi", &p.a_xi, m, m)?,
@@ -105,16 +105,16 @@ impl ControlLaw {
 }
 
 /// A state feedback `u = K x̂` on the design state predicted over the actuators' known delay `θ`
-/// ([`crate::predictor`]): `x̂ = e^{Aθ} x + ∫_{t−θ}^{t} e^{A(t−s)} B u(s) ds`, `x = S_y y + S_ξ ξ`,
+/// ([`crate::comfort::predictor`]): `x̂ = e^{Aθ} x + ∫_{t−θ}^{t} e^{A(t−s)} B u(s) ds`, `x = S_y y + S_ξ ξ`,
 /// `ξ̇ = A_ξ ξ + B_ξ y + B_ξu u(t − θ)`. (Its runtime keeps the rows `B_ξu` drives in
 /// controller time, the filter of `u` up to `t`, which is their part of `x̂`: the same law in
-/// continuous time, [`crate::sampled`] as stepped.)
+/// continuous time, [`crate::predict::sampled`] as stepped.)
 #[derive(Debug, Clone)]
 pub struct PredictorLaw {
     pub a: DMatrix<f64>,
     pub b: DMatrix<f64>,
     pub k: DMatrix<f64>,
-    pub reconstruction: crate::comfort_controllers::Reconstruction,
+    pub reconstruction: crate::comfort::controllers::Reconstruction,
     /// The delay the predictor compensates [s] (the FMU's `tau`).
     pub delay: f64,
 }
@@ -343,7 +343,8 @@ impl HessenbergResponse {
             };
         }
         // A matrix with NaN is left to the Hessenberg form, whose responses then carry it.
-        let (a, scale) = crate::eig::balance(&sys.a).unwrap_or((sys.a.clone(), vec![1.0; n]));
+        let (a, scale) =
+            crate::numerics::eig::balance(&sys.a).unwrap_or((sys.a.clone(), vec![1.0; n]));
         let hess = Hessenberg::new(a);
         let (q, h) = (hess.q(), hess.h());
         let b = DMatrix::from_fn(n, sys.b.ncols(), |i, j| sys.b[(i, j)] / scale[i]);
@@ -646,28 +647,29 @@ impl Loop {
     /// poles: without a delay, and for the passive car.
     fn check_stable(&self, law: Option<&ControlLaw>) -> Result<Vec<C64>, PredictionError> {
         let Some(law) = law else {
-            return Ok(crate::eig::eigenvalues(&self.ss.a));
+            return Ok(crate::numerics::eig::eigenvalues(&self.ss.a));
         };
         if let Some(pred) = &law.predictor {
             return self.check_predictor_stable(pred).map(|()| Vec::new());
         }
         let rho =
             DMatrix::from_diagonal(&DVector::from_column_slice(&self.conditions.effectiveness));
-        let plant = crate::interconnect::Plant {
+        let plant = crate::numerics::interconnect::Plant {
             a: self.ss.a.clone(),
             b_w: DMatrix::zeros(N_STATES, 0),
             b_u: &self.ss.b_u * &rho,
         };
-        let sensors = crate::interconnect::Sensors {
+        let sensors = crate::numerics::interconnect::Sensors {
             c: self.c_y.clone(),
             d_w: DMatrix::zeros(self.c_y.nrows(), 0),
             d_u: &self.d_yu * &rho,
             names: law.inputs.clone(),
         };
-        let cl = crate::interconnect::close(&plant, &sensors, &law.lti)
+        let cl = crate::numerics::interconnect::close(&plant, &sensors, &law.lti)
             .map_err(|e| PredictionError::Unstable(e.to_string()))?;
-        let poles = crate::eig::eigenvalues(&cl.a);
-        let abscissa = crate::eig::max_or_nan(f64::NEG_INFINITY, poles.iter().map(|l| l.re));
+        let poles = crate::numerics::eig::eigenvalues(&cl.a);
+        let abscissa =
+            crate::numerics::eig::max_or_nan(f64::NEG_INFINITY, poles.iter().map(|l| l.re));
         if abscissa.is_nan() || abscissa >= 0.0 {
             return Err(PredictionError::Unstable(format!(
                 "spectral abscissa {abscissa:e} without delay"
@@ -817,8 +819,8 @@ impl Loop {
     /// exogenous, so the car's loop is the design model's). Otherwise the mismatch must lie
     /// within the matched loop's margins ([`Loop::delay_margins`]).
     fn check_predictor_stable(&self, p: &PredictorLaw) -> Result<(), PredictionError> {
-        let closed = crate::eig::spectral_abscissa(&(&p.a + &p.b * &p.k));
-        let open = crate::eig::spectral_abscissa(&p.a);
+        let closed = crate::numerics::eig::spectral_abscissa(&(&p.a + &p.b * &p.k));
+        let open = crate::numerics::eig::spectral_abscissa(&p.a);
         if !(closed < 0.0 && open < 0.0) {
             return Err(PredictionError::Unstable(format!(
                 "the predictor's A + B K (spectral abscissa {closed:e}) or A ({open:e}) is not Hurwitz"
@@ -1192,11 +1194,11 @@ pub fn track_input(track: usize, omega: f64, delay: f64) -> DVector<C64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::ComfortDesign;
+    use crate::shipping::design::ComfortDesign;
     use vehicle::iso2631::Weighting;
 
     fn design() -> ComfortDesign {
-        ComfortDesign::from_json(include_str!("../designs/comfort.json")).unwrap()
+        ComfortDesign::from_json(include_str!("../../designs/comfort.json")).unwrap()
     }
 
     /// The delay-margin scans are remembered by what the loop gain reads: loops of one
@@ -1257,12 +1259,12 @@ mod tests {
     fn hessenberg_responses_equal_a_dense_solve_on_a_badly_scaled_controller() {
         let p = VehicleParams::default();
         let d = design();
-        let (g, sf) = crate::comfort_designs::nominal_gain(&crate::comfort_designs::Context {
+        let (g, sf) = crate::comfort::designs::nominal_gain(&crate::comfort::designs::Context {
             params: &p,
             design: &d,
         })
         .unwrap();
-        let k = crate::comfort_controllers::realise_state_feedback(&g, &sf.k);
+        let k = crate::comfort::controllers::realise_state_feedback(&g, &sf.k);
         assert!(k.a.norm() > 1e8, "not badly scaled: {:e}", k.a.norm());
         // More inputs than outputs (the dual), and fewer (the primal).
         let few = Lti::new(

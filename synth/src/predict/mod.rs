@@ -1,0 +1,7 @@
+//! What a controller does on an ISO 8608 road, computed from the car and the controller as the
+//! FMUs run them, independently of any design model: the continuous-time loop
+//! ([`continuous`]) and the sampled-data loop a master runs at a communication step
+//! ([`sampled`]). The certificates' predictions of co-simulated comfort.
+
+pub mod continuous;
+pub mod sampled;
