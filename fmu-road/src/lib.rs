@@ -14,6 +14,7 @@ use fmu_core::{
 use std::path::Path;
 use vehicle::model::CORNERS;
 use vehicle::road::{Profile, Road, Side};
+use vehicle::terrain::Terrain;
 
 /// Value references: Real parameters from 0, Integer parameters from 100, Booleans from 200,
 /// outputs from 300.
@@ -31,7 +32,7 @@ struct RealParameter {
     start: f64,
     /// The plausible range, declared in the model description, where the runtime enforces it on
     /// every value set or restored: inside it every output is finite (the steepest velocity, a
-    /// 1 m bump 1 cm long at 100 m/s, is 3·10⁴ m/s).
+    /// ramp of 100 m over 1 m at 100 m/s, is 10⁴ m/s).
     min: f64,
     max: f64,
     description: &'static str,
@@ -69,8 +70,14 @@ const REALS: [RealParameter; N_REALS] = [
     real("pothole_length", "m", 0.6, [0.0, 1e4], "profile 4: length of the pothole, ramps included; 0 = a permanent step"),
     real("pothole_ramp", "m", 0.1, [0.001, 1e3], "profile 4: length of each half-cosine ramp"),
     real("fade_in", "s", 1.0, [0.0, 1e4], "profile 2: the random road is faded in over this time (the car starts at rest on a flat road)"),
+    real("ramp_rise", "m", 0.0, [-100.0, 100.0], "Terrain under every profile: the road rises this much over ramp_length from the front wheels' position at t = 0 (a constant grade), then stays at that height (0 = none)"),
+    real("ramp_length", "m", 100.0, [1.0, 1e5], "Terrain: length of the ramp"),
+    real("hill_height", "m", 0.0, [0.0, 100.0], "Terrain: peak-to-peak height of periodic hills 1/2 h (1 - cos(2 pi d / hill_length)) from the front wheels' position at t = 0 (0 = none)"),
+    real("hill_length", "m", 200.0, [10.0, 1e5], "Terrain: wavelength of the hills"),
+    real("crossfall", "m", 0.0, [-1.0, 1.0], "Terrain: height of the left track above the right one (half each side of the centre line), reached with a half-cosine over crossfall_length from the front wheels' position at t = 0 (0 = none)"),
+    real("crossfall_length", "m", 20.0, [1.0, 1e4], "Terrain: length over which the crossfall is reached"),
 ];
-const N_REALS: usize = 13;
+const N_REALS: usize = 19;
 
 /// Integer parameters: name, start, description.
 const INTEGERS: [(&str, i32, &str); 4] = [
@@ -134,7 +141,7 @@ pub fn model_description() -> ModelDescription {
         model_name: "road".into(),
         model_identifier: "road".into(),
         guid: String::new(),
-        description: "Road heights and vertical velocities under the four wheels: 1 - cos bump, ISO 8608 random road, sine sweep, pothole / step; rear wheels on the front track one wheelbase later".into(),
+        description: "Road heights and vertical velocities under the four wheels: 1 - cos bump, ISO 8608 random road, sine sweep, pothole / step, on a terrain of grade, hills and crossfall; rear wheels on the front track one wheelbase later".into(),
         version: env!("CARGO_PKG_VERSION").into(),
         capabilities: Capabilities::exact_stepping(false),
         default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3, tolerance: 1e-6 },
@@ -203,7 +210,15 @@ impl RoadFmu {
             self.real("speed"),
             self.real("wheelbase"),
             self.real("start_distance"),
-        )
+        )?
+        .with_terrain(Terrain {
+            ramp_rise: self.real("ramp_rise"),
+            ramp_length: self.real("ramp_length"),
+            hill_height: self.real("hill_height"),
+            hill_length: self.real("hill_length"),
+            crossfall: self.real("crossfall"),
+            crossfall_length: self.real("crossfall_length"),
+        })
     }
 }
 

@@ -251,7 +251,7 @@ fn every_real_parameter_is_bounded_and_the_outputs_stay_finite_at_its_bounds() {
             _ => panic!("{} declares no range", v.name),
         })
         .collect();
-    assert_eq!(reals.len(), 13);
+    assert_eq!(reals.len(), 19);
     let log = LogCapture::default();
     for (name, value) in [
         ("bump_height", 1e308),

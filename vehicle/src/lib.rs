@@ -15,6 +15,7 @@ pub mod model;
 pub mod params;
 pub mod polytope;
 pub mod road;
+pub mod terrain;
 
 pub use model::{MechanicalModel, StateSpace};
 pub use params::VehicleParams;

@@ -6,6 +6,7 @@
 //! origin: the front wheels are at `s = V t − start_distance`, the rear wheels `wheelbase`
 //! behind. `road_v = V dz/ds` exactly (closed form, no differencing).
 
+use crate::terrain::Terrain;
 use std::f64::consts::PI;
 
 /// Which track a single feature is on.
@@ -97,6 +98,8 @@ pub struct Road {
     tracks: [Vec<(f64, f64, f64)>; 2],
     /// ISO road: each track sampled on a grid, what [`Road::track`] reads.
     grids: Option<[IsoTrack; 2]>,
+    /// The long waves added to the profile (level by default): [`Road::with_terrain`].
+    pub terrain: Terrain,
 }
 
 impl Road {
@@ -187,7 +190,14 @@ impl Road {
             start_distance,
             tracks,
             grids,
+            terrain: Terrain::default(),
         })
+    }
+
+    /// This road with the long waves of `terrain` under it, checked.
+    pub fn with_terrain(self, terrain: Terrain) -> Result<Road, String> {
+        terrain.validate()?;
+        Ok(Road { terrain, ..self })
     }
 
     /// `[z_fl, z_fr, z_rl, z_rr, v_fl, v_fr, v_rl, v_rr]` at time `t` [m, m/s].
@@ -211,6 +221,23 @@ impl Road {
                     r[4 + k] = w * r[4 + k] + dw * r[k];
                     r[k] *= w;
                 }
+            }
+        }
+        if !self.terrain.is_level() {
+            // The terrain's distance runs from the front wheels' position at t = 0.
+            let d_front = self.speed * t;
+            for (k, d) in [
+                d_front,
+                d_front,
+                d_front - self.wheelbase,
+                d_front - self.wheelbase,
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let (z, dz_dd) = self.terrain.at(k % 2, d);
+                r[k] += z;
+                r[4 + k] += self.speed * dz_dd;
             }
         }
         r
@@ -849,5 +876,44 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The terrain adds to any profile, the rear wheels a wheelbase later, its velocity `V`
+    /// times its slope; a level terrain leaves the road bit for bit as it was.
+    #[test]
+    fn terrain_adds_under_every_wheel_with_the_wheelbase_delay() {
+        let terrain = Terrain {
+            ramp_rise: 0.5,
+            hill_height: 1.0,
+            crossfall: 0.06,
+            ..Terrain::default()
+        };
+        let plain = iso_road(3, 5);
+        let hilly = plain.clone().with_terrain(terrain).unwrap();
+        let (v, wb) = (plain.speed, plain.wheelbase);
+        for k in 0..400 {
+            let t = k as f64 * 0.037;
+            let (a, b) = (plain.at(t), hilly.at(t));
+            for wheel in 0..4 {
+                let d = v * t - if wheel >= 2 { wb } else { 0.0 };
+                let (z, slope) = terrain.at(wheel % 2, d);
+                assert_eq!(b[wheel], a[wheel] + z, "t = {t}, wheel {wheel}");
+                assert_eq!(
+                    b[4 + wheel],
+                    a[4 + wheel] + v * slope,
+                    "t = {t}, wheel {wheel}"
+                );
+            }
+        }
+        let level = plain.clone().with_terrain(Terrain::default()).unwrap();
+        for k in 0..100 {
+            let t = k as f64 * 0.11;
+            assert_eq!(level.at(t).map(f64::to_bits), plain.at(t).map(f64::to_bits));
+        }
+        let bad = Terrain {
+            ramp_length: -1.0,
+            ..terrain
+        };
+        assert!(plain.with_terrain(bad).unwrap_err().contains("ramp_length"));
     }
 }
