@@ -294,8 +294,16 @@ pub struct ModelDescription {
     pub variables: Vec<Variable>,
 }
 
-/// Base-unit exponents (kg, m, s, A, K, mol, cd, rad) of every unit our FMUs use.
+/// Units declared by name alone: a noise density's `√Hz` has no integer base-unit exponents,
+/// and FMI 2.0's `<BaseUnit>` is optional.
+const NAMED_UNITS: [&str; 2] = ["m/s2/sqrt(Hz)", "rad/s/sqrt(Hz)"];
+
+/// Base-unit exponents (kg, m, s, A, K, mol, cd, rad) of every unit our FMUs use (all zero for
+/// the [`NAMED_UNITS`]).
 fn base_unit(unit: &str) -> Option<[i32; 8]> {
+    if NAMED_UNITS.contains(&unit) {
+        return Some([0; 8]);
+    }
     Some(match unit {
         "m" => [0, 1, 0, 0, 0, 0, 0, 0],
         "m/s" => [0, 1, -1, 0, 0, 0, 0, 0],
@@ -472,12 +480,16 @@ impl ModelDescription {
                     .filter(|(_, e)| *e != 0)
                     .map(|(n, e)| format!(r#" {n}="{e}""#))
                     .collect();
-                writeln!(
-                    x,
-                    r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#,
-                    esc(u)
-                )
-                .unwrap();
+                if NAMED_UNITS.contains(&u) {
+                    writeln!(x, r#"    <Unit name="{}"/>"#, esc(u)).unwrap();
+                } else {
+                    writeln!(
+                        x,
+                        r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#,
+                        esc(u)
+                    )
+                    .unwrap();
+                }
             }
             writeln!(x, "  </UnitDefinitions>").unwrap();
         }

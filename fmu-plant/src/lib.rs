@@ -5,6 +5,7 @@
 //! `modelDescription.xml`) and the mapping of value references to the [`Simulator`].
 //! The physics is in `vehicle`, the exact stepping in [`simulator`].
 
+pub mod sensors;
 pub mod simulator;
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
@@ -12,6 +13,7 @@ use fmu_core::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
     ModelError, ValueReference, Variable,
 };
+use sensors::{SensorParams, Sensors, N_SENSORS, SENSORS};
 use simulator::{ActuatorParams, Simulator, N_METER};
 use std::path::Path;
 use vehicle::iso2631::METER_OUTPUTS;
@@ -41,6 +43,83 @@ pub mod vr {
     /// The vibration meter's weighted accelerations, in the order of
     /// `vehicle::iso2631::METER_OUTPUTS`.
     pub const METER: u32 = 450;
+    /// The sensor model's Real parameters, in the order of `SENSOR_PARAMETERS`.
+    pub const SENSOR: u32 = 60;
+    /// The Boolean `sensor_model` and the Integer `sensor_seed`.
+    pub const SENSOR_SWITCH: u32 = 70;
+    pub const SENSOR_SEED: u32 = 71;
+    /// `sensor_*`: what the sensors read, in the order of `sensors::SENSORS`.
+    pub const SENSOR_OUTPUT: u32 = 500;
+}
+
+/// A Real parameter of the sensor model.
+struct SensorSpec {
+    name: &'static str,
+    unit: &'static str,
+    max: f64,
+    description: &'static str,
+    get: fn(&SensorParams) -> f64,
+    set: fn(&mut SensorParams, f64),
+}
+
+/// The sensor model's Real parameters (`sensors`): noise and bias per kind of sensor, each
+/// from 0 to a bound well above any production sensor's.
+const SENSOR_PARAMETERS: [SensorSpec; 5] = [
+    SensorSpec {
+        name: "noise_height",
+        unit: "m",
+        max: 0.01,
+        description: "Sensor model: resolution of the height (stroke) sensors, standard deviation of each sample",
+        get: |p| p.noise_height,
+        set: |p, v| p.noise_height = v,
+    },
+    SensorSpec {
+        name: "noise_acceleration",
+        unit: "m/s2/sqrt(Hz)",
+        max: 1.0,
+        description: "Sensor model: noise density of the accelerometers (one-sided; a sample held over a step h has standard deviation noise / sqrt(2 h))",
+        get: |p| p.noise_acceleration,
+        set: |p, v| p.noise_acceleration = v,
+    },
+    SensorSpec {
+        name: "noise_rate",
+        unit: "rad/s/sqrt(Hz)",
+        max: 0.1,
+        description: "Sensor model: noise density of the roll and pitch rate gyros (one-sided)",
+        get: |p| p.noise_rate,
+        set: |p, v| p.noise_rate = v,
+    },
+    SensorSpec {
+        name: "bias_acceleration",
+        unit: "m/s2",
+        max: 10.0,
+        description: "Sensor model: largest accelerometer bias; each accelerometer's is drawn uniform in [-bias, bias] from sensor_seed",
+        get: |p| p.bias_acceleration,
+        set: |p, v| p.bias_acceleration = v,
+    },
+    SensorSpec {
+        name: "bias_rate",
+        unit: "rad/s",
+        max: 1.0,
+        description: "Sensor model: largest gyro bias; each gyro's is drawn uniform in [-bias, bias] from sensor_seed",
+        get: |p| p.bias_rate,
+        set: |p, v| p.bias_rate = v,
+    },
+];
+
+fn sensor_param(vr: ValueReference) -> Option<&'static SensorSpec> {
+    vr.checked_sub(vr::SENSOR)
+        .and_then(|i| SENSOR_PARAMETERS.get(i as usize))
+}
+
+/// The index among the physical outputs of what each sensor measures.
+fn sensor_rows() -> [usize; N_SENSORS] {
+    let rows = physical_outputs(&VehicleParams::default());
+    SENSORS.map(|(name, _)| {
+        rows.iter()
+            .position(|r| r.name == name)
+            .expect("every sensor measures a physical output")
+    })
 }
 
 struct ActuatorSpec {
@@ -261,6 +340,11 @@ pub struct Plant {
     outputs: Vec<f64>,
     forces: [f64; N_ACTUATORS],
     meter: [f64; N_METER],
+    sensors: Sensors,
+    /// The index among the physical outputs of what each sensor measures.
+    sensor_rows: [usize; N_SENSORS],
+    /// What the sensors read, with the outputs.
+    readings: [f64; N_SENSORS],
     outputs_valid: bool,
 }
 
@@ -281,6 +365,8 @@ impl Plant {
     fn compute_outputs(&mut self) {
         self.forces = self.sim.physical_outputs(&mut self.outputs);
         self.meter = self.sim.meter();
+        let truth = self.sensor_rows.map(|k| self.outputs[k]);
+        self.readings = self.sensors.read(&truth);
         self.outputs_valid = true;
     }
 }
@@ -421,6 +507,59 @@ impl Plant {
                 *desc,
             ));
         }
+        let sensor_defaults = SensorParams::default();
+        for (i, p) in SENSOR_PARAMETERS.iter().enumerate() {
+            vars.push(
+                Variable::real(
+                    p.name,
+                    vr::SENSOR + i as u32,
+                    Causality::Parameter,
+                    p.unit,
+                    p.description,
+                )
+                .with_start((p.get)(&sensor_defaults))
+                .with_min(0.0)
+                .with_max(p.max),
+            );
+        }
+        vars.push(
+            Variable::boolean(
+                "sensor_model",
+                vr::SENSOR_SWITCH,
+                Causality::Parameter,
+                "Sensor model on: the sensor_* outputs carry each sensor's bias and noise (off: they read the physical outputs exactly)",
+            )
+            .with_boolean_start(sensor_defaults.on),
+        );
+        vars.push(Variable::integer(
+            "sensor_seed",
+            vr::SENSOR_SEED,
+            Causality::Parameter,
+            sensor_defaults.seed as i32,
+            "Sensor model: seed of the biases and the noise (the same seed gives the same readings)",
+        ));
+        // A sensor depends on what its physical output depends on. Its bias and noise start
+        // when initialisation ends, so in Initialization Mode it reads the physical output.
+        for (k, &row) in sensor_rows().iter().enumerate() {
+            let truth = vars
+                .iter()
+                .find(|v| v.value_reference == vr::OUTPUT + row as u32)
+                .expect("the physical output")
+                .clone();
+            let mut v = truth.clone();
+            v.name = format!("sensor_{}", SENSORS[k].0);
+            v.value_reference = vr::SENSOR_OUTPUT + k as u32;
+            v.description = format!(
+                "What the {} sensor reads: {} (with bias and noise when sensor_model is on)",
+                match SENSORS[k].1 {
+                    sensors::Kind::Height => "height",
+                    sensors::Kind::Accelerometer => "accelerometer",
+                    sensors::Kind::Gyro => "gyro",
+                },
+                truth.description
+            );
+            vars.push(v);
+        }
         ModelDescription {
             model_name: "plant".into(),
             model_identifier: "plant".into(),
@@ -446,6 +585,9 @@ impl Model for Plant {
             outputs: vec![0.0; N_PHYSICAL_OUTPUTS],
             forces: [0.0; N_ACTUATORS],
             meter: [0.0; N_METER],
+            sensors: Sensors::new(SensorParams::default()),
+            sensor_rows: sensor_rows(),
+            readings: [0.0; N_SENSORS],
             outputs_valid: false,
         })
     }
@@ -481,6 +623,9 @@ impl Model for Plant {
             (spec.set)(&mut self.sim.actuator, value);
             self.sim.invalidate();
             self.invalidate_outputs();
+        } else if let Some(spec) = sensor_param(vr) {
+            (spec.set)(&mut self.sensors.params, value);
+            self.invalidate_outputs();
         } else if let Some(k) = input_index(vr) {
             let slot = if k < N_ROAD {
                 &mut self.sim.road[k]
@@ -507,6 +652,11 @@ impl Model for Plant {
         } else if (vr::METER..vr::METER + N_METER as u32).contains(&vr) {
             self.update_outputs();
             self.meter[(vr - vr::METER) as usize]
+        } else if (vr::SENSOR_OUTPUT..vr::SENSOR_OUTPUT + N_SENSORS as u32).contains(&vr) {
+            self.update_outputs();
+            self.readings[(vr - vr::SENSOR_OUTPUT) as usize]
+        } else if let Some(spec) = sensor_param(vr) {
+            (spec.get)(&self.sensors.params)
         } else if let Some(spec) = vehicle_param(vr) {
             (spec.get)(&self.sim.params)
         } else if let Some(spec) = actuator_param(vr) {
@@ -523,6 +673,25 @@ impl Model for Plant {
             // Instance::get_real only passes value references of the variable table.
             self.sim.state()[(vr - vr::STATE) as usize]
         }
+    }
+
+    fn set_integer(&mut self, _vr: ValueReference, value: i32) {
+        // The only Integer: sensor_seed (any value; its bits seed the stream).
+        self.sensors.params.seed = value as i64 as u64;
+    }
+
+    fn get_integer(&mut self, _vr: ValueReference) -> i32 {
+        self.sensors.params.seed as i64 as i32
+    }
+
+    fn set_boolean(&mut self, _vr: ValueReference, value: bool) {
+        // The only Boolean: sensor_model.
+        self.sensors.params.on = value;
+        self.invalidate_outputs();
+    }
+
+    fn get_boolean(&mut self, _vr: ValueReference) -> bool {
+        self.sensors.params.on
     }
 
     fn set_input_derivative(&mut self, vr: ValueReference, value: f64) {
@@ -545,6 +714,7 @@ impl Model for Plant {
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
         self.check_parameters()?;
         self.sim.start(start_time);
+        self.sensors.start();
         self.invalidate_outputs();
         Ok(())
     }
@@ -555,7 +725,9 @@ impl Model for Plant {
             // Too long for the car's stiffness: shorter steps may be taken (fmi2Discard).
             simulator::StepError::Exponential { .. } => ModelError::discard(e.to_string()),
             simulator::StepError::NonFinite(_) => ModelError::error(e.to_string()),
-        })
+        })?;
+        self.sensors.advance(step);
+        Ok(())
     }
 
     fn save(&self, out: &mut StateWriter) {
@@ -570,12 +742,28 @@ impl Model for Plant {
         out.f64s(&params);
         out.f64s(&act);
         out.f64s(&self.sim.save());
+        let sensor_params: Vec<f64> = SENSOR_PARAMETERS
+            .iter()
+            .map(|s| (s.get)(&self.sensors.params))
+            .collect();
+        out.f64s(&sensor_params);
+        out.bool(self.sensors.params.on);
+        out.u64(self.sensors.params.seed);
+        self.sensors.save(out);
     }
 
     fn restore(&mut self, input: &mut StateReader) -> Result<(), ModelError> {
         let params = input.f64s_exact(PARAMETERS.len(), "vehicle parameters")?;
         let act = input.f64s_exact(ACTUATOR_PARAMETERS.len(), "actuator parameters")?;
         let data = input.f64s()?;
+        let mut sensor_params = SensorParams::default();
+        let values = input.f64s_exact(SENSOR_PARAMETERS.len(), "sensor parameters")?;
+        for (s, v) in SENSOR_PARAMETERS.iter().zip(values) {
+            (s.set)(&mut sensor_params, v);
+        }
+        sensor_params.on = input.bool()?;
+        sensor_params.seed = input.u64()?;
+        let sensors = Sensors::restored(sensor_params, input)?;
         input.finish()?;
         let mut p = VehicleParams::default();
         for (s, v) in PARAMETERS.iter().zip(&params) {
@@ -596,6 +784,7 @@ impl Model for Plant {
         } else {
             self.sim = sim;
         }
+        self.sensors = sensors;
         self.invalidate_outputs();
         Ok(())
     }

@@ -455,6 +455,91 @@ fn a_force_limit_of_zero_is_accepted_and_the_actuator_gives_no_force() {
     );
 }
 
+/// The sensor model through the C API: off, every `sensor_*` output is its physical output to
+/// the last bit; on, the readings differ from the truth by a bias within its bound plus noise,
+/// repeat from the seed, and a state saved mid-run continues bit-identically in a fresh
+/// instance.
+#[test]
+fn sensors_read_the_truth_when_off_and_repeat_their_noise_from_the_seed_and_a_state() {
+    let log = LogCapture::default();
+    let sensors: Vec<&str> = fmu_plant::sensors::SENSORS.iter().map(|s| s.0).collect();
+    let drive = |p: &Plant, k: usize| {
+        let t = k as f64 * 1e-3;
+        p.set("road_z_fl", 0.01 * (7.0 * t).sin());
+        p.set("road_z_rr", 0.01 * (5.0 * t).cos() - 0.01);
+        p.set("u_seat", 200.0 * (3.0 * t).sin());
+        assert_eq!(p.step(t, 1e-3), OK);
+    };
+    let readings = |p: &Plant| -> Vec<f64> {
+        sensors
+            .iter()
+            .map(|n| p.get(&format!("sensor_{n}")))
+            .collect()
+    };
+    let truth = |p: &Plant| -> Vec<f64> { sensors.iter().map(|n| p.get(n)).collect() };
+    let off = Plant::new(&log);
+    off.init(0.0);
+    for k in 0..200 {
+        drive(&off, k);
+        let (r, t) = (readings(&off), truth(&off));
+        assert!(
+            r.iter().zip(&t).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "step {k}"
+        );
+    }
+    let switched_on = |seed: i32| {
+        let p = Plant::new(&log);
+        let (vb, vi) = (p.vr("sensor_model"), p.vr("sensor_seed"));
+        assert_eq!(unsafe { fmi2SetBoolean(p.c, &vb, 1, &1) }, OK);
+        assert_eq!(unsafe { fmi2SetInteger(p.c, &vi, 1, &seed) }, OK);
+        p.init(0.0);
+        p
+    };
+    let (a, b, other) = (switched_on(11), switched_on(11), switched_on(12));
+    let mut error_sum = vec![0.0; sensors.len()];
+    for k in 0..300 {
+        for p in [&a, &b, &other] {
+            drive(p, k);
+        }
+        let (ra, rb) = (readings(&a), readings(&b));
+        assert!(
+            ra.iter().zip(&rb).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "step {k}"
+        );
+        assert_ne!(ra, readings(&other), "another seed, other readings");
+        for (e, (r, t)) in error_sum.iter_mut().zip(ra.iter().zip(truth(&a))) {
+            *e += r - t;
+        }
+    }
+    // The mean error is the bias (within the noise's 4 σ / √300), itself within its bound.
+    let defaults = fmu_plant::sensors::SensorParams::default();
+    for (i, (name, kind)) in fmu_plant::sensors::SENSORS.iter().enumerate() {
+        let bound = match kind {
+            fmu_plant::sensors::Kind::Height => 0.0,
+            fmu_plant::sensors::Kind::Accelerometer => defaults.bias_acceleration,
+            fmu_plant::sensors::Kind::Gyro => defaults.bias_rate,
+        };
+        let sigma = defaults.sigma(*kind, 1e-3);
+        let mean = error_sum[i] / 300.0;
+        assert!(
+            mean.abs() <= bound + 4.0 * sigma / 300f64.sqrt(),
+            "{name}: {mean}"
+        );
+    }
+    let bytes = serialized(&a);
+    let c = Plant::new(&log);
+    assert_eq!(restore_serialized(&c, &bytes), OK, "{:?}", log.messages());
+    for k in 300..400 {
+        drive(&a, k);
+        drive(&c, k);
+        let (ra, rc) = (readings(&a), readings(&c));
+        assert!(
+            ra.iter().zip(&rc).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "step {k}"
+        );
+    }
+}
+
 /// The state as a byte string, from `fmi2GetFMUstate` and `fmi2SerializeFMUstate`.
 fn serialized(p: &Plant) -> Vec<Fmi2Byte> {
     let mut s: Fmi2FmuState = null_mut();

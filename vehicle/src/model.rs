@@ -26,7 +26,7 @@ pub const N_ROAD: usize = 8;
 /// Number of actuators: four corners (between body and wheel) and the seat (between body and seat).
 pub const N_ACTUATORS: usize = 5;
 /// Number of rows of [`physical_outputs`].
-pub const N_PHYSICAL_OUTPUTS: usize = 20;
+pub const N_PHYSICAL_OUTPUTS: usize = 24;
 
 /// Index of each generalised coordinate in `q`.
 pub mod coord {
@@ -518,6 +518,26 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
                 d_u: [0.0; 5],
             });
         }
+    }
+    // What a body accelerometer above each wheel reads (at the suspension's top mount): that
+    // body point's height is the row `body_point` of `q` (the suspension element's body part),
+    // so its acceleration is that row applied to `q̈`, the velocity rows of `A` and `B`.
+    for (i, corner) in CORNERS.iter().enumerate() {
+        let top_mount = body_point(corner_positions(p)[i].0, corner_positions(p)[i].1);
+        let combine = |m: &nalgebra::DMatrix<f64>, k: usize| -> f64 {
+            (0..N_DOF).map(|j| top_mount[j] * m[(N_DOF + j, k)]).sum()
+        };
+        rows.push(OutputRow {
+            name: format!("a_body_{corner}"),
+            unit: "m/s2",
+            description: format!(
+                "Body vertical acceleration above the {} wheel (an accelerometer at the suspension's top mount)",
+                corner.to_uppercase()
+            ),
+            c: std::array::from_fn(|k| combine(&ss.a, k)),
+            d_r: std::array::from_fn(|k| combine(&ss.b_r, k)),
+            d_u: std::array::from_fn(|k| combine(&ss.b_u, k)),
+        });
     }
     assert_eq!(rows.len(), N_PHYSICAL_OUTPUTS);
     rows

@@ -308,6 +308,23 @@ fn outputs_are_consistent_with_the_state_equation() {
     // Stroke FL by hand: body point at (L2, w1) minus the FL wheel.
     let stroke = x[0] + p.w1 * x[1] + p.l2 * x[2] - x[4];
     assert!((eval("stroke_fl") - stroke).abs() < 1e-15);
+    // The body accelerometers above the wheels, by hand from the body's accelerations: the
+    // left side rises with roll, the front with pitch.
+    let q_ddot = |j: usize| xdot[N_DOF + j];
+    for (corner, (x_pos, y_pos)) in [
+        ("fl", (p.l2, p.w1)),
+        ("fr", (p.l2, -p.w2)),
+        ("rl", (-p.l1, p.w1)),
+        ("rr", (-p.l1, -p.w2)),
+    ] {
+        let by_hand =
+            q_ddot(coord::HEAVE) + y_pos * q_ddot(coord::ROLL) + x_pos * q_ddot(coord::PITCH);
+        let read = eval(&format!("a_body_{corner}"));
+        assert!(
+            (read - by_hand).abs() < 1e-12 * by_hand.abs().max(1.0),
+            "{corner}: {read} vs {by_hand}"
+        );
+    }
     // Seat stroke: z9 = z_seat − z − s2 θ + s1 φ.
     let z9 = x[3] - x[0] - p.s2 * x[2] + p.s1 * x[1];
     assert!((eval("stroke_seat") - z9).abs() < 1e-15);
