@@ -1,6 +1,5 @@
-//! What a production car's sensors read: height sensors on the four suspensions and the seat,
-//! vertical accelerometers on the body above each wheel and on the seat, roll and pitch rate
-//! gyros. Each reads its physical output exactly while the sensor model is off (the default);
+//! The sensor model of the sensors a production car has ([`vehicle::sensors`]). Each reads its
+//! physical output exactly while the sensor model is off (the default);
 //! switched on, each adds a bias and white noise, deterministic from a seed, so that a master
 //! tests a controller with the signals a car gives it and a run repeats to the last bit.
 //!
@@ -15,32 +14,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-/// The kind of a sensor: which noise and bias it has.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
-    Height,
-    Accelerometer,
-    Gyro,
-}
-
-/// Number of sensors.
-pub const N_SENSORS: usize = 12;
-
-/// The sensors: the plant output each reads (its own output is `sensor_<name>`) and its kind.
-pub const SENSORS: [(&str, Kind); N_SENSORS] = [
-    ("stroke_fl", Kind::Height),
-    ("stroke_fr", Kind::Height),
-    ("stroke_rl", Kind::Height),
-    ("stroke_rr", Kind::Height),
-    ("stroke_seat", Kind::Height),
-    ("a_body_fl", Kind::Accelerometer),
-    ("a_body_fr", Kind::Accelerometer),
-    ("a_body_rl", Kind::Accelerometer),
-    ("a_body_rr", Kind::Accelerometer),
-    ("a_seat", Kind::Accelerometer),
-    ("omega_roll", Kind::Gyro),
-    ("omega_pitch", Kind::Gyro),
-];
+pub use vehicle::sensors::{Kind, N_SENSORS, SENSORS};
 
 /// The sensor model's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -15,6 +15,7 @@ pub mod model;
 pub mod params;
 pub mod polytope;
 pub mod road;
+pub mod sensors;
 pub mod terrain;
 
 pub use model::{MechanicalModel, StateSpace};
