@@ -118,9 +118,10 @@ pub struct Scenario {
     pub step: f64,
     /// Road FMU parameters by name (numbers for Real and Integer, true/false for Boolean).
     pub road: BTreeMap<String, serde_json::Value>,
-    /// Plant parameter overrides by name (mass, delay, fault, force limits …); a controller
-    /// that has a parameter of the same name (an anti-windup controller's force limits) gets it
-    /// too.
+    /// Plant parameter overrides by name (mass, delay, fault, force limits, the sensor model
+    /// …): numbers, a whole number for an Integer (`sensor_seed`), 0 or 1 for a Boolean
+    /// (`sensor_model`); a controller that has a parameter of the same name (an anti-windup
+    /// controller's force limits) gets it too.
     #[serde(default)]
     pub plant: BTreeMap<String, f64>,
     /// Controller parameters by name (numbers, or true/false for Boolean), e.g.
@@ -360,13 +361,29 @@ impl Fmu {
         };
         Ok(match elem {
             ScalarVariableElement::Real(_) => Typed::Real(value.as_f64().ok_or_else(bad)?),
+            // A scenario's plant overrides are numbers: an Integer takes a whole number, a
+            // Boolean 0 or 1 (as well as true / false where the file can say so).
             ScalarVariableElement::Integer(_) => Typed::Integer(
                 value
                     .as_i64()
+                    .or_else(|| {
+                        value
+                            .as_f64()
+                            .filter(|v| v.fract() == 0.0 && v.abs() <= i32::MAX as f64)
+                            .map(|v| v as i64)
+                    })
                     .and_then(|v| i32::try_from(v).ok())
                     .ok_or_else(bad)?,
             ),
-            ScalarVariableElement::Boolean(_) => Typed::Boolean(value.as_bool().ok_or_else(bad)?),
+            ScalarVariableElement::Boolean(_) => Typed::Boolean(
+                value
+                    .as_bool()
+                    .or_else(|| {
+                        let v = value.as_f64()?;
+                        (v == 0.0 || v == 1.0).then_some(v == 1.0)
+                    })
+                    .ok_or_else(bad)?,
+            ),
             _ => return Err(bad()),
         })
     }

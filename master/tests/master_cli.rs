@@ -83,11 +83,19 @@ fn a_controller_reading_what_the_plant_lacks_is_refused() {
     // A bad road parameter value fails initialisation, not silently, and the error quotes
     // the road FMU's own explanation from its log.
     let mut s = scenario("bump");
-    s.road.insert("speed".into(), serde_json::json!(-3.0));
+    s.road.insert("side".into(), serde_json::json!(3));
     let e = run(&dist(), &s, None).err().unwrap().0;
     assert!(
         e.contains("road: initialisation failed")
-            && e.contains("road says: fmi2ExitInitializationMode: speed must be finite and > 0"),
+            && e.contains("road says: fmi2ExitInitializationMode: side must be 0 (left)"),
+        "{e}"
+    );
+    // Outside its declared range, refused by the road's setter, with the range.
+    let mut s = scenario("bump");
+    s.road.insert("speed".into(), serde_json::json!(-3.0));
+    let e = run(&dist(), &s, None).err().unwrap().0;
+    assert!(
+        e.contains("road says: fmi2SetReal: value -3 of 'speed' is below its minimum 0.1"),
         "{e}"
     );
     // A value refused at the setter quotes the setter's message.
@@ -365,4 +373,33 @@ fn mistakes_get_suggestions_and_controllers_take_paths_and_parameters() {
         )),
         "{text}"
     );
+}
+
+/// A scenario's plant overrides are numbers: the plant's Boolean `sensor_model` takes 0 or 1
+/// and its Integer `sensor_seed` a whole number; anything else is refused with the parameter's
+/// name, and a run with the sensor model switched on this way runs.
+#[test]
+fn plant_overrides_set_boolean_and_integer_parameters_from_numbers() {
+    use master::cosim::Typed;
+    let plant = Fmu::load(&dist(), "plant").unwrap();
+    let typed = |name: &str, v: f64| plant.typed(name, &serde_json::json!(v));
+    assert_eq!(typed("sensor_model", 1.0).unwrap(), Typed::Boolean(true));
+    assert_eq!(typed("sensor_model", 0.0).unwrap(), Typed::Boolean(false));
+    assert_eq!(typed("sensor_seed", 42.0).unwrap(), Typed::Integer(42));
+    for (name, v) in [
+        ("sensor_model", 0.5),
+        ("sensor_seed", 1.5),
+        ("sensor_seed", 1e12),
+    ] {
+        let e = typed(name, v).unwrap_err().0;
+        assert!(
+            e.contains(&format!("parameter '{name}' cannot take")),
+            "{e}"
+        );
+    }
+    let mut s = scenario("bump");
+    s.duration = 0.5;
+    s.plant.insert("sensor_model".into(), 1.0);
+    s.plant.insert("sensor_seed".into(), 3.0);
+    run(&dist(), &s, Some("hinf_of")).unwrap();
 }
