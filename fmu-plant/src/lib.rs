@@ -52,23 +52,14 @@ pub mod vr {
     pub const SENSOR_OUTPUT: u32 = 500;
 }
 
-/// A Real parameter of the sensor model.
-struct SensorSpec {
-    name: &'static str,
-    unit: &'static str,
-    max: f64,
-    description: &'static str,
-    get: fn(&SensorParams) -> f64,
-    set: fn(&mut SensorParams, f64),
-}
-
 /// The sensor model's Real parameters (`sensors`): noise and bias per kind of sensor, each
 /// from 0 to a bound well above any production sensor's.
 const SENSOR_PARAMETERS: [SensorSpec; 5] = [
     SensorSpec {
         name: "noise_height",
         unit: "m",
-        max: 0.01,
+        min: 0.0,
+        max: Some(0.01),
         description: "Sensor model: resolution of the height (stroke) sensors, standard deviation of each sample",
         get: |p| p.noise_height,
         set: |p, v| p.noise_height = v,
@@ -76,7 +67,8 @@ const SENSOR_PARAMETERS: [SensorSpec; 5] = [
     SensorSpec {
         name: "noise_acceleration",
         unit: "m/s2/sqrt(Hz)",
-        max: 1.0,
+        min: 0.0,
+        max: Some(1.0),
         description: "Sensor model: noise density of the accelerometers (one-sided; a sample held over a step h has standard deviation noise / sqrt(2 h))",
         get: |p| p.noise_acceleration,
         set: |p, v| p.noise_acceleration = v,
@@ -84,7 +76,8 @@ const SENSOR_PARAMETERS: [SensorSpec; 5] = [
     SensorSpec {
         name: "noise_rate",
         unit: "rad/s/sqrt(Hz)",
-        max: 0.1,
+        min: 0.0,
+        max: Some(0.1),
         description: "Sensor model: noise density of the roll and pitch rate gyros (one-sided)",
         get: |p| p.noise_rate,
         set: |p, v| p.noise_rate = v,
@@ -92,7 +85,8 @@ const SENSOR_PARAMETERS: [SensorSpec; 5] = [
     SensorSpec {
         name: "bias_acceleration",
         unit: "m/s2",
-        max: 10.0,
+        min: 0.0,
+        max: Some(10.0),
         description: "Sensor model: largest accelerometer bias; each accelerometer's is drawn uniform in [-bias, bias] from sensor_seed",
         get: |p| p.bias_acceleration,
         set: |p, v| p.bias_acceleration = v,
@@ -100,7 +94,8 @@ const SENSOR_PARAMETERS: [SensorSpec; 5] = [
     SensorSpec {
         name: "bias_rate",
         unit: "rad/s",
-        max: 1.0,
+        min: 0.0,
+        max: Some(1.0),
         description: "Sensor model: largest gyro bias; each gyro's is drawn uniform in [-bias, bias] from sensor_seed",
         get: |p| p.bias_rate,
         set: |p, v| p.bias_rate = v,
@@ -122,15 +117,41 @@ fn sensor_rows() -> [usize; N_SENSORS] {
     })
 }
 
-struct ActuatorSpec {
+/// A Real parameter of a part of the plant `P` (its actuators, its sensors): its variable and
+/// how to read and write it. The runtime enforces the declared `min` and `max`.
+struct ParamSpec<P> {
     name: &'static str,
     unit: &'static str,
     description: &'static str,
     min: f64,
     max: Option<f64>,
-    get: fn(&ActuatorParams) -> f64,
-    set: fn(&mut ActuatorParams, f64),
+    get: fn(&P) -> f64,
+    set: fn(&mut P, f64),
 }
+
+impl<P> ParamSpec<P> {
+    /// The parameter's variable, with its start value from `defaults`.
+    fn variable(&self, value_reference: ValueReference, defaults: &P) -> Variable {
+        let mut v = Variable::real(
+            self.name,
+            value_reference,
+            Causality::Parameter,
+            self.unit,
+            self.description,
+        )
+        .with_start((self.get)(defaults));
+        if self.min.is_finite() {
+            v = v.with_min(self.min);
+        }
+        if let Some(m) = self.max {
+            v = v.with_max(m);
+        }
+        v
+    }
+}
+
+type ActuatorSpec = ParamSpec<ActuatorParams>;
+type SensorSpec = ParamSpec<SensorParams>;
 
 macro_rules! act {
     ($name:literal, $unit:literal, $min:expr, $max:expr, $desc:literal, |$p:ident| $field:expr) => {
@@ -391,21 +412,7 @@ impl Plant {
             vars.push(v);
         }
         for (i, s) in ACTUATOR_PARAMETERS.iter().enumerate() {
-            let mut v = Variable::real(
-                s.name,
-                vr::ACTUATOR + i as u32,
-                Causality::Parameter,
-                s.unit,
-                s.description,
-            )
-            .with_start((s.get)(&act_defaults));
-            if s.min.is_finite() {
-                v = v.with_min(s.min);
-            }
-            if let Some(m) = s.max {
-                v = v.with_max(m);
-            }
-            vars.push(v);
+            vars.push(s.variable(vr::ACTUATOR + i as u32, &act_defaults));
         }
         // The static equilibrium depends on masses, springs, geometry and gravity, not on the
         // dampers or the inertias.
@@ -509,18 +516,7 @@ impl Plant {
         }
         let sensor_defaults = SensorParams::default();
         for (i, p) in SENSOR_PARAMETERS.iter().enumerate() {
-            vars.push(
-                Variable::real(
-                    p.name,
-                    vr::SENSOR + i as u32,
-                    Causality::Parameter,
-                    p.unit,
-                    p.description,
-                )
-                .with_start((p.get)(&sensor_defaults))
-                .with_min(0.0)
-                .with_max(p.max),
-            );
+            vars.push(p.variable(vr::SENSOR + i as u32, &sensor_defaults));
         }
         vars.push(
             Variable::boolean(
@@ -599,18 +595,8 @@ impl Model for Plant {
                 .set(spec.name, value)
                 .map_err(|e| ModelError::error(e.to_string()));
         }
-        if let Some(spec) = actuator_param(vr) {
-            // FMI's bounds are inclusive: the declared `min` and `max` are allowed values.
-            if value < spec.min || spec.max.is_some_and(|m| value > m) {
-                let lower = format!(">= {}", spec.min);
-                let upper = spec.max.map(|m| format!(" and <= {m}")).unwrap_or_default();
-                return Err(format!(
-                    "{} must be {lower}{upper} {}, got {value}",
-                    spec.name, spec.unit
-                )
-                .into());
-            }
-        }
+        // The actuator and sensor parameters' bounds are their declared min and max, which
+        // the runtime checks (inclusive, as FMI's are).
         Ok(())
     }
 
