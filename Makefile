@@ -3,6 +3,7 @@
 #              closed-loop comparison (results/report.md) and print its summary
 # `make test`  every test: rustfmt and clippy, Rust (unit + integration, incl. the fmi crate loading
 #              dist/) and pytest
+# `make check`  the quick inner loop: rustfmt, clippy and every crate's unit tests (no FMUs built)
 # `make bench` benchmarks (criterion)
 # `make bench-floor` (opt-in) the closed loop of `make bench` with the FMUs' products free (bench/floor.py)
 # `make CROSS=0 …` the fast path: this machine's linux64 libraries only (no win64, no ARM)
@@ -71,7 +72,7 @@ PLATFORM_FMUS := dist/plant.fmu
 endif
 RUST_SOURCES := $(shell find linsys vehicle fmu-core fmu-plant fmu-controller controller-file fmu-road fmu-pack synth master -name '*.rs' -o -name '*.json' -o -name Cargo.toml) Cargo.toml
 
-.PHONY: all setup fmus harnesses validate compare sweep constrained thesis test lint test-rust test-python bench bench-floor descriptions schemas readme clean
+.PHONY: all setup fmus harnesses validate compare sweep constrained thesis test check lint test-rust test-python bench bench-floor descriptions schemas readme clean
 
 all: fmus validate compare sweep
 	@echo
@@ -231,6 +232,10 @@ readme: descriptions schemas $(STAMP)/synth $(STAMP)/thesis compare
 	./target/release/fmu-pack splice --from results/report.md --section "$(LIMITS_SECTION)" --readme README.md --tag limits
 
 test: lint test-rust test-python
+
+# The quick inner loop: what needs no FMU (format, lints, the unit tests next to the code).
+check: lint
+	$(CARGO) test --workspace --release --lib
 
 # The tree stays rustfmt-formatted and clippy-clean: a warning fails the tests.
 lint: | $(STAMP)/apt
