@@ -197,10 +197,8 @@ impl RoadFmu {
             }
             3 => Profile::SineSweep { amplitude: self.real("sweep_amplitude"), f_start: self.real("sweep_f_start"), f_end: self.real("sweep_f_end"), duration: self.real("sweep_duration"), side },
             4 => {
+                // Never negative: its declared minimum 0, enforced by the runtime.
                 let length = self.real("pothole_length");
-                if length < 0.0 {
-                    return Err(format!("pothole_length must be >= 0 (0 = a permanent step), got {length}"));
-                }
                 Profile::Pothole { depth: self.real("pothole_depth"), length: if length == 0.0 { f64::INFINITY } else { length }, ramp: self.real("pothole_ramp"), side }
             }
             other => return Err(format!("profile must be 1 (bump), 2 (ISO 8608), 3 (sine sweep) or 4 (pothole/step), got {other}")),

@@ -367,9 +367,10 @@ impl Fmu {
                 value
                     .as_i64()
                     .or_else(|| {
+                        // `as` saturates: out of i32's range stays out of it for try_from.
                         value
                             .as_f64()
-                            .filter(|v| v.fract() == 0.0 && v.abs() <= i32::MAX as f64)
+                            .filter(|v| v.fract() == 0.0)
                             .map(|v| v as i64)
                     })
                     .and_then(|v| i32::try_from(v).ok())

@@ -98,8 +98,9 @@ pub struct Road {
     tracks: [Vec<(f64, f64, f64)>; 2],
     /// ISO road: each track sampled on a grid, what [`Road::track`] reads.
     grids: Option<[IsoTrack; 2]>,
-    /// The long waves added to the profile (level by default): [`Road::with_terrain`].
-    pub terrain: Terrain,
+    /// The long waves added to the profile (level by default): [`Road::with_terrain`], which
+    /// checks them.
+    terrain: Terrain,
 }
 
 impl Road {
