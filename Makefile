@@ -49,8 +49,10 @@ CROSS_CRATES := -p fmu-road -p fmu-plant -p fmu-controller -p fmu-core --lib --e
 ZIG := PATH=$(CURDIR)/$(VENV)/bin:$$PATH cargo-zigbuild zigbuild --release --target-dir $(CROSS_DIR)
 HARNESS_CC := -std=gnu99 -O2 -Wall -Wextra -Werror
 
-# The variants, as synth's registry lists them (`synth --list`).
-CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
+# The variants, as synth's registry lists them (`synth --list`), and those with a thesis design
+# (`synth --list-thesis`; `skyhook` is a comfort baseline only).
+CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of skyhook
+THESIS_CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
 FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
 ifeq ($(CROSS),1)
@@ -93,15 +95,15 @@ compare: $(FMU_FILES) $(STAMP)/release
 # over scenarios/ into results/thesis/report.md. `make test` builds their FMUs: the tests of the
 # H-inf machinery (Riccati, SciPy and co-simulation references) check them.
 thesis: $(STAMP)/thesis-fmus
-	./target/release/master --dist dist/thesis compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results/thesis --designs dist/thesis/synthesis.json
+	./target/release/master --dist dist/thesis compare --scenarios scenarios --controllers $(call commas,$(THESIS_CONTROLLERS)) --out results/thesis --designs dist/thesis/synthesis.json
 
 $(STAMP)/thesis: $(STAMP)/release synth/designs/thesis.json
-	./target/release/synth --design synth/designs/thesis.json --out dist/thesis $(CONTROLLERS)
+	./target/release/synth --design synth/designs/thesis.json --out dist/thesis $(THESIS_CONTROLLERS)
 	@touch $@
 
 $(STAMP)/thesis-fmus: $(STAMP)/thesis dist/road.fmu dist/plant.fmu
 	cp dist/road.fmu dist/plant.fmu dist/thesis/
-	for v in $(CONTROLLERS); do \
+	for v in $(THESIS_CONTROLLERS); do \
 	  ./target/release/fmu-pack fmu --lib target/release/libfmu_controller.so --resources dist/thesis/$$v --out dist/thesis/$$v.fmu || exit 1; done
 	@touch $@
 
@@ -224,12 +226,14 @@ schemas: $(STAMP)/release
 # comparison is stale).
 COMPARISON_SECTION := \#\# Summary: W_k RMS seat acceleration [m/s²]
 LIMITS_SECTION := \#\# Limits and model validity
+SPLIT_SECTION := \#\# Where the comfort comes from: body control and seat isolation
 readme: descriptions schemas $(STAMP)/synth $(STAMP)/thesis compare
 	./target/release/fmu-pack splice --from dist/synthesis.md --readme README.md --tag synthesis
 	./target/release/fmu-pack splice --from dist/thesis/gamma.md --readme README.md --tag gamma
 	./target/release/fmu-pack splice --from dist/car.md --readme README.md --tag modes
 	./target/release/fmu-pack splice --from results/report.md --section "$(COMPARISON_SECTION)" --readme README.md --tag comparison
 	./target/release/fmu-pack splice --from results/report.md --section "$(LIMITS_SECTION)" --readme README.md --tag limits
+	./target/release/fmu-pack splice --from results/report.md --section "$(SPLIT_SECTION)" --readme README.md --tag split
 
 test: lint test-rust test-python
 

@@ -543,7 +543,7 @@ impl Plant {
                 .expect("the physical output")
                 .clone();
             let mut v = truth.clone();
-            v.name = format!("sensor_{}", SENSORS[k].0);
+            v.name = format!("{}{}", sensors::PREFIX, SENSORS[k].0);
             v.value_reference = vr::SENSOR_OUTPUT + k as u32;
             v.description = format!(
                 "What the {} sensor reads: {} (with bias and noise when sensor_model is on)",

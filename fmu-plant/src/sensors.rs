@@ -14,7 +14,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-pub use vehicle::sensors::{Kind, N_SENSORS, SENSORS};
+pub use vehicle::sensors::{Kind, N_SENSORS, PREFIX, SENSORS};
 
 /// The sensor model's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -12,7 +12,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use master::cosim::{run, MasterError, Scenario};
 use master::report::{
-    design_table, figures, limits_table, load_designs, plot, scenario_table, summary_table, Figures,
+    design_table, figures, limits_table, load_designs, plot, scenario_table, split_table,
+    summary_table, Figures,
 };
 use master::structure::Loop;
 use rayon::prelude::*;
@@ -259,6 +260,11 @@ fn compare(
     if let Some(t) = &design_table {
         report += "## The designs: certificates and comfort in their own scenario\n\nWhat each design claims (γ, or the W_k seat RMS its certificate predicts on its design road), what is certified over its uncertainty, and the synthesis time, from `synth` (`dist/synthesis.json`, certificates in `dist/<variant>.certificate.json`); W_k RMS seat acceleration from the runs below, against the passive car and against the design's nominal counterpart in the same scenario.\n\n";
         report += t;
+        report += "\n";
+    }
+    if let Some(t) = split_table(scenarios, &all, controllers) {
+        report += "## Where the comfort comes from: body control and seat isolation\n\nThe same class C road with every actuator (`iso_c`), with the corner actuators alone (`seat_lost`: body control; the seat rides on its passive spring and damper) and with the seat actuator alone (`corners_lost`: seat isolation on a passive body). W_k RMS seat acceleration [m/s²] and W_e RMS roll and pitch acceleration [rad/s²], each against the passive car's.\n\n";
+        report += &t;
         report += "\n";
     }
     report += &format!("## Limits and model validity\n\nRuns marked ⚠ above: a wheel that leaves the road (its tyre load down to zero, where the linear tyre model no longer holds), a suspension stroke beyond the scenario's `stroke_max` ({} cm unless it says otherwise), or actuators at their force limits (the share of the time any one is: its command, delayed by the plant's `tau`, at or beyond `u_max` or `u_max_seat`). Over each scenario's metrics window.\n\n{}\n", 100.0 * master::cosim::DEFAULT_STROKE_MAX, limits_table(scenarios, &all));

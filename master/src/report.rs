@@ -274,6 +274,58 @@ pub fn summary_table(
     t
 }
 
+/// The scenarios of [`split_table`]: every actuator, the corner actuators alone (the seat's
+/// lost), the seat actuator alone (every corner's lost), on the same road.
+pub const SPLIT_SCENARIOS: [&str; 3] = ["iso_c", "seat_lost", "corners_lost"];
+
+fn run_of<'a>(results: &'a [(String, Figures)], name: &str) -> Option<&'a Figures> {
+    results.iter().find(|(n, _)| n == name).map(|(_, f)| f)
+}
+
+/// Where each controller's comfort comes from: body control (the corner actuators alone) and
+/// seat isolation (the seat actuator alone) beside every actuator, from the runs of
+/// [`SPLIT_SCENARIOS`] (`None` unless all three were run). Each figure also as % of the
+/// passive car's in the same scenario, ⚠ where the run breaks a limit.
+pub fn split_table(
+    scenarios: &[Scenario],
+    results: &[Vec<(String, Figures)>],
+    controllers: &[String],
+) -> Option<String> {
+    let [all, corners, seat] = SPLIT_SCENARIOS.map(|name| {
+        scenarios
+            .iter()
+            .position(|s| s.name == name)
+            .map(|k| (&scenarios[k], &results[k][..]))
+    });
+    let runs = [all?, corners?, seat?];
+    let mut t = String::from(
+        "| controller | every actuator: W_k seat | corner actuators alone: W_k seat | W_e roll | W_e pitch | seat actuator alone: W_k seat |\n|---|---|---|---|---|---|\n",
+    );
+    for name in controllers {
+        let cell = |k: usize, value: fn(&Figures) -> f64| {
+            let (scenario, r) = runs[k];
+            match (run_of(r, name), run_of(r, "passive")) {
+                (Some(f), Some(p)) => format!(
+                    "{:.4} ({}){}",
+                    value(f),
+                    pct(value(f), value(p)),
+                    mark(f, scenario)
+                ),
+                _ => "-".into(),
+            }
+        };
+        t += &format!(
+            "| `{name}` | {} | {} | {} | {} | {} |\n",
+            cell(0, |f| f.wk_rms_seat),
+            cell(1, |f| f.wk_rms_seat),
+            cell(1, |f| f.we_rms_roll),
+            cell(1, |f| f.we_rms_pitch),
+            cell(2, |f| f.wk_rms_seat),
+        );
+    }
+    Some(t)
+}
+
 const COLORS: [RGBColor; 9] = [
     BLACK,
     RGBColor(31, 119, 180),

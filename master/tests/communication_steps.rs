@@ -93,9 +93,19 @@ fn each_certificate_says_at_which_communication_steps_its_loop_is_stable() {
                 "{variant} at {stable} s: {:?}",
                 r.warnings
             );
+            // As calm as its certificate predicts the held loop there (one 30 s seed is not the
+            // road's mean: within a few per cent), and well below the passive car.
+            let predicted = steps["checked"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|s| s["step_s"].as_f64() == Some(stable))
+                .and_then(|s| s["comfort"]["nominal"]["recorded_wk_rms_seat_m_s2"].as_f64())
+                .unwrap_or_else(|| panic!("{variant}: no held prediction at {stable} s"));
             assert!(
-                !saturated && calm < 0.2 * passive,
-                "{variant} at {stable} s (certified stable): W_k seat {calm}, saturated {saturated}"
+                !saturated && calm < 1.5 * predicted && calm < 0.5 * passive,
+                "{variant} at {stable} s (certified stable): W_k seat {calm} (predicted \
+                 {predicted}, passive {passive}), saturated {saturated}"
             );
             let mut line = format!("{variant}: stable at {stable} s, W_k seat {calm:.4}");
             // A robust design's range holds at the ends of its uncertainty too (first and last

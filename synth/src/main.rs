@@ -30,14 +30,21 @@ struct Cli {
     /// Print the variants' names, one per line, and exit.
     #[arg(long)]
     list: bool,
+    /// Print the names of the variants with a thesis design (`thesis.json`), and exit.
+    #[arg(long)]
+    list_thesis: bool,
     /// Variants to synthesise (all when none is given).
     variants: Vec<String>,
 }
 
 fn run(cli: Cli) -> Result<(), SynthError> {
-    if cli.list {
-        for v in registry::VARIANTS.iter() {
-            println!("{}", v.name);
+    if cli.list || cli.list_thesis {
+        let names = match cli.list_thesis {
+            true => registry::thesis_names(),
+            false => registry::names(),
+        };
+        for name in names {
+            println!("{name}");
         }
         return Ok(());
     }

@@ -71,9 +71,11 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             c["predicted_wk_rms_seat_m_s2"].as_f64().unwrap(),
             c["passive_wk_rms_seat_m_s2"].as_f64().unwrap(),
         );
-        // The floor: seat at least 90 % below the passive car on the design road.
+        // The floor: seat at least 90 % below the passive car on the design road; the
+        // skyhook baseline (no H∞ design) has the certificate's own, half the passive car.
+        let floor = if name == "skyhook" { 0.5 } else { 0.1 };
         assert!(
-            predicted < 0.1 * passive,
+            predicted < floor * passive,
             "{name}: {predicted} vs passive {passive}"
         );
         // A claimed guarantee covers every prediction the certificate makes.

@@ -60,7 +60,8 @@ def without_timing(table):
 
 # The report's sections the README carries (`make readme`), by marker.
 REPORT_SECTIONS = {"comparison": "## Summary: W_k RMS seat acceleration [m/s²]",
-                   "limits": "## Limits and model validity"}
+                   "limits": "## Limits and model validity",
+                   "split": "## Where the comfort comes from: body control and seat isolation"}
 
 
 def report_section(report, tag):
@@ -82,7 +83,7 @@ def assert_readme_holds(tag, fresh, where):
     assert not found, f"README {tag} disagrees with {where} (run `make readme`):\n" + "\n".join(found)
 
 
-@pytest.mark.parametrize("tag", ["comparison", "limits"])
+@pytest.mark.parametrize("tag", list(REPORT_SECTIONS))
 def test_the_readme_comparison_is_the_measured_one(tag):
     """`make test` runs `master compare` first (results/report.md); `make readme` splices its
     summary and the runs it flags into the README. Words, flags and counts agree exactly, each
@@ -131,11 +132,12 @@ def other_kernel_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("other-kernel")
     env = dict(os.environ, OPENBLAS_CORETYPE=core)
     release = ROOT / "target" / "release"
-    variants = subprocess.run([str(release / "synth"), "--list"], capture_output=True, text=True,
-                              check=True).stdout.split()
-    for design, folder in [("comfort", "designs"), ("thesis", "thesis")]:
+    listed = lambda option: subprocess.run([str(release / "synth"), option], capture_output=True, text=True,
+                                           check=True).stdout.split()
+    variants = listed("--list")
+    for design, folder, option in [("comfort", "designs", "--list"), ("thesis", "thesis", "--list-thesis")]:
         subprocess.run([str(release / "synth"), "--design", str(ROOT / "synth" / "designs" / f"{design}.json"),
-                        "--out", str(out / folder), *variants], env=env, check=True, capture_output=True)
+                        "--out", str(out / folder), *listed(option)], env=env, check=True, capture_output=True)
     dist = out / "dist"
     dist.mkdir()
     for fmu in ["road", "plant"]:
@@ -177,7 +179,8 @@ def test_what_the_readme_says_around_the_gamma_figures_holds_on_every_thesis_cer
         assert 0.9 * c["passive_norm"] < c["norm_upper"] <= c["passive_norm"] * (1 + 1e-6), cert.name
 
 
-def test_the_makefile_builds_every_variant_synth_lists():
-    listed = subprocess.run([str(ROOT / "target" / "release" / "synth"), "--list"], capture_output=True, text=True, check=True).stdout.split()
-    line = re.search(r"^CONTROLLERS := (.*)$", (ROOT / "Makefile").read_text(), re.M).group(1)
+@pytest.mark.parametrize("makefile_list, option", [("CONTROLLERS", "--list"), ("THESIS_CONTROLLERS", "--list-thesis")])
+def test_the_makefile_builds_every_variant_synth_lists(makefile_list, option):
+    listed = subprocess.run([str(ROOT / "target" / "release" / "synth"), option], capture_output=True, text=True, check=True).stdout.split()
+    line = re.search(rf"^{makefile_list} := (.*)$", (ROOT / "Makefile").read_text(), re.M).group(1)
     assert line.split() == listed

@@ -31,9 +31,32 @@ pub const SENSORS: [(&str, Kind); N_SENSORS] = [
     ("omega_pitch", Kind::Gyro),
 ];
 
+/// The prefix of a sensor's output: `sensor_<physical output>`.
+pub const PREFIX: &str = "sensor_";
+
+/// The physical output a plant output reads: `x` for a sensor's `sensor_x`, the name itself
+/// otherwise. A model of the car (a design, a prediction) reads a sensor as its physical
+/// output: bias and noise are the plant's sensor model, not the car's dynamics.
+pub fn physical_name(name: &str) -> &str {
+    match name.strip_prefix(PREFIX) {
+        Some(rest) if SENSORS.iter().any(|(s, _)| *s == rest) => rest,
+        _ => name,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sensor_reads_its_physical_output_and_nothing_else_is_renamed() {
+        assert_eq!(physical_name("sensor_a_body_fl"), "a_body_fl");
+        assert_eq!(physical_name("sensor_stroke_seat"), "stroke_seat");
+        assert_eq!(physical_name("a_body_fl"), "a_body_fl");
+        // Not a sensor: left as it is, for the caller to refuse.
+        assert_eq!(physical_name("sensor_v_body"), "sensor_v_body");
+        assert_eq!(physical_name("sensor_"), "sensor_");
+    }
 
     #[test]
     fn every_sensor_reads_a_physical_output() {

@@ -68,6 +68,12 @@ fn sensors(g: &ComfortPlant, names: Vec<String>) -> Sensors {
     }
 }
 
+/// The plant of `g` and the sensors `names` (plant outputs, `sensor_*` as their physical
+/// outputs), without noise.
+pub fn named_sensors(g: &ComfortPlant, names: Vec<String>) -> (Plant, Sensors) {
+    (plant_of(g), sensors(g, names))
+}
+
 /// The wheel index of each road height the state holds ([`ComfortPlant::road_height_rows`]).
 fn height_wheels(g: &ComfortPlant) -> Vec<(usize, usize)> {
     g.road_height_rows()

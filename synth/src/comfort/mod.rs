@@ -1,10 +1,12 @@
 //! The comfort designs `make` ships (`synth/designs/comfort.json`): the car on an ISO 8608 road
 //! weighted as ISO 2631-1 says people feel it ([`plant`]), guaranteed-cost gains over an
 //! uncertainty ([`guaranteed`]), the controllers a car can run ([`controllers`]), the delay
-//! predictor of `delay_sf` ([`predictor`]), and each design with its certificate ([`designs`]).
+//! predictor of `delay_sf` ([`predictor`]), each design with its certificate ([`designs`]), and
+//! the classical baseline they are measured against ([`skyhook`]).
 
 pub mod controllers;
 pub mod designs;
 pub mod guaranteed;
 pub mod plant;
 pub mod predictor;
+pub mod skyhook;

@@ -192,6 +192,8 @@ pub struct Figures {
     pub rms_stroke_m: [f64; 4],
     /// Dynamic tyre loads over their static loads, FL … RR.
     pub rms_tire_load_ratio: [f64; 4],
+    /// Seat stroke (seat minus the body under it) [m].
+    pub rms_seat_stroke_m: f64,
     /// Applied forces, four corners and the seat [N].
     pub rms_force_n: [f64; 5],
 }
@@ -204,7 +206,7 @@ pub enum PredictionError {
     Unstable(String),
 }
 
-/// A plant output row (or a state) by name.
+/// A plant output row (or a state) by name; a sensor (`sensor_x`) reads its physical output `x`.
 fn output_row(rows: &[OutputRow], name: &str) -> Result<OutputRow, PredictionError> {
     if let Some(k) = name
         .strip_prefix("x[")
@@ -223,8 +225,9 @@ fn output_row(rows: &[OutputRow], name: &str) -> Result<OutputRow, PredictionErr
             d_u: [0.0; N_ACTUATORS],
         });
     }
+    let physical = vehicle::sensors::physical_name(name);
     rows.iter()
-        .find(|r| r.name == name)
+        .find(|r| r.name == physical)
         .cloned()
         .ok_or_else(|| PredictionError::UnknownInput(name.into()))
 }
@@ -284,6 +287,7 @@ pub(crate) fn plain_signals(static_load: &[f64; 4]) -> Vec<(String, f64)> {
             .zip(static_load)
             .map(|(c, load)| (format!("tire_load_{c}"), *load)),
     );
+    out.push(("stroke_seat".into(), 1.0));
     out
 }
 
@@ -991,8 +995,9 @@ impl Loop {
 }
 
 /// The number of figures: `W_k` seat, `W_e` roll and pitch, unweighted body heave, roll and
-/// pitch, four strokes, four tyre-load ratios, five forces ([`Figures`]' order).
-pub(crate) const N_CHANNELS: usize = 3 + 3 + 4 + 4 + 5;
+/// pitch, four strokes, four tyre-load ratios, the seat stroke, five forces ([`Figures`]'
+/// order).
+pub(crate) const N_CHANNELS: usize = 3 + 3 + 4 + 4 + 1 + 5;
 
 impl Figures {
     /// The figures from their mean squares, in [`N_CHANNELS`]' order.
@@ -1011,7 +1016,8 @@ impl Figures {
             rms_pitch_rad_s2: rms[5],
             rms_stroke_m: [rms[6], rms[7], rms[8], rms[9]],
             rms_tire_load_ratio: [rms[10], rms[11], rms[12], rms[13]],
-            rms_force_n: [rms[14], rms[15], rms[16], rms[17], rms[18]],
+            rms_seat_stroke_m: rms[14],
+            rms_force_n: [rms[15], rms[16], rms[17], rms[18], rms[19]],
         }
     }
 }

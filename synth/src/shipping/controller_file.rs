@@ -30,7 +30,7 @@ pub fn matrix(name: &str, rows: &Rows, r: usize, c: usize) -> Result<DMatrix<f64
     Ok(DMatrix::from_fn(r, c, |i, j| rows[i][j]))
 }
 
-/// Unit of a plant output by name (states `x[k]`, physical outputs, applied forces).
+/// Unit of a plant output by name (states `x[k]`, physical outputs, sensors, applied forces).
 pub fn plant_output_unit(name: &str) -> &'static str {
     if let Some(k) = name
         .strip_prefix("x[")
@@ -42,7 +42,7 @@ pub fn plant_output_unit(name: &str) -> &'static str {
     vehicle::model::physical_outputs(&vehicle::VehicleParams::default())
         .into_iter()
         .chain(vehicle::model::applied_force_rows())
-        .find(|r| r.name == name)
+        .find(|r| r.name == vehicle::sensors::physical_name(name))
         .map(|r| r.unit)
         .unwrap_or_else(|| panic!("the plant has no output {name}"))
 }

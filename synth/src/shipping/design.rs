@@ -272,10 +272,18 @@ pub struct ComfortDesign {
     /// scenarios' 1 ms.
     #[serde(default = "default_communication_step")]
     pub communication_step: f64,
+    /// `skyhook`: the corner of its velocity estimators, each accelerometer integrated and
+    /// high-passed twice there [Hz] ([`crate::comfort::skyhook`]).
+    #[serde(default = "default_skyhook_highpass_hz")]
+    pub skyhook_highpass_hz: f64,
 }
 
 fn default_communication_step() -> f64 {
     1e-3
+}
+
+fn default_skyhook_highpass_hz() -> f64 {
+    0.3
 }
 
 impl ComfortDesign {
@@ -314,6 +322,7 @@ impl ComfortDesign {
             ("sensor_noise.rate", self.sensor_noise.rate),
             ("delay_max", self.delay_max),
             ("communication_step", self.communication_step),
+            ("skyhook_highpass_hz", self.skyhook_highpass_hz),
             ("fault_time_constant", self.fault_time_constant),
             ("fault_threshold", self.fault_threshold),
             (

@@ -8,8 +8,9 @@
 //! ([`crate::thesis::synthesis`], `synth/designs/thesis.json`, `constrained.json`).
 //!
 //! To add a variant: one entry in [`VARIANTS`] with its comfort synthesis (a function of the
-//! [`Context`] and the [`Shared`] designs it builds on) and its thesis synthesis (the match of
-//! [`crate::thesis::synthesis::synthesise`]); the Makefile, the tables and the comparisons follow.
+//! [`Context`] and the [`Shared`] designs it builds on) and, if it has one, its thesis synthesis
+//! (the match of [`crate::thesis::synthesis::synthesise`]); the Makefile, the tables and the
+//! comparisons follow.
 
 use crate::comfort::designs::{
     anti_windup_design, fault_tolerant_design, held_at, nominal_gain, output_feedback_design,
@@ -17,6 +18,7 @@ use crate::comfort::designs::{
     state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, Uncertainty,
 };
 use crate::comfort::guaranteed::StateFeedback;
+use crate::comfort::skyhook::skyhook_design;
 use crate::predict::continuous::{predict, Conditions, ControlLaw, Figures};
 use crate::shipping::controller_file::{controller_json, ControllerFile, Guarantee};
 use crate::shipping::design::{ComfortDesign, Design, DesignError};
@@ -79,10 +81,13 @@ pub struct Variant {
     /// What it is, in a line, with the thesis result it implements.
     pub summary: &'static str,
     pub comfort: ComfortSynthesis,
+    /// It has a thesis design too ([`crate::thesis::synthesis::synthesise`]); a baseline does
+    /// not.
+    pub thesis: bool,
 }
 
 /// Every shipped controller, in the order of the tables.
-pub const VARIANTS: [Variant; 7] = [
+pub const VARIANTS: [Variant; 8] = [
     Variant {
         name: "hinf_sf",
         nominal: None,
@@ -93,6 +98,7 @@ pub const VARIANTS: [Variant; 7] = [
             let notes = vec![state_feedback_note(ctx.design, "the unmodelled delay")];
             state_feedback_design(ctx, "hinf_sf", Uncertainty::None, s.nominal(ctx)?, notes)
         },
+        thesis: true,
     },
     Variant {
         name: "hinf_of",
@@ -101,6 +107,7 @@ pub const VARIANTS: [Variant; 7] = [
         output_feedback: true,
         summary: "dynamic output feedback from eight sensors (thesis Th. 5.2)",
         comfort: |ctx, s| s.hinf_of(ctx).cloned(),
+        thesis: true,
     },
     Variant {
         name: "hinf_of_aw",
@@ -109,6 +116,7 @@ pub const VARIANTS: [Variant; 7] = [
         output_feedback: true,
         summary: "hinf_of with anti-windup for actuator saturation (thesis Th. 5.3)",
         comfort: |ctx, s| anti_windup_design(ctx, s.hinf_of(ctx)?),
+        thesis: true,
     },
     Variant {
         name: "robust_sf",
@@ -127,6 +135,7 @@ pub const VARIANTS: [Variant; 7] = [
             let nominal = state_feedback_note(ctx.design, "the unmodelled delay");
             robust_state_feedback_design(ctx, (s.robust(ctx)?, robust), (s.nominal(ctx)?, nominal))
         },
+        thesis: true,
     },
     Variant {
         name: "robust_of",
@@ -135,6 +144,7 @@ pub const VARIANTS: [Variant; 7] = [
         output_feedback: true,
         summary: "output feedback robust to the sprung mass (thesis Th. 6.2)",
         comfort: |ctx, s| robust_output_feedback_design(ctx, s.robust(ctx)?),
+        thesis: true,
     },
     Variant {
         name: "delay_sf",
@@ -143,6 +153,7 @@ pub const VARIANTS: [Variant; 7] = [
         output_feedback: false,
         summary: "state feedback for a known actuator delay (thesis Prop. 7.1)",
         comfort: |ctx, s| crate::comfort::predictor::predictor_design(ctx, s.nominal(ctx)?),
+        thesis: true,
     },
     Variant {
         name: "ft_of",
@@ -151,6 +162,16 @@ pub const VARIANTS: [Variant; 7] = [
         output_feedback: true,
         summary: "fault-tolerant output feedback with a fault detector (thesis Th. 8.1)",
         comfort: |ctx, _| fault_tolerant_design(ctx),
+        thesis: true,
+    },
+    Variant {
+        name: "skyhook",
+        nominal: None,
+        robust_to: Uncertainty::None,
+        output_feedback: true,
+        summary: "baseline: skyhook dampers on the body and the seat from accelerometers (not H∞)",
+        comfort: |ctx, s| skyhook_design(ctx, s.hinf_of(ctx)?),
+        thesis: false,
     },
 ];
 
@@ -169,6 +190,15 @@ fn state_feedback_note(d: &ComfortDesign, guarantee: &str) -> String {
 /// The names of [`VARIANTS`].
 pub fn names() -> Vec<&'static str> {
     VARIANTS.iter().map(|v| v.name).collect()
+}
+
+/// The names of the variants with a thesis design.
+pub fn thesis_names() -> Vec<&'static str> {
+    VARIANTS
+        .iter()
+        .filter(|v| v.thesis)
+        .map(|v| v.name)
+        .collect()
 }
 
 pub fn variant(name: &str) -> Option<&'static Variant> {
@@ -287,7 +317,15 @@ pub fn synthesise_all(
             params.m_s
         )));
     }
-    let all = self::names();
+    let all = match file {
+        DesignFile::Comfort(_) => self::names(),
+        DesignFile::Thesis(_) => thesis_names(),
+    };
+    if let Some(n) = names.iter().find(|n| !all.contains(n)) {
+        return Err(SynthError::Usage(format!(
+            "'{n}' has no thesis design (it is a comfort baseline); the thesis's are {all:?}"
+        )));
+    }
     let names = if names.is_empty() { &all[..] } else { names };
     let mut outcome = match file {
         DesignFile::Thesis(design) => Outcome {

@@ -125,9 +125,11 @@ impl RoadMap {
     }
 }
 
+/// A physical output by name; a sensor (`sensor_x`) reads its physical output `x`.
 pub(crate) fn row<'a>(rows: &'a [OutputRow], name: &str) -> &'a OutputRow {
+    let physical = vehicle::sensors::physical_name(name);
     rows.iter()
-        .find(|r| r.name == name)
+        .find(|r| r.name == physical)
         .unwrap_or_else(|| panic!("vehicle has no output {name}"))
 }
 
