@@ -412,6 +412,9 @@ pub struct UnmodelledDelay {
 pub struct Limits {
     pub limit_sigmas: f64,
     pub stroke: [f64; 4],
+    /// Where the design limits the seat stroke (`car_of`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seat_stroke: Option<f64>,
     pub tire_load: [f64; 4],
     pub force: [f64; 5],
 }
@@ -426,6 +429,16 @@ pub struct HinfComfort {
     pub passive_peak_hz: f64,
 }
 
+/// On a constant grade or crossfall: what the controller reads of a rigid motion of the car
+/// ([`crate::predict::continuous::rigid_readings`]). Nothing: its steady force there is zero (its
+/// loop being stable, which the certificate checks). Otherwise the inputs that hold the
+/// actuators against a grade, each with its reading per metre, radian or metre per second.
+#[derive(Debug, Clone, Serialize)]
+pub struct Grade {
+    pub steady_force_zero: bool,
+    pub reads_rigid_motion: Vec<(String, f64)>,
+}
+
 /// A comfort design's certificate (`dist/<variant>.certificate.json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct ComfortCertificate {
@@ -435,6 +448,7 @@ pub struct ComfortCertificate {
     pub comfort: Comfort,
     pub unmodelled_delay: UnmodelledDelay,
     pub limits: Limits,
+    pub grade: Grade,
     pub hinf_comfort: HinfComfort,
     pub spectral_abscissa: f64,
     pub closed_loop_poles: Vec<[f64; 2]>,
@@ -1061,10 +1075,19 @@ pub fn certify(
     let lim = Limits {
         limit_sigmas: k,
         stroke: predicted.rms_stroke_m.map(|s| k * s / d.stroke_max),
+        seat_stroke: d
+            .seat_stroke_max
+            .map(|max| k * predicted.rms_seat_stroke_m / max),
         tire_load: predicted.rms_tire_load_ratio.map(|s| k * s),
         force: std::array::from_fn(|i| k * predicted.rms_force_n[i] / limits[i]),
     };
-    if let Some(bad) = lim.stroke.iter().chain(&lim.force).find(|v| **v > 1.0) {
+    if let Some(bad) = lim
+        .stroke
+        .iter()
+        .chain(&lim.force)
+        .chain(&lim.seat_stroke)
+        .find(|v| **v > 1.0)
+    {
         return Err(fail(format!(
             "a stroke or force exceeds its limit at {k} standard deviations ({bad:.3} of it)"
         )));
@@ -1191,6 +1214,14 @@ pub fn certify(
             delay_margin_s: delay_margin,
         },
         limits: lim,
+        grade: {
+            let reads = crate::predict::continuous::rigid_readings(ctx.params, &law.inputs)
+                .map_err(|e| fail(e.to_string()))?;
+            Grade {
+                steady_force_zero: reads.is_empty(),
+                reads_rigid_motion: reads,
+            }
+        },
         hinf_comfort: HinfComfort {
             design: hd.upper,
             passive: hp.upper,

@@ -4,6 +4,7 @@
 //! predictor of `delay_sf` ([`predictor`]), each design with its certificate ([`designs`]), and
 //! the classical baseline they are measured against ([`skyhook`]).
 
+pub mod car;
 pub mod controllers;
 pub mod designs;
 pub mod guaranteed;

@@ -27,7 +27,8 @@ use std::f64::consts::PI;
 use std::sync::{Arc, Mutex, OnceLock};
 use vehicle::iso2631::{ComfortMeter, METER_OUTPUTS, PITCH_FACTOR, ROLL_FACTOR};
 use vehicle::model::{
-    physical_outputs, OutputRow, StateSpace, CORNERS, N_ACTUATORS, N_ROAD, N_STATES, N_WHEELS,
+    physical_outputs, OutputRow, StateSpace, CORNERS, N_ACTUATORS, N_DOF, N_ROAD, N_STATES,
+    N_WHEELS,
 };
 use vehicle::VehicleParams;
 
@@ -230,6 +231,67 @@ fn output_row(rows: &[OutputRow], name: &str) -> Result<OutputRow, PredictionErr
         .find(|r| r.name == physical)
         .cloned()
         .ok_or_else(|| PredictionError::UnknownInput(name.into()))
+}
+
+/// What each of `names` (plant outputs a controller reads) reads of a rigid motion of the car
+/// with a planar road under it, at rest: the whole car and its road raised by 1 m, rolled or
+/// pitched by 1 rad (the static equilibrium on that road, with no force: every spring at its
+/// static length), and climbing at 1 m/s. Those reading any of them (beyond `1e-9` of the sum
+/// of their row's coefficients) are returned with their largest reading. A controller that
+/// reads none of them has no steady force on a constant grade or crossfall once its loop is
+/// stable: the car moving rigidly along the grade, its controller's state at zero and no force
+/// is then a steady state of the loop (every input reads zero), and a stable loop has one.
+pub fn rigid_readings(
+    p: &VehicleParams,
+    names: &[String],
+) -> Result<Vec<(String, f64)>, PredictionError> {
+    let ss = StateSpace::new(p);
+    let stiffness = ss.a.view((N_DOF, 0), (N_DOF, N_DOF)).into_owned();
+    let road = ss.b_r.view((N_DOF, 0), (N_DOF, N_WHEELS)).into_owned();
+    let lu = stiffness.lu();
+    // The car's configuration on the constant road heights `z`: M⁻¹(−K q + K_r z) = 0.
+    let on = |z: &DVector<f64>| -lu.solve(&(&road * z)).expect("K is nonsingular");
+    let corners = vehicle::model::corner_positions(p);
+    let planar = |h: f64, roll: f64, pitch: f64| {
+        DVector::from_iterator(
+            N_WHEELS,
+            corners.iter().map(|(x, y)| h + y * roll + x * pitch),
+        )
+    };
+    let mut motions: Vec<(DVector<f64>, DVector<f64>)> = Vec::new();
+    for z in [
+        planar(1.0, 0.0, 0.0),
+        planar(0.0, 1.0, 0.0),
+        planar(0.0, 0.0, 1.0),
+    ] {
+        let (mut x, mut r) = (DVector::zeros(N_STATES), DVector::zeros(N_ROAD));
+        x.rows_mut(0, N_DOF).copy_from(&on(&z));
+        r.rows_mut(0, N_WHEELS).copy_from(&z);
+        motions.push((x, r));
+    }
+    let up = planar(1.0, 0.0, 0.0);
+    let (mut x, mut r) = (DVector::zeros(N_STATES), DVector::zeros(N_ROAD));
+    x.rows_mut(N_DOF, N_DOF).copy_from(&on(&up));
+    r.rows_mut(N_WHEELS, N_WHEELS).copy_from(&up);
+    motions.push((x, r));
+    let outputs = plant_outputs(p);
+    let mut out = Vec::new();
+    for name in names {
+        let row = output_row(&outputs, name)?;
+        let scale: f64 = row.c.iter().chain(&row.d_r).map(|v| v.abs()).sum();
+        let reading = motions
+            .iter()
+            .map(|(x, r)| {
+                let c: f64 = row.c.iter().zip(x.iter()).map(|(a, b)| a * b).sum();
+                let d: f64 = row.d_r.iter().zip(r.iter()).map(|(a, b)| a * b).sum();
+                (c + d).abs()
+            })
+            .fold(0.0, f64::max);
+        if reading > 1e-9 * scale {
+            out.push((name.clone(), reading));
+        }
+    }
+    Ok(out)
 }
 
 /// The rows `y = C x + D_r r + D_u f` of the plant outputs a controller reads (`f` the applied
@@ -1200,6 +1262,35 @@ pub fn track_input(track: usize, omega: f64, delay: f64) -> DVector<C64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A car's sensors read nothing of a rigid motion; an absolute height, an absolute velocity
+    /// or a tyre deflection's road part does.
+    #[test]
+    fn only_absolute_signals_read_a_rigid_motion() {
+        let p = VehicleParams::default();
+        let car: Vec<String> = vehicle::sensors::SENSORS
+            .iter()
+            .map(|(n, _)| format!("sensor_{n}"))
+            .chain([
+                "f_fl".to_string(),
+                "stroke_fl".to_string(),
+                "a_seat".to_string(),
+            ])
+            .collect();
+        assert_eq!(rigid_readings(&p, &car).unwrap(), vec![]);
+        let absolute: Vec<String> = ["x[1]", "x[2]", "x[3]", "x[4]", "x[9]", "v_body"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let read = rigid_readings(&p, &absolute).unwrap();
+        assert_eq!(
+            read.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(),
+            ["x[1]", "x[2]", "x[3]", "x[4]", "x[9]", "v_body"]
+        );
+        // The body's height reads the heave; its velocity the climb.
+        assert!((read[0].1 - 1.0).abs() < 1e-9, "{read:?}");
+        assert!((read[5].1 - 1.0).abs() < 1e-9, "{read:?}");
+    }
     use crate::shipping::design::ComfortDesign;
     use vehicle::iso2631::Weighting;
 

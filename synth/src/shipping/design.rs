@@ -159,6 +159,10 @@ pub struct ComfortRoad {
     /// designs" has the measurements).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output_feedback_rear_wheels: Option<RearWheels>,
+    /// Long waves under all four wheels at once in the design model (hills, a grade: `car_of`,
+    /// [`CarDesign`]); `None`: the ISO roughness alone.
+    #[serde(skip)]
+    pub long_waves: Option<LongWaves>,
 }
 
 /// An ISO 8608 road class, written as its letter.
@@ -213,6 +217,7 @@ impl IsoRoad {
             speed: self.speed,
             rear_wheels: RearWheels::Independent,
             output_feedback_rear_wheels: None,
+            long_waves: None,
         }
     }
 }
@@ -276,6 +281,56 @@ pub struct ComfortDesign {
     /// high-passed twice there [Hz] ([`crate::comfort::skyhook`]).
     #[serde(default = "default_skyhook_highpass_hz")]
     pub skyhook_highpass_hz: f64,
+    /// `car_of`: the design on the sensors a car has ([`CarDesign`]; absent: no `car_of`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub car: Option<CarDesign>,
+    /// A limit on the seat stroke [m] (3 σ like the others), imposed by the design built on
+    /// [`CarDesign`] only (`None` elsewhere).
+    #[serde(skip)]
+    pub seat_stroke_max: Option<f64>,
+}
+
+/// `car_of`: an output feedback on the sensors a production car has (`sensor_*`: five height
+/// sensors, four body accelerometers and one on the seat, the roll and pitch gyros) and the
+/// actuators' load cells, designed on a road with long waves and with the seat stroke limited.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CarDesign {
+    /// Noise densities of the sensors (one-sided, per √Hz).
+    pub noise: CarSensorNoise,
+    /// The long waves of the design road ([`ComfortRoad::long_waves`]).
+    pub long_waves: LongWaves,
+    /// The seat stroke limit [m].
+    pub seat_stroke_max: f64,
+    /// The corner of the washout `s / (s + ω)` each accelerometer passes before the Kalman
+    /// filter [Hz]: a bias (up to 0.2 m/s² in production) would otherwise read as a lasting
+    /// acceleration and hold the actuators against it (1000 N measured without it).
+    pub accelerometer_washout_hz: f64,
+}
+
+/// Long waves of a road, the same under every wheel: a height `h = q w / (s + b)²`, `b = 2π V /
+/// wavelength`, of RMS `height_rms` (`q = 2 height_rms b^{3/2}`; second order, so that their
+/// velocity, unlike the ISO roughness's, fades above `b`): hills and grades, whose wavelengths
+/// dwarf the wheelbase and the track.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LongWaves {
+    /// [m].
+    pub height_rms: f64,
+    /// [m].
+    pub wavelength: f64,
+}
+
+/// One-sided noise densities of a car's sensors.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CarSensorNoise {
+    /// Height sensors [m/√Hz].
+    pub height: f64,
+    /// Accelerometers [m/s²/√Hz].
+    pub acceleration: f64,
+    /// Gyros [rad/s/√Hz].
+    pub rate: f64,
 }
 
 fn default_communication_step() -> f64 {
@@ -289,6 +344,16 @@ fn default_skyhook_highpass_hz() -> f64 {
 impl ComfortDesign {
     /// The design the output-feedback variants are synthesised on: this one with their rear-wheel
     /// model ([`ComfortRoad::output_feedback_rear_wheels`]).
+    /// The design `car_of` is synthesised on ([`CarDesign`]): the output-feedback road model with
+    /// its long waves, and its seat stroke limit. `None` without a `car` block.
+    pub fn for_car(&self) -> Option<ComfortDesign> {
+        let car = self.car?;
+        let mut d = self.for_output_feedback();
+        d.road.long_waves = Some(car.long_waves);
+        d.seat_stroke_max = Some(car.seat_stroke_max);
+        Some(d)
+    }
+
     pub fn for_output_feedback(&self) -> ComfortDesign {
         let mut d = self.clone();
         if let Some(rear) = self.road.output_feedback_rear_wheels {
@@ -331,6 +396,17 @@ impl ComfortDesign {
             ),
         ];
         require_positive(&positive)?;
+        if let Some(car) = &self.car {
+            require_positive(&[
+                ("car.noise.height", car.noise.height),
+                ("car.noise.acceleration", car.noise.acceleration),
+                ("car.noise.rate", car.noise.rate),
+                ("car.long_waves.height_rms", car.long_waves.height_rms),
+                ("car.long_waves.wavelength", car.long_waves.wavelength),
+                ("car.seat_stroke_max", car.seat_stroke_max),
+                ("car.accelerometer_washout_hz", car.accelerometer_washout_hz),
+            ])?;
+        }
         for (name, rear) in [
             ("road.rear_wheels.pade.order", Some(self.road.rear_wheels)),
             (

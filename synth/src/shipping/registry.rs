@@ -68,6 +68,15 @@ fn shared<'a, T>(
 
 type ComfortSynthesis = fn(&Context, &Shared) -> Result<ComfortDesignResult, ComfortError>;
 
+/// The design model a variant is synthesised on: the comfort file's, its output-feedback
+/// road model ([`ComfortDesign::for_output_feedback`]), or the car's ([`ComfortDesign::for_car`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DesignModel {
+    StateFeedback,
+    OutputFeedback,
+    Car,
+}
+
 /// One shipped controller.
 pub struct Variant {
     /// The FMU's model identifier.
@@ -75,9 +84,8 @@ pub struct Variant {
     /// The design it is compared with in its own uncertainty.
     pub nominal: Option<&'static str>,
     pub robust_to: Uncertainty,
-    /// Reads sensors, not the state: designed on the output-feedback road model
-    /// ([`ComfortDesign::for_output_feedback`]).
-    pub output_feedback: bool,
+    /// The design model it is synthesised on.
+    pub model: DesignModel,
     /// What it is, in a line, with the thesis result it implements.
     pub summary: &'static str,
     pub comfort: ComfortSynthesis,
@@ -87,12 +95,12 @@ pub struct Variant {
 }
 
 /// Every shipped controller, in the order of the tables.
-pub const VARIANTS: [Variant; 8] = [
+pub const VARIANTS: [Variant; 9] = [
     Variant {
         name: "hinf_sf",
         nominal: None,
         robust_to: Uncertainty::None,
-        output_feedback: false,
+        model: DesignModel::StateFeedback,
         summary: "state feedback (thesis Th. 5.1)",
         comfort: |ctx, s| {
             let notes = vec![state_feedback_note(ctx.design, "the unmodelled delay")];
@@ -104,7 +112,7 @@ pub const VARIANTS: [Variant; 8] = [
         name: "hinf_of",
         nominal: None,
         robust_to: Uncertainty::None,
-        output_feedback: true,
+        model: DesignModel::OutputFeedback,
         summary: "dynamic output feedback from eight sensors (thesis Th. 5.2)",
         comfort: |ctx, s| s.hinf_of(ctx).cloned(),
         thesis: true,
@@ -113,7 +121,7 @@ pub const VARIANTS: [Variant; 8] = [
         name: "hinf_of_aw",
         nominal: Some("hinf_of"),
         robust_to: Uncertainty::Saturation,
-        output_feedback: true,
+        model: DesignModel::OutputFeedback,
         summary: "hinf_of with anti-windup for actuator saturation (thesis Th. 5.3)",
         comfort: |ctx, s| anti_windup_design(ctx, s.hinf_of(ctx)?),
         thesis: true,
@@ -122,7 +130,7 @@ pub const VARIANTS: [Variant; 8] = [
         name: "robust_sf",
         nominal: Some("hinf_sf"),
         robust_to: Uncertainty::SprungMass,
-        output_feedback: false,
+        model: DesignModel::StateFeedback,
         summary: "state feedback robust to the sprung mass (thesis Th. 6.1)",
         comfort: |ctx, s| {
             let robust = state_feedback_note(
@@ -141,7 +149,7 @@ pub const VARIANTS: [Variant; 8] = [
         name: "robust_of",
         nominal: Some("hinf_of"),
         robust_to: Uncertainty::SprungMass,
-        output_feedback: true,
+        model: DesignModel::OutputFeedback,
         summary: "output feedback robust to the sprung mass (thesis Th. 6.2)",
         comfort: |ctx, s| robust_output_feedback_design(ctx, s.robust(ctx)?),
         thesis: true,
@@ -150,7 +158,7 @@ pub const VARIANTS: [Variant; 8] = [
         name: "delay_sf",
         nominal: Some("hinf_sf"),
         robust_to: Uncertainty::InputDelay,
-        output_feedback: false,
+        model: DesignModel::StateFeedback,
         summary: "state feedback for a known actuator delay (thesis Prop. 7.1)",
         comfort: |ctx, s| crate::comfort::predictor::predictor_design(ctx, s.nominal(ctx)?),
         thesis: true,
@@ -159,7 +167,7 @@ pub const VARIANTS: [Variant; 8] = [
         name: "ft_of",
         nominal: Some("hinf_of"),
         robust_to: Uncertainty::ActuatorFaults,
-        output_feedback: true,
+        model: DesignModel::OutputFeedback,
         summary: "fault-tolerant output feedback with a fault detector (thesis Th. 8.1)",
         comfort: |ctx, _| fault_tolerant_design(ctx),
         thesis: true,
@@ -168,9 +176,18 @@ pub const VARIANTS: [Variant; 8] = [
         name: "skyhook",
         nominal: None,
         robust_to: Uncertainty::None,
-        output_feedback: true,
+        model: DesignModel::OutputFeedback,
         summary: "baseline: skyhook dampers on the body and the seat from accelerometers (not H∞)",
         comfort: |ctx, s| skyhook_design(ctx, s.hinf_of(ctx)?),
+        thesis: false,
+    },
+    Variant {
+        name: "car_of",
+        nominal: None,
+        robust_to: Uncertainty::None,
+        model: DesignModel::Car,
+        summary: "output feedback on the sensors a car has and load cells, designed for long waves",
+        comfort: |ctx, _| crate::comfort::car::car_design(ctx),
         thesis: false,
     },
 ];
@@ -454,14 +471,20 @@ fn comfort_all(
     // The state-feedback designs and the output-feedback ones, each on its road model and with
     // the designs they share.
     let of_design = design.for_output_feedback();
+    // Without a `car` block the car's design is the output-feedback one; `car_of` refuses it.
+    let car_design = design.for_car().unwrap_or_else(|| of_design.clone());
     let contexts = [
         Context { params, design },
         Context {
             params,
             design: &of_design,
         },
+        Context {
+            params,
+            design: &car_design,
+        },
     ];
-    let shared = [Shared::default(), Shared::default()];
+    let shared = [Shared::default(), Shared::default(), Shared::default()];
     let names: Vec<&str> = if names.is_empty() {
         self::names()
     } else {
@@ -474,7 +497,11 @@ fn comfort_all(
         .map(|name| {
             let v = variant(name).expect("checked above");
             let t = std::time::Instant::now();
-            let k = usize::from(v.output_feedback);
+            let k = match v.model {
+                DesignModel::StateFeedback => 0,
+                DesignModel::OutputFeedback => 1,
+                DesignModel::Car => 2,
+            };
             let r = (v.comfort)(&contexts[k], &shared[k]);
             (name.to_string(), r, t.elapsed().as_secs_f64())
         })

@@ -1,0 +1,167 @@
+//! `car_of`: the comfort design on the signals a production car gives it. It reads the plant's
+//! `sensor_*` outputs (five height sensors, an accelerometer on the body above each wheel and
+//! one on the seat, the roll and pitch gyros; their noise in the Kalman filter) and the
+//! actuators' load cells (`f_*`), and is designed on a road with long waves and a seat stroke
+//! limit ([`crate::shipping::design::CarDesign`]).
+//!
+//! **No steady force on a grade**, structurally: on a constant grade at constant speed the car
+//! translates rigidly, so every sensor it reads (strokes, accelerations, rates, applied forces)
+//! reads zero with zero force; with the observer's own dynamics nonsingular that is a steady
+//! state of the closed loop, and a stable loop has one. (A design reading an absolute height or
+//! velocity has no such state: it holds its actuators against the grade.) The certificate checks
+//! the premises — every input's row free of absolute heights and velocities, the controller's
+//! `A` nonsingular — and `tests/tests/real_car.rs` runs the grade.
+//!
+//! The observer is driven by the measured applied forces (as `ft_of`'s): its estimation error
+//! does not depend on what happens between command and force — delay, saturation, a lost
+//! actuator — which the accelerometers, whose readings carry the applied force at once, would
+//! otherwise turn into estimation error.
+
+use crate::comfort::controllers::{
+    applied_force_names, kalman_gain, named_sensors, observer_based, ObserverInput,
+};
+use crate::comfort::designs::Uncertainty;
+use crate::comfort::designs::{certify, nominal_gain, ComfortDesignResult, ComfortError, Context};
+use crate::comfort::plant::ComfortPlant;
+use crate::numerics::hinf_norm::Lti;
+use crate::numerics::interconnect::{Plant, Sensors};
+use crate::predict::continuous::ControlLaw;
+use crate::shipping::controller_file::Extensions;
+use crate::shipping::design::CarSensorNoise;
+use nalgebra::DMatrix;
+use vehicle::sensors::{Kind, PREFIX, SENSORS};
+
+/// The sensors' names (`sensor_*`) and each one's noise density.
+pub fn car_sensor_names(noise: &CarSensorNoise) -> Vec<(String, f64)> {
+    SENSORS
+        .iter()
+        .map(|(name, kind)| {
+            let density = match kind {
+                Kind::Height => noise.height,
+                Kind::Accelerometer => noise.acceleration,
+                Kind::Gyro => noise.rate,
+            };
+            (format!("{PREFIX}{name}"), density)
+        })
+        .collect()
+}
+
+/// The car's sensors on `g` with their noise as unit white inputs appended to `w` (two-sided
+/// intensity `density²/2`, as [`crate::comfort::controllers::output_feedback_sensors`]).
+pub fn car_sensors(g: &ComfortPlant, noise: &CarSensorNoise) -> (Plant, Sensors) {
+    let named = car_sensor_names(noise);
+    let (plant, base) = named_sensors(g, named.iter().map(|(n, _)| n.clone()).collect());
+    let (n, nw, ny) = (plant.a.nrows(), plant.b_w.ncols(), base.c.nrows());
+    let mut b_w = DMatrix::zeros(n, nw + ny);
+    b_w.view_mut((0, 0), (n, nw)).copy_from(&plant.b_w);
+    let mut d_w = DMatrix::zeros(ny, nw + ny);
+    d_w.view_mut((0, 0), (ny, nw)).copy_from(&base.d_w);
+    for (k, (_, density)) in named.iter().enumerate() {
+        d_w[(k, nw + k)] = density / std::f64::consts::SQRT_2;
+    }
+    (Plant { b_w, ..plant }, Sensors { d_w, ..base })
+}
+
+/// [`car_sensors`] followed by the load cells (noise-free), the inputs of the force-driven
+/// observer.
+pub fn car_sensors_and_load_cells(g: &ComfortPlant, noise: &CarSensorNoise) -> (Plant, Sensors) {
+    let (plant, base) = car_sensors(g, noise);
+    let (_, forces) = named_sensors(g, applied_force_names());
+    let (ny, nf, nw) = (base.c.nrows(), forces.c.nrows(), base.d_w.ncols());
+    let stack = |top: &DMatrix<f64>, bottom: &DMatrix<f64>| {
+        let mut m = DMatrix::zeros(ny + nf, top.ncols());
+        m.rows_mut(0, ny).copy_from(top);
+        m.view_mut((ny, 0), (nf, bottom.ncols())).copy_from(bottom);
+        m
+    };
+    let sensors = Sensors {
+        c: stack(&base.c, &forces.c),
+        d_w: stack(&base.d_w, &DMatrix::zeros(nf, nw)),
+        d_u: stack(&base.d_u, &forces.d_u),
+        names: base.names.iter().chain(&forces.names).cloned().collect(),
+    };
+    (plant, sensors)
+}
+
+/// `k` with each of its `inputs` passed through the washout `s / (s + ω)` first: for each, a
+/// state `ζ̇ = −ω ζ + y`, and `k` reads `y − ω ζ`. Its gain at zero frequency from those inputs
+/// is then zero (a constant bias leaves no force); above `ω` it is `k`'s.
+pub fn washout(k: &Lti, inputs: &[usize], omega: f64) -> Lti {
+    let (n, m, p) = (k.a.nrows(), inputs.len(), k.b.ncols());
+    let mut a = DMatrix::zeros(n + m, n + m);
+    let mut b = DMatrix::zeros(n + m, p);
+    let mut c = DMatrix::zeros(k.c.nrows(), n + m);
+    a.view_mut((0, 0), (n, n)).copy_from(&k.a);
+    b.view_mut((0, 0), (n, p)).copy_from(&k.b);
+    c.view_mut((0, 0), (k.c.nrows(), n)).copy_from(&k.c);
+    for (j, &i) in inputs.iter().enumerate() {
+        a[(n + j, n + j)] = -omega;
+        b[(n + j, i)] = 1.0;
+        // The filtered input's −ω ζ through k's B and D.
+        for r in 0..n {
+            a[(r, n + j)] = -omega * k.b[(r, i)];
+        }
+        for r in 0..k.c.nrows() {
+            c[(r, n + j)] = -omega * k.d[(r, i)];
+        }
+    }
+    Lti::new(a, b, c, k.d.clone())
+}
+
+/// `car_of` on `ctx`, whose design is the comfort file's [`for_car`]
+/// (`crate::shipping::design::ComfortDesign::for_car`).
+pub fn car_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
+    let variant = "car_of";
+    let d = ctx.design;
+    let car = d.car.ok_or_else(|| ComfortError::Synthesis {
+        variant: variant.into(),
+        reason: "the design file has no \"car\" block".into(),
+    })?;
+    let (g, sf) = nominal_gain(ctx).map_err(|e| ComfortError::Synthesis {
+        variant: variant.into(),
+        reason: e.to_string(),
+    })?;
+    let (plant, sensors) = car_sensors(&g, &car.noise);
+    let l = kalman_gain(&plant, &sensors, None).map_err(|e| ComfortError::Synthesis {
+        variant: variant.into(),
+        reason: e.to_string(),
+    })?;
+    let noise = car.noise;
+    let wiring = move |g: &ComfortPlant| car_sensors_and_load_cells(g, &noise);
+    let observer = observer_based(&g, &sf.k, &sensors, &l, ObserverInput::MeasuredForce);
+    let accelerometers: Vec<usize> = SENSORS
+        .iter()
+        .enumerate()
+        .filter(|(_, (_, kind))| *kind == Kind::Accelerometer)
+        .map(|(k, _)| k)
+        .collect();
+    let omega = 2.0 * std::f64::consts::PI * car.accelerometer_washout_hz;
+    let law = ControlLaw {
+        lti: washout(&observer, &accelerometers, omega),
+        inputs: wiring(&g).1.names,
+        accommodation: None,
+        predictor: None,
+    };
+    let notes = vec![format!(
+        "On the sensors a car has: the guaranteed-cost gain (the unmodelled delay, the force and \
+         stroke limits, and a seat stroke limit of {} m) on a design road with long waves under \
+         every wheel ({} m RMS, first-order at a wavelength of {} m), on a Kalman estimate of the design \
+         state from {} (noise densities: heights {} m/sqrt(Hz), accelerometers {} m/s2/sqrt(Hz), \
+         gyros {} rad/s/sqrt(Hz)), driven by the load cells' measured applied forces; each \
+         accelerometer washed out at {} Hz before the filter (no force from a bias).",
+        car.seat_stroke_max,
+        car.long_waves.height_rms,
+        car.long_waves.wavelength,
+        law.inputs.join(", "),
+        car.noise.height,
+        car.noise.acceleration,
+        car.noise.rate,
+        car.accelerometer_washout_hz,
+    )];
+    let certificate = certify(ctx, variant, Uncertainty::None, &law, &wiring, notes)?;
+    Ok(ComfortDesignResult {
+        law,
+        extensions: Extensions::default(),
+        certificate,
+    })
+}

@@ -1,0 +1,221 @@
+//! The controllers on the sensors a car has — the skyhook baseline (`dist/skyhook.fmu`,
+//! `synth::comfort::skyhook`) and `car_of` (`synth::comfort::car`) — off their design model, as
+//! a control engineer tries a controller before trusting it: on a long constant grade (no
+//! steady force: each certificate says so, and the force dies out), with the accelerometers'
+//! bias, with each actuator lost (no worse than the passive car), and driven hard into their
+//! force limits (back to the unsaturated loop after).
+
+use integration_tests::*;
+use vehicle::road::{Profile, Road, Side};
+use vehicle::terrain::Terrain;
+
+const H: f64 = 1e-3;
+/// The controllers that read only what a car measures.
+const CONTROLLERS: [&str; 2] = ["skyhook", "car_of"];
+const FORCES: [&str; 5] = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"];
+
+/// A level road at 20 m/s that rises `rise` m over `length` m from the front wheels' position
+/// at t = 0, nothing else on it.
+fn grade(rise: f64, length: f64) -> Road {
+    Road::new(
+        Profile::Bump {
+            height: 0.0,
+            length: 5.0,
+            side: Side::Left,
+        },
+        20.0,
+        2.4,
+        0.0,
+    )
+    .and_then(|r| {
+        r.with_terrain(Terrain {
+            ramp_rise: rise,
+            ramp_length: length,
+            ..Terrain::default()
+        })
+    })
+    .expect("a valid road")
+}
+
+fn mean(log: &[Vec<f64>], col: usize) -> f64 {
+    log.iter().map(|r| r[col]).sum::<f64>() / log.len() as f64
+}
+
+/// 20 m over 8 km (a 0.25 % grade for 400 s at 20 m/s), ideal sensors: each certificate says
+/// the controller reads nothing of a rigid motion (`grade.steady_force_zero`), so the loop's
+/// only steady state on the grade has no force; after the kink at its start the force dies
+/// out as the loop's slowest mode (the certificate's spectral abscissa) says: over the last
+/// 20 s below 5 % of its peak and of what that mode leaves (`car_of`'s slowest mode, at
+/// -0.0076 rad/s, is its Kalman filter's estimate of absolute heights, which it can only get
+/// from integrated accelerations).
+#[test]
+fn no_steady_force_on_a_long_grade() {
+    let plant = load("plant");
+    let road = grade(20.0, 8000.0);
+    let steps = (400.0 / H) as usize;
+    for name in CONTROLLERS {
+        let cert: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dist().join(format!("{name}.certificate.json")))
+                .expect("the certificate (make)"),
+        )
+        .expect("JSON");
+        assert_eq!(cert["grade"]["steady_force_zero"], true, "{name}");
+        let slowest = cert["spectral_abscissa"].as_f64().unwrap();
+        let ctrl = load(name);
+        let log = run_loop(&plant, Some(&ctrl), &road, H, steps, &FORCES);
+        let largest = |from: f64, to: f64| {
+            let rows = &log[(from / H) as usize..(to / H) as usize];
+            (0..5).map(|k| peak(rows, k)).fold(0.0, f64::max)
+        };
+        let (early, late) = (largest(0.0, 20.0), largest(380.0, 400.0));
+        // What the slowest mode leaves of the early peak by the last window's start.
+        let left = early * (slowest * 360.0).exp();
+        eprintln!(
+            "{name}: peak force {early:.1} N in the first 20 s, {late:.3e} N over 380–400 s \
+             (the slowest mode, {slowest:.4} rad/s, leaves {left:.3e} N)"
+        );
+        assert!(
+            early > 1.0,
+            "{name}: the kink must excite the loop ({early} N)"
+        );
+        assert!(
+            late < 0.05 * early && late < 2.0 * left.max(1e-6 * early),
+            "{name}: {late} N"
+        );
+    }
+}
+
+/// With the plant's sensor model on (each accelerometer with a bias of up to 0.2 m/s²), the
+/// skyhook's estimator, whose gain at zero frequency is zero, leaves no mean force; `car_of`'s
+/// Kalman filter takes a bias for an acceleration and holds a force against it (printed, and
+/// bounded here by a tenth of the corner's limit: an open item of the controllers issue).
+#[test]
+fn an_accelerometers_bias_leaves_a_bounded_force() {
+    let plant = load("plant");
+    let road = grade(0.0, 800.0);
+    let steps = (60.0 / H) as usize;
+    for name in CONTROLLERS {
+        let ctrl = load(name);
+        let log = run_loop_with(
+            &plant,
+            Some(&ctrl),
+            &road,
+            H,
+            steps,
+            &FORCES,
+            &[("sensor_model", 1.0)],
+        );
+        let tail = &log[(40.0 / H) as usize..];
+        let means: Vec<f64> = (0..5).map(|k| mean(tail, k)).collect();
+        let worst = means.iter().map(|m| m.abs()).fold(0.0, f64::max);
+        eprintln!("{name}: mean forces over 40–60 s with biased sensors {means:.2?} N");
+        let bound = if name == "skyhook" { 0.5 } else { 250.0 };
+        assert!(
+            worst < bound,
+            "{name}: mean force {worst} N from the biases"
+        );
+    }
+}
+
+/// With each actuator giving no force (its controller not told), and with every corner's lost,
+/// the car on the class C road is no worse than the passive car.
+#[test]
+fn no_worse_than_the_passive_car_with_any_actuator_lost() {
+    let plant = load("plant");
+    let road = iso_road(3, 20.0, 7);
+    let steps = (10.0 / H) as usize;
+    let record = [
+        "a_seat_wk",
+        "stroke_fl",
+        "stroke_fr",
+        "stroke_rl",
+        "stroke_rr",
+    ];
+    let seat = |log: &[Vec<f64>]| rms(&log[(2.0 / H) as usize..], 0);
+    let passive = seat(&run_loop(&plant, None, &road, H, steps, &record));
+    let mut losses: Vec<(String, Vec<&str>)> = vehicle::model::ACTUATORS
+        .iter()
+        .map(|a| (format!("{a} lost"), vec![*a]))
+        .collect();
+    losses.push(("every corner lost".into(), vec!["fl", "fr", "rl", "rr"]));
+    for name in CONTROLLERS {
+        let ctrl = load(name);
+        for (label, lost) in &losses {
+            let names: Vec<String> = lost.iter().map(|a| format!("fault_loss_{a}")).collect();
+            let mut params = vec![("fault_time", 0.0)];
+            params.extend(names.iter().map(|n| (n.as_str(), 1.0)));
+            let log = run_loop_with(&plant, Some(&ctrl), &road, H, steps, &record, &params);
+            let (active, stroke) = (
+                seat(&log),
+                (1..5).map(|k| peak(&log, k)).fold(0.0, f64::max),
+            );
+            eprintln!(
+                "{name}, {label}: W_k seat {active:.4} m/s² (passive {passive:.4}), max stroke \
+                 {stroke:.4} m"
+            );
+            assert!(
+                active < passive,
+                "{name}, {label}: {active} not below passive {passive}"
+            );
+            assert!(stroke < 0.08, "{name}, {label}: stroke {stroke} m");
+        }
+    }
+}
+
+/// A 10 cm bump with the force limits cut to 150 N (corners) and 60 N (seat): the commands sit
+/// at their limits through the bump; 8 s later the loop is the unsaturated one again (every
+/// signal within 1e-3 of the peak of its run without limits, and the gap shrinking tenfold).
+/// The skyhook's states are stable filters of the measurements, which no limit winds up;
+/// `car_of`'s observer is driven by the measured applied forces, so its estimate does not see
+/// the saturation either.
+#[test]
+fn back_to_the_unsaturated_loop_after_saturation() {
+    let plant = load("plant");
+    let road = bump(0.10);
+    let steps = (12.0 / H) as usize;
+    let record = ["a_seat", "stroke_fl", "f_fl", "f_seat"];
+    for name in CONTROLLERS {
+        let ctrl = load(name);
+        let free = run_loop(&plant, Some(&ctrl), &road, H, steps, &record);
+        let limited = run_loop_with(
+            &plant,
+            Some(&ctrl),
+            &road,
+            H,
+            steps,
+            &record,
+            &[("u_max", 150.0), ("u_max_seat", 60.0)],
+        );
+        let at_limit = limited
+            .iter()
+            .filter(|r| r[2].abs() >= 150.0 - 1e-9 || r[3].abs() >= 60.0 - 1e-9)
+            .count() as f64
+            * H;
+        assert!(
+            at_limit > 0.1,
+            "{name}: the limits must bite ({at_limit} s)"
+        );
+        // The largest difference between the runs over `[a, b]` s, relative to the free run's
+        // peak.
+        let gap = |k: usize, a: f64, b: f64| {
+            let (a, b) = ((a / H) as usize, (b / H) as usize);
+            let d = free[a..b]
+                .iter()
+                .zip(&limited[a..b])
+                .map(|(x, y)| (x[k] - y[k]).abs())
+                .fold(0.0, f64::max);
+            d / peak(&free, k)
+        };
+        for (k, signal) in record.iter().enumerate() {
+            let (mid, late) = (gap(k, 4.0, 8.0), gap(k, 8.0, 12.0));
+            eprintln!(
+                "{name}, {signal}: {at_limit:.2} s at a limit; the runs differ by {mid:.2e} of \
+                 the peak over 4–8 s, {late:.2e} over 8–12 s"
+            );
+            assert!(
+                late < 1e-3 && late < 0.1 * mid,
+                "{name}, {signal}: {mid} then {late}"
+            );
+        }
+    }
+}
