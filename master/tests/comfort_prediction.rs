@@ -33,16 +33,13 @@
 //! The weighted figures are the plant's own weighted outputs (its vibration meter,
 //! `vehicle::iso2631::ComfortMeter`), sampled at the communication points.
 
+mod common;
+
+use common::{certificates, dist};
 use master::cosim::{run, Scenario};
 use master::metrics::rms;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
-use std::path::PathBuf;
-
-/// Where the shipped comfort designs' FMUs and certificates are (`make`).
-fn dist() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dist")
-}
 
 const DURATION: f64 = 60.0;
 const SKIP: f64 = 5.0;
@@ -206,21 +203,10 @@ fn measure(cases: &[Case], road: &serde_json::Value) -> Vec<[f64; 3]> {
 
 #[test]
 fn cosimulated_comfort_is_the_certificates_prediction() {
-    let mut certificates: Vec<(String, serde_json::Value)> = std::fs::read_dir(dist())
-        .unwrap_or_else(|e| panic!("{}: {e}: run `make`", dist().display()))
-        .filter_map(|e| {
-            let path = e.ok()?.path();
-            let variant = path
-                .file_name()?
-                .to_str()?
-                .strip_suffix(".certificate.json")?
-                .to_string();
-            let text = std::fs::read_to_string(&path).ok()?;
-            Some((variant, serde_json::from_str(&text).expect("a certificate")))
-        })
-        .filter(|(_, c): &(String, serde_json::Value)| c["objective"] == "comfort")
+    let certificates: Vec<(String, serde_json::Value)> = certificates()
+        .into_iter()
+        .filter(|(_, c)| c["objective"] == "comfort")
         .collect();
-    certificates.sort_by(|a, b| a.0.cmp(&b.0));
     assert!(
         certificates.len() >= 5,
         "expected the comfort designs in {}",

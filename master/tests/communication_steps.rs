@@ -15,58 +15,25 @@
 //! (0.054 at 1 ms): stable at every checked step since it predicts over at least one step
 //! (`docs/comfort-designs.md`).
 
-use master::cosim::{run, Run, Scenario};
-use master::metrics::{peak, rms};
+mod common;
+
+use common::{certificates, judge};
+use master::cosim::Run;
 use rayon::prelude::*;
-use std::path::PathBuf;
 
-fn dist() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dist")
-}
-
-/// The applied forces, in the order of [`Run::force_limits`] (corners, seat).
-const FORCES: [&str; 5] = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"];
-
-/// 30 s on the design road (ISO C, 20 m/s) at `step`, the nominal car.
+/// 30 s on the design road (ISO C, 20 m/s, seed 7) at `step`, the nominal car.
 fn road_run(controller: &str, step: f64) -> Result<Run, String> {
     road_run_at(controller, step, &serde_json::json!({}))
 }
 
 /// [`road_run`] with the plant's parameters `plant` (a certificate's condition).
 fn road_run_at(controller: &str, step: f64, plant: &serde_json::Value) -> Result<Run, String> {
-    let scenario: Scenario = serde_json::from_value(serde_json::json!({
-        "name": "communication_step",
-        "duration": 30.0,
-        "step": step,
-        "road": {"profile": 2, "iso_class": 3, "seed": 7, "speed": 20.0},
-        "plant": plant,
-    }))
-    .expect("a scenario");
-    run(&dist(), &scenario, Some(controller)).map_err(|e| e.to_string())
-}
-
-/// W_k seat RMS over the second half of the run, and whether an actuator reached its limit.
-fn judge(r: &Run) -> (f64, bool) {
-    let seat = r.column("a_seat_wk").expect("recorded");
-    let saturated = FORCES
-        .iter()
-        .zip(r.force_limits)
-        .any(|(name, limit)| peak(&r.column(name).expect("recorded")) >= 0.999 * limit);
-    (rms(&seat[seat.len() / 2..]), saturated)
+    common::road_run(controller, 30.0, step, 7, plant)
 }
 
 #[test]
 fn each_certificate_says_at_which_communication_steps_its_loop_is_stable() {
-    let mut certificates: Vec<(String, serde_json::Value)> = std::fs::read_dir(dist())
-        .expect("dist/ (make)")
-        .filter_map(|e| {
-            let name = e.ok()?.file_name().into_string().ok()?;
-            let variant = name.strip_suffix(".certificate.json")?.to_string();
-            let text = std::fs::read_to_string(dist().join(&name)).ok()?;
-            Some((variant, serde_json::from_str(&text).expect("a certificate")))
-        })
-        .collect();
-    certificates.sort_by(|a, b| a.0.cmp(&b.0));
+    let certificates = certificates();
     assert!(
         certificates.len() >= 7,
         "the comfort designs' certificates in dist/"
@@ -187,7 +154,7 @@ fn master_compare_reports_a_controller_stepped_beyond_its_stable_steps() {
     .unwrap();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_master"))
         .arg("--dist")
-        .arg(dist())
+        .arg(common::dist())
         .args(["compare", "--controllers", "hinf_of,ft_of", "--scenarios"])
         .arg(dir.join("scenarios"))
         .arg("--out")

@@ -439,6 +439,112 @@ pub struct Grade {
     pub reads_rigid_motion: Vec<(String, f64)>,
 }
 
+/// The loop with one actuator giving no force (its controller not told), on the design road at
+/// the nominal car: `"stable"` with its predicted `W_k` seat, or `"unstable"` (the rational
+/// loop's eigenvalues, [`Loop::new`]), or `"not checked"` (a predictor's loop, certified for
+/// healthy actuators only), each with why.
+#[derive(Debug, Clone, Serialize)]
+pub struct LostActuator {
+    pub actuator: String,
+    pub verdict: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predicted_wk_rms_seat_m_s2: Option<f64>,
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub why: String,
+}
+
+/// [`LostActuator`] for each actuator in turn.
+fn lost_actuators(
+    law: &ControlLaw,
+    params: &VehicleParams,
+    road: &ComfortRoad,
+) -> Vec<LostActuator> {
+    vehicle::model::ACTUATORS
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let mut conditions = Conditions::nominal(*params);
+            conditions.effectiveness[i] = 0.0;
+            let (verdict, predicted, why) = match Loop::new(Some(law), conditions) {
+                _ if law.predictor.is_some() => (
+                    "not checked",
+                    None,
+                    "a predictor's loop is certified for healthy actuators only".to_string(),
+                ),
+                Ok(lp) => (
+                    "stable",
+                    Some(lp.figures(road).wk_rms_seat_m_s2),
+                    String::new(),
+                ),
+                Err(e) => ("unstable", None, e.to_string()),
+            };
+            LostActuator {
+                actuator: a.to_string(),
+                verdict,
+                predicted_wk_rms_seat_m_s2: predicted,
+                why,
+            }
+        })
+        .collect()
+}
+
+/// The actuator bandwidths every loop is checked at: a hydraulic unit's 10 Hz, and 5 Hz, the
+/// slowest the controllers issue asks a design to tolerate.
+pub const CHECKED_ACTUATOR_BANDWIDTHS_HZ: [f64; 2] = [10.0, 5.0];
+
+/// The nominal loop with first-order actuators of `bandwidth_hz` (the plant FMU's
+/// `actuator_bandwidth`) instead of ideal ones: `"stable"` or `"unstable"` by its spectral
+/// abscissa ([`crate::predict::continuous::abscissa_with_actuator_lag`]), or `"not checked"`
+/// with why (a predictor's loop is not rational; an accommodating controller's estimate of
+/// effectiveness takes a lagging actuator's smaller force for a loss, and reacts).
+#[derive(Debug, Clone, Serialize)]
+pub struct ActuatorLag {
+    pub bandwidth_hz: f64,
+    pub verdict: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectral_abscissa: Option<f64>,
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub why: String,
+}
+
+fn actuator_lags(law: &ControlLaw, params: &VehicleParams) -> Result<Vec<ActuatorLag>, String> {
+    CHECKED_ACTUATOR_BANDWIDTHS_HZ
+        .iter()
+        .map(|&bandwidth_hz| {
+            if law.accommodation.is_some() {
+                return Ok(ActuatorLag {
+                    bandwidth_hz,
+                    verdict: "not checked",
+                    spectral_abscissa: None,
+                    why: "its fault accommodation takes a lagging actuator's smaller force for \
+                          a loss of effectiveness and raises its commands (co-simulated: at a \
+                          force limit with 10 Hz actuators)"
+                        .into(),
+                });
+            }
+            let abscissa = crate::predict::continuous::abscissa_with_actuator_lag(
+                law,
+                Conditions::nominal(*params),
+                bandwidth_hz,
+            )
+            .map_err(|e| e.to_string())?;
+            Ok(ActuatorLag {
+                bandwidth_hz,
+                verdict: match abscissa {
+                    None => "not checked",
+                    Some(a) if a < 0.0 => "stable",
+                    Some(_) => "unstable",
+                },
+                spectral_abscissa: abscissa,
+                why: match abscissa {
+                    None => "a predictor's loop is not rational".into(),
+                    Some(_) => String::new(),
+                },
+            })
+        })
+        .collect()
+}
+
 /// A comfort design's certificate (`dist/<variant>.certificate.json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct ComfortCertificate {
@@ -449,6 +555,10 @@ pub struct ComfortCertificate {
     pub unmodelled_delay: UnmodelledDelay,
     pub limits: Limits,
     pub grade: Grade,
+    /// Each actuator lost in turn ([`LostActuator`]).
+    pub lost_actuators: Vec<LostActuator>,
+    /// First-order actuators instead of ideal ones ([`ActuatorLag`]).
+    pub actuator_lag: Vec<ActuatorLag>,
     pub hinf_comfort: HinfComfort,
     pub spectral_abscissa: f64,
     pub closed_loop_poles: Vec<[f64; 2]>,
@@ -1222,6 +1332,8 @@ pub fn certify(
                 reads_rigid_motion: reads,
             }
         },
+        lost_actuators: lost_actuators(law, ctx.params, &d.road),
+        actuator_lag: actuator_lags(law, ctx.params).map_err(&fail)?,
         hinf_comfort: HinfComfort {
             design: hd.upper,
             passive: hp.upper,

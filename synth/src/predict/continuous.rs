@@ -233,6 +233,56 @@ fn output_row(rows: &[OutputRow], name: &str) -> Result<OutputRow, PredictionErr
         .ok_or_else(|| PredictionError::UnknownInput(name.into()))
 }
 
+/// The spectral abscissa of the loop of `law` at `conditions` (no delay) with first-order
+/// actuators of `bandwidth_hz` (each applied force `ω / (s + ω)` times its command, the plant
+/// FMU's `actuator_bandwidth`): negative where that loop is stable. The loop is rational: the
+/// car's states, the actuators' and the controller's. `None` for a predictor's law, whose loop
+/// is not rational.
+pub fn abscissa_with_actuator_lag(
+    law: &ControlLaw,
+    conditions: Conditions,
+    bandwidth_hz: f64,
+) -> Result<Option<f64>, PredictionError> {
+    if law.predictor.is_some() {
+        return Ok(None);
+    }
+    let ss = StateSpace::new(&conditions.params);
+    let names: Vec<&str> = law.inputs.iter().map(|s| s.as_str()).collect();
+    let rows = sensor_rows(&plant_outputs(&conditions.params), &names)?;
+    let omega = 2.0 * PI * bandwidth_hz;
+    let rho = DMatrix::from_diagonal(&DVector::from_column_slice(&conditions.effectiveness));
+    let n = N_STATES + N_ACTUATORS;
+    // [x; f]: ẋ = A x + B_u ρ f, ḟ = ω (u − f); y = C x + D_u ρ f.
+    let mut a = DMatrix::zeros(n, n);
+    a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
+    a.view_mut((0, N_STATES), (N_STATES, N_ACTUATORS))
+        .copy_from(&(&ss.b_u * &rho));
+    a.view_mut((N_STATES, N_STATES), (N_ACTUATORS, N_ACTUATORS))
+        .copy_from(&(DMatrix::<f64>::identity(N_ACTUATORS, N_ACTUATORS) * -omega));
+    let mut b_u = DMatrix::zeros(n, N_ACTUATORS);
+    b_u.view_mut((N_STATES, 0), (N_ACTUATORS, N_ACTUATORS))
+        .copy_from(&(DMatrix::<f64>::identity(N_ACTUATORS, N_ACTUATORS) * omega));
+    let ny = rows.c.nrows();
+    let mut c = DMatrix::zeros(ny, n);
+    c.view_mut((0, 0), (ny, N_STATES)).copy_from(&rows.c);
+    c.view_mut((0, N_STATES), (ny, N_ACTUATORS))
+        .copy_from(&(&rows.d_u * &rho));
+    let plant = crate::numerics::interconnect::Plant {
+        a,
+        b_w: DMatrix::zeros(n, 0),
+        b_u,
+    };
+    let sensors = crate::numerics::interconnect::Sensors {
+        c,
+        d_w: DMatrix::zeros(ny, 0),
+        d_u: DMatrix::zeros(ny, N_ACTUATORS),
+        names: law.inputs.clone(),
+    };
+    let cl = crate::numerics::interconnect::close(&plant, &sensors, &law.lti)
+        .map_err(|e| PredictionError::Unstable(e.to_string()))?;
+    Ok(Some(crate::numerics::eig::spectral_abscissa(&cl.a)))
+}
+
 /// What each of `names` (plant outputs a controller reads) reads of a rigid motion of the car
 /// with a planar road under it, at rest: the whole car and its road raised by 1 m, rolled or
 /// pitched by 1 rad (the static equilibrium on that road, with no force: every spring at its

@@ -1,0 +1,65 @@
+//! What the master's co-simulation tests of the shipped FMUs share: where they are, their
+//! certificates, one run on the design road, and how a run is judged. Each test crate compiles
+//! its own copy and uses a part of it.
+#![allow(dead_code)]
+
+use master::cosim::{run, Run, Scenario};
+use master::metrics::{peak, rms};
+use std::path::PathBuf;
+
+/// Where the shipped comfort designs' FMUs and certificates are (`make`).
+pub fn dist() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dist")
+}
+
+/// The applied forces, in the order of [`Run::force_limits`] (corners, seat).
+pub const FORCES: [&str; 5] = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"];
+
+/// Every certificate in `dist/` as `(variant, certificate)`, sorted by variant.
+pub fn certificates() -> Vec<(String, serde_json::Value)> {
+    let mut out: Vec<(String, serde_json::Value)> = std::fs::read_dir(dist())
+        .unwrap_or_else(|e| panic!("{}: {e}: run `make`", dist().display()))
+        .filter_map(|e| {
+            let path = e.ok()?.path();
+            let variant = path
+                .file_name()?
+                .to_str()?
+                .strip_suffix(".certificate.json")?
+                .to_string();
+            let text = std::fs::read_to_string(&path).ok()?;
+            Some((variant, serde_json::from_str(&text).expect("a certificate")))
+        })
+        .collect();
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    out
+}
+
+/// `duration` s on the design road (ISO C, 20 m/s, `seed`) at `step` with the plant's
+/// parameters `plant`.
+pub fn road_run(
+    controller: &str,
+    duration: f64,
+    step: f64,
+    seed: u64,
+    plant: &serde_json::Value,
+) -> Result<Run, String> {
+    let scenario: Scenario = serde_json::from_value(serde_json::json!({
+        "name": "design_road",
+        "duration": duration,
+        "step": step,
+        "road": {"profile": 2, "iso_class": 3, "seed": seed, "speed": 20.0},
+        "plant": plant,
+    }))
+    .expect("a scenario");
+    run(&dist(), &scenario, Some(controller)).map_err(|e| e.to_string())
+}
+
+/// W_k seat RMS over the second half of the run, and whether an actuator reached its limit.
+pub fn judge(r: &Run) -> (f64, bool) {
+    let seat = r.column("a_seat_wk").expect("recorded");
+    let saturated = FORCES
+        .iter()
+        .zip(r.force_limits)
+        .any(|(name, limit)| peak(&r.column(name).expect("recorded")) >= 0.999 * limit);
+    (rms(&seat[seat.len() / 2..]), saturated)
+}
