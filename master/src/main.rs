@@ -12,8 +12,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use master::cosim::{run, MasterError, Scenario};
 use master::report::{
-    design_table, figures, limits_table, load_designs, plot, scenario_table, split_table,
-    summary_table, Figures,
+    design_table, figures, limits_table, load_designs, plot, real_car_table, scenario_table,
+    split_table, summary_table, Figures,
 };
 use master::structure::Loop;
 use rayon::prelude::*;
@@ -260,6 +260,11 @@ fn compare(
     if let Some(t) = &design_table {
         report += "## The designs: certificates and comfort in their own scenario\n\nWhat each design claims (γ, or the W_k seat RMS its certificate predicts on its design road), what is certified over its uncertainty, and the synthesis time, from `synth` (`dist/synthesis.json`, certificates in `dist/<variant>.certificate.json`); W_k RMS seat acceleration from the runs below, against the passive car and against the design's nominal counterpart in the same scenario.\n\n";
         report += t;
+        report += "\n";
+    }
+    if let Some(t) = real_car_table(scenarios, &all, controllers) {
+        report += &format!("## On a real car\n\nOn `hills` (ISO C at 20 m/s over 1 m hills every 200 m, 10 Hz actuators, the plant's sensor model on: noise and bias) each controller's W_k RMS seat acceleration against the passive car's and the `skyhook` baseline's; and the scenarios off the design model ({}) in which it does not hold: no better than the passive car, or at a force limit 5 % of the time or more.\n\n", master::report::REAL_CAR_SCENARIOS.map(|s| format!("`{s}`")).join(", "));
+        report += &t;
         report += "\n";
     }
     if let Some(t) = split_table(scenarios, &all, controllers) {

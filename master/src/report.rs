@@ -274,6 +274,83 @@ pub fn summary_table(
     t
 }
 
+/// The scenarios off the design model the controllers issue names (a car's roads, actuators and
+/// faults), in the order of [`real_car_table`]'s last column.
+pub const REAL_CAR_SCENARIOS: [&str; 8] = [
+    "hills",
+    "grade_ramp",
+    "crossfall",
+    "seat_lost",
+    "corner_lost",
+    "iso_d",
+    "iso_e",
+    "actuators_5hz",
+];
+
+/// Whether a run holds: below the passive car's W_k seat and at a force limit less than 5 % of
+/// the time.
+fn holds(f: &Figures, passive: &Figures) -> bool {
+    f.wk_rms_seat < passive.wk_rms_seat && f.flags.saturated_share < 0.05
+}
+
+/// The headline on a real car: each controller's W_k seat on `hills` (ISO C over hills, 10 Hz
+/// actuators, the sensors' noise and bias) against the passive car and the `skyhook` baseline,
+/// and the scenarios of [`REAL_CAR_SCENARIOS`] where it does not hold (worse than the passive
+/// car, or at a force limit 5 % of the time or more). `None` unless all of them were run.
+pub fn real_car_table(
+    scenarios: &[Scenario],
+    results: &[Vec<(String, Figures)>],
+    controllers: &[String],
+) -> Option<String> {
+    let runs: Vec<(&str, &[(String, Figures)])> = REAL_CAR_SCENARIOS
+        .iter()
+        .map(|name| {
+            scenarios
+                .iter()
+                .position(|s| s.name == *name)
+                .map(|k| (*name, &results[k][..]))
+        })
+        .collect::<Option<_>>()?;
+    let hills = runs[0].1;
+    let passive = run_of(hills, "passive")?;
+    let skyhook = run_of(hills, "skyhook");
+    let mut t = String::from(
+        "| controller | W_k seat on `hills` [m/s²] | vs passive | vs `skyhook` | does not hold in |\n|---|---|---|---|---|\n",
+    );
+    for name in controllers {
+        let Some(f) = run_of(hills, name) else {
+            continue;
+        };
+        let failed: Vec<&str> = runs
+            .iter()
+            .filter(|(_, r)| match (run_of(r, name), run_of(r, "passive")) {
+                (Some(f), Some(p)) => !holds(f, p),
+                _ => false,
+            })
+            .map(|(n, _)| *n)
+            .collect();
+        t += &format!(
+            "| `{name}` | {:.4}{} | {} | {} | {} |\n",
+            f.wk_rms_seat,
+            mark(
+                f,
+                &scenarios[scenarios.iter().position(|s| s.name == "hills")?]
+            ),
+            pct(f.wk_rms_seat, passive.wk_rms_seat),
+            match skyhook {
+                Some(s) if name != "skyhook" => pct(f.wk_rms_seat, s.wk_rms_seat),
+                _ => "-".into(),
+            },
+            if failed.is_empty() {
+                "holds in all".to_string()
+            } else {
+                failed.join(", ")
+            }
+        );
+    }
+    Some(t)
+}
+
 /// The scenarios of [`split_table`]: every actuator, the corner actuators alone (the seat's
 /// lost), the seat actuator alone (every corner's lost), on the same road.
 pub const SPLIT_SCENARIOS: [&str; 3] = ["iso_c", "seat_lost", "corners_lost"];
@@ -678,6 +755,69 @@ pub fn design_table(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn scenario(name: &str) -> Scenario {
+        serde_json::from_value(serde_json::json!({
+            "name": name, "duration": 1.0, "step": 0.001, "road": {"profile": 2}
+        }))
+        .unwrap()
+    }
+
+    fn run(wk: f64, saturated_share: f64) -> Figures {
+        Figures {
+            wk_rms_seat: wk,
+            vdv_seat: 0.0,
+            peak_seat: 0.0,
+            rms_roll: 0.0,
+            rms_pitch: 0.0,
+            we_rms_roll: 0.0,
+            we_rms_pitch: 0.0,
+            max_stroke: 0.0,
+            max_tyre_ratio: 0.0,
+            peak_force: 0.0,
+            detection_time: None,
+            flags: Flags {
+                stroke_exceeded: false,
+                tyre_lift_off: false,
+                saturated_share,
+            },
+        }
+    }
+
+    /// A controller holds where it beats the passive car and is at a force limit under 5 % of
+    /// the time; the headline names every real-car scenario where it does not, and is left out
+    /// unless every one was run.
+    #[test]
+    fn the_real_car_headline_names_where_a_controller_does_not_hold() {
+        let scenarios: Vec<Scenario> = REAL_CAR_SCENARIOS.iter().map(|n| scenario(n)).collect();
+        let results: Vec<Vec<(String, Figures)>> = REAL_CAR_SCENARIOS
+            .iter()
+            .map(|name| {
+                let mine = match *name {
+                    "hills" => run(0.1, 0.0),
+                    "grade_ramp" => run(0.1, 0.05),
+                    "seat_lost" => run(0.5, 0.0),
+                    _ => run(0.1, 0.049),
+                };
+                vec![
+                    ("passive".to_string(), run(0.4, 0.0)),
+                    ("skyhook".to_string(), run(0.2, 0.0)),
+                    ("mine".to_string(), mine),
+                ]
+            })
+            .collect();
+        let names = ["skyhook".to_string(), "mine".to_string()];
+        let t = real_car_table(&scenarios, &results, &names).unwrap();
+        assert!(
+            t.contains("| `skyhook` | 0.2000 | -50.0 % | - | holds in all |"),
+            "{t}"
+        );
+        assert!(
+            t.contains("| `mine` | 0.1000 | -75.0 % | -50.0 % | grade_ramp, seat_lost |"),
+            "{t}"
+        );
+        assert_eq!(real_car_table(&scenarios[1..], &results[1..], &names), None);
+    }
 
     #[test]
     fn axis_labels_read_as_numbers() {

@@ -61,7 +61,8 @@ def without_timing(table):
 # The report's sections the README carries (`make readme`), by marker.
 REPORT_SECTIONS = {"comparison": "## Summary: W_k RMS seat acceleration [m/s²]",
                    "limits": "## Limits and model validity",
-                   "split": "## Where the comfort comes from: body control and seat isolation"}
+                   "split": "## Where the comfort comes from: body control and seat isolation",
+                   "real-car": "## On a real car"}
 
 
 def report_section(report, tag):
