@@ -302,16 +302,8 @@ pub fn real_car_table(
     results: &[Vec<(String, Figures)>],
     controllers: &[String],
 ) -> Option<String> {
-    let runs: Vec<(&str, &[(String, Figures)])> = REAL_CAR_SCENARIOS
-        .iter()
-        .map(|name| {
-            scenarios
-                .iter()
-                .position(|s| s.name == *name)
-                .map(|k| (*name, &results[k][..]))
-        })
-        .collect::<Option<_>>()?;
-    let hills = runs[0].1;
+    let runs = runs_of(scenarios, results, &REAL_CAR_SCENARIOS)?;
+    let (hills_scenario, hills) = runs[0];
     let passive = run_of(hills, "passive")?;
     let skyhook = run_of(hills, "skyhook");
     let mut t = String::from(
@@ -327,15 +319,12 @@ pub fn real_car_table(
                 (Some(f), Some(p)) => !holds(f, p),
                 _ => false,
             })
-            .map(|(n, _)| *n)
+            .map(|(s, _)| s.name.as_str())
             .collect();
         t += &format!(
             "| `{name}` | {:.4}{} | {} | {} | {} |\n",
             f.wk_rms_seat,
-            mark(
-                f,
-                &scenarios[scenarios.iter().position(|s| s.name == "hills")?]
-            ),
+            mark(f, hills_scenario),
             pct(f.wk_rms_seat, passive.wk_rms_seat),
             match skyhook {
                 Some(s) if name != "skyhook" => pct(f.wk_rms_seat, s.wk_rms_seat),
@@ -355,6 +344,24 @@ pub fn real_car_table(
 /// lost), the seat actuator alone (every corner's lost), on the same road.
 pub const SPLIT_SCENARIOS: [&str; 3] = ["iso_c", "seat_lost", "corners_lost"];
 
+/// A scenario with its runs: each controller's figures by name.
+type ScenarioRuns<'a> = (&'a Scenario, &'a [(String, Figures)]);
+
+/// The scenarios `names` with their runs, in that order; `None` unless every one was run.
+fn runs_of<'a>(
+    scenarios: &'a [Scenario],
+    results: &'a [Vec<(String, Figures)>],
+    names: &[&str],
+) -> Option<Vec<ScenarioRuns<'a>>> {
+    names
+        .iter()
+        .map(|name| {
+            let k = scenarios.iter().position(|s| s.name == *name)?;
+            Some((&scenarios[k], &results[k][..]))
+        })
+        .collect()
+}
+
 fn run_of<'a>(results: &'a [(String, Figures)], name: &str) -> Option<&'a Figures> {
     results.iter().find(|(n, _)| n == name).map(|(_, f)| f)
 }
@@ -368,13 +375,7 @@ pub fn split_table(
     results: &[Vec<(String, Figures)>],
     controllers: &[String],
 ) -> Option<String> {
-    let [all, corners, seat] = SPLIT_SCENARIOS.map(|name| {
-        scenarios
-            .iter()
-            .position(|s| s.name == name)
-            .map(|k| (&scenarios[k], &results[k][..]))
-    });
-    let runs = [all?, corners?, seat?];
+    let runs = runs_of(scenarios, results, &SPLIT_SCENARIOS)?;
     let mut t = String::from(
         "| controller | every actuator: W_k seat | corner actuators alone: W_k seat | W_e roll | W_e pitch | seat actuator alone: W_k seat |\n|---|---|---|---|---|---|\n",
     );

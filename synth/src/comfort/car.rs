@@ -18,7 +18,7 @@
 //! otherwise turn into estimation error.
 
 use crate::comfort::controllers::{
-    applied_force_names, kalman_gain, named_sensors, observer_based, ObserverInput,
+    kalman_gain, noisy_sensors, observer_based, with_load_cells, ObserverInput,
 };
 use crate::comfort::designs::Uncertainty;
 use crate::comfort::designs::{certify, nominal_gain, ComfortDesignResult, ComfortError, Context};
@@ -46,41 +46,15 @@ pub fn car_sensor_names(noise: &CarSensorNoise) -> Vec<(String, f64)> {
         .collect()
 }
 
-/// The car's sensors on `g` with their noise as unit white inputs appended to `w` (two-sided
-/// intensity `density²/2`, as [`crate::comfort::controllers::output_feedback_sensors`]).
+/// The car's sensors on `g` with their noise ([`noisy_sensors`]).
 pub fn car_sensors(g: &ComfortPlant, noise: &CarSensorNoise) -> (Plant, Sensors) {
-    let named = car_sensor_names(noise);
-    let (plant, base) = named_sensors(g, named.iter().map(|(n, _)| n.clone()).collect());
-    let (n, nw, ny) = (plant.a.nrows(), plant.b_w.ncols(), base.c.nrows());
-    let mut b_w = DMatrix::zeros(n, nw + ny);
-    b_w.view_mut((0, 0), (n, nw)).copy_from(&plant.b_w);
-    let mut d_w = DMatrix::zeros(ny, nw + ny);
-    d_w.view_mut((0, 0), (ny, nw)).copy_from(&base.d_w);
-    for (k, (_, density)) in named.iter().enumerate() {
-        d_w[(k, nw + k)] = density / std::f64::consts::SQRT_2;
-    }
-    (Plant { b_w, ..plant }, Sensors { d_w, ..base })
+    noisy_sensors(g, &car_sensor_names(noise))
 }
 
-/// [`car_sensors`] followed by the load cells (noise-free), the inputs of the force-driven
-/// observer.
+/// [`car_sensors`] followed by the load cells ([`with_load_cells`]), the inputs of the
+/// force-driven observer.
 pub fn car_sensors_and_load_cells(g: &ComfortPlant, noise: &CarSensorNoise) -> (Plant, Sensors) {
-    let (plant, base) = car_sensors(g, noise);
-    let (_, forces) = named_sensors(g, applied_force_names());
-    let (ny, nf, nw) = (base.c.nrows(), forces.c.nrows(), base.d_w.ncols());
-    let stack = |top: &DMatrix<f64>, bottom: &DMatrix<f64>| {
-        let mut m = DMatrix::zeros(ny + nf, top.ncols());
-        m.rows_mut(0, ny).copy_from(top);
-        m.view_mut((ny, 0), (nf, bottom.ncols())).copy_from(bottom);
-        m
-    };
-    let sensors = Sensors {
-        c: stack(&base.c, &forces.c),
-        d_w: stack(&base.d_w, &DMatrix::zeros(nf, nw)),
-        d_u: stack(&base.d_u, &forces.d_u),
-        names: base.names.iter().chain(&forces.names).cloned().collect(),
-    };
-    (plant, sensors)
+    with_load_cells(g, car_sensors(g, noise))
 }
 
 /// `k` with each of its `inputs` passed through the washout `s / (s + ω)` first: for each, a

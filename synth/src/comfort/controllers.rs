@@ -203,26 +203,37 @@ pub fn realise_state_feedback(g: &ComfortPlant, k: &DMatrix<f64>) -> Lti {
     Lti::new(&r.a_xi + &r.b_xiu * &c, &r.b_xi + &r.b_xiu * &d, c, d)
 }
 
-/// The output-feedback designs' sensors with their noise: `y = C x + n`, `n` white with the
-/// one-sided densities of `noise`, as unit white inputs appended to `w` (two-sided intensity
-/// `density²/2`). Returns the plant and sensors with the extended `w`.
-pub fn output_feedback_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
-    let plant = plant_of(g);
-    let base = sensors(g, OF_MEASUREMENTS.iter().map(|s| s.to_string()).collect());
+/// The sensors `named` (plant outputs, each with its one-sided noise density) of `g`: `y = C x
+/// + n`, `n` white, as unit white inputs appended to `w` (two-sided intensity `density²/2`).
+/// Returns the plant and sensors with the extended `w`.
+pub fn noisy_sensors(g: &ComfortPlant, named: &[(String, f64)]) -> (Plant, Sensors) {
+    let (plant, base) = named_sensors(g, named.iter().map(|(n, _)| n.clone()).collect());
     let (n, nw, ny) = (plant.a.nrows(), plant.b_w.ncols(), base.c.nrows());
     let mut b_w = DMatrix::zeros(n, nw + ny);
     b_w.view_mut((0, 0), (n, nw)).copy_from(&plant.b_w);
     let mut d_w = DMatrix::zeros(ny, nw + ny);
     d_w.view_mut((0, 0), (ny, nw)).copy_from(&base.d_w);
-    for (k, name) in OF_MEASUREMENTS.iter().enumerate() {
-        let density = if name.starts_with("stroke") {
-            noise.stroke
-        } else {
-            noise.rate
-        };
+    for (k, (_, density)) in named.iter().enumerate() {
         d_w[(k, nw + k)] = density / std::f64::consts::SQRT_2;
     }
     (Plant { b_w, ..plant }, Sensors { d_w, ..base })
+}
+
+/// The output-feedback designs' sensors ([`OF_MEASUREMENTS`]) with the noise densities of
+/// `noise` ([`noisy_sensors`]).
+pub fn output_feedback_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
+    let named: Vec<(String, f64)> = OF_MEASUREMENTS
+        .iter()
+        .map(|name| {
+            let density = if name.starts_with("stroke") {
+                noise.stroke
+            } else {
+                noise.rate
+            };
+            (name.to_string(), density)
+        })
+        .collect();
+    noisy_sensors(g, &named)
 }
 
 /// The Kalman filter gain `L` of `plant` from `sensors` (noise in their `D_w`), with
@@ -322,11 +333,10 @@ pub fn applied_force_names() -> Vec<String> {
         .collect()
 }
 
-/// [`output_feedback_sensors`] followed by the actuators' applied forces `f_*` (noise-free: a
+/// `(plant, sensors)` of `g` followed by the actuators' applied forces `f_*` (noise-free: a
 /// load cell's noise is far below the road's forces), which [`observer_based`] with
 /// [`ObserverInput::MeasuredForce`] takes as its input.
-pub fn force_sensing_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
-    let (plant, base) = output_feedback_sensors(g, noise);
+pub fn with_load_cells(g: &ComfortPlant, (plant, base): (Plant, Sensors)) -> (Plant, Sensors) {
     let forces = sensors(g, applied_force_names());
     let (ny, nf, nw) = (base.c.nrows(), forces.c.nrows(), base.d_w.ncols());
     let stack = |top: &DMatrix<f64>, bottom: &DMatrix<f64>| {
@@ -346,6 +356,11 @@ pub fn force_sensing_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, S
         names: base.names.iter().chain(&forces.names).cloned().collect(),
     };
     (plant, sensors)
+}
+
+/// [`output_feedback_sensors`] followed by the load cells ([`with_load_cells`]).
+pub fn force_sensing_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
+    with_load_cells(g, output_feedback_sensors(g, noise))
 }
 
 #[cfg(test)]
