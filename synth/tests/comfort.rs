@@ -71,12 +71,13 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             c["predicted_wk_rms_seat_m_s2"].as_f64().unwrap(),
             c["passive_wk_rms_seat_m_s2"].as_f64().unwrap(),
         );
-        // The floor: seat at least 90 % below the passive car on the design road; the
-        // skyhook baseline (no H∞ design) has the certificate's own, half the passive car, and
+        // The floor: seat at least 90 % below the passive car on the design road;
         // `car_of`, which pays on this road for the long waves and the seat stroke limit of its
-        // design road, 80 % below.
+        // design road, 80 % below. The baselines (no H∞ design) are what they are: the floors
+        // guard what they measured (skyhook 0.28, lqg 0.53 of the passive car).
         let floor = match name.as_str() {
-            "skyhook" => 0.5,
+            "skyhook" => 0.35,
+            "lqg" => 0.6,
             "car_of" => 0.2,
             _ => 0.1,
         };
@@ -92,6 +93,18 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             assert!(
                 g >= worst * (1.0 - 1e-12),
                 "{name}: guarantee {g} below {worst}"
+            );
+        }
+        // Every loop tolerates the unmodelled delay; the LQG baseline's control weight is tuned
+        // to the least that does (a bisection to 1 %), so its channel's norm sits just below 1.
+        let norm = s.certificate["unmodelled_delay"]["small_gain_norm"]
+            .as_f64()
+            .unwrap();
+        assert!(norm < 1.0, "{name}: unmodelled-delay norm {norm}");
+        if name == "lqg" {
+            assert!(
+                norm > 0.95,
+                "lqg: its force weight is not the least that holds ({norm})"
             );
         }
         // The controller file says what the FMU will report.

@@ -1,5 +1,6 @@
 //! The controllers on the sensors a car has — the skyhook baseline (`dist/skyhook.fmu`,
-//! `synth::comfort::skyhook`) and `car_of` (`synth::comfort::car`) — off their design model, as
+//! `synth::comfort::skyhook`), `car_of` and the LQG baseline on its observer (`lqg`; both
+//! `synth::comfort::car`) — off their design model, as
 //! a control engineer tries a controller before trusting it: on a long constant grade (no
 //! steady force: each certificate says so, and the force dies out), with the accelerometers'
 //! bias, with each actuator lost (no worse than the passive car), and driven hard into their
@@ -11,7 +12,7 @@ use vehicle::terrain::Terrain;
 
 const H: f64 = 1e-3;
 /// The controllers that read only what a car measures.
-const CONTROLLERS: [&str; 2] = ["skyhook", "car_of"];
+const CONTROLLERS: [&str; 3] = ["skyhook", "car_of", "lqg"];
 const FORCES: [&str; 5] = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"];
 
 /// A level road at 20 m/s that rises `rise` m over `length` m from the front wheels' position
@@ -86,9 +87,10 @@ fn no_steady_force_on_a_long_grade() {
 }
 
 /// With the plant's sensor model on (each accelerometer with a bias of up to 0.2 m/s²), the
-/// skyhook's estimator, whose gain at zero frequency is zero, leaves no mean force; `car_of`'s
-/// Kalman filter takes a bias for an acceleration and holds a force against it (printed, and
-/// bounded here by a tenth of the corner's limit: an open item of the controllers issue).
+/// skyhook's estimator, whose gain at zero frequency is zero, leaves no mean force; the Kalman
+/// filter of `car_of` and `lqg` takes a bias for an acceleration and holds a force against it
+/// (printed, and bounded here by a tenth of the corner's limit: an open item of the controllers
+/// issue).
 #[test]
 fn an_accelerometers_bias_leaves_a_bounded_force() {
     let plant = load("plant");
@@ -166,8 +168,8 @@ fn no_worse_than_the_passive_car_with_any_actuator_lost() {
 /// at their limits through the bump; 8 s later the loop is the unsaturated one again (every
 /// signal within 1e-3 of the peak of its run without limits, and the gap shrinking tenfold).
 /// The skyhook's states are stable filters of the measurements, which no limit winds up;
-/// `car_of`'s observer is driven by the measured applied forces, so its estimate does not see
-/// the saturation either.
+/// the observer of `car_of` and `lqg` is driven by the measured applied forces, so its estimate
+/// does not see the saturation either.
 #[test]
 fn back_to_the_unsaturated_loop_after_saturation() {
     let plant = load("plant");

@@ -34,6 +34,20 @@ pub fn certificates() -> Vec<(String, serde_json::Value)> {
     out
 }
 
+/// How calm a stable run of a certified controller must be, in W_k seat [m/s²]: what its role
+/// had to reach on its design road (the certificate's `role`: a design half the passive car,
+/// a baseline the passive car itself; `synth::comfort::designs::Role::comfort_bound`).
+pub fn calm_bound(certificate: &serde_json::Value) -> f64 {
+    let passive = certificate["comfort"]["passive_wk_rms_seat_m_s2"]
+        .as_f64()
+        .expect("passive");
+    match certificate["role"].as_str() {
+        Some("design") => 0.5 * passive,
+        Some("baseline") => passive,
+        other => panic!("a certificate's role is design or baseline, got {other:?}"),
+    }
+}
+
 /// `duration` s on the design road (ISO C, 20 m/s, `seed`) at `step` with the plant's
 /// parameters `plant`.
 pub fn road_run(

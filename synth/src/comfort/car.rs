@@ -21,13 +21,16 @@ use crate::comfort::controllers::{
     kalman_gain, noisy_sensors, observer_based, with_load_cells, ObserverInput,
 };
 use crate::comfort::designs::Uncertainty;
-use crate::comfort::designs::{certify, nominal_gain, ComfortDesignResult, ComfortError, Context};
-use crate::comfort::plant::ComfortPlant;
+use crate::comfort::designs::{
+    certify, delay_channel_norm, nominal_gain, ComfortDesignResult, ComfortError, Context,
+};
+use crate::comfort::guaranteed::{self, FORCE_REGULARISATION};
+use crate::comfort::plant::{ComfortPlant, LONG_WAVE_ORDER};
 use crate::numerics::hinf_norm::Lti;
 use crate::numerics::interconnect::{Plant, Sensors};
 use crate::predict::continuous::ControlLaw;
 use crate::shipping::controller_file::Extensions;
-use crate::shipping::design::CarSensorNoise;
+use crate::shipping::design::{CarDesign, CarSensorNoise};
 use nalgebra::DMatrix;
 use vehicle::sensors::{Kind, PREFIX, SENSORS};
 
@@ -83,59 +86,143 @@ pub fn washout(k: &Lti, inputs: &[usize], omega: f64) -> Lti {
 }
 
 /// `car_of` on `ctx`, whose design is the comfort file's [`for_car`]
-/// (`crate::shipping::design::ComfortDesign::for_car`).
+/// (`crate::shipping::design::ComfortDesign::for_car`): the guaranteed-cost gain that tolerates
+/// the unmodelled delay, on the car's observer ([`CarObserver`]).
 pub fn car_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "car_of";
+    let observer = CarObserver::new(ctx, variant)?;
+    let (g, sf) = nominal_gain(ctx).map_err(|e| ctx.fail(variant, e))?;
+    let note = format!(
+        "the guaranteed-cost gain (the unmodelled delay of {} s, the force and stroke limits, \
+         and a seat stroke limit of {} m)",
+        ctx.design.unmodelled_delay, observer.car.seat_stroke_max,
+    );
+    observer.certify(ctx, variant, observer.law(&g, &sf.k), &note)
+}
+
+/// `lqg`, the classical baseline on `car_of`'s design and observer: the LQR gain of the same
+/// comfort cost (the limits weighted in until each holds at the design's standard deviations),
+/// with no robustness channel. Untuned, that loop does not tolerate the unmodelled delay every
+/// design is certified for (its channel's norm is 3.15 at the cost's own force weight), so the
+/// forces' weight is raised, as an engineer tunes an LQG's control weight for robustness, to the
+/// least (within 1 %) whose loop passes the same small-gain test (bisection in its logarithm).
+pub fn lqg_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
+    let variant = "lqg";
+    let observer = CarObserver::new(ctx, variant)?;
+    let g = ctx.plant();
     let d = ctx.design;
-    let car = d.car.ok_or_else(|| ComfortError::Synthesis {
-        variant: variant.into(),
-        reason: "the design file has no \"car\" block".into(),
-    })?;
-    let (g, sf) = nominal_gain(ctx).map_err(|e| ComfortError::Synthesis {
-        variant: variant.into(),
-        reason: e.to_string(),
-    })?;
-    let (plant, sensors) = car_sensors(&g, &car.noise);
-    let l = kalman_gain(&plant, &sensors, None).map_err(|e| ComfortError::Synthesis {
-        variant: variant.into(),
-        reason: e.to_string(),
-    })?;
-    let noise = car.noise;
-    let wiring = move |g: &ComfortPlant| car_sensors_and_load_cells(g, &noise);
-    let observer = observer_based(&g, &sf.k, &sensors, &l, ObserverInput::MeasuredForce);
-    let accelerometers: Vec<usize> = SENSORS
-        .iter()
-        .enumerate()
-        .filter(|(_, (_, kind))| *kind == Kind::Accelerometer)
-        .map(|(k, _)| k)
-        .collect();
-    let omega = 2.0 * std::f64::consts::PI * car.accelerometer_washout_hz;
-    let law = ControlLaw {
-        lti: washout(&observer, &accelerometers, omega),
-        inputs: wiring(&g).1.names,
-        accommodation: None,
-        predictor: None,
+    // The law at a force weight, and whether its loop tolerates the delay.
+    let at = |weight: f64| -> Result<(ControlLaw, bool), ComfortError> {
+        let sf = guaranteed::state_feedback_weighted(&g, &[], d.limit_sigmas, weight)
+            .map_err(|e| ctx.fail(variant, e))?;
+        let law = observer.law(&g, &sf.k);
+        let norm =
+            delay_channel_norm(ctx, &law, &observer.wiring()).map_err(|e| ctx.fail(variant, e))?;
+        Ok((law, norm < 1.0))
     };
-    let notes = vec![format!(
-        "On the sensors a car has: the guaranteed-cost gain (the unmodelled delay, the force and \
-         stroke limits, and a seat stroke limit of {} m) on a design road with long waves under \
-         every wheel ({} m RMS, first-order at a wavelength of {} m), on a Kalman estimate of the design \
-         state from {} (noise densities: heights {} m/sqrt(Hz), accelerometers {} m/s2/sqrt(Hz), \
-         gyros {} rad/s/sqrt(Hz)), driven by the load cells' measured applied forces; each \
-         accelerometer washed out at {} Hz before the filter (no force from a bias).",
-        car.seat_stroke_max,
-        car.long_waves.height_rms,
-        car.long_waves.wavelength,
-        law.inputs.join(", "),
-        car.noise.height,
-        car.noise.acceleration,
-        car.noise.rate,
-        car.accelerometer_washout_hz,
-    )];
-    let certificate = certify(ctx, variant, Uncertainty::None, &law, &wiring, notes)?;
-    Ok(ComfortDesignResult {
-        law,
-        extensions: Extensions::default(),
-        certificate,
-    })
+    let (mut low, mut high) = (FORCE_REGULARISATION, FORCE_REGULARISATION);
+    let (mut law, mut holds) = at(high)?;
+    while !holds {
+        (low, high) = (high, high * 4.0);
+        if high > 1e6 * FORCE_REGULARISATION {
+            return Err(ctx.fail(
+                variant,
+                "no force weight makes the LQG loop tolerate the unmodelled delay",
+            ));
+        }
+        (law, holds) = at(high)?;
+    }
+    while high / low > 1.01 {
+        let mid = (low * high).sqrt();
+        match at(mid)? {
+            (l, true) => (law, high) = (l, mid),
+            (_, false) => low = mid,
+        }
+    }
+    let note = format!(
+        "the LQR gain of the comfort cost (the force and stroke limits and a seat stroke limit \
+         of {} m weighted in until each holds at {} standard deviations; no robustness channel), \
+         each force (in units of its limit) weighted {high:.3e}: the least weight, within 1 %, \
+         whose loop tolerates the unmodelled delay of {} s",
+        observer.car.seat_stroke_max, d.limit_sigmas, d.unmodelled_delay,
+    );
+    observer.certify(ctx, variant, law, &note)
+}
+
+/// The Kalman filter of a design on the sensors a car has: an estimate of the design state from
+/// the `sensor_*` outputs (their noise densities from the design file's `car` block), driven by
+/// the load cells' measured applied forces, each accelerometer washed out first.
+struct CarObserver {
+    car: CarDesign,
+    sensors: Sensors,
+    l: DMatrix<f64>,
+}
+
+impl CarObserver {
+    fn new(ctx: &Context, variant: &str) -> Result<Self, ComfortError> {
+        let car = ctx
+            .design
+            .car
+            .ok_or_else(|| ctx.fail(variant, "the design file has no \"car\" block"))?;
+        let (plant, sensors) = car_sensors(&ctx.plant(), &car.noise);
+        let l = kalman_gain(&plant, &sensors, None).map_err(|e| ctx.fail(variant, e))?;
+        Ok(CarObserver { car, sensors, l })
+    }
+
+    fn wiring(&self) -> impl Fn(&ComfortPlant) -> (Plant, Sensors) {
+        let noise = self.car.noise;
+        move |g: &ComfortPlant| car_sensors_and_load_cells(g, &noise)
+    }
+
+    /// The gain `k` on the design state of `g` (the design plant, or it with the delay weight's
+    /// states, which the observer then carries too) on this observer.
+    fn law(&self, g: &ComfortPlant, k: &DMatrix<f64>) -> ControlLaw {
+        let observer = observer_based(g, k, &self.sensors, &self.l, ObserverInput::MeasuredForce);
+        let accelerometers: Vec<usize> = SENSORS
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, kind))| *kind == Kind::Accelerometer)
+            .map(|(k, _)| k)
+            .collect();
+        let omega = 2.0 * std::f64::consts::PI * self.car.accelerometer_washout_hz;
+        ControlLaw {
+            lti: washout(&observer, &accelerometers, omega),
+            inputs: self.wiring()(g).1.names,
+            accommodation: None,
+            predictor: None,
+        }
+    }
+
+    /// `law` certified as `variant`; `gain_note` says what its gain is.
+    fn certify(
+        &self,
+        ctx: &Context,
+        variant: &str,
+        law: ControlLaw,
+        gain_note: &str,
+    ) -> Result<ComfortDesignResult, ComfortError> {
+        let car = &self.car;
+        let notes = vec![format!(
+            "On the sensors a car has: {gain_note}, on a design road with long waves under \
+             every wheel ({} m RMS, a lag chain of order {} at a wavelength of {} m), on a \
+             Kalman estimate of the design state from {} (noise densities: heights {} \
+             m/sqrt(Hz), accelerometers {} m/s2/sqrt(Hz), gyros {} rad/s/sqrt(Hz)), driven by \
+             the load cells' measured applied forces; each accelerometer washed out at {} Hz \
+             before the filter (no force from a bias).",
+            car.long_waves.height_rms,
+            LONG_WAVE_ORDER,
+            car.long_waves.wavelength,
+            law.inputs.join(", "),
+            car.noise.height,
+            car.noise.acceleration,
+            car.noise.rate,
+            car.accelerometer_washout_hz,
+        )];
+        let certificate = certify(ctx, variant, Uncertainty::None, &law, &self.wiring(), notes)?;
+        Ok(ComfortDesignResult {
+            law,
+            extensions: Extensions::default(),
+            certificate,
+        })
+    }
 }

@@ -297,13 +297,24 @@ pub fn state_feedback(
     channels: &[Channel],
     limit_sigmas_required: f64,
 ) -> Result<StateFeedback, GuaranteedError> {
+    state_feedback_weighted(g, channels, limit_sigmas_required, FORCE_REGULARISATION)
+}
+
+/// [`state_feedback`] with each force row weighted `force_weight` from the start (an LQR's
+/// control weight, when there is no channel).
+pub fn state_feedback_weighted(
+    g: &ComfortPlant,
+    channels: &[Channel],
+    limit_sigmas_required: f64,
+    force_weight: f64,
+) -> Result<StateFeedback, GuaranteedError> {
     let nl = g.c_lim.nrows();
     let mut weights: Vec<f64> = g
         .limit_names
         .iter()
         .map(|n| {
             if n.starts_with("force_") {
-                FORCE_REGULARISATION
+                force_weight
             } else {
                 0.0
             }

@@ -15,7 +15,8 @@
 use crate::comfort::designs::{
     anti_windup_design, fault_tolerant_design, held_at, nominal_gain, output_feedback_design,
     robust_gain, robust_output_feedback_design, robust_state_feedback_design,
-    state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, Uncertainty,
+    state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, Role,
+    Uncertainty,
 };
 use crate::comfort::guaranteed::StateFeedback;
 use crate::comfort::skyhook::skyhook_design;
@@ -92,10 +93,33 @@ pub struct Variant {
     /// It has a thesis design too ([`crate::thesis::synthesis::synthesise`]); a baseline does
     /// not.
     pub thesis: bool,
+    /// A design of ours or a classical baseline ([`Variant::accept`]).
+    pub role: Role,
+}
+
+impl Variant {
+    /// `r` as this variant's, if it is what its role may ship: a predicted W_k seat below
+    /// [`Role::comfort_bound`] times the passive car's.
+    fn accept(&self, mut r: ComfortDesignResult) -> Result<ComfortDesignResult, ComfortError> {
+        r.certificate.role = self.role;
+        let c = &r.certificate.comfort;
+        let (seat, passive) = (c.predicted_wk_rms_seat_m_s2, c.passive_wk_rms_seat_m_s2);
+        if seat < self.role.comfort_bound() * passive {
+            return Ok(r);
+        }
+        Err(ComfortError::Certificate {
+            variant: self.name.into(),
+            reason: format!(
+                "predicted W_k seat {seat:.4} m/s² is not even {} times the passive car's \
+                 {passive:.4}",
+                self.role.comfort_bound()
+            ),
+        })
+    }
 }
 
 /// Every shipped controller, in the order of the tables.
-pub const VARIANTS: [Variant; 9] = [
+pub const VARIANTS: [Variant; 10] = [
     Variant {
         name: "hinf_sf",
         nominal: None,
@@ -107,6 +131,7 @@ pub const VARIANTS: [Variant; 9] = [
             state_feedback_design(ctx, "hinf_sf", Uncertainty::None, s.nominal(ctx)?, notes)
         },
         thesis: true,
+        role: Role::Design,
     },
     Variant {
         name: "hinf_of",
@@ -116,6 +141,7 @@ pub const VARIANTS: [Variant; 9] = [
         summary: "dynamic output feedback from eight sensors (thesis Th. 5.2)",
         comfort: |ctx, s| s.hinf_of(ctx).cloned(),
         thesis: true,
+        role: Role::Design,
     },
     Variant {
         name: "hinf_of_aw",
@@ -125,6 +151,7 @@ pub const VARIANTS: [Variant; 9] = [
         summary: "hinf_of with anti-windup for actuator saturation (thesis Th. 5.3)",
         comfort: |ctx, s| anti_windup_design(ctx, s.hinf_of(ctx)?),
         thesis: true,
+        role: Role::Design,
     },
     Variant {
         name: "robust_sf",
@@ -144,6 +171,7 @@ pub const VARIANTS: [Variant; 9] = [
             robust_state_feedback_design(ctx, (s.robust(ctx)?, robust), (s.nominal(ctx)?, nominal))
         },
         thesis: true,
+        role: Role::Design,
     },
     Variant {
         name: "robust_of",
@@ -153,6 +181,7 @@ pub const VARIANTS: [Variant; 9] = [
         summary: "output feedback robust to the sprung mass (thesis Th. 6.2)",
         comfort: |ctx, s| robust_output_feedback_design(ctx, s.robust(ctx)?),
         thesis: true,
+        role: Role::Design,
     },
     Variant {
         name: "delay_sf",
@@ -162,6 +191,7 @@ pub const VARIANTS: [Variant; 9] = [
         summary: "state feedback for a known actuator delay (thesis Prop. 7.1)",
         comfort: |ctx, s| crate::comfort::predictor::predictor_design(ctx, s.nominal(ctx)?),
         thesis: true,
+        role: Role::Design,
     },
     Variant {
         name: "ft_of",
@@ -171,6 +201,7 @@ pub const VARIANTS: [Variant; 9] = [
         summary: "fault-tolerant output feedback with a fault detector (thesis Th. 8.1)",
         comfort: |ctx, _| fault_tolerant_design(ctx),
         thesis: true,
+        role: Role::Design,
     },
     Variant {
         name: "skyhook",
@@ -180,6 +211,7 @@ pub const VARIANTS: [Variant; 9] = [
         summary: "baseline: skyhook dampers on the body and the seat from accelerometers (not H∞)",
         comfort: |ctx, s| skyhook_design(ctx, s.hinf_of(ctx)?),
         thesis: false,
+        role: Role::Baseline,
     },
     Variant {
         name: "car_of",
@@ -189,6 +221,18 @@ pub const VARIANTS: [Variant; 9] = [
         summary: "output feedback on the sensors a car has and load cells, designed for long waves",
         comfort: |ctx, _| crate::comfort::car::car_design(ctx),
         thesis: false,
+        role: Role::Design,
+    },
+    Variant {
+        name: "lqg",
+        nominal: None,
+        robust_to: Uncertainty::None,
+        model: DesignModel::Car,
+        summary:
+            "baseline: LQG (LQR on the comfort cost, Kalman filter) on car_of's sensors (not H∞)",
+        comfort: |ctx, _| crate::comfort::car::lqg_design(ctx),
+        thesis: false,
+        role: Role::Baseline,
     },
 ];
 
@@ -502,7 +546,7 @@ fn comfort_all(
                 DesignModel::OutputFeedback => 1,
                 DesignModel::Car => 2,
             };
-            let r = (v.comfort)(&contexts[k], &shared[k]);
+            let r = (v.comfort)(&contexts[k], &shared[k]).and_then(|r| v.accept(r));
             (name.to_string(), r, t.elapsed().as_secs_f64())
         })
         .collect();
