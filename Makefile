@@ -228,6 +228,7 @@ COMPARISON_SECTION := \#\# Summary: W_k RMS seat acceleration [m/s²]
 LIMITS_SECTION := \#\# Limits and model validity
 SPLIT_SECTION := \#\# Where the comfort comes from: body control and seat isolation
 REAL_CAR_SECTION := \#\# On a real car
+ORDERS_SECTION := \#\# Master orders
 readme: descriptions schemas $(STAMP)/synth $(STAMP)/thesis compare
 	./target/release/fmu-pack splice --from dist/synthesis.md --readme README.md --tag synthesis
 	./target/release/fmu-pack splice --from dist/thesis/gamma.md --readme README.md --tag gamma
@@ -236,6 +237,7 @@ readme: descriptions schemas $(STAMP)/synth $(STAMP)/thesis compare
 	./target/release/fmu-pack splice --from results/report.md --section "$(LIMITS_SECTION)" --readme README.md --tag limits
 	./target/release/fmu-pack splice --from results/report.md --section "$(SPLIT_SECTION)" --readme README.md --tag split
 	./target/release/fmu-pack splice --from results/report.md --section "$(REAL_CAR_SECTION)" --readme README.md --tag real-car
+	./target/release/fmu-pack splice --from results/report.md --section "$(ORDERS_SECTION)" --readme README.md --tag orders
 
 test: lint test-rust test-python
 

@@ -7,6 +7,10 @@
 //! profile computed in process ([`RoadSource`]). The row recorded for `t_{k+1}` is read
 //! after the road's new outputs have reached the plant (tyre loads feed the road through) and the
 //! controller has been given the plant's new outputs (its residual and flag use them).
+//!
+//! A scenario's `order` ([`Order`]) runs the controller in the two other orders masters use:
+//! Jacobi (its command read before it is given the plant's outputs; its recorded outputs then
+//! too) and Gauss–Seidel with the controller stepped first.
 
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common, Instance};
@@ -141,6 +145,30 @@ pub struct Scenario {
     /// Suspension stroke limit [m]: a run whose stroke goes beyond it is flagged.
     #[serde(default = "default_stroke_max")]
     pub stroke_max: f64,
+    /// How the master orders the exchange and the steps at each communication point ([`Order`];
+    /// default `gauss_seidel`).
+    #[serde(default)]
+    pub order: Order,
+}
+
+/// The order of the exchange and the steps at each communication point `t_k`, as masters run
+/// FMUs; each certificate predicts its loop in each (`comfort.master_orders`, the same names,
+/// `synth::predict::sampled::Order`). In all three the plant's outputs at `t_k` are read before
+/// the new command is set, and the road reaches the plant as in the module's documentation; they
+/// differ in the command that drives the plant over `[t_k, t_{k+1})`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Order {
+    /// The plant's outputs to the controller, its command read and set on the plant, then
+    /// every FMU steps (the module's order; FMPy's and libcosim's fixed-step masters).
+    #[default]
+    GaussSeidel,
+    /// Every output read before any input is set, then every FMU steps: the command read is
+    /// the one the controller gives with its previous input.
+    Jacobi,
+    /// Gauss–Seidel with the controller first: given the plant's outputs, stepped to
+    /// `t_{k+1}`, and its command there drives the plant over `[t_k, t_{k+1})`.
+    ControllerFirst,
 }
 
 /// The stroke limit of the flags when a scenario does not give one [m] (the comfort designs'
@@ -619,6 +647,7 @@ pub struct Setup<'a> {
     /// Plant outputs, or, for a name the plant lacks, the controller's variable (Real, or
     /// Boolean recorded as 0/1).
     pub record: &'a [String],
+    pub order: Order,
 }
 
 /// Run `scenario` with `controller` (None: the passive car), recording [`RECORD`] and the
@@ -664,6 +693,7 @@ pub fn run_loaded(
         step: scenario.step,
         steps: scenario.steps(),
         record: &record,
+        order: scenario.order,
     })
 }
 
@@ -859,12 +889,36 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     for k in 0..steps {
         let t = k as f64 * h;
         if let Some(c) = c.as_mut() {
-            c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
-            c.get_real(&u_from, &mut u)
-                .map_err(|e| fail("controller", e))?;
+            let set_y =
+                |c: &mut Instance<CS>| c.set_real(&y_to, &y).map_err(|e| fail("controller", e));
+            let mut get_u = |c: &mut Instance<CS>| {
+                c.get_real(&u_from, &mut u)
+                    .map(|_| ())
+                    .map_err(|e| fail("controller", e))
+            };
+            let step = |c: &mut Instance<CS>| {
+                c.do_step(t, h, true)
+                    .map(|_| ())
+                    .map_err(|e| step_err("controller", t, e))
+            };
+            match setup.order {
+                Order::GaussSeidel => {
+                    set_y(c)?;
+                    get_u(c)?;
+                    step(c)?;
+                }
+                Order::Jacobi => {
+                    get_u(c)?;
+                    set_y(c)?;
+                    step(c)?;
+                }
+                Order::ControllerFirst => {
+                    set_y(c)?;
+                    step(c)?;
+                    get_u(c)?;
+                }
+            }
             p.set_real(&force_in, &u).map_err(|e| fail("plant", e))?;
-            c.do_step(t, h, true)
-                .map_err(|e| step_err("controller", t, e))?;
         }
         commands.push(u);
         p.do_step(t, h, true).map_err(|e| step_err("plant", t, e))?;
@@ -873,7 +927,11 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
             .map_err(|e| fail("plant", e))?;
         read_plant(&mut p, &mut plant_values, &mut y)?;
         if let (Some(c), true) = (c.as_mut(), on_controller) {
-            c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
+            // Its outputs with the plant's new values, except in Jacobi, where the controller
+            // holds its previous input until the next exchange.
+            if setup.order != Order::Jacobi {
+                c.set_real(&y_to, &y).map_err(|e| fail("controller", e))?;
+            }
             if !recording.controller_real.is_empty() {
                 c.get_real(&recording.controller_real, &mut controller_reals)
                     .map_err(|e| fail("controller", e))?;

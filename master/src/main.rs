@@ -12,8 +12,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use master::cosim::{run, MasterError, Scenario};
 use master::report::{
-    design_table, figures, limits_table, load_designs, plot, real_car_table, scenario_table,
-    split_table, summary_table, Figures,
+    design_table, figures, limits_table, load_designs, orders_table, plot, real_car_table,
+    scenario_table, split_table, summary_table, Figures,
 };
 use master::structure::Loop;
 use rayon::prelude::*;
@@ -269,6 +269,14 @@ fn compare(
     }
     if let Some(t) = split_table(scenarios, &all, controllers) {
         report += "## Where the comfort comes from: body control and seat isolation\n\nThe same class C road with every actuator (`iso_c`), with the corner actuators alone (`seat_lost`: body control; the seat rides on its passive spring and damper) and with the seat actuator alone (`corners_lost`: seat isolation on a passive body). W_k RMS seat acceleration [m/s²] and W_e RMS roll and pitch acceleration [rad/s²], each against the passive car's.\n\n";
+        report += &t;
+        report += "\n";
+    }
+    if let Some(t) = designs
+        .as_ref()
+        .and_then(|d| orders_table(d, scenarios, &all))
+    {
+        report += "## Master orders\n\nThe class C road of `iso_c` in each order a master may run the loop (the scenario's `order`): `GaussSeidel`, the plant's outputs to the controller, its command to the plant, then every FMU steps (this report's order, FMPy's and libcosim's); `Jacobi`, every output read before any input is set (the command the controller gives with its previous input); `ControllerFirst`, the controller stepped first, its command at the end of the step driving the plant over it. W_k RMS seat acceleration [m/s²] measured, and in brackets what the design's certificate predicts for the loop in that order at its communication step (`comfort.master_orders`), or why it predicts nothing. One 10 s run of one seed is not the design road's mean: `master/tests/comfort_prediction.rs` measures each order against its prediction on 12 seeds of 60 s.\n\n";
         report += &t;
         report += "\n";
     }

@@ -344,6 +344,49 @@ pub fn real_car_table(
 /// lost), the seat actuator alone (every corner's lost), on the same road.
 pub const SPLIT_SCENARIOS: [&str; 3] = ["iso_c", "seat_lost", "corners_lost"];
 
+/// The scenarios of [`orders_table`]: the same road in each order a master may run the loop
+/// (the scenario's `order`), in the order of `synth::predict::sampled::ORDERS`.
+pub const ORDER_SCENARIOS: [&str; 3] = ["iso_c", "iso_c_jacobi", "iso_c_controller_first"];
+
+/// Each comfort design's W_k seat in each master order, measured on the road of
+/// [`ORDER_SCENARIOS`] and, in brackets, as its certificate predicts the held loop in that
+/// order (`comfort.master_orders`, through `dist/synthesis.json`), or why it does not. `None`
+/// unless all three scenarios were run.
+pub fn orders_table(
+    designs: &[Design],
+    scenarios: &[Scenario],
+    results: &[Vec<(String, Figures)>],
+) -> Option<String> {
+    let runs = runs_of(scenarios, results, &ORDER_SCENARIOS)?;
+    let names: Vec<String> = runs.iter().map(|(s, _)| format!("{:?}", s.order)).collect();
+    let mut t = format!(
+        "| controller | {} |\n|---|{}\n",
+        names.join(" | "),
+        "---|".repeat(names.len())
+    );
+    for d in designs.iter().filter(|d| !d.master_orders.is_empty()) {
+        t += &format!("| `{}` |", d.variant);
+        for (scenario, r) in &runs {
+            let certified = d
+                .master_orders
+                .iter()
+                .find(|o| o.order == scenario.order)
+                .map_or("not in the certificate".to_string(), |o| {
+                    match o.recorded_wk_rms_seat_m_s2 {
+                        Some(v) => format!("certified {v:.4}"),
+                        None => o.verdict.clone(),
+                    }
+                });
+            t += &match run_of(r, &d.variant) {
+                Some(f) => format!(" {:.4} ({certified}){} |", f.wk_rms_seat, mark(f, scenario)),
+                None => format!(" - ({certified}) |"),
+            };
+        }
+        t.push('\n');
+    }
+    Some(t)
+}
+
 /// A scenario with its runs: each controller's figures by name.
 type ScenarioRuns<'a> = (&'a Scenario, &'a [(String, Figures)]);
 
@@ -670,6 +713,19 @@ pub struct Design {
     pub certified: String,
     pub nominal_design: Option<String>,
     pub seconds: f64,
+    /// The held loop in each master order (a comfort design's).
+    #[serde(default)]
+    pub master_orders: Vec<OrderFigure>,
+}
+
+/// A comfort design's held loop in one master order, as `synth` writes it.
+#[derive(Debug, Clone, serde::Deserialize)]
+pub struct OrderFigure {
+    pub order: crate::cosim::Order,
+    /// `predicted`, `unstable` or `not modelled: …`.
+    pub verdict: String,
+    #[serde(default)]
+    pub recorded_wk_rms_seat_m_s2: Option<f64>,
 }
 
 pub fn load_designs(path: &Path) -> Result<Vec<Design>, MasterError> {

@@ -62,7 +62,8 @@ def without_timing(table):
 REPORT_SECTIONS = {"comparison": "## Summary: W_k RMS seat acceleration [m/s²]",
                    "limits": "## Limits and model validity",
                    "split": "## Where the comfort comes from: body control and seat isolation",
-                   "real-car": "## On a real car"}
+                   "real-car": "## On a real car",
+                   "orders": "## Master orders"}
 
 
 def report_section(report, tag):

@@ -125,6 +125,25 @@ pub fn run_on(
     record: &[&str],
     plant_params: &[(&str, f64)],
 ) -> Vec<Vec<f64>> {
+    run_in_order(
+        road,
+        plant,
+        controller,
+        (h, steps, master::cosim::Order::GaussSeidel),
+        record,
+        plant_params,
+    )
+}
+
+/// [`run_on`] with the master in `order`, at `(h, steps, order)`.
+pub fn run_in_order(
+    road: RoadSource,
+    plant: &Fmu,
+    controller: Option<&Fmu>,
+    (h, steps, order): (f64, usize, master::cosim::Order),
+    record: &[&str],
+    plant_params: &[(&str, f64)],
+) -> Vec<Vec<f64>> {
     let typed = |fmu: &Fmu, only_parameters: bool| -> Vec<(String, Typed)> {
         let inputs = fmu.names_with_causality("input");
         plant_params
@@ -154,6 +173,7 @@ pub fn run_on(
         step: h,
         steps,
         record: &record,
+        order,
     })
     .unwrap_or_else(|e| panic!("co-simulation failed: {e}"));
     run.rows().map(|r| r.to_vec()).collect()

@@ -99,6 +99,57 @@ pub struct Comfort {
     /// The loop as a master runs it at other communication steps: stable, and from the design
     /// file's step up what each costs in comfort.
     pub communication_steps: StepStability,
+    /// The loop at the nominal car and the design file's step in each order a master may run
+    /// it ([`crate::predict::sampled::Order`]).
+    pub master_orders: Vec<InOrder>,
+}
+
+/// The held loop in one master order ([`master_orders`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct InOrder {
+    pub order: crate::predict::sampled::Order,
+    /// `predicted`, `unstable`, or `not modelled: …` (a predictor's commands in flight in
+    /// another order than the one it keeps them for).
+    pub verdict: String,
+    /// `W_k` seat RMS time-averaged, where predicted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predicted_wk_rms_seat_m_s2: Option<f64>,
+    /// The same as the master records it (its figure), where predicted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recorded_wk_rms_seat_m_s2: Option<f64>,
+}
+
+/// `law` at the nominal car and the design file's step in each order a master may run it.
+fn master_orders(law: &ControlLaw, nominal: Conditions, d: &ComfortDesign) -> Vec<InOrder> {
+    use crate::predict::sampled::{order_check, ORDERS};
+    ORDERS
+        .iter()
+        .map(|&order| {
+            let check = order_check(
+                Some(law),
+                nominal,
+                d.communication_step,
+                order,
+                Some(&d.road),
+            );
+            let (verdict, seat) = match check {
+                Ok(c) => match c.seat {
+                    Some(seat) => ("predicted".to_string(), Some(seat)),
+                    None => ("unstable".to_string(), None),
+                },
+                Err(crate::predict::continuous::PredictionError::NotModelled(why)) => {
+                    (format!("not modelled: {why}"), None)
+                }
+                Err(e) => (format!("unstable: {e}"), None),
+            };
+            InOrder {
+                order,
+                verdict,
+                predicted_wk_rms_seat_m_s2: seat.map(|s| s.predicted_wk_rms_seat_m_s2),
+                recorded_wk_rms_seat_m_s2: seat.map(|s| s.recorded_wk_rms_seat_m_s2),
+            }
+        })
+        .collect()
 }
 
 /// Communication steps [s] at which each certificate checks the nominal loop as a master runs
@@ -496,18 +547,27 @@ pub const CHECKED_ACTUATOR_BANDWIDTHS_HZ: [f64; 2] = [10.0, 5.0];
 /// `actuator_bandwidth`) instead of ideal ones: `"stable"` or `"unstable"` by its spectral
 /// abscissa ([`crate::predict::continuous::abscissa_with_actuator_lag`]), or `"not checked"`
 /// with why (a predictor's loop is not rational; an accommodating controller's estimate of
-/// effectiveness takes a lagging actuator's smaller force for a loss, and reacts).
+/// effectiveness takes a lagging actuator's smaller force for a loss, and reacts); where
+/// stable, its predicted figures (`master/tests/comfort_prediction.rs` co-simulates them).
 #[derive(Debug, Clone, Serialize)]
 pub struct ActuatorLag {
     pub bandwidth_hz: f64,
     pub verdict: &'static str,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spectral_abscissa: Option<f64>,
+    /// Where stable, the figures of that loop on the design road (continuous time: the
+    /// actuators' lag is exact in the frequency domain).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predicted: Option<Figures>,
     #[serde(skip_serializing_if = "String::is_empty")]
     pub why: String,
 }
 
-fn actuator_lags(law: &ControlLaw, params: &VehicleParams) -> Result<Vec<ActuatorLag>, String> {
+fn actuator_lags(
+    law: &ControlLaw,
+    params: &VehicleParams,
+    road: &ComfortRoad,
+) -> Result<Vec<ActuatorLag>, String> {
     CHECKED_ACTUATOR_BANDWIDTHS_HZ
         .iter()
         .map(|&bandwidth_hz| {
@@ -516,6 +576,7 @@ fn actuator_lags(law: &ControlLaw, params: &VehicleParams) -> Result<Vec<Actuato
                     bandwidth_hz,
                     verdict: "not checked",
                     spectral_abscissa: None,
+                    predicted: None,
                     why: "its fault accommodation takes a lagging actuator's smaller force for \
                           a loss of effectiveness and raises its commands (co-simulated: at a \
                           force limit with 10 Hz actuators)"
@@ -528,6 +589,18 @@ fn actuator_lags(law: &ControlLaw, params: &VehicleParams) -> Result<Vec<Actuato
                 bandwidth_hz,
             )
             .map_err(|e| e.to_string())?;
+            let lagging = Conditions {
+                actuator_bandwidth_hz: Some(bandwidth_hz),
+                ..Conditions::nominal(*params)
+            };
+            let predicted = match abscissa {
+                Some(a) if a < 0.0 => Some(
+                    Loop::new(Some(law), lagging)
+                        .map_err(|e| e.to_string())?
+                        .figures(road),
+                ),
+                _ => None,
+            };
             Ok(ActuatorLag {
                 bandwidth_hz,
                 verdict: match abscissa {
@@ -536,6 +609,7 @@ fn actuator_lags(law: &ControlLaw, params: &VehicleParams) -> Result<Vec<Actuato
                     Some(_) => "unstable",
                 },
                 spectral_abscissa: abscissa,
+                predicted,
                 why: match abscissa {
                     None => "a predictor's loop is not rational".into(),
                     Some(_) => String::new(),
@@ -1351,6 +1425,7 @@ pub fn certify(
             design_model_wk_rms_seat_m_s2: dm_seat,
             design_model_vibration_total_m_s2: dm_total,
             uncertainty,
+            master_orders: master_orders(law, nominal, d),
             held,
             communication_steps,
         },
@@ -1369,7 +1444,7 @@ pub fn certify(
             }
         },
         lost_actuators: lost_actuators(law, ctx.params, &d.road),
-        actuator_lag: actuator_lags(law, ctx.params).map_err(&fail)?,
+        actuator_lag: actuator_lags(law, ctx.params, &d.road).map_err(&fail)?,
         hinf_comfort: HinfComfort {
             design: hd.upper,
             passive: hp.upper,

@@ -129,6 +129,9 @@ pub struct Conditions {
     pub delay: f64,
     /// Applied force over commanded force, per actuator.
     pub effectiveness: [f64; N_ACTUATORS],
+    /// First-order actuators of this bandwidth [Hz], each applied force `ω_a / (s + ω_a)` times
+    /// its command (the plant FMU's `actuator_bandwidth`); `None`: ideal actuators.
+    pub actuator_bandwidth_hz: Option<f64>,
 }
 
 impl Conditions {
@@ -137,6 +140,18 @@ impl Conditions {
             params,
             delay: 0.0,
             effectiveness: [1.0; N_ACTUATORS],
+            actuator_bandwidth_hz: None,
+        }
+    }
+
+    /// The actuators' lag at `ω`: `ω_a / (jω + ω_a)`, 1 for ideal actuators.
+    fn lag(&self, omega: f64) -> C64 {
+        match self.actuator_bandwidth_hz {
+            None => C64::new(1.0, 0.0),
+            Some(hz) => {
+                let w = 2.0 * PI * hz;
+                C64::new(w, 0.0) / C64::new(w, omega)
+            }
         }
     }
 
@@ -159,6 +174,9 @@ impl Conditions {
         }
         if self.delay != 0.0 {
             out.insert("tau".into(), self.delay);
+        }
+        if let Some(hz) = self.actuator_bandwidth_hz {
+            out.insert("actuator_bandwidth".into(), hz);
         }
         if self.effectiveness.iter().any(|r| *r != 1.0) {
             out.insert("fault_time".into(), 0.0);
@@ -205,6 +223,8 @@ pub enum PredictionError {
     UnknownInput(String),
     #[error("the closed loop is unstable at these conditions ({0})")]
     Unstable(String),
+    #[error("not modelled: {0}")]
+    NotModelled(String),
 }
 
 /// A plant output row (or a state) by name; a sensor (`sensor_x`) reads its physical output `x`.
@@ -234,10 +254,8 @@ fn output_row(rows: &[OutputRow], name: &str) -> Result<OutputRow, PredictionErr
 }
 
 /// The spectral abscissa of the loop of `law` at `conditions` (no delay) with first-order
-/// actuators of `bandwidth_hz` (each applied force `ω / (s + ω)` times its command, the plant
-/// FMU's `actuator_bandwidth`): negative where that loop is stable. The loop is rational: the
-/// car's states, the actuators' and the controller's. `None` for a predictor's law, whose loop
-/// is not rational.
+/// actuators of `bandwidth_hz` ([`Conditions::actuator_bandwidth_hz`]): negative where that
+/// loop is stable. `None` for a predictor's law, whose loop is not rational.
 pub fn abscissa_with_actuator_lag(
     law: &ControlLaw,
     conditions: Conditions,
@@ -246,41 +264,80 @@ pub fn abscissa_with_actuator_lag(
     if law.predictor.is_some() {
         return Ok(None);
     }
-    let ss = StateSpace::new(&conditions.params);
+    let conditions = Conditions {
+        actuator_bandwidth_hz: Some(bandwidth_hz),
+        ..conditions
+    };
     let names: Vec<&str> = law.inputs.iter().map(|s| s.as_str()).collect();
-    let rows = sensor_rows(&plant_outputs(&conditions.params), &names)?;
-    let omega = 2.0 * PI * bandwidth_hz;
-    let rho = DMatrix::from_diagonal(&DVector::from_column_slice(&conditions.effectiveness));
-    let n = N_STATES + N_ACTUATORS;
-    // [x; f]: ẋ = A x + B_u ρ f, ḟ = ω (u − f); y = C x + D_u ρ f.
-    let mut a = DMatrix::zeros(n, n);
-    a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
-    a.view_mut((0, N_STATES), (N_STATES, N_ACTUATORS))
-        .copy_from(&(&ss.b_u * &rho));
-    a.view_mut((N_STATES, N_STATES), (N_ACTUATORS, N_ACTUATORS))
-        .copy_from(&(DMatrix::<f64>::identity(N_ACTUATORS, N_ACTUATORS) * -omega));
-    let mut b_u = DMatrix::zeros(n, N_ACTUATORS);
-    b_u.view_mut((N_STATES, 0), (N_ACTUATORS, N_ACTUATORS))
-        .copy_from(&(DMatrix::<f64>::identity(N_ACTUATORS, N_ACTUATORS) * omega));
-    let ny = rows.c.nrows();
-    let mut c = DMatrix::zeros(ny, n);
-    c.view_mut((0, 0), (ny, N_STATES)).copy_from(&rows.c);
-    c.view_mut((0, N_STATES), (ny, N_ACTUATORS))
-        .copy_from(&(&rows.d_u * &rho));
-    let plant = crate::numerics::interconnect::Plant {
-        a,
-        b_w: DMatrix::zeros(n, 0),
-        b_u,
-    };
-    let sensors = crate::numerics::interconnect::Sensors {
-        c,
-        d_w: DMatrix::zeros(ny, 0),
-        d_u: DMatrix::zeros(ny, N_ACTUATORS),
-        names: law.inputs.clone(),
-    };
-    let cl = crate::numerics::interconnect::close(&plant, &sensors, &law.lti)
-        .map_err(|e| PredictionError::Unstable(e.to_string()))?;
+    let sensors = sensor_rows(&plant_outputs(&conditions.params), &names)?;
+    let cl = rational_loop(
+        law,
+        &conditions,
+        &StateSpace::new(&conditions.params),
+        (&sensors.c, &sensors.d_u),
+    )?;
     Ok(Some(crate::numerics::eig::spectral_abscissa(&cl.a)))
+}
+
+/// The closed loop of `law` (not a predictor's) on the car `ss` read through `(C_y, D_yu)` at
+/// `conditions` without their delay: the car's states, the first-order actuators' applied
+/// forces where they lag (`ḟ = ω_a (ρ u − f)`, the plant FMU's lag of the effective command),
+/// and the controller's.
+fn rational_loop(
+    law: &ControlLaw,
+    conditions: &Conditions,
+    ss: &StateSpace,
+    (c_y, d_yu): (&DMatrix<f64>, &DMatrix<f64>),
+) -> Result<crate::numerics::interconnect::ClosedLoop, PredictionError> {
+    let rho = DMatrix::from_diagonal(&DVector::from_column_slice(&conditions.effectiveness));
+    let ny = c_y.nrows();
+    let (plant, sensors) = match conditions.actuator_bandwidth_hz {
+        None => (
+            crate::numerics::interconnect::Plant {
+                a: ss.a.clone(),
+                b_w: DMatrix::zeros(N_STATES, 0),
+                b_u: &ss.b_u * &rho,
+            },
+            crate::numerics::interconnect::Sensors {
+                c: c_y.clone(),
+                d_w: DMatrix::zeros(ny, 0),
+                d_u: d_yu * &rho,
+                names: law.inputs.clone(),
+            },
+        ),
+        Some(hz) => {
+            let omega = 2.0 * PI * hz;
+            let n = N_STATES + N_ACTUATORS;
+            // [x; f]: ẋ = A x + B_u f, ḟ = ω (ρ u − f); y = C x + D_u f.
+            let mut a = DMatrix::zeros(n, n);
+            a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
+            a.view_mut((0, N_STATES), (N_STATES, N_ACTUATORS))
+                .copy_from(&ss.b_u);
+            a.view_mut((N_STATES, N_STATES), (N_ACTUATORS, N_ACTUATORS))
+                .copy_from(&(DMatrix::<f64>::identity(N_ACTUATORS, N_ACTUATORS) * -omega));
+            let mut b_u = DMatrix::zeros(n, N_ACTUATORS);
+            b_u.view_mut((N_STATES, 0), (N_ACTUATORS, N_ACTUATORS))
+                .copy_from(&(&rho * omega));
+            let mut c = DMatrix::zeros(ny, n);
+            c.view_mut((0, 0), (ny, N_STATES)).copy_from(c_y);
+            c.view_mut((0, N_STATES), (ny, N_ACTUATORS)).copy_from(d_yu);
+            (
+                crate::numerics::interconnect::Plant {
+                    a,
+                    b_w: DMatrix::zeros(n, 0),
+                    b_u,
+                },
+                crate::numerics::interconnect::Sensors {
+                    c,
+                    d_w: DMatrix::zeros(ny, 0),
+                    d_u: DMatrix::zeros(ny, N_ACTUATORS),
+                    names: law.inputs.clone(),
+                },
+            )
+        }
+    };
+    crate::numerics::interconnect::close(&plant, &sensors, &law.lti)
+        .map_err(|e| PredictionError::Unstable(e.to_string()))
 }
 
 /// What each of `names` (plant outputs a controller reads) reads of a rigid motion of the car
@@ -766,23 +823,14 @@ impl Loop {
             return Ok(crate::numerics::eig::eigenvalues(&self.ss.a));
         };
         if let Some(pred) = &law.predictor {
+            if self.conditions.actuator_bandwidth_hz.is_some() {
+                return Err(PredictionError::NotModelled(
+                    "a predictor with lagging actuators".into(),
+                ));
+            }
             return self.check_predictor_stable(pred).map(|()| Vec::new());
         }
-        let rho =
-            DMatrix::from_diagonal(&DVector::from_column_slice(&self.conditions.effectiveness));
-        let plant = crate::numerics::interconnect::Plant {
-            a: self.ss.a.clone(),
-            b_w: DMatrix::zeros(N_STATES, 0),
-            b_u: &self.ss.b_u * &rho,
-        };
-        let sensors = crate::numerics::interconnect::Sensors {
-            c: self.c_y.clone(),
-            d_w: DMatrix::zeros(self.c_y.nrows(), 0),
-            d_u: &self.d_yu * &rho,
-            names: law.inputs.clone(),
-        };
-        let cl = crate::numerics::interconnect::close(&plant, &sensors, &law.lti)
-            .map_err(|e| PredictionError::Unstable(e.to_string()))?;
+        let cl = rational_loop(law, &self.conditions, &self.ss, (&self.c_y, &self.d_yu))?;
         let poles = crate::numerics::eig::eigenvalues(&cl.a);
         let abscissa =
             crate::numerics::eig::max_or_nan(f64::NEG_INFINITY, poles.iter().map(|l| l.re));
@@ -819,12 +867,13 @@ impl Loop {
             return self.actuators(omega) * u;
         }
         let k = self.controller.as_ref().expect("a controller").at(omega);
+        let lag = self.conditions.lag(omega);
         let rho = DMatrix::from_diagonal(&DVector::from_iterator(
             N_ACTUATORS,
             self.conditions
                 .effectiveness
                 .iter()
-                .map(|r| C64::new(*r, 0.0)),
+                .map(|r| C64::new(*r, 0.0) * lag),
         ));
         k * g_y * rho
     }
@@ -866,6 +915,11 @@ impl Loop {
         let mut key = Vec::new();
         self.sensed.fingerprint(&mut key);
         key.extend(self.conditions.effectiveness.iter().map(|r| r.to_bits()));
+        key.push(
+            self.conditions
+                .actuator_bandwidth_hz
+                .map_or(0, f64::to_bits),
+        );
         match (&self.predictor, &self.controller) {
             (Some(p), _) => {
                 key.push(1);
@@ -918,14 +972,16 @@ impl Loop {
         found
     }
 
-    /// `E = e^{−jωθ} diag(ρ)`: the actuators at these conditions.
+    /// `E = e^{−jωθ} L(jω) diag(ρ)`: the actuators at these conditions (`L` their lag,
+    /// [`Conditions::actuator_bandwidth_hz`]).
     fn actuators(&self, omega: f64) -> DMatrix<C64> {
+        let lag = self.conditions.lag(omega);
         DMatrix::from_diagonal(&DVector::from_iterator(
             N_ACTUATORS,
             self.conditions
                 .effectiveness
                 .iter()
-                .map(|rho| C64::from_polar(*rho, -omega * self.conditions.delay)),
+                .map(|rho| C64::from_polar(*rho, -omega * self.conditions.delay) * lag),
         ))
     }
 

@@ -46,6 +46,29 @@ use vehicle::model::{OutputRow, StateSpace, N_ACTUATORS, N_ROAD, N_STATES};
 
 type C64 = Complex<f64>;
 
+/// How a master orders, at each communication point `t_k`, the exchange of values and the
+/// steps: what the controller's command over `[t_k, t_{k+1})` is. The plant's outputs at `t_k`
+/// are read before the new command is set in every order (they carry `u_{k−1}`'s force), and
+/// the road is the same; only the command differs. `master::cosim::Order` runs each (same
+/// names).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Order {
+    /// Gauss–Seidel, the plant's outputs first (`master`'s default, FMPy's and libcosim's
+    /// fixed-step masters): the controller is given `y_k`, its command read and set, then every
+    /// FMU steps. `u_k = C ξ_k + D y_k`.
+    GaussSeidel,
+    /// Jacobi: every output read at `t_k` before any input is set, so the command is the one
+    /// the controller gives with its previous input. `u_k = C ξ_k + D y_{k−1}`.
+    Jacobi,
+    /// Gauss–Seidel with the controller stepped first: given `y_k`, stepped to `t_{k+1}`, and
+    /// its command then drives the plant over `[t_k, t_{k+1})`. `u_k = C ξ_{k+1} + D y_k`.
+    ControllerFirst,
+}
+
+/// Every [`Order`], the default first.
+pub const ORDERS: [Order; 3] = [Order::GaussSeidel, Order::Jacobi, Order::ControllerFirst];
+
 /// Held inputs of the car: the road (heights, velocities), then the applied forces.
 const N_HELD: usize = N_ROAD + N_ACTUATORS;
 
@@ -232,6 +255,49 @@ impl DiscreteController {
     }
 }
 
+impl DiscreteController {
+    /// The controller as a master of `order` runs it, as a controller of the Gauss–Seidel form
+    /// (`u_k = C ξ_k + D y_k`) on a state of its own: for [`Order::ControllerFirst`]
+    /// `u_k = C (Φ ξ_k + Γ y_k) + D y_k`; for [`Order::Jacobi`] the input it holds, `y_{k−1}`,
+    /// joins its state. A predictor's commands in flight are those its runtime sent in the
+    /// default order: in another, what it keeps is not what the plant got, and that is not
+    /// modelled.
+    fn in_order(self, order: Order) -> Result<Self, PredictionError> {
+        if self.commands > 0 && order != Order::GaussSeidel {
+            return Err(PredictionError::NotModelled(format!(
+                "a predictor in the {order:?} order (its commands in flight assume the \
+                 Gauss-Seidel order)"
+            )));
+        }
+        let k = &self.lti;
+        let lti = match order {
+            Order::GaussSeidel => return Ok(self),
+            Order::ControllerFirst => {
+                Lti::new(k.a.clone(), k.b.clone(), &k.c * &k.a, &k.c * &k.b + &k.d)
+            }
+            Order::Jacobi => {
+                let (n, m, p) = (k.a.nrows(), k.b.ncols(), k.c.nrows());
+                let mut a = DMatrix::zeros(n + m, n + m);
+                a.view_mut((0, 0), (n, n)).copy_from(&k.a);
+                let mut b = DMatrix::zeros(n + m, m);
+                b.view_mut((0, 0), (n, m)).copy_from(&k.b);
+                b.view_mut((n, 0), (m, m)).fill_with_identity();
+                let mut c = DMatrix::zeros(p, n + m);
+                c.view_mut((0, 0), (p, n)).copy_from(&k.c);
+                c.view_mut((0, n), (p, m)).copy_from(&k.d);
+                Lti::new(a, b, c, DMatrix::zeros(p, m))
+            }
+        };
+        let nc = lti.a.nrows();
+        Ok(DiscreteController {
+            lti,
+            commands: 0,
+            g_u: DMatrix::zeros(nc, 0),
+            k_u: DMatrix::zeros(self.k_u.nrows(), 0),
+        })
+    }
+}
+
 /// A predictor (`fmu-controller`'s runtime) at a step `h`, predicting over
 /// `θ = max(τ, h) = d h + ε` (`0 ≤ ε < h`, [`linsys::predictor::predicted_delay`]). At `t_k` the commands in
 /// flight are `u_{k−1} … u_{k−d}` whole and the first `ε` of `u_{k−d−1}`:
@@ -406,7 +472,7 @@ pub fn spectral_radius(
     conditions: Conditions,
     step: f64,
 ) -> Result<f64, PredictionError> {
-    Ok(Instants::new(law, conditions, step)?.radius)
+    Ok(Instants::new(law, conditions, step, Order::GaussSeidel)?.radius)
 }
 
 impl Instants {
@@ -414,11 +480,17 @@ impl Instants {
         law: Option<&ControlLaw>,
         conditions: Conditions,
         step: f64,
+        order: Order,
     ) -> Result<Self, PredictionError> {
         if !(step > 0.0 && step.is_finite()) {
             return Err(PredictionError::Unstable(format!(
                 "a communication step must be > 0, got {step}"
             )));
+        }
+        if conditions.actuator_bandwidth_hz.is_some() {
+            return Err(PredictionError::NotModelled(
+                "the held loop with lagging actuators".into(),
+            ));
         }
         let mut conditions = conditions;
         if let Some(rho_min) = law.and_then(|l| l.accommodation) {
@@ -444,7 +516,9 @@ impl Instants {
         let gamma_road = full.gamma_hold.columns(0, N_ROAD).into_owned();
         let rho = DMatrix::from_diagonal(&DVector::from_column_slice(&conditions.effectiveness));
 
-        let controller = law.map(|l| DiscreteController::new(l, h)).transpose()?;
+        let controller = law
+            .map(|l| DiscreteController::new(l, h)?.in_order(order))
+            .transpose()?;
         let nc = controller.as_ref().map_or(0, |k| k.lti.order());
         // The plant's outputs read at `t_k` carry the force of the command `lag_read` back.
         let lag_read = read_lag(theta, d, eps);
@@ -549,12 +623,23 @@ impl Instants {
 
 impl SampledLoop {
     /// `law = None` is the passive car. A loop unstable at the sampling instants is refused.
+    /// The master's order is the default one ([`Order::GaussSeidel`]).
     pub fn new(
         law: Option<&ControlLaw>,
         conditions: Conditions,
         step: f64,
     ) -> Result<Self, PredictionError> {
-        Self::of(Instants::new(law, conditions, step)?, N_CHANNELS)
+        Self::in_order(law, conditions, step, Order::GaussSeidel)
+    }
+
+    /// [`Self::new`] as a master of `order` runs the loop.
+    pub fn in_order(
+        law: Option<&ControlLaw>,
+        conditions: Conditions,
+        step: f64,
+        order: Order,
+    ) -> Result<Self, PredictionError> {
+        Self::of(Instants::new(law, conditions, step, order)?, N_CHANNELS)
     }
 
     /// The loop at its instants with the power forms of the first `channels` figures (in
@@ -757,7 +842,18 @@ pub fn step_check(
     step: f64,
     seat_on: Option<&ComfortRoad>,
 ) -> Result<StepCheck, PredictionError> {
-    let i = Instants::new(law, conditions, step)?;
+    order_check(law, conditions, step, Order::GaussSeidel, seat_on)
+}
+
+/// [`step_check`] as a master of `order` runs the loop.
+pub fn order_check(
+    law: Option<&ControlLaw>,
+    conditions: Conditions,
+    step: f64,
+    order: Order,
+    seat_on: Option<&ComfortRoad>,
+) -> Result<StepCheck, PredictionError> {
+    let i = Instants::new(law, conditions, step, order)?;
     let radius = i.radius;
     let seat = match seat_on {
         Some(road) if radius < 1.0 => Some(SampledLoop::of(i, 1)?.seat(road)),

@@ -15,8 +15,8 @@
 use crate::comfort::designs::{
     anti_windup_design, fault_tolerant_design, held_at, nominal_gain, output_feedback_design,
     robust_gain, robust_output_feedback_design, robust_state_feedback_design,
-    state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, Role,
-    Uncertainty,
+    state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, InOrder,
+    Role, Uncertainty,
 };
 use crate::comfort::guaranteed::StateFeedback;
 use crate::comfort::skyhook::skyhook_design;
@@ -332,6 +332,9 @@ pub struct SummaryRow {
     /// [`step_cells`].
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub steps: Vec<(f64, String)>,
+    /// Comfort designs: the held loop in each master order (`comfort.master_orders`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub master_orders: Vec<InOrder>,
     /// Thesis designs: the γ the LMI claims, the certified `‖T_zw‖∞` at the nominal car, and
     /// the passive car's on the same generalised plant.
     pub gamma: Option<f64>,
@@ -449,6 +452,7 @@ fn thesis_all(
                 guaranteed_wk_rms_seat: None,
                 held: None,
                 steps: Vec::new(),
+                master_orders: Vec::new(),
                 gamma: Some(r.gamma),
                 norm: Some(s.certificate.norm_upper),
                 passive_norm: s.certificate.passive_norm,
@@ -639,6 +643,7 @@ fn comfort_all(
                 guaranteed_wk_rms_seat: comfort.guaranteed_wk_rms_seat_m_s2,
                 held: Some(held(comfort)),
                 steps: step_cells(&comfort.communication_steps),
+                master_orders: comfort.master_orders.clone(),
                 gamma: None,
                 norm: None,
                 passive_norm: None,
