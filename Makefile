@@ -1,7 +1,7 @@
 # `make`       synthesise and certify every controller (the comfort designs of
 #              synth/designs/comfort.json), build every FMU into dist/, validate them, run the
 #              closed-loop comparison (results/report.md) and print its summary
-# `make test`  every test: rustfmt and clippy, Rust (unit + integration, incl. the fmi crate loading
+# `make test`  every test: rustfmt, clippy and rustdoc, Rust (unit + integration, incl. the fmi crate loading
 #              dist/) and pytest
 # `make check`  the quick inner loop: rustfmt, clippy and every crate's unit tests (no FMUs built)
 # `make bench` benchmarks (criterion)
@@ -245,10 +245,12 @@ test: lint test-rust test-python
 check: lint
 	$(CARGO) test --workspace --release --lib
 
-# The tree stays rustfmt-formatted and clippy-clean: a warning fails the tests.
+# The tree stays rustfmt-formatted, clippy-clean and its docs build without a warning (a broken
+# or private intra-doc link; a unit in brackets is written \[s\]): a warning fails the tests.
 lint: | $(STAMP)/apt
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps
 
 # In the release profile: the tests reuse `make`'s build of every dependency instead of a
 # second full build in the test profile (5.6 GB of target/debug and several minutes on 2 cores;

@@ -154,11 +154,11 @@ pub struct Guarantee {
 pub struct Accommodation {
     /// Per output, the input that measures the force it applies.
     pub forces: Vec<String>,
-    /// The least effectiveness compensated [1] (the design's effectiveness box).
+    /// The least effectiveness compensated \[1\] (the design's effectiveness box).
     pub rho_min: f64,
-    /// The estimator's averaging time [s].
+    /// The estimator's averaging time \[s\].
     pub time_constant: f64,
-    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`).
+    /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`).
     pub u_max: Vec<f64>,
 }
 
@@ -176,7 +176,7 @@ pub struct AntiWindup {
     pub c: Rows,
     #[serde(rename = "F")]
     pub f: Rows,
-    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`).
+    /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`).
     pub u_max: Vec<f64>,
 }
 
@@ -195,7 +195,7 @@ pub struct FaultDetection {
     pub c: Rows,
     #[serde(rename = "D")]
     pub d: Rows,
-    /// Default threshold [N] (parameter `fault_threshold`).
+    /// Default threshold \[N\] (parameter `fault_threshold`).
     pub threshold: f64,
 }
 
@@ -224,9 +224,9 @@ pub struct Predictor {
     pub s_xi: Rows,
     #[serde(rename = "S_y")]
     pub s_y: Rows,
-    /// The largest delay it is certified for [s] (the parameter `tau`'s maximum).
+    /// The largest delay it is certified for \[s\] (the parameter `tau`'s maximum).
     pub delay_max: f64,
-    /// The actuators' force limits the commands are clamped to [N], one per output
+    /// The actuators' force limits the commands are clamped to \[N\], one per output
     /// (parameters `u_max`, `u_max_seat`); absent: not clamped.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub u_max: Option<Vec<f64>>,

@@ -18,7 +18,7 @@ pub struct FaultDetection {
     pub b_u: DMatrix<f64>,
     pub c: DMatrix<f64>,
     pub d: DMatrix<f64>,
-    /// Default threshold [N] (parameter `fault_threshold`).
+    /// Default threshold \[N\] (parameter `fault_threshold`).
     pub threshold: f64,
 }
 
@@ -50,9 +50,9 @@ pub struct Predictor {
     /// read nothing else and nothing else reads them (`A`, `A_ξ`, `B_ξ`, `S_y`), so the
     /// runtime can keep them in controller time ([`crate::predictor`]).
     pub own: Vec<(usize, usize, f64)>,
-    /// The largest delay it is certified for [s] (the parameter `tau`'s maximum).
+    /// The largest delay it is certified for \[s\] (the parameter `tau`'s maximum).
     pub delay_max: f64,
-    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`), if any.
+    /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`), if any.
     pub u_max: Option<Vec<f64>>,
 }
 
@@ -64,7 +64,7 @@ pub struct Accommodation {
     pub force_inputs: Vec<usize>,
     pub rho_min: f64,
     pub time_constant: f64,
-    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`).
+    /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`).
     pub u_max: Vec<f64>,
 }
 
@@ -76,7 +76,7 @@ pub struct AntiWindup {
     pub b: DMatrix<f64>,
     pub c: DMatrix<f64>,
     pub f: DMatrix<f64>,
-    /// Default force limit of each output [N] (parameters `u_max`, `u_max_seat`).
+    /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`).
     pub u_max: Vec<f64>,
 }
 

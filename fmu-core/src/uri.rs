@@ -4,7 +4,7 @@
 //! `file:/dir/resources/`, `file://localhost/dir/resources/`, percent-encode spaces and
 //! non-ASCII, or pass NULL when the FMU has no resources. On Windows the path carries a drive
 //! (`file:///C:/Users/x/resources`, FMPy and fmusim) or a share (`file://server/share/x`, a UNC
-//! path): [`windows_path`] turns both into a Windows path, and is compiled and tested everywhere.
+//! path): `windows_path` turns both into a Windows path, and is compiled and tested everywhere.
 
 use std::path::PathBuf;
 
@@ -59,7 +59,7 @@ fn parse(uri: &str) -> Result<FileUri, UriError> {
 }
 
 /// Parse a resource location into this platform's path. POSIX: `file:///p`, `file:/p` and
-/// `file://localhost/p` give `/p`, another host is refused. Windows: see [`windows_path`].
+/// `file://localhost/p` give `/p`, another host is refused. Windows: see `windows_path`.
 pub fn resource_path(uri: &str) -> Result<PathBuf, UriError> {
     let parsed = parse(uri)?;
     #[cfg(windows)]

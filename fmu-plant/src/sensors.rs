@@ -21,7 +21,7 @@ pub use vehicle::sensors::{Kind, N_SENSORS, PREFIX, SENSORS};
 pub struct SensorParams {
     /// Bias and noise on (`sensor_model`).
     pub on: bool,
-    /// Height sensors' resolution, standard deviation per sample [m].
+    /// Height sensors' resolution, standard deviation per sample \[m\].
     pub noise_height: f64,
     /// Accelerometers' noise density [m/s²/√Hz].
     pub noise_acceleration: f64,
@@ -53,7 +53,7 @@ impl Default for SensorParams {
 }
 
 impl SensorParams {
-    /// The standard deviation of a sample of a sensor of `kind` held over a step `h` [s].
+    /// The standard deviation of a sample of a sensor of `kind` held over a step `h` \[s\].
     pub fn sigma(&self, kind: Kind, h: f64) -> f64 {
         match kind {
             Kind::Height => self.noise_height,
@@ -101,7 +101,7 @@ impl Sensors {
         }
     }
 
-    /// A step of `h` [s] was taken: the next noise samples.
+    /// A step of `h` \[s\] was taken: the next noise samples.
     pub fn advance(&mut self, h: f64) {
         if self.params.on {
             for (s, (_, kind)) in self.sample.iter_mut().zip(SENSORS) {

@@ -34,17 +34,17 @@ const CACHE_SIZE: usize = 16;
 /// Actuator model parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ActuatorParams {
-    /// Force limit of each corner actuator [N].
+    /// Force limit of each corner actuator \[N\].
     pub u_max: f64,
-    /// Force limit of the seat actuator [N].
+    /// Force limit of the seat actuator \[N\].
     pub u_max_seat: f64,
-    /// Input transport delay [s].
+    /// Input transport delay \[s\].
     pub tau: f64,
-    /// Bandwidth of the first-order actuator lag [Hz]; 0 = ideal actuator.
+    /// Bandwidth of the first-order actuator lag \[Hz\]; 0 = ideal actuator.
     pub bandwidth: f64,
-    /// Time at which the fault starts [s].
+    /// Time at which the fault starts \[s\].
     pub fault_time: f64,
-    /// Loss of effectiveness after the fault, per actuator (FL, FR, RL, RR, seat) [1].
+    /// Loss of effectiveness after the fault, per actuator (FL, FR, RL, RR, seat) \[1\].
     pub fault_loss: [f64; N_ACTUATORS],
 }
 
@@ -261,7 +261,7 @@ pub struct Simulator {
     /// Road heights then velocities, as set at the last communication point.
     pub road: [f64; N_ROAD],
     pub road_slope: [f64; N_ROAD],
-    /// Actuator commands (FL, FR, RL, RR, seat) [N].
+    /// Actuator commands (FL, FR, RL, RR, seat) \[N\].
     pub command: [f64; N_ACTUATORS],
     pub command_slope: [f64; N_ACTUATORS],
     /// `[x; f_lag]` (the lag states only with a finite bandwidth).
@@ -391,7 +391,7 @@ impl Simulator {
         self.actuator.effectiveness(i, rho_time) * seg.at(i, t - self.actuator.tau).clamp(-lim, lim)
     }
 
-    /// The force each actuator applies now [N].
+    /// The force each actuator applies now \[N\].
     pub fn applied_force(&mut self) -> [f64; N_ACTUATORS] {
         if self.system().lag {
             return std::array::from_fn(|i| self.xi[N_STATES + i]);

@@ -33,7 +33,7 @@ pub struct Certified {
     pub controller: String,
     pub iso_class: i64,
     pub speed: f64,
-    /// The communication step of the predictions [s].
+    /// The communication step of the predictions \[s\].
     pub step: f64,
     pub conditions: Vec<Condition>,
 }

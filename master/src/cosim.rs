@@ -116,9 +116,9 @@ pub struct Scenario {
     /// What it shows, one sentence for the report.
     #[serde(default)]
     pub description: String,
-    /// [s]
+    /// \[s\]
     pub duration: f64,
-    /// Communication step [s].
+    /// Communication step \[s\].
     pub step: f64,
     /// Road FMU parameters by name (numbers for Real and Integer, true/false for Boolean).
     pub road: BTreeMap<String, serde_json::Value>,
@@ -136,13 +136,13 @@ pub struct Scenario {
     /// When present, the controllers this scenario is meant for (the others are skipped).
     #[serde(default)]
     pub controllers: Option<Vec<String>>,
-    /// Start of the window the metrics are computed over [s] (e.g. after a fault).
+    /// Start of the window the metrics are computed over \[s\] (e.g. after a fault).
     #[serde(default)]
     pub metrics_from: f64,
     /// The designs whose own scenario this is (the design table of the report).
     #[serde(default)]
     pub showcases: Vec<String>,
-    /// Suspension stroke limit [m]: a run whose stroke goes beyond it is flagged.
+    /// Suspension stroke limit \[m\]: a run whose stroke goes beyond it is flagged.
     #[serde(default = "default_stroke_max")]
     pub stroke_max: f64,
     /// How the master orders the exchange and the steps at each communication point ([`Order`];
@@ -171,7 +171,7 @@ pub enum Order {
     ControllerFirst,
 }
 
-/// The stroke limit of the flags when a scenario does not give one [m] (the comfort designs'
+/// The stroke limit of the flags when a scenario does not give one \[m\] (the comfort designs'
 /// `stroke_max`, synth/designs/comfort.json).
 pub const DEFAULT_STROKE_MAX: f64 = 0.08;
 
@@ -549,15 +549,15 @@ pub struct Run {
     pub time: Vec<f64>,
     /// The rows, one after the other (`columns.len()` values each).
     pub data: Vec<f64>,
-    /// Static tyre loads of the plant, FL … RR [N].
+    /// Static tyre loads of the plant, FL … RR \[N\].
     pub static_tire_load: [f64; 4],
-    /// The plant's force limits, FL … RR and seat (`u_max`, `u_max_seat`) [N].
+    /// The plant's force limits, FL … RR and seat (`u_max`, `u_max_seat`) \[N\].
     pub force_limits: [f64; 5],
-    /// The plant's actuator delay `tau` [s].
+    /// The plant's actuator delay `tau` \[s\].
     pub delay: f64,
-    /// The force commands the plant was given, one per step, held over it (FL … RR, seat) [N].
+    /// The force commands the plant was given, one per step, held over it (FL … RR, seat) \[N\].
     pub commands: Vec<[f64; 5]>,
-    /// Wall time of the stepping loop alone (FMUs loaded and initialised) [s].
+    /// Wall time of the stepping loop alone (FMUs loaded and initialised) \[s\].
     pub loop_seconds: f64,
     /// What the FMUs said in a run that went through (their warnings: a controller stepped
     /// beyond the communication steps its loop is stable at says so), as `instance: message`.
@@ -641,7 +641,7 @@ pub struct Setup<'a> {
     pub plant: Participant<'a>,
     /// `None`: the passive car.
     pub controller: Option<Participant<'a>>,
-    /// [s]
+    /// \[s\]
     pub step: f64,
     pub steps: usize,
     /// Plant outputs, or, for a name the plant lacks, the controller's variable (Real, or

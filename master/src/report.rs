@@ -20,13 +20,13 @@ pub struct Figures {
     /// ISO 2631-1 `W_e`-weighted RMS roll and pitch acceleration [rad/s²]: as people feel them.
     pub we_rms_roll: f64,
     pub we_rms_pitch: f64,
-    /// Largest |suspension stroke| [m].
+    /// Largest |suspension stroke| \[m\].
     pub max_stroke: f64,
     /// Largest |dynamic tyre load| / static load.
     pub max_tyre_ratio: f64,
-    /// Largest |applied actuator force| [N].
+    /// Largest |applied actuator force| \[N\].
     pub peak_force: f64,
-    /// First time `fault_detected` is true [s], for a controller with a detector.
+    /// First time `fault_detected` is true \[s\], for a controller with a detector.
     pub detection_time: Option<f64>,
     /// Where the run leaves the model's validity or breaks a limit.
     pub flags: Flags,

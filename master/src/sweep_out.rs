@@ -150,7 +150,7 @@ pub fn csv(names: &[String], rows: &[Row]) -> String {
     s
 }
 
-/// The rows as one Parquet row group, the columns of [`columns`] typed by [`Column::parquet`]:
+/// The rows as one Parquet row group, the columns of `columns` typed by `Column::parquet`:
 /// `run`, `point` INT64; `controller`, `status`, `message`, `warnings` UTF-8; the swept values and
 /// `loop_seconds` DOUBLE; the metrics and `saturated_share` optional DOUBLE and the two flags
 /// optional BOOLEAN (null for a failed run).
@@ -462,7 +462,7 @@ pub enum MapCell {
 }
 
 /// The worst W_k seat RMS over two swept parameters (the spec's `map`, else the first two),
-/// per controller: the axes as [`axis`] cuts them.
+/// per controller: the axes as `axis` cuts them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WorstMap {
     pub rows_name: String,

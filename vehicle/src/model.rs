@@ -55,7 +55,7 @@ pub const ROAD_PORTS: [&str; N_ROAD] = [
     "road_v_rr",
 ];
 /// The names of the commanded forces between a controller's outputs and the plant's inputs
-/// [N], `u_<actuator>` in the order of [`ACTUATORS`].
+/// \[N\], `u_<actuator>` in the order of [`ACTUATORS`].
 pub const FORCE_PORTS: [&str; N_ACTUATORS] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
 
 /// Name, unit and meaning of each state, in the order of `x`.
@@ -99,7 +99,7 @@ pub struct Element {
     pub road: [f64; N_WHEELS],
 }
 
-/// Longitudinal and lateral position `(x, y)` of each corner relative to the body COG [m].
+/// Longitudinal and lateral position `(x, y)` of each corner relative to the body COG \[m\].
 pub fn corner_positions(p: &VehicleParams) -> [(f64, f64); 4] {
     [(p.l2, p.w1), (p.l2, -p.w2), (-p.l1, p.w1), (-p.l1, -p.w2)]
 }
@@ -219,7 +219,7 @@ impl MechanicalModel {
         }
     }
 
-    /// Static deflection of every element under gravity, flat road, no actuator force [m]
+    /// Static deflection of every element under gravity, flat road, no actuator force \[m\]
     /// (negative = compressed): `d₀ = J q₀`, `K q₀ = Q_g`.
     pub fn static_deflections(&self) -> Vec<f64> {
         let q0 = self
@@ -234,7 +234,7 @@ impl MechanicalModel {
             .collect()
     }
 
-    /// Undamped natural frequencies [Hz], each with the coordinate that carries most of the
+    /// Undamped natural frequencies \[Hz\], each with the coordinate that carries most of the
     /// mode's kinetic energy, sorted by frequency.
     pub fn modes(&self) -> Vec<(f64, usize)> {
         let m_inv_sqrt = DMatrix::from_diagonal(&self.mass.diagonal().map(|m| 1.0 / m.sqrt()));
@@ -572,13 +572,13 @@ pub fn applied_force_rows() -> Vec<OutputRow> {
 /// Static values under gravity, for the calculated parameters of the plant.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StaticEquilibrium {
-    /// Suspension strokes [m] (negative = compressed).
+    /// Suspension strokes \[m\] (negative = compressed).
     pub stroke: [f64; 4],
-    /// Seat stroke [m].
+    /// Seat stroke \[m\].
     pub stroke_seat: f64,
-    /// Tyre deflections [m].
+    /// Tyre deflections \[m\].
     pub tire_defl: [f64; 4],
-    /// Tyre loads [N] (positive = pressing on the road).
+    /// Tyre loads \[N\] (positive = pressing on the road).
     pub tire_load: [f64; 4],
 }
 

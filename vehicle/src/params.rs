@@ -15,9 +15,9 @@ pub const DEFAULT_PARAMETER_FILE: &str = include_str!("../params/default.json");
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VehicleParams {
-    /// Sprung (body) mass [kg].
+    /// Sprung (body) mass \[kg\].
     pub m_s: f64,
-    /// Unsprung mass of each wheel [kg].
+    /// Unsprung mass of each wheel \[kg\].
     pub m_u: f64,
     /// Roll moment of inertia of the body [kg·m²].
     #[serde(rename = "I_x")]
@@ -37,21 +37,21 @@ pub struct VehicleParams {
     pub k_t: f64,
     /// Tyre damping [N·s/m].
     pub c_t: f64,
-    /// Distance from the body COG to the rear axle [m].
+    /// Distance from the body COG to the rear axle \[m\].
     #[serde(rename = "L1")]
     pub l1: f64,
-    /// Distance from the body COG to the front axle [m].
+    /// Distance from the body COG to the front axle \[m\].
     #[serde(rename = "L2")]
     pub l2: f64,
-    /// Distance from the body COG to the left wheels [m].
+    /// Distance from the body COG to the left wheels \[m\].
     pub w1: f64,
-    /// Distance from the body COG to the right wheels [m].
+    /// Distance from the body COG to the right wheels \[m\].
     pub w2: f64,
-    /// Lateral offset of the seat, to the right of the COG [m] (roll lever −s1).
+    /// Lateral offset of the seat, to the right of the COG \[m\] (roll lever −s1).
     pub s1: f64,
-    /// Longitudinal offset of the seat, ahead of the COG [m] (pitch lever +s2).
+    /// Longitudinal offset of the seat, ahead of the COG \[m\] (pitch lever +s2).
     pub s2: f64,
-    /// Seat plus driver mass [kg].
+    /// Seat plus driver mass \[kg\].
     pub m_seat: f64,
     /// Seat stiffness [N/m].
     pub k_seat: f64,
@@ -322,7 +322,7 @@ impl VehicleParams {
             .try_for_each(|spec| check(spec, (spec.get)(self)))
     }
 
-    /// Wheelbase `L1 + L2` [m].
+    /// Wheelbase `L1 + L2` \[m\].
     pub fn wheelbase(&self) -> f64 {
         self.l1 + self.l2
     }

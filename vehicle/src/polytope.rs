@@ -13,9 +13,9 @@ use crate::params::VehicleParams;
 /// The two-vertex polytope over the sprung mass.
 #[derive(Debug, Clone)]
 pub struct MassPolytope {
-    /// Lightest sprung mass [kg].
+    /// Lightest sprung mass \[kg\].
     pub m_min: f64,
-    /// Heaviest sprung mass [kg].
+    /// Heaviest sprung mass \[kg\].
     pub m_max: f64,
     /// Model at `m_min` and at `m_max`.
     pub vertices: [StateSpace; 2],

@@ -66,7 +66,7 @@ pub enum Profile {
     },
 }
 
-/// ISO 8608 `G_d(n₀)` [m³] of class 1 (A) … 8 (H): the geometric means of the class bounds.
+/// ISO 8608 `G_d(n₀)` \[m³\] of class 1 (A) … 8 (H): the geometric means of the class bounds.
 pub fn iso_g_d_n0(class: u8) -> f64 {
     16e-6 * 4f64.powi(class as i32 - 1)
 }
@@ -90,9 +90,9 @@ pub struct Road {
     pub profile: Profile,
     /// Vehicle speed [m/s].
     pub speed: f64,
-    /// Front-to-rear axle distance [m].
+    /// Front-to-rear axle distance \[m\].
     pub wheelbase: f64,
-    /// Distance from the front wheels at t = 0 to the profile's origin [m].
+    /// Distance from the front wheels at t = 0 to the profile's origin \[m\].
     pub start_distance: f64,
     /// ISO road: per track (left, right), `(amplitude [m], spatial frequency [cycles/m], phase)`.
     tracks: [Vec<(f64, f64, f64)>; 2],
@@ -353,7 +353,7 @@ impl Road {
     }
 }
 
-/// Grid spacing of a sampled ISO track [m]: a power of two, so every node `k h` is exact.
+/// Grid spacing of a sampled ISO track \[m\]: a power of two, so every node `k h` is exact.
 /// The shortest wave (2.83 cycles/m) spans 5.7 nodes; see [`IsoTrack::error_bounds`].
 pub const ISO_GRID: f64 = 1.0 / 16.0;
 /// Nodes per block of a sampled track (32 m); a block is computed when first needed.

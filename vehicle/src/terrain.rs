@@ -13,19 +13,19 @@ use std::f64::consts::PI;
 /// The terrain's parameters. The default is level: no grade, no hills, no crossfall.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Terrain {
-    /// The road rises by `ramp_rise` [m] over `ramp_length` [m] (a constant grade
+    /// The road rises by `ramp_rise` \[m\] over `ramp_length` \[m\] (a constant grade
     /// `ramp_rise / ramp_length`, with a kink at each end), then stays at that height.
     pub ramp_rise: f64,
-    /// [m], > 0.
+    /// \[m\], > 0.
     pub ramp_length: f64,
-    /// Periodic hills `½ h (1 − cos(2π d / λ))`: peak-to-peak height `h` [m] …
+    /// Periodic hills `½ h (1 − cos(2π d / λ))`: peak-to-peak height `h` \[m\] …
     pub hill_height: f64,
-    /// … and wavelength `λ` [m], > 0.
+    /// … and wavelength `λ` \[m\], > 0.
     pub hill_length: f64,
-    /// The left track ends `crossfall` [m] above the right one (each `crossfall / 2` from the
+    /// The left track ends `crossfall` \[m\] above the right one (each `crossfall / 2` from the
     /// centre line, so the heave is untouched), reached with a half-cosine over …
     pub crossfall: f64,
-    /// … `crossfall_length` [m], > 0.
+    /// … `crossfall_length` \[m\], > 0.
     pub crossfall_length: f64,
 }
 

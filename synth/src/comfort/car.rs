@@ -85,9 +85,9 @@ pub fn washout(k: &Lti, inputs: &[usize], omega: f64) -> Lti {
     Lti::new(a, b, c, k.d.clone())
 }
 
-/// `car_of` on `ctx`, whose design is the comfort file's [`for_car`]
+/// `car_of` on `ctx`, whose design is the comfort file's `for_car`
 /// (`crate::shipping::design::ComfortDesign::for_car`): the guaranteed-cost gain that tolerates
-/// the unmodelled delay, on the car's observer ([`CarObserver`]).
+/// the unmodelled delay, on the car's observer (`CarObserver`).
 pub fn car_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "car_of";
     let observer = CarObserver::new(ctx, variant)?;

@@ -104,7 +104,7 @@ pub struct Comfort {
     pub master_orders: Vec<InOrder>,
 }
 
-/// The held loop in one master order ([`master_orders`]).
+/// The held loop in one master order (`master_orders`).
 #[derive(Debug, Clone, Serialize)]
 pub struct InOrder {
     pub order: crate::predict::sampled::Order,
@@ -152,7 +152,7 @@ fn master_orders(law: &ControlLaw, nominal: Conditions, d: &ComfortDesign) -> Ve
         .collect()
 }
 
-/// Communication steps [s] at which each certificate checks the nominal loop as a master runs
+/// Communication steps \[s\] at which each certificate checks the nominal loop as a master runs
 /// it: the design file's step is one master's choice, and a sample-and-hold destabilises a loop
 /// whose fastest closed-loop mode it cannot follow.
 pub const CHECKED_STEPS: [f64; 10] = [

@@ -118,10 +118,10 @@ pub struct RoadModel {
     pub sigma: f64,
     /// `a` [rad/s].
     pub corner: f64,
-    /// Wheelbase delay `T = (L1 + L2)/V` [s].
+    /// Wheelbase delay `T = (L1 + L2)/V` \[s\].
     pub delay: f64,
     pub rear: RearWheels,
-    /// Long waves `(b [rad/s], RMS height [m])` under every wheel ([`road_system`]).
+    /// Long waves `(b [rad/s], RMS height [m])` under every wheel (`road_system`).
     pub long_waves: Option<(f64, f64)>,
 }
 
@@ -567,7 +567,7 @@ pub fn frequency_response(sys: &Abcd, omega: f64) -> DMatrix<nalgebra::Complex<f
     cx(c) * x + cx(d)
 }
 
-/// The limits of the five actuators [N].
+/// The limits of the five actuators \[N\].
 pub fn force_limits(d: &ComfortDesign) -> [f64; N_ACTUATORS] {
     [d.u_max, d.u_max, d.u_max, d.u_max, d.u_max_seat]
 }

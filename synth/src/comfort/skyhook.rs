@@ -44,7 +44,7 @@ pub struct Skyhook {
     pub body: f64,
     /// The seat's [N·s/m].
     pub seat: f64,
-    /// The velocity estimator's corner frequency [Hz].
+    /// The velocity estimator's corner frequency \[Hz\].
     pub highpass_hz: f64,
 }
 
@@ -87,9 +87,9 @@ impl Skyhook {
 /// allows; it cannot remove that travel, and is not asked to).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Travel {
-    /// The largest corner's RMS suspension stroke [m].
+    /// The largest corner's RMS suspension stroke \[m\].
     pub suspension: f64,
-    /// The RMS seat stroke [m].
+    /// The RMS seat stroke \[m\].
     pub seat: f64,
 }
 
@@ -125,7 +125,7 @@ impl Travel {
 const COARSE: [f64; 8] = [100.0, 200.0, 400.0, 800.0, 1600.0, 3200.0, 6400.0, 12800.0];
 
 /// The tuned skyhook on the design road and its predicted figures: the least `W_k` seat among
-/// the dampings `travel` admits ([`Travel::admits`]). An error if none is.
+/// the dampings `travel` admits (`Travel::admits`). An error if none is.
 pub fn tune(ctx: &Context, travel: &Travel) -> Result<(Skyhook, Figures), String> {
     let d = ctx.design;
     let conditions = Conditions::nominal(*ctx.params);

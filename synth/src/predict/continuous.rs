@@ -116,7 +116,7 @@ pub struct PredictorLaw {
     pub b: DMatrix<f64>,
     pub k: DMatrix<f64>,
     pub reconstruction: crate::comfort::controllers::Reconstruction,
-    /// The delay the predictor compensates [s] (the FMU's `tau`).
+    /// The delay the predictor compensates \[s\] (the FMU's `tau`).
     pub delay: f64,
 }
 
@@ -125,11 +125,11 @@ pub struct PredictorLaw {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Conditions {
     pub params: VehicleParams,
-    /// Transport delay of every actuator [s].
+    /// Transport delay of every actuator \[s\].
     pub delay: f64,
     /// Applied force over commanded force, per actuator.
     pub effectiveness: [f64; N_ACTUATORS],
-    /// First-order actuators of this bandwidth [Hz], each applied force `ω_a / (s + ω_a)` times
+    /// First-order actuators of this bandwidth \[Hz\], each applied force `ω_a / (s + ω_a)` times
     /// its command (the plant FMU's `actuator_bandwidth`); `None`: ideal actuators.
     pub actuator_bandwidth_hz: Option<f64>,
 }
@@ -207,13 +207,13 @@ pub struct Figures {
     pub rms_body_heave_m_s2: f64,
     pub rms_roll_rad_s2: f64,
     pub rms_pitch_rad_s2: f64,
-    /// Suspension strokes FL, FR, RL, RR [m].
+    /// Suspension strokes FL, FR, RL, RR \[m\].
     pub rms_stroke_m: [f64; 4],
     /// Dynamic tyre loads over their static loads, FL … RR.
     pub rms_tire_load_ratio: [f64; 4],
-    /// Seat stroke (seat minus the body under it) [m].
+    /// Seat stroke (seat minus the body under it) \[m\].
     pub rms_seat_stroke_m: f64,
-    /// Applied forces, four corners and the seat [N].
+    /// Applied forces, four corners and the seat \[N\].
     pub rms_force_n: [f64; 5],
 }
 
@@ -1118,8 +1118,8 @@ impl Loop {
             .expect("a physical output")
     }
 
-    /// The predicted figures on `road`: [`Self::density`] over the road's band, the grid graded
-    /// around the loop's narrow resonances where it is rational ([`continuous_resonances`]).
+    /// The predicted figures on `road`: `Self::density` over the road's band, the grid graded
+    /// around the loop's narrow resonances where it is rational (`continuous_resonances`).
     pub fn figures(&self, road: &ComfortRoad) -> Figures {
         let peaks = continuous_resonances(&self.poles, road.band_hz().1);
         Figures::from_mean_squares(road_integral(road, &peaks, self.density(road)))

@@ -835,7 +835,7 @@ pub struct StepCheck {
 
 /// The loop a master runs at `step`: its spectral radius, and with `seat_on` a road and the
 /// loop stable, its held `W_k` seat there, from one power form instead of
-/// [`SampledLoop::figures`]' [`N_CHANNELS`].
+/// [`SampledLoop::figures`]' `N_CHANNELS`.
 pub fn step_check(
     law: Option<&ControlLaw>,
     conditions: Conditions,

@@ -36,9 +36,9 @@ pub enum RoadModel {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Bump {
-    /// [m]
+    /// \[m\]
     pub height: f64,
-    /// [m]
+    /// \[m\]
     pub length: f64,
     /// Vehicle speed [m/s].
     pub speed: f64,
@@ -49,7 +49,7 @@ pub struct Bump {
 pub struct Design {
     #[serde(default)]
     pub description: String,
-    /// Road height giving a unit disturbance [m].
+    /// Road height giving a unit disturbance \[m\].
     pub road_height_scale: f64,
     /// Road vertical velocity giving a unit disturbance [m/s].
     pub road_velocity_scale: f64,
@@ -68,17 +68,17 @@ pub struct Design {
     pub weight_tyre_load: f64,
     /// Weight of each actuator force relative to its limit, `ρ u_i / u_max,i`, in z.
     pub control_penalty: f64,
-    /// Output feedback: sensor noise on the measured strokes [m], a regularisation that makes the
+    /// Output feedback: sensor noise on the measured strokes \[m\], a regularisation that makes the
     /// filtering problem non-singular (the measurements have no road feed-through otherwise).
     pub noise_stroke: f64,
     /// Output feedback: sensor noise on the measured body heave velocity and roll/pitch rates
     /// [m/s, rad/s].
     pub noise_rate: f64,
-    /// Corner actuator force limit [N].
+    /// Corner actuator force limit \[N\].
     pub u_max: f64,
-    /// Seat actuator force limit [N].
+    /// Seat actuator force limit \[N\].
     pub u_max_seat: f64,
-    /// Suspension stroke limit [m].
+    /// Suspension stroke limit \[m\].
     pub stroke_max: f64,
     /// Road model of `w` ([`RoadModel`]).
     pub road_model: RoadModel,
@@ -86,11 +86,11 @@ pub struct Design {
     /// `robust_sf`, `hinf_of`; needs [`RoadModel::Shaped`], in which the tyre load has a bound).
     pub constraints: bool,
     pub design_bump: Bump,
-    /// Robust designs (thesis ch. 6): lightest sprung mass [kg].
+    /// Robust designs (thesis ch. 6): lightest sprung mass \[kg\].
     pub mass_min: f64,
-    /// Robust designs: heaviest sprung mass [kg].
+    /// Robust designs: heaviest sprung mass \[kg\].
     pub mass_max: f64,
-    /// `delay_sf`: the actuator + processing delay the design must tolerate [s].
+    /// `delay_sf`: the actuator + processing delay the design must tolerate \[s\].
     pub delay_tau: f64,
     /// `delay_sf`: the descriptor multiplier `P₃ = ε P₂` of the Lyapunov–Krasovskii LMI.
     pub delay_epsilon: f64,
@@ -100,9 +100,9 @@ pub struct Design {
     /// `ft_of`: weight of the H2 bound on the estimation error in the observer LMI's objective
     /// (`γ + w ν`; 0 = γ alone).
     pub fault_h2_weight: f64,
-    /// `ft_of`: time constant of the detection residual's filter [s].
+    /// `ft_of`: time constant of the detection residual's filter \[s\].
     pub fault_time_constant: f64,
-    /// `ft_of`: force deficit above which `fault_detected` is raised [N] (an FMU parameter too).
+    /// `ft_of`: force deficit above which `fault_detected` is raised \[N\] (an FMU parameter too).
     pub fault_threshold: f64,
     /// Robust certificates: number of masses of the uniform check grid over the range (≥ 61).
     pub mass_grid_points: usize,
@@ -189,7 +189,7 @@ impl From<IsoClass> for String {
 }
 
 impl ComfortRoad {
-    /// The temporal band [Hz] the road FMU's ISO profile covers at this speed, over which the
+    /// The temporal band \[Hz\] the road FMU's ISO profile covers at this speed, over which the
     /// certificates predict the comfort figures.
     pub fn band_hz(&self) -> (f64, f64) {
         let (lo, hi) = vehicle::road::ISO_BAND;
@@ -244,47 +244,47 @@ pub struct ComfortDesign {
     #[serde(default)]
     pub description: String,
     pub road: ComfortRoad,
-    /// Corner actuator force limit [N].
+    /// Corner actuator force limit \[N\].
     pub u_max: f64,
-    /// Seat actuator force limit [N].
+    /// Seat actuator force limit \[N\].
     pub u_max_seat: f64,
-    /// Suspension stroke limit [m].
+    /// Suspension stroke limit \[m\].
     pub stroke_max: f64,
     /// The limits are met as `limit_sigmas` standard deviations on the design road.
     pub limit_sigmas: f64,
-    /// Actuator delay every design tolerates without being told [s]: the lag of the actuators
+    /// Actuator delay every design tolerates without being told \[s\]: the lag of the actuators
     /// and of the co-simulation's hold, as an input-multiplicative uncertainty.
     pub unmodelled_delay: f64,
     pub sensor_noise: SensorNoise,
-    /// Robust designs: the sprung-mass range [kg].
+    /// Robust designs: the sprung-mass range \[kg\].
     pub mass_min: f64,
     pub mass_max: f64,
     /// Robust certificates: number of masses of the uniform check grid (≥ 2).
     pub mass_grid_points: usize,
-    /// `delay_sf`: the largest actuator delay its predictor is certified for [s].
+    /// `delay_sf`: the largest actuator delay its predictor is certified for \[s\].
     pub delay_max: f64,
     /// `ft_of`: lowest actuator effectiveness the design must tolerate.
     pub fault_rho_min: f64,
-    /// `ft_of`: time constant of the detection residual's filter [s].
+    /// `ft_of`: time constant of the detection residual's filter \[s\].
     pub fault_time_constant: f64,
-    /// `ft_of`: force deficit above which `fault_detected` is raised [N].
+    /// `ft_of`: force deficit above which `fault_detected` is raised \[N\].
     pub fault_threshold: f64,
-    /// `ft_of`: averaging time of the effectiveness estimate its commands are divided by [s]
+    /// `ft_of`: averaging time of the effectiveness estimate its commands are divided by \[s\]
     /// (fault accommodation).
     pub accommodation_time_constant: f64,
-    /// The communication step a master runs the controllers at [s]; the certificates predict
+    /// The communication step a master runs the controllers at \[s\]; the certificates predict
     /// the co-simulation at it too (`comfort.held`, [`crate::predict::sampled`]). Default: the
     /// scenarios' 1 ms.
     #[serde(default = "default_communication_step")]
     pub communication_step: f64,
     /// `skyhook`: the corner of its velocity estimators, each accelerometer integrated and
-    /// high-passed twice there [Hz] ([`crate::comfort::skyhook`]).
+    /// high-passed twice there \[Hz\] ([`crate::comfort::skyhook`]).
     #[serde(default = "default_skyhook_highpass_hz")]
     pub skyhook_highpass_hz: f64,
     /// `car_of`: the design on the sensors a car has ([`CarDesign`]; absent: no `car_of`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub car: Option<CarDesign>,
-    /// A limit on the seat stroke [m] (3 σ like the others), imposed by the design built on
+    /// A limit on the seat stroke \[m\] (3 σ like the others), imposed by the design built on
     /// [`CarDesign`] only (`None` elsewhere).
     #[serde(skip)]
     pub seat_stroke_max: Option<f64>,
@@ -300,10 +300,10 @@ pub struct CarDesign {
     pub noise: CarSensorNoise,
     /// The long waves of the design road ([`ComfortRoad::long_waves`]).
     pub long_waves: LongWaves,
-    /// The seat stroke limit [m].
+    /// The seat stroke limit \[m\].
     pub seat_stroke_max: f64,
     /// The corner of the washout `s / (s + ω)` each accelerometer passes before the Kalman
-    /// filter [Hz]: a bias (up to 0.2 m/s² in production) would otherwise read as a lasting
+    /// filter \[Hz\]: a bias (up to 0.2 m/s² in production) would otherwise read as a lasting
     /// acceleration and hold the actuators against it (1000 N measured without it).
     pub accelerometer_washout_hz: f64,
 }
@@ -315,9 +315,9 @@ pub struct CarDesign {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LongWaves {
-    /// [m].
+    /// \[m\].
     pub height_rms: f64,
-    /// [m].
+    /// \[m\].
     pub wavelength: f64,
 }
 

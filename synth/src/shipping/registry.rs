@@ -93,7 +93,7 @@ pub struct Variant {
     /// It has a thesis design too ([`crate::thesis::synthesis::synthesise`]); a baseline does
     /// not.
     pub thesis: bool,
-    /// A design of ours or a classical baseline ([`Variant::accept`]).
+    /// A design of ours or a classical baseline (`Variant::accept`).
     pub role: Role,
 }
 
@@ -275,7 +275,7 @@ pub enum DesignFile {
 }
 
 impl DesignFile {
-    /// The sprung-mass range `[mass_min, mass_max]` the robust designs cover [kg].
+    /// The sprung-mass range `[mass_min, mass_max]` the robust designs cover \[kg\].
     pub fn mass_range(&self) -> (f64, f64) {
         match self {
             DesignFile::Comfort(d) => (d.mass_min, d.mass_max),
@@ -307,7 +307,7 @@ pub struct Synthesised {
     pub certificate: serde_json::Value,
     pub controller_json: ControllerFile,
     pub row: SummaryRow,
-    /// Wall time of this design alone [s].
+    /// Wall time of this design alone \[s\].
     pub seconds: f64,
 }
 
@@ -756,7 +756,7 @@ const SHARP: f64 = 0.01;
 
 /// The per-step table's cells of a design: from the design file's step up, the nominal car's
 /// held `W_k` seat, the worst over the checked conditions in brackets where it differs, `*`
-/// where its sharpest resonance is under [`SHARP`] wide; `unstable` where a checked loop is.
+/// where its sharpest resonance is under `SHARP` wide; `unstable` where a checked loop is.
 pub fn step_cells(s: &crate::comfort::designs::StepStability) -> Vec<(f64, String)> {
     s.checked
         .iter()

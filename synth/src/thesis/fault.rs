@@ -276,7 +276,7 @@ pub struct DetectionResidual {
     pub kappa: DMatrix<f64>,
     /// `π C_y B_u` per N of command.
     pub g: DMatrix<f64>,
-    /// Filter time constant [s].
+    /// Filter time constant \[s\].
     pub time_constant: f64,
 }
 
@@ -335,7 +335,7 @@ impl DetectionResidual {
         self.pi.nrows()
     }
 
-    /// `G⁺ / T`: residual to force deficit [N].
+    /// `G⁺ / T`: residual to force deficit \[N\].
     pub fn to_force(&self) -> DMatrix<f64> {
         self.g.clone().pseudo_inverse(1e-12).expect("finite") / self.time_constant
     }

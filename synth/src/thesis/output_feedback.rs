@@ -545,7 +545,7 @@ fn solve_basic_lmi(
 /// Strictness of the stage-2 projected LMIs, relative to γ: room for the controller variables.
 const RECONSTRUCTION_MARGIN: f64 = 1e-4;
 
-/// Stage 1: the optimal γ from the reduced projected LMIs ([`reduced_projected`]) in the scaled
+/// Stage 1: the optimal γ from the reduced projected LMIs (`reduced_projected`) in the scaled
 /// variables `X̃ = X/γ`, `Ỹ = Y/γ`, `η = 1/γ`: `max η` subject to `LMI_X(X̃, ζ) ≺ 0`,
 /// `LMI_Y(Ỹ, ζ) ≺ 0`, `[X̃ ηI; ηI Ỹ] ≻ 0` and `[ζ η; η 1] ⪰ 0` (`ζ ≥ η²`). Both LMIs are linear
 /// in `ζ` with a positive semidefinite coefficient, so at the optimum `ζ = η²` and the relaxation
@@ -600,10 +600,10 @@ pub struct OfSettings {
 /// 1. γ* by [`optimal_gamma`];
 /// 2. γ fixed at `(1 + delta) γ*`, `X, Y ⪯ βI`, coupling margin `t` in `[X I; I Y] ⪰ tI`
 ///    maximised, on the reduced projected LMIs (in `X, Y` only);
-/// 3. `Ω = [Â B̂; Ĉ D̂]` the analytic centre of the full LMI at that `X, Y` ([`analytic_centre`],
+/// 3. `Ω = [Â B̂; Ĉ D̂]` the analytic centre of the full LMI at that `X, Y` (`analytic_centre`,
 ///    started from the Iwasaki–Skelton solution), and the Remark 5.1 reconstruction.
 ///
-/// All on the balanced plant ([`Balanced`]). Stage 2 as one 65-row SDP with all of
+/// All on the balanced plant (`Balanced`). Stage 2 as one 65-row SDP with all of
 /// `X, Y, Â, B̂, Ĉ, D̂` (777 variables) took ~7 s; stages 2–3 here take ~0.3 s.
 pub fn hinf_of(p: &OfPlant, settings: OfSettings) -> Result<OutputFeedback, LmiError> {
     let OfSettings { eps, delta, beta } = settings;
@@ -868,7 +868,7 @@ pub fn optimal_gamma_one_shot(p: &OfPlant, eps: f64) -> Result<f64, LmiError> {
 /// terms cancel in the Remark 5.1 reconstruction. Sound, but conservative: `X` is not optimised
 /// for output feedback.
 ///
-/// Solved on the vertices balanced with the centre plant's scaling ([`Balanced`]): `X̄ = D⁻¹XD⁻¹`,
+/// Solved on the vertices balanced with the centre plant's scaling (`Balanced`): `X̄ = D⁻¹XD⁻¹`,
 /// `Ĉ̄ = ĈD⁻¹` (so `ĀX̄ + B̄₂Ĉ̄ = D⁻¹(AX + B₂Ĉ)D⁻¹`). Unbalanced, Clarabel stopped with
 /// NumericalError on stage 2 for some weights (roll weight 0.8).
 pub fn hinf_of_common_x(

@@ -346,7 +346,7 @@ fn peak_lmi(g: &GeneralizedPlant, i: usize, q: &Affine, y: &Affine, beta: &Affin
 
 /// The smallest common energy-to-peak bound `max_i max_t |cᵢ(t)|` over the constraint outputs
 /// that any state feedback can prove with these LMIs for disturbances of energy `energy`
-/// (the energy and peak LMIs of [`add_peak_constraints`] at every plant, no H∞ part): above 1,
+/// (the energy and peak LMIs of `add_peak_constraints` at every plant, no H∞ part): above 1,
 /// the constraints cannot all be imposed, whatever γ. The diagnosis of an infeasible design.
 pub fn best_constraint_peak(
     plants: &[&GeneralizedPlant],

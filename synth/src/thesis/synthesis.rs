@@ -1,6 +1,6 @@
 //! The thesis's designs by variant name: synthesis, certificate and `controller.json`.
 //!
-//! A [`Synthesiser`] keeps every design it has made, so a robust variant compares itself with
+//! A `Synthesiser` keeps every design it has made, so a robust variant compares itself with
 //! its nominal counterpart without synthesising it twice.
 
 use crate::numerics::hinf_norm::{Analysis, Controller};
@@ -66,7 +66,7 @@ pub struct Synthesised {
     pub controller_json: ControllerFile,
     /// What the design is robust to (for the summary table).
     pub robust_to: &'static str,
-    /// Wall time of this design alone (its nominal counterpart excluded) [s].
+    /// Wall time of this design alone (its nominal counterpart excluded) \[s\].
     pub seconds: f64,
 }
 
@@ -118,7 +118,7 @@ pub fn nominal_of(variant: &str) -> Option<&'static str> {
 
 /// Synthesise and certify each of `variants`, in parallel (longest first), then record in each
 /// robust design's certificate how its nominal counterpart, when also synthesised, fares against
-/// the same uncertainty ([`nominal_comparison`]).
+/// the same uncertainty (`nominal_comparison`).
 pub fn synthesise_all(
     variants: &[&str],
     params: &VehicleParams,
@@ -197,7 +197,7 @@ pub fn synthesise_all(
 }
 
 /// One design in the summary of a run (`dist/synthesis.json`, and the rows of
-/// [`summary_table`]).
+/// `summary_table`).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct SummaryRow {
     pub variant: String,
