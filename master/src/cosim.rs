@@ -116,9 +116,9 @@ pub struct Scenario {
     /// What it shows, one sentence for the report.
     #[serde(default)]
     pub description: String,
-    /// \[s\]
+    /// Length of the run, in s.
     pub duration: f64,
-    /// Communication step \[s\].
+    /// Communication step, in s.
     pub step: f64,
     /// Road FMU parameters by name (numbers for Real and Integer, true/false for Boolean).
     pub road: BTreeMap<String, serde_json::Value>,
@@ -136,13 +136,13 @@ pub struct Scenario {
     /// When present, the controllers this scenario is meant for (the others are skipped).
     #[serde(default)]
     pub controllers: Option<Vec<String>>,
-    /// Start of the window the metrics are computed over \[s\] (e.g. after a fault).
+    /// Start of the window the metrics are computed over, in s (e.g. after a fault).
     #[serde(default)]
     pub metrics_from: f64,
     /// The designs whose own scenario this is (the design table of the report).
     #[serde(default)]
     pub showcases: Vec<String>,
-    /// Suspension stroke limit \[m\]: a run whose stroke goes beyond it is flagged.
+    /// Suspension stroke limit, in m: a run whose stroke goes beyond it is flagged.
     #[serde(default = "default_stroke_max")]
     pub stroke_max: f64,
     /// How the master orders the exchange and the steps at each communication point ([`Order`];

@@ -161,7 +161,7 @@ pub struct SweepSpec {
     /// The two parameters of the worst-case map (default: the first two).
     #[serde(default)]
     pub map: Option<[String; 2]>,
-    /// Stroke limit of the limit flags \[m\], instead of the base scenario's `stroke_max`.
+    /// Stroke limit of the limit flags, in m, instead of the base scenario's `stroke_max`.
     #[serde(default)]
     pub stroke_max: Option<f64>,
 }
