@@ -160,6 +160,34 @@ pub struct Accommodation {
     pub time_constant: f64,
     /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`).
     pub u_max: Vec<f64>,
+    /// Default bandwidth of the actuators' first-order lag \[Hz\] (parameter
+    /// `actuator_bandwidth`; 0, the default, an ideal actuator): the force each command is
+    /// compared with is that command through the lag, as the plant applies it.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub actuator_bandwidth: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+/// What drives a fault detector's `B_u`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DetectorInput {
+    /// The command sent for the step (the default; thesis ch. 8's parity residual).
+    #[default]
+    Command,
+    /// The force the actuator applies now, as the accommodation's actuator model has it: the
+    /// commands sent before, saturated and through the actuators' lag (needs `accommodation`).
+    /// Compared with a load cell's reading at the same instant.
+    ModelledForce,
+}
+
+impl DetectorInput {
+    fn is_command(&self) -> bool {
+        *self == DetectorInput::Command
+    }
 }
 
 /// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model
@@ -180,8 +208,9 @@ pub struct AntiWindup {
     pub u_max: Vec<f64>,
 }
 
-/// A fault detector (thesis ch. 8): `ξ̇ = A ξ + B y + B_u u` with `u` the command sent (N), the
-/// residual `r = C ξ + D y` (N); `fault_detected` latches when `‖r‖` exceeds `threshold`.
+/// A fault detector (thesis ch. 8): `ξ̇ = A ξ + B y + B_u u` with `u` the command sent (N), or
+/// the modelled applied force ([`DetectorInput`]), the residual `r = C ξ + D y` (N);
+/// `fault_detected` latches when `‖r‖` exceeds `threshold`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FaultDetection {
@@ -197,6 +226,9 @@ pub struct FaultDetection {
     pub d: Rows,
     /// Default threshold \[N\] (parameter `fault_threshold`).
     pub threshold: f64,
+    /// What drives `B_u`.
+    #[serde(default, skip_serializing_if = "DetectorInput::is_command")]
+    pub input: DetectorInput,
 }
 
 /// A state feedback behind a predictor over the actuators' known delay `θ`: the design state
@@ -313,6 +345,7 @@ mod tests {
                 c: vec![],
                 d: vec![],
                 threshold: 50.0,
+                input: DetectorInput::Command,
             }),
             format: FORMAT.into(),
             guarantee: Guarantee {

@@ -13,7 +13,12 @@
 //! certifies every frozen loop of. It is clamped to `[rho_min, 1]`. A saturating actuator
 //! applies `ρ sat(u)`: the estimate reads the command saturated at the actuator's limit (the
 //! parameters `u_max`, `u_max_seat`, set equal to the plant's), so saturation is not mistaken
-//! for a loss.
+//! for a loss. A lagging actuator applies its saturated command through a first-order lag of
+//! bandwidth `f_a` (the parameter `actuator_bandwidth`, set equal to the plant's; 0, ideal):
+//! the force compared is the command through the same lag, stepped exactly as the plant steps
+//! it (the command held over each step), so a lag is not mistaken for a loss either. That
+//! modelled force is also what a load-cell fault detector compares its measurement with
+//! ([`Estimator::modelled`]).
 
 use crate::spec::Accommodation;
 use fmu_core::fmu_state::{StateReader, StateWriter};
@@ -24,20 +29,25 @@ const MIN_ENERGY: f64 = 1e-12;
 #[derive(Debug, Clone)]
 pub struct Estimator {
     spec: Accommodation,
-    /// Weighted means of `f²` and of `u²` per actuator, and the command sent the step before.
+    /// Weighted means of `f²` and of the modelled force's square per actuator, and the force
+    /// each actuator applies now as modelled: the commands sent before, saturated, through the
+    /// lag.
     force_energy: Vec<f64>,
     command_energy: Vec<f64>,
-    command_before: Vec<f64>,
+    modelled: Vec<f64>,
+    /// The actuators' lag \[Hz\] (0: ideal).
+    bandwidth: f64,
 }
 
 impl Estimator {
     pub fn new(spec: Accommodation) -> Self {
         let n = spec.force_inputs.len();
         Estimator {
+            bandwidth: spec.actuator_bandwidth,
             spec,
             force_energy: vec![0.0; n],
             command_energy: vec![0.0; n],
-            command_before: vec![0.0; n],
+            modelled: vec![0.0; n],
         }
     }
 
@@ -45,7 +55,7 @@ impl Estimator {
         for v in [
             &mut self.force_energy,
             &mut self.command_energy,
-            &mut self.command_before,
+            &mut self.modelled,
         ] {
             v.fill(0.0);
         }
@@ -68,24 +78,50 @@ impl Estimator {
         }
     }
 
+    /// The actuators' lag \[Hz\].
+    pub fn bandwidth(&self) -> f64 {
+        self.bandwidth
+    }
+
+    /// Set the actuators' lag \[Hz\] (0: ideal), checked by the caller.
+    pub fn set_bandwidth(&mut self, hz: f64) {
+        self.bandwidth = hz;
+    }
+
+    /// The force each actuator applies now, as modelled from the commands sent before.
+    pub fn modelled(&self) -> &[f64] {
+        &self.modelled
+    }
+
     /// Take in the step that starts now: the measured forces among the `inputs` answer the
-    /// commands sent the step before, saturated at the actuators' `limits`; `sent` are the ones
-    /// sent for this step.
+    /// modelled ones, which the commands sent before make; `sent` are the ones sent for this
+    /// step, saturated at the actuators' `limits` and held over it.
     pub fn step(&mut self, inputs: &[f64], sent: &[f64], limits: &[f64], step: f64) {
         let keep = (-step / self.spec.time_constant).exp();
+        // The lag over the step, exact for a held command (an ideal actuator: the command).
+        let lag = if self.bandwidth > 0.0 {
+            (-2.0 * std::f64::consts::PI * self.bandwidth * step).exp()
+        } else {
+            0.0
+        };
         for (i, &k) in self.spec.force_inputs.iter().enumerate() {
-            let f = inputs[k];
-            let u = self.command_before[i].clamp(-limits[i], limits[i]);
+            let (f, m) = (inputs[k], self.modelled[i]);
             self.force_energy[i] = keep * self.force_energy[i] + (1.0 - keep) * f * f;
-            self.command_energy[i] = keep * self.command_energy[i] + (1.0 - keep) * u * u;
-            self.command_before[i] = sent[i];
+            self.command_energy[i] = keep * self.command_energy[i] + (1.0 - keep) * m * m;
+            let u = sent[i].clamp(-limits[i], limits[i]);
+            self.modelled[i] = if lag > 0.0 {
+                lag * m + (1.0 - lag) * u
+            } else {
+                u
+            };
         }
     }
 
     pub fn save(&self, out: &mut StateWriter) {
         out.f64s(&self.force_energy);
         out.f64s(&self.command_energy);
-        out.f64s(&self.command_before);
+        out.f64s(&self.modelled);
+        out.f64(self.bandwidth);
     }
 
     /// This estimator with a saved state, checked (means finite and ≥ 0), or why not.
@@ -94,13 +130,15 @@ impl Estimator {
         let mut e = self.clone();
         e.force_energy = input.f64s_exact(n, "accommodation force means")?;
         e.command_energy = input.f64s_exact(n, "accommodation command means")?;
-        e.command_before = input.f64s_exact(n, "accommodation commands")?;
+        e.modelled = input.f64s_exact(n, "accommodation modelled forces")?;
+        e.bandwidth = input.f64()?;
         let means_ok = e
             .force_energy
             .iter()
             .chain(&e.command_energy)
             .all(|v| v.is_finite() && *v >= 0.0);
-        if !means_ok || !e.command_before.iter().all(|v| v.is_finite()) {
+        let bandwidth_ok = (0.0..=crate::spec::MAX_ACTUATOR_BANDWIDTH).contains(&e.bandwidth);
+        if !means_ok || !bandwidth_ok || !e.modelled.iter().all(|v| v.is_finite()) {
             return Err("FMU state holds an invalid effectiveness estimate".into());
         }
         Ok(e)
@@ -121,6 +159,7 @@ mod tests {
             rho_min: 0.5,
             time_constant: 0.1,
             u_max: vec![1e9, 1e9],
+            actuator_bandwidth: 0.0,
         })
     }
 
@@ -158,6 +197,41 @@ mod tests {
             sent = u;
         }
         assert!((e.rho_hat(0) - 0.5).abs() < 1e-6, "{}", e.rho_hat(0));
+    }
+
+    /// A healthy actuator behind a first-order lag, simulated exactly as the plant steps it (the
+    /// command held over each step, `ḟ = 2π f_a (u − f)`): with the lag modelled the estimate
+    /// stays at 1 to rounding and the modelled force is the applied one; with the lag not
+    /// modelled (an ideal actuator assumed) the lag reads as a loss, as it did before the model.
+    #[test]
+    fn a_modelled_lag_is_not_a_loss() {
+        let (h, hz) = (1e-3, 10.0);
+        let run = |modelled_hz: f64| {
+            let mut e = estimator();
+            e.set_bandwidth(modelled_hz);
+            let (mut applied, mut sent) = ([0.0f64; 2], [0.0f64; 2]);
+            let decay = (-2.0 * std::f64::consts::PI * hz * h).exp();
+            for k in 0..3000 {
+                let t = k as f64 * h;
+                // The plant stepped over the last step with the command held.
+                for (f, u) in applied.iter_mut().zip(sent) {
+                    *f = decay * *f + (1.0 - decay) * u;
+                }
+                if modelled_hz > 0.0 {
+                    for (m, f) in e.modelled().iter().zip(applied) {
+                        assert!((m - f).abs() <= 1e-9 * 300.0);
+                    }
+                }
+                let u = [300.0 * (2.0 * t).sin() + 200.0 * (60.0 * t).sin(), 50.0];
+                e.step(&[applied[1], applied[0]], &u, &[1e9, 1e9], h);
+                sent = u;
+            }
+            e.rho_hat(0)
+        };
+        let modelled = run(hz);
+        assert!((modelled - 1.0).abs() < 1e-9, "{modelled}");
+        let unmodelled = run(0.0);
+        assert!(unmodelled < 0.95, "{unmodelled}");
     }
 
     #[test]
@@ -199,6 +273,7 @@ mod tests {
         w.f64s(&[f64::NAN, 0.0]);
         w.f64s(&[1.0, 1.0]);
         w.f64s(&[0.0, 0.0]);
+        w.f64(0.0);
         let bytes = w.into_bytes();
         assert!(estimator().restored(&mut StateReader::new(&bytes)).is_err());
     }

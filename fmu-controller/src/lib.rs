@@ -24,7 +24,8 @@ use std::path::Path;
 
 /// Value references: inputs from 0, outputs from 1000, the guarantee at 2000, force limits of an
 /// anti-windup controller from 3000, a fault detector's variables from 4000, a predictor's
-/// delay at 5000, the effectiveness estimates of fault accommodation from 6000.
+/// delay at 5000, the effectiveness estimates of fault accommodation from 6000 and its actuators'
+/// bandwidth at 7000.
 pub mod vr {
     pub const INPUT: u32 = 0;
     pub const OUTPUT: u32 = 1000;
@@ -35,6 +36,7 @@ pub mod vr {
     pub const FAULT_THRESHOLD: u32 = 4002;
     pub const DELAY: u32 = 5000;
     pub const RHO_HAT: u32 = 6000;
+    pub const ACTUATOR_BANDWIDTH: u32 = 7000;
 }
 
 /// An anti-windup controller's force-limit parameters, named like the plant's (`u_max` for the
@@ -178,7 +180,20 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .filter(|&j| fd.d.column(j).iter().any(|v| *v != 0.0))
             .map(|j| spec.inputs[j].name.clone())
             .collect();
-        vars.push(Variable::real("residual_norm", vr::RESIDUAL_NORM, Causality::Output, "N", "Detection residual: the smallest actuator force deficit consistent with the measurements (0 when healthy, whatever the road)").depending_on(deps.clone(), DependencyKind::Dependent));
+        let residual = match fd.input {
+            spec::DetectorInput::Command => "Detection residual: the smallest actuator force deficit consistent with the measurements (0 when healthy, whatever the road)",
+            spec::DetectorInput::ModelledForce => "Detection residual: the actuators' force deficits, the forces their commands make through the actuator model (actuator_bandwidth, u_max, u_max_seat) less the load cells' readings, low-passed (0 when healthy, whatever the road)",
+        };
+        vars.push(
+            Variable::real(
+                "residual_norm",
+                vr::RESIDUAL_NORM,
+                Causality::Output,
+                "N",
+                residual,
+            )
+            .depending_on(deps.clone(), DependencyKind::Dependent),
+        );
         vars.push(Variable::boolean("fault_detected", vr::FAULT_DETECTED, Causality::Output, "True from the first communication point at which residual_norm exceeded fault_threshold (latched until re-initialisation)").depending_on(deps, DependencyKind::Dependent).initially_depending_on(vec!["fault_threshold".into()]));
         vars.push(
             Variable::real(
@@ -225,6 +240,20 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
                 .depending_on(Vec::new(), DependencyKind::Dependent),
             );
         }
+        vars.push(
+            Variable::real(
+                "actuator_bandwidth",
+                vr::ACTUATOR_BANDWIDTH,
+                Causality::Parameter,
+                "Hz",
+                "Bandwidth of the actuators' first-order lag, which the effectiveness estimate \
+                 (and a load-cell fault detector) model between command and applied force; set \
+                 it equal to the plant's actuator_bandwidth (0 = ideal actuators)",
+            )
+            .with_start(acc.actuator_bandwidth)
+            .with_min(0.0)
+            .with_max(spec::MAX_ACTUATOR_BANDWIDTH),
+        );
     }
     ModelDescription {
         model_name: spec.variant.clone(),
@@ -439,7 +468,8 @@ impl Controller {
         self.detected = self.fault_detected();
         // Measurements held over the step; with anti-windup the saturation excess u − y_c too,
         // with a detector the command sent (evaluated at the start of the step, as a
-        // sampled-data implementation does and as the plant receives it).
+        // sampled-data implementation does and as the plant receives it) or the force the
+        // actuator model says is applied now, which a load cell read now measures.
         self.update_commands();
         let ny = self.y.len();
         self.v.rows_mut(0, ny).copy_from(&self.y);
@@ -452,7 +482,13 @@ impl Controller {
                     *v = u - yc;
                 }
             }
-            (None, Some(_)) => self.v.rows_mut(ny, self.u.len()).copy_from(&self.u),
+            (None, Some(fd)) => {
+                let drive = match (fd.input, &self.estimator) {
+                    (spec::DetectorInput::ModelledForce, Some(e)) => e.modelled(),
+                    _ => self.u.as_slice(),
+                };
+                self.v.as_mut_slice()[ny..].copy_from_slice(drive);
+            }
             (None, None) => {}
         }
         let d = self.cache.as_ref().unwrap();
@@ -543,6 +579,10 @@ impl Model for Controller {
             self.tau = value;
         } else if vr == vr::FAULT_THRESHOLD {
             self.threshold = value;
+        } else if vr == vr::ACTUATOR_BANDWIDTH {
+            if let Some(e) = &mut self.estimator {
+                e.set_bandwidth(value);
+            }
         } else if vr >= vr::LIMIT {
             if let Some((_, outputs)) = self.limit_groups.get((vr - vr::LIMIT) as usize) {
                 for &i in outputs {
@@ -559,6 +599,10 @@ impl Model for Controller {
             vr::RESIDUAL_NORM => self.residual_norm(),
             vr::FAULT_THRESHOLD => self.threshold,
             vr::DELAY => self.tau,
+            vr::ACTUATOR_BANDWIDTH => self
+                .estimator
+                .as_ref()
+                .map_or(f64::NAN, accommodation::Estimator::bandwidth),
             v if v >= vr::RHO_HAT => self
                 .estimator
                 .as_ref()
@@ -591,6 +635,16 @@ impl Model for Controller {
                 self.threshold
             )
             .into());
+        }
+        if let Some(e) = &self.estimator {
+            let hz = e.bandwidth();
+            if !(0.0..=spec::MAX_ACTUATOR_BANDWIDTH).contains(&hz) {
+                return Err(format!(
+                    "actuator_bandwidth must be in [0, {}] Hz, got {hz}",
+                    spec::MAX_ACTUATOR_BANDWIDTH
+                )
+                .into());
+            }
         }
         match &self.predictor {
             Some(p) => p.check(self.tau).map_err(ModelError::from),

@@ -5,6 +5,7 @@
 use linsys::Lti;
 use nalgebra::DMatrix;
 
+pub use controller_file::DetectorInput;
 pub use controller_file::{CommunicationSteps, Guarantee, Signal, FORMAT};
 use controller_file::{ControllerFile as Raw, Predictor as RawPredictor};
 
@@ -20,6 +21,8 @@ pub struct FaultDetection {
     pub d: DMatrix<f64>,
     /// Default threshold \[N\] (parameter `fault_threshold`).
     pub threshold: f64,
+    /// What drives `B_u`: the command sent, or the accommodation's modelled applied force.
+    pub input: DetectorInput,
 }
 
 /// A state feedback behind a predictor over the actuators' known delay `θ` (synth's
@@ -66,6 +69,9 @@ pub struct Accommodation {
     pub time_constant: f64,
     /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`).
     pub u_max: Vec<f64>,
+    /// Default bandwidth of the actuators' lag \[Hz\] (parameter `actuator_bandwidth`; 0:
+    /// ideal).
+    pub actuator_bandwidth: f64,
 }
 
 /// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model `η̇ = A η + B (u − y_c)`
@@ -238,6 +244,9 @@ fn force_limits(name: &str, u_max: &[f64], nu: usize) -> Result<Vec<f64>, SpecEr
     Ok(u_max.to_vec())
 }
 
+/// The largest actuator bandwidth \[Hz\] (the plant's bound).
+pub const MAX_ACTUATOR_BANDWIDTH: f64 = 1e5;
+
 fn accommodation(
     a: &controller_file::Accommodation,
     inputs: &[Signal],
@@ -270,10 +279,17 @@ fn accommodation(
             a.time_constant
         )));
     }
+    if !(a.actuator_bandwidth >= 0.0 && a.actuator_bandwidth <= MAX_ACTUATOR_BANDWIDTH) {
+        return Err(SpecError::Invalid(format!(
+            "accommodation.actuator_bandwidth must be in [0, {MAX_ACTUATOR_BANDWIDTH}] Hz, found {}",
+            a.actuator_bandwidth
+        )));
+    }
     Ok(Accommodation {
         force_inputs,
         rho_min: a.rho_min,
         time_constant: a.time_constant,
+        actuator_bandwidth: a.actuator_bandwidth,
         u_max: force_limits("accommodation.u_max", &a.u_max, nu)?,
     })
 }
@@ -400,9 +416,21 @@ impl Spec {
                     c: matrix("fault_detection.C", &fd.c, nr, m)?,
                     d: matrix("fault_detection.D", &fd.d, nr, ny)?,
                     threshold: fd.threshold,
+                    input: fd.input,
                 })
             }
         };
+        if fault_detection
+            .as_ref()
+            .is_some_and(|fd| fd.input == DetectorInput::ModelledForce)
+            && raw.accommodation.is_none()
+        {
+            return Err(SpecError::Invalid(
+                "fault_detection.input \"modelled_force\" needs the accommodation block, whose \
+                 actuator model it reads"
+                    .into(),
+            ));
+        }
         let predictor = raw
             .predictor
             .as_ref()
@@ -490,6 +518,7 @@ impl Spec {
         }
         if self.accommodation.is_some() {
             names.extend((0..self.outputs.len()).map(|i| self.rho_hat_name(i)));
+            names.push("actuator_bandwidth".into());
         }
         names
     }

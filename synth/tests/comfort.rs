@@ -72,13 +72,13 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             c["passive_wk_rms_seat_m_s2"].as_f64().unwrap(),
         );
         // The floor: seat at least 90 % below the passive car on the design road;
-        // `car_of`, which pays on this road for the long waves and the seat stroke limit of its
-        // design road, 80 % below. The baselines (no H∞ design) are what they are: the floors
+        // `car_of`, `robust_of` and `ft_of` (on the car's sensors), which pay on this road for
+        // the long waves and the seat stroke limit of their design road, 80 % below. The baselines (no H∞ design) are what they are: the floors
         // guard what they measured (skyhook 0.28, lqg 0.53 of the passive car).
         let floor = match name.as_str() {
             "skyhook" => 0.35,
             "lqg" => 0.6,
-            "car_of" => 0.2,
+            "car_of" | "robust_of" | "ft_of" => 0.2,
             _ => 0.1,
         };
         assert!(
@@ -110,21 +110,21 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         // The controller file says what the FMU will report.
         assert!(s.controller_json.guarantee.value > 0.0, "{name}");
     }
-    // robust_of: at most 5 % worse than hinf_of anywhere in its mass range (the bound;
-    // predicted 1.7 % better at the nominal mass), better at both ends, where hinf_of degrades,
-    // and less than half its worst case. (With the Padé rear track in the Kalman filters it was
-    // 60 % worse at the nominal mass: README "Comfort designs".)
+    // robust_of (on the car's sensors): at most 5 % worse than its nominal design car_of
+    // anywhere in its mass range (the bound; it picks its filter within it, measured at
+    // most 3.6 % worse), better at both ends, where car_of degrades, and at its worst at least
+    // 15 % better than car_of's worst (measured 21 %).
     let rows = beside_nominal(cert("robust_of"));
     for (label, own, nominal) in &rows {
         assert!(
             *own <= 1.05 * nominal,
-            "robust_of at {label}: {own} vs hinf_of {nominal}"
+            "robust_of at {label}: {own} vs car_of {nominal}"
         );
     }
     for (label, own, nominal) in [&rows[0], &rows[rows.len() - 1]] {
         assert!(
             own < nominal,
-            "robust_of at {label}: {own} vs hinf_of {nominal}"
+            "robust_of at {label}: {own} vs car_of {nominal}"
         );
     }
     let worst = |r: &[(String, f64, f64)], i: usize| {
@@ -132,7 +132,7 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             .map(|x| if i == 0 { x.1 } else { x.2 })
             .fold(0.0, f64::max)
     };
-    assert!(worst(&rows, 0) < 0.5 * worst(&rows, 1), "{rows:?}");
+    assert!(worst(&rows, 0) < 0.85 * worst(&rows, 1), "{rows:?}");
     // robust_sf: state feedback's comfort barely depends on the mass (hinf_sf is robust by
     // physics: 0.00848 to 0.00897 m/s² over the range), and the guaranteed-cost gain over the
     // range was 3–5.4 % worse everywhere; robust_sf takes the better of the two certified gains
@@ -191,11 +191,11 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         );
     }
     // ft_of: accommodated, its loop at every condition of the effectiveness box is, once the
-    // estimate settles, the nominal one: every prediction is its nominal prediction, and better
-    // than hinf_of's at every fault, where hinf_of degrades (the corners) or is unstable (the
-    // seat, and all actuators at once). Before accommodation its seat isolation, a cancellation
-    // by command, was half lost with the seat actuator at half force (predicted 0.363 m/s², and
-    // 0.471 with all at half: worse than the passive car's 0.446).
+    // estimate settles, the nominal one: every prediction is its nominal prediction. Its nominal
+    // design car_of (the same law, its observer driven by the load cells, no accommodation)
+    // barely notices a corner at half force (within 2 %: measured 0.3 % better to 2 % worse),
+    // but loses its seat isolation, a cancellation by command, with the seat actuator at half
+    // (predicted 0.186 m/s²) or all at half (0.271): there ft_of is at least twice as good.
     let ft = cert("ft_of");
     let own_nominal = ft["comfort"]["predicted_wk_rms_seat_m_s2"]
         .as_f64()
@@ -208,9 +208,15 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             "ft_of at {label}: {own}, nominally {own_nominal}"
         );
         assert!(
-            own < nominal,
-            "ft_of at {label}: {own} vs hinf_of {nominal}"
+            *own <= 1.05 * nominal,
+            "ft_of at {label}: {own} vs car_of {nominal}"
         );
+        if label.starts_with("seat") || label.starts_with("all") {
+            assert!(
+                *own < 0.5 * nominal,
+                "ft_of at {label}: {own} vs car_of {nominal}"
+            );
+        }
     }
     assert_eq!(
         ft["comfort"]["guaranteed_wk_rms_seat_m_s2"].as_f64(),
@@ -220,9 +226,9 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
     // a design's figures, unevenly over its uncertainty, but keeps the comparisons.
     for (robust, nominal) in [
         ("robust_sf", "hinf_sf"),
-        ("robust_of", "hinf_of"),
+        ("robust_of", "car_of"),
         ("delay_sf", "hinf_sf"),
-        ("ft_of", "hinf_of"),
+        ("ft_of", "car_of"),
     ] {
         let rows = held_beside_nominal(cert(robust));
         for (label, own, nom) in &rows {
@@ -233,10 +239,12 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             );
         }
         // Better where the nominal design degrades: the ends of the mass range, the longest
-        // delay, a fault on either end of the list (hinf_sf is robust to mass by physics).
+        // delay, the seat's and every actuator's fault (hinf_sf is robust to mass by physics;
+        // car_of barely notices a corner's fault).
         let ends = match robust {
             "robust_sf" => vec![],
             "delay_sf" => vec![&rows[rows.len() - 1]],
+            "ft_of" => vec![&rows[rows.len() - 2], &rows[rows.len() - 1]],
             _ => vec![&rows[0], &rows[rows.len() - 1]],
         };
         for (label, own, nom) in ends {

@@ -3,10 +3,12 @@
 * the thesis ft_of's (dist/thesis/) gamma at every vertex of the effectiveness box, from the certificate's matrices with each
   actuator's column of B_u and D_zu scaled by its effectiveness, by a frequency sweep refined with
   SciPy (a different algorithm from the certificate's Hamiltonian bisection);
-* the fault detector of the shipped and the thesis ft_of (dist/ft_of/controller.json,
-  dist/thesis/ft_of/controller.json) on the independent reference car
-  (tests/python/reference_car.py, not the Rust model it was derived from): blind to the road,
-  and reporting the low-passed force deficit of a faulty actuator.
+* the thesis ft_of's fault detector (dist/thesis/ft_of/controller.json) on the independent
+  reference car (tests/python/reference_car.py, not the Rust model it was derived from): blind
+  to the road, and reporting the low-passed force deficit of a faulty actuator;
+* the shipped ft_of's detector (dist/ft_of/controller.json) on its load cells: it reads nothing
+  else, so no road reaches it, and it reports each actuator's deficit against the runtime's
+  actuator model, low-passed.
 """
 
 import json
@@ -62,9 +64,31 @@ def reference_measurements(spec, p=PARAMS):
     return A, B, c_y, dict(det, B=det["B"][:, read], D=det["D"][:, read])
 
 
-@pytest.mark.parametrize("dist", [DIST, DIST / "thesis"], ids=["shipped", "thesis"])
-def test_detector_is_blind_to_the_road_and_sees_a_faulty_actuator_on_the_reference_car(dist):
-    A, B, c_y, det = reference_measurements(json.loads((dist / "ft_of" / "controller.json").read_text()))
+def test_the_shipped_detector_reads_the_load_cells_alone_and_reports_each_deficit():
+    spec = json.loads((DIST / "ft_of" / "controller.json").read_text())
+    det = {k: np.array(v, dtype=float) for k, v in spec["fault_detection"].items() if isinstance(v, list)}
+    names = [n["name"] for n in spec["inputs"]]
+    assert spec["fault_detection"]["input"] == "modelled_force"
+    cells = spec["accommodation"]["forces"]
+    read = [names[i] for i in range(len(names)) if np.abs(det["B"][:, i]).max() > 0 or np.abs(det["D"][:, i]).max() > 0]
+    assert sorted(read) == sorted(cells), read
+    m = det["A"].shape[0]
+    b_f = det["B"][:, [names.index(c) for c in cells]]
+    for w in [0.0, 0.5, 3.0, 12.0, 70.0, 500.0]:
+        filt = np.linalg.inv(1j * w * np.eye(m) - det["A"])
+        # Per actuator, from the modelled force m and the load cell f to the residual.
+        from_model, from_cell = det["C"] @ filt @ det["B_u"], det["C"] @ filt @ b_f
+        # Healthy (f = m): nothing, at every frequency.
+        assert np.abs(from_model + from_cell).max() < 1e-12
+        # FL at half force (f = m / 2): its deficit m / 2, low-passed, on its own residual.
+        T = -1.0 / det["A"][0, 0]
+        faulty = from_model[:, 0] + 0.5 * from_cell[:, 0]
+        np.testing.assert_allclose(abs(faulty[0]), 0.5 / abs(1 + 1j * w * T), rtol=1e-12)
+        assert np.abs(faulty[1:]).max() < 1e-12
+
+
+def test_detector_is_blind_to_the_road_and_sees_a_faulty_actuator_on_the_reference_car():
+    A, B, c_y, det = reference_measurements(json.loads((DIST / "thesis" / "ft_of" / "controller.json").read_text()))
     b_road, b_u = B[:, :8], B[:, 8:]
     n, m = A.shape[0], det["A"].shape[0]
     T = -1.0 / det["A"][0, 0]

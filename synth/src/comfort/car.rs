@@ -18,21 +18,25 @@
 //! otherwise turn into estimation error.
 
 use crate::comfort::controllers::{
-    kalman_gain, noisy_sensors, observer_based, with_load_cells, ObserverInput,
+    applied_force_names, kalman_gain, noisy_sensors, observer_based, plant_of, with_load_cells,
+    ObserverInput,
 };
-use crate::comfort::designs::Uncertainty;
 use crate::comfort::designs::{
-    certify, delay_channel_norm, nominal_gain, ComfortDesignResult, ComfortError, Context,
+    certify, check_masses, delay_channel_norm, nominal_gain, ComfortDesignResult, ComfortError,
+    Context, Uncertainty, FICTITIOUS_GRID,
 };
-use crate::comfort::guaranteed::{self, FORCE_REGULARISATION};
-use crate::comfort::plant::{ComfortPlant, LONG_WAVE_ORDER};
+use crate::comfort::guaranteed::{self, StateFeedback, FORCE_REGULARISATION};
+use crate::comfort::plant::{force_limits, mass_channel, ComfortPlant, LONG_WAVE_ORDER};
 use crate::numerics::hinf_norm::Lti;
 use crate::numerics::interconnect::{Plant, Sensors};
-use crate::predict::continuous::ControlLaw;
-use crate::shipping::controller_file::Extensions;
+use crate::predict::continuous::{predict, Conditions, ControlLaw};
+use crate::shipping::controller_file::{
+    matrix_rows, Accommodation, DetectorInput, Extensions, FaultDetection,
+};
 use crate::shipping::design::{CarDesign, CarSensorNoise};
 use nalgebra::DMatrix;
 use vehicle::sensors::{Kind, PREFIX, SENSORS};
+use vehicle::VehicleParams;
 
 /// The sensors' names (`sensor_*`) and each one's noise density.
 pub fn car_sensor_names(noise: &CarSensorNoise) -> Vec<(String, f64)> {
@@ -97,7 +101,167 @@ pub fn car_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
          and a seat stroke limit of {} m)",
         ctx.design.unmodelled_delay, observer.car.seat_stroke_max,
     );
-    observer.certify(ctx, variant, observer.law(&g, &sf.k), &note)
+    let law = observer.law(&g, &sf.k);
+    observer.certify(ctx, variant, Uncertainty::None, law, &note)
+}
+
+/// `robust_of`: robust to the sprung mass on the car's sensors: the guaranteed-cost gain over
+/// the mass range ([`crate::comfort::designs::robust_gain`]) on the car's observer at the
+/// range's harmonic-mean mass, the filter expecting the mass channel's input `H p` as process
+/// noise of intensity `ζ²`. `ζ` of [`FICTITIOUS_GRID`]: the least worst predicted W_k seat over
+/// the certificate's masses ([`check_masses`]) among those within [`NOMINAL_TOLERANCE`] of
+/// `car_of` (the `nominal` gain on its own filter) at each of them.
+///
+/// Measured (`synth robust_of`, 2026-11-27): the least worst alone (`ζ = 0.003`) is 5.1 % worse
+/// than `car_of` at 1650 kg; `ζ = 0.001` is 21 % better at 1200 kg and at most 3.6 % worse
+/// anywhere. `car_of`'s own gain on such a filter did better still (worst 0.0669 against
+/// 0.0683 m/s²), but the certificate's multiplier bound over the range, which covers the
+/// robust gain's loop, does not cover that one (the car model's grid exceeded it by 2 %): it is
+/// not offered.
+pub fn robust_design(
+    ctx: &Context,
+    robust: &(ComfortPlant, StateFeedback),
+    nominal: &(ComfortPlant, StateFeedback),
+) -> Result<ComfortDesignResult, ComfortError> {
+    let variant = "robust_of";
+    let d = ctx.design;
+    let masses = check_masses(d);
+    let seat = |law: &ControlLaw, m: f64| {
+        let at = Conditions::nominal(VehicleParams {
+            m_s: m,
+            ..*ctx.params
+        });
+        predict(Some(law), at, &d.road).map_or(f64::INFINITY, |f| f.wk_rms_seat_m_s2)
+    };
+    let reference = CarObserver::new(ctx, variant)?.law(&nominal.0, &nominal.1.k);
+    let reference: Vec<f64> = masses.iter().map(|m| seat(&reference, *m)).collect();
+    let (g, sf) = robust;
+    let (_, _, mass) = mass_channel(ctx.params, d);
+    let h = mass.b_p.rows(0, plant_of(g).a.nrows()).into_owned();
+    let mut best: Option<(f64, f64, CarObserver)> = None;
+    for zeta in FICTITIOUS_GRID {
+        let Ok(observer) = CarObserver::on(ctx, variant, g, Some(&(&h * zeta))) else {
+            continue;
+        };
+        let own: Vec<f64> = masses
+            .iter()
+            .map(|m| seat(&observer.law(g, &sf.k), *m))
+            .collect();
+        let within = own
+            .iter()
+            .zip(&reference)
+            .all(|(o, r)| *o <= NOMINAL_TOLERANCE * r);
+        let worst = own.iter().copied().fold(0.0, f64::max);
+        if within && best.as_ref().is_none_or(|b| worst < b.0) {
+            best = Some((worst, zeta, observer));
+        }
+    }
+    let (worst, zeta, observer) = best.ok_or_else(|| {
+        ctx.fail(
+            variant,
+            format!(
+                "no filter of the grid is within {NOMINAL_TOLERANCE} times car_of at every mass"
+            ),
+        )
+    })?;
+    let note = format!(
+        "the guaranteed-cost gain over m_s in [{}, {}] kg (rank-one channel at the harmonic-mean \
+         mass), the unmodelled delay of {} s, the force and stroke limits and a seat stroke \
+         limit of {} m, on the filter at the harmonic-mean mass expecting the mass channel's \
+         input as process noise of intensity zeta^2, zeta = {zeta:e}: of a grid, the least worst \
+         predicted W_k seat at {masses:?} kg ({worst:.6} m/s2) within {NOMINAL_TOLERANCE} times \
+         car_of's at each",
+        d.mass_min, d.mass_max, d.unmodelled_delay, observer.car.seat_stroke_max,
+    );
+    let law = observer.law(g, &sf.k);
+    observer.certify(ctx, variant, Uncertainty::SprungMass, law, &note)
+}
+
+/// `ft_of`: fault tolerant on the car's sensors. `car_of`'s law — its observer is already driven
+/// by the load cells' measured applied forces, so a loss of effectiveness never reaches the
+/// estimate, and the loop at effectiveness `ρ` is stable exactly when the state feedback
+/// `A + B diag(ρ) K` is (checked at every vertex of the box by the certificate) — plus:
+///
+/// * **accommodation**: the controller FMU estimates each actuator's effectiveness as the RMS
+///   ratio of applied force to command and divides the command by it (`fmu-controller`'s
+///   `accommodation`), so that once the estimate settles the loop is the nominal one at every
+///   point of the box (why: [`crate::comfort::designs`]'s `ft_of` on the thesis sensors showed
+///   that stable is not comfortable — the seat's isolation is a cancellation by command);
+/// * **detection** on the load cells ([`load_cell_detector`]): the force deficit, the modelled
+///   applied force less the measured one, low-passed. The thesis's parity residual on the body's momentum needs
+///   the body's heave velocity, which no car measures; a load cell measures the deficit itself.
+pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
+    let variant = "ft_of";
+    let d = ctx.design;
+    let observer = CarObserver::new(ctx, variant)?;
+    let (g, sf) = nominal_gain(ctx).map_err(|e| ctx.fail(variant, e))?;
+    let law = ControlLaw {
+        accommodation: Some(d.fault_rho_min),
+        ..observer.law(&g, &sf.k)
+    };
+    let detector = load_cell_detector(&law.inputs, d.fault_time_constant, d.fault_threshold)
+        .ok_or_else(|| ctx.fail(variant, "a load cell of the actuators is not an input"))?;
+    let note = format!(
+        "car_of's gain (the guaranteed-cost gain of the unmodelled delay of {} s, the force and \
+         stroke limits and a seat stroke limit of {} m), stable at every vertex of the \
+         effectiveness box [{}, 1]^5 (the check grid below; the observer, driven by the measured \
+         forces, never sees a loss). Accommodation: each actuator's effectiveness estimated as \
+         the RMS ratio of its applied force to its (saturated) command over {} s and divided out \
+         of the command (outputs rho_hat_*); once the estimate settles the loop at every \
+         effectiveness of the box is the nominal loop, whose prediction is the bound; while it \
+         settles the loop's gain rho/rho_hat lies in the box, whose frozen loops are stable. The \
+         force each command makes is modelled by the runtime (saturation and a first-order lag \
+         of the parameter actuator_bandwidth, set as the plant's), so neither a limit nor a lag \
+         reads as a loss. Detection: each actuator's force deficit (modelled less load cell) \
+         low-passed with T = {} s; fault_detected latches when its norm exceeds \
+         fault_threshold (default {} N)",
+        d.unmodelled_delay,
+        observer.car.seat_stroke_max,
+        d.fault_rho_min,
+        d.accommodation_time_constant,
+        d.fault_time_constant,
+        d.fault_threshold,
+    );
+    let mut r = observer.certify(ctx, variant, Uncertainty::ActuatorFaults, law, &note)?;
+    r.extensions = Extensions {
+        accommodation: Some(Accommodation {
+            forces: applied_force_names(),
+            rho_min: d.fault_rho_min,
+            time_constant: d.accommodation_time_constant,
+            u_max: force_limits(d).to_vec(),
+            // Ideal, as the plant's default; a master sets it as the plant's.
+            actuator_bandwidth: 0.0,
+        }),
+        fault_detection: Some(detector),
+        ..Extensions::default()
+    };
+    Ok(r)
+}
+
+/// The detector of a controller reading `inputs`, among them the load cells
+/// ([`applied_force_names`]): per actuator `ξ̇ = (m − f − ξ)/T`, the residual `r = ξ` — its
+/// force deficit, the force `m` its commands make through the runtime's actuator model
+/// (saturation and the lag of the FMU's `actuator_bandwidth`, [`DetectorInput::ModelledForce`])
+/// less the load cell's `f`, low-passed at `1/T`: zero when healthy, whatever the road. `None`
+/// when a load cell is not among `inputs`.
+pub fn load_cell_detector(inputs: &[String], t: f64, threshold: f64) -> Option<FaultDetection> {
+    let cells = applied_force_names();
+    let n = cells.len();
+    let mut b = DMatrix::zeros(n, inputs.len());
+    for (i, cell) in cells.iter().enumerate() {
+        let k = inputs.iter().position(|name| name == cell)?;
+        b[(i, k)] = -1.0 / t;
+    }
+    let identity = DMatrix::<f64>::identity(n, n);
+    Some(FaultDetection {
+        a: matrix_rows(&(&identity * (-1.0 / t))),
+        b: matrix_rows(&b),
+        b_u: matrix_rows(&(&identity / t)),
+        c: matrix_rows(&identity),
+        d: matrix_rows(&DMatrix::zeros(n, inputs.len())),
+        threshold,
+        input: DetectorInput::ModelledForce,
+    })
 }
 
 /// `lqg`, the classical baseline on `car_of`'s design and observer: the LQR gain of the same
@@ -146,12 +310,15 @@ pub fn lqg_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
          whose loop tolerates the unmodelled delay of {} s",
         observer.car.seat_stroke_max, d.limit_sigmas, d.unmodelled_delay,
     );
-    observer.certify(ctx, variant, law, &note)
+    observer.certify(ctx, variant, Uncertainty::None, law, &note)
 }
+
+/// How much worse than its nominal design a robust design may be anywhere in its uncertainty.
+pub const NOMINAL_TOLERANCE: f64 = 1.05;
 
 /// The Kalman filter of a design on the sensors a car has: an estimate of the design state from
 /// the `sensor_*` outputs (their noise densities from the design file's `car` block), driven by
-/// the load cells' measured applied forces, each accelerometer washed out first.
+/// the load cells' measured applied forces, each accelerometer and gyro washed out first.
 struct CarObserver {
     car: CarDesign,
     sensors: Sensors,
@@ -160,12 +327,23 @@ struct CarObserver {
 
 impl CarObserver {
     fn new(ctx: &Context, variant: &str) -> Result<Self, ComfortError> {
+        Self::on(ctx, variant, &ctx.plant(), None)
+    }
+
+    /// The filter of the design plant `g` (with or without the delay weight, which it does not
+    /// estimate), expecting the extra process noise `fictitious` ([`kalman_gain`]).
+    fn on(
+        ctx: &Context,
+        variant: &str,
+        g: &ComfortPlant,
+        fictitious: Option<&DMatrix<f64>>,
+    ) -> Result<Self, ComfortError> {
         let car = ctx
             .design
             .car
             .ok_or_else(|| ctx.fail(variant, "the design file has no \"car\" block"))?;
-        let (plant, sensors) = car_sensors(&ctx.plant(), &car.noise);
-        let l = kalman_gain(&plant, &sensors, None).map_err(|e| ctx.fail(variant, e))?;
+        let (plant, sensors) = car_sensors(g, &car.noise);
+        let l = kalman_gain(&plant, &sensors, fictitious).map_err(|e| ctx.fail(variant, e))?;
         Ok(CarObserver { car, sensors, l })
     }
 
@@ -178,15 +356,15 @@ impl CarObserver {
     /// states, which the observer then carries too) on this observer.
     fn law(&self, g: &ComfortPlant, k: &DMatrix<f64>) -> ControlLaw {
         let observer = observer_based(g, k, &self.sensors, &self.l, ObserverInput::MeasuredForce);
-        let accelerometers: Vec<usize> = SENSORS
+        let inertial: Vec<usize> = SENSORS
             .iter()
             .enumerate()
-            .filter(|(_, (_, kind))| *kind == Kind::Accelerometer)
+            .filter(|(_, (_, kind))| *kind != Kind::Height)
             .map(|(k, _)| k)
             .collect();
-        let omega = 2.0 * std::f64::consts::PI * self.car.accelerometer_washout_hz;
+        let omega = 2.0 * std::f64::consts::PI * self.car.inertial_washout_hz;
         ControlLaw {
-            lti: washout(&observer, &accelerometers, omega),
+            lti: washout(&observer, &inertial, omega),
             inputs: self.wiring()(g).1.names,
             accommodation: None,
             predictor: None,
@@ -198,6 +376,7 @@ impl CarObserver {
         &self,
         ctx: &Context,
         variant: &str,
+        robust_to: Uncertainty,
         law: ControlLaw,
         gain_note: &str,
     ) -> Result<ComfortDesignResult, ComfortError> {
@@ -207,7 +386,7 @@ impl CarObserver {
              every wheel ({} m RMS, a lag chain of order {} at a wavelength of {} m), on a \
              Kalman estimate of the design state from {} (noise densities: heights {} \
              m/sqrt(Hz), accelerometers {} m/s2/sqrt(Hz), gyros {} rad/s/sqrt(Hz)), driven by \
-             the load cells' measured applied forces; each accelerometer washed out at {} Hz \
+             the load cells' measured applied forces; each accelerometer and gyro washed out at {} Hz \
              before the filter (no force from a bias).",
             car.long_waves.height_rms,
             LONG_WAVE_ORDER,
@@ -216,9 +395,9 @@ impl CarObserver {
             car.noise.height,
             car.noise.acceleration,
             car.noise.rate,
-            car.accelerometer_washout_hz,
+            car.inertial_washout_hz,
         )];
-        let certificate = certify(ctx, variant, Uncertainty::None, &law, &self.wiring(), notes)?;
+        let certificate = certify(ctx, variant, robust_to, &law, &self.wiring(), notes)?;
         Ok(ComfortDesignResult {
             law,
             extensions: Extensions::default(),

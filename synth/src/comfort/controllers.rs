@@ -358,11 +358,6 @@ pub fn with_load_cells(g: &ComfortPlant, (plant, base): (Plant, Sensors)) -> (Pl
     (plant, sensors)
 }
 
-/// [`output_feedback_sensors`] followed by the load cells ([`with_load_cells`]).
-pub fn force_sensing_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
-    with_load_cells(g, output_feedback_sensors(g, noise))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,13 +5,15 @@
 //! Every design tolerates the actuators' unmodelled delay up to `unmodelled_delay` (the
 //! input-multiplicative channel of [`ComfortPlant::with_delay_weight`]); the robust ones also:
 //! * `robust_sf` / `robust_of`: every sprung mass of `[mass_min, mass_max]` (rank-one channel,
-//!   [`mass_channel`]), the guaranteed-cost gain over it, and for `robust_of` a Kalman filter
-//!   that trusts its heave dynamics less (fictitious noise on the mass channel);
+//!   [`mass_channel`]), the guaranteed-cost gain over it, and for `robust_of` (on the car's
+//!   sensors, [`crate::comfort::car::robust_design`]) a Kalman filter that trusts its heave
+//!   dynamics less (fictitious noise on the mass channel);
 //! * `delay_sf`: any known actuator delay up to `delay_max`, by a predictor in the controller
 //!   ([`crate::comfort::predictor`]) in front of `hinf_sf`'s gain;
 //! * `ft_of`: every actuator effectiveness in `[fault_rho_min, 1]`, by an observer driven by the
 //!   measured applied forces and fault accommodation: each actuator's effectiveness estimated
-//!   from its load cell and divided out of its command ([`fault_tolerant_design`]);
+//!   from its load cell and divided out of its command
+//!   ([`crate::comfort::car::fault_tolerant_design`]);
 //! * `hinf_of_aw`: saturation, by `hinf_of` plus the decoupled anti-windup of thesis Th. 5.3.
 //!
 //! Certificates ([`ComfortCertificate`]): the comfort figures predicted on the car as the FMUs
@@ -24,16 +26,15 @@
 //! deviations. A failed check is an error.
 
 use crate::comfort::controllers::{
-    applied_force_names, force_sensing_sensors, kalman_gain, observer_based,
-    output_feedback_sensors, plant_of, realise_state_feedback, state_feedback_sensors,
-    ObserverInput,
+    kalman_gain, observer_based, output_feedback_sensors, plant_of, realise_state_feedback,
+    state_feedback_sensors, ObserverInput,
 };
 use crate::comfort::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
 use crate::comfort::plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
 use crate::numerics::hinf_norm::{Analysis, Lti};
 use crate::numerics::interconnect::{close, ClosedLoop, Plant, Sensors};
 use crate::predict::continuous::{predict, Conditions, ControlLaw, Figures, Loop};
-use crate::shipping::controller_file::{matrix_rows, Accommodation, AntiWindup, Extensions};
+use crate::shipping::controller_file::{matrix_rows, AntiWindup, Extensions};
 use crate::shipping::design::{ComfortDesign, ComfortRoad, RearWheels};
 use crate::thesis::fault::FaultBox;
 use nalgebra::DMatrix;
@@ -571,18 +572,6 @@ fn actuator_lags(
     CHECKED_ACTUATOR_BANDWIDTHS_HZ
         .iter()
         .map(|&bandwidth_hz| {
-            if law.accommodation.is_some() {
-                return Ok(ActuatorLag {
-                    bandwidth_hz,
-                    verdict: "not checked",
-                    spectral_abscissa: None,
-                    predicted: None,
-                    why: "its fault accommodation takes a lagging actuator's smaller force for \
-                          a loss of effectiveness and raises its commands (co-simulated: at a \
-                          force limit with 10 Hz actuators)"
-                        .into(),
-                });
-            }
             let abscissa = crate::predict::continuous::abscissa_with_actuator_lag(
                 law,
                 Conditions::nominal(*params),
@@ -610,9 +599,15 @@ fn actuator_lags(
                 },
                 spectral_abscissa: abscissa,
                 predicted,
-                why: match abscissa {
-                    None => "a predictor's loop is not rational".into(),
-                    Some(_) => String::new(),
+                why: match (abscissa, law.accommodation) {
+                    (None, _) => "a predictor's loop is not rational".into(),
+                    // The runtime's actuator model (`actuator_bandwidth`) is what the estimate
+                    // compares the load cells with.
+                    (Some(_), Some(_)) => "with the FMU's actuator_bandwidth set as the plant's, \
+                                          the effectiveness estimate models the lag and stays \
+                                          at 1: the loop is the unaccommodated one with it"
+                        .into(),
+                    (Some(_), None) => String::new(),
                 },
             })
         })
@@ -852,181 +847,19 @@ pub fn robust_state_feedback_design(
     state_feedback_design(ctx, "robust_sf", Uncertainty::SprungMass, chosen, notes)
 }
 
-/// `robust_of`: the robust gain on a Kalman filter at the centre mass that also expects the
-/// mass channel's input `H p` as process noise of intensity `ζ²`, `ζ` chosen among a grid to
-/// minimise the worst predicted seat comfort at both ends of the range and the centre.
-pub fn robust_output_feedback_design(
-    ctx: &Context,
-    gain: &(ComfortPlant, StateFeedback),
-) -> Result<ComfortDesignResult, ComfortError> {
-    let variant = "robust_of";
-    let d = ctx.design;
-    let (_, _, mass) = mass_channel(ctx.params, d);
-    let n = plant_of(&gain.0).a.nrows();
-    let h = mass.b_p.rows(0, n).into_owned();
-    let masses = selection_masses(ctx);
-    let mut best: Option<(f64, f64, ControlLaw)> = None;
-    for zeta in [0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1] {
-        let fictitious = &h * zeta;
-        let Ok((law, _, _)) = observer_law(ctx, variant, gain, Some(&fictitious)) else {
-            continue;
-        };
-        let w = worst_over_masses(ctx, &law);
-        if best.as_ref().is_none_or(|b| w < b.0) {
-            best = Some((w, zeta, law));
-        }
-    }
-    let (_, zeta, law) =
-        best.ok_or_else(|| ctx.fail(variant, "no Kalman filter of the grid is stabilising"))?;
-    let notes = vec![format!(
-        "Observer-based: the guaranteed-cost gain over m_s in [{}, {}] kg on a Kalman estimate at \
-         the centre mass {:.1} kg, the filter expecting the mass channel's input as process noise \
-         of intensity zeta^2, zeta = {zeta:e} (of a grid, the least worst predicted seat comfort \
-         at {:?} kg).",
-        d.mass_min,
-        d.mass_max,
-        2.0 / (1.0 / d.mass_min + 1.0 / d.mass_max),
-        masses
-    )];
-    let noise = d.sensor_noise;
-    let wiring = move |g: &ComfortPlant| output_feedback_sensors(g, &noise);
-    let certificate = certify(ctx, variant, Uncertainty::SprungMass, &law, &wiring, notes)?;
-    Ok(ComfortDesignResult {
-        law,
-        extensions: Extensions::default(),
-        certificate,
-    })
+/// The sprung masses a mass-robust certificate predicts at: five, evenly over the range.
+pub fn check_masses(d: &ComfortDesign) -> Vec<f64> {
+    (0..5)
+        .map(|i| d.mass_min + (d.mass_max - d.mass_min) * i as f64 / 4.0)
+        .collect()
 }
 
-/// `ft_of`: the nominal guaranteed-cost gain on an observer of the design state driven by the
-/// forces the actuators actually apply, measured (the plant outputs `f_*`: load cells on the
-/// actuators), instead of the commands ([`ObserverInput::MeasuredForce`]). A loss of effectiveness
-/// then never reaches the estimate: the loop at effectiveness `ρ` is stable exactly when the
-/// state feedback `A + B diag(ρ) K` is, which is checked at every vertex of the box with the
-/// unmodelled delay's small-gain guarantee. (An observer driven by its own command, as
-/// `hinf_of`'s, loses its margins to a gain loss — Doyle 1978 — and no Kalman filter with
-/// fictitious noise on the fault channel kept the box stable together with the 10 ms delay.)
-///
-/// Stable is not comfortable: the seat's isolation is a cancellation by command, and an
-/// actuator at half force cancels half (predicted 0.36 m/s² with the seat actuator at half,
-/// 0.47 with all: worse than the passive car). A guaranteed-cost gain over the box (tried: the
-/// per-actuator channels of [`fault_channel`] with the delay's) was an order of magnitude worse
-/// at the nominal car, as robust seat isolation needs loop gain the 10 ms delay forbids. So the load cells also
-/// *accommodate* the fault: the controller FMU estimates each effectiveness as the RMS ratio of
-/// applied force to command and divides the command by it (`fmu-controller`'s
-/// `accommodation`); once the estimate settles the loop is the nominal one at every point of
-/// the box, and while it settles the loop's gain `ρ/ρ̂` stays in the box (the estimate falls
-/// from above), whose frozen loops are the check grid.
-///
-/// Plus the road-decoupled detection residual of [`crate::thesis::fault::DetectionResidual`] (thesis
-/// fig. 8.1), which compares the command with what the body's momentum says was applied.
-pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
-    let variant = "ft_of";
-    let d = ctx.design;
-    let gain = nominal_gain(ctx).map_err(|e| ctx.fail(variant, e))?;
-    let (g, sf) = &gain;
-    let (plant, of_sensors) = output_feedback_sensors(g, &d.sensor_noise);
-    let l = kalman_gain(&plant, &of_sensors, None).map_err(|e| ctx.fail(variant, e))?;
-    let noise = d.sensor_noise;
-    let wiring = move |g: &ComfortPlant| force_sensing_sensors(g, &noise);
-    let law = ControlLaw {
-        lti: observer_based(g, &sf.k, &of_sensors, &l, ObserverInput::MeasuredForce),
-        inputs: wiring(g).1.names,
-        accommodation: Some(d.fault_rho_min),
-        predictor: None,
-    };
-    // The unmodelled-delay guarantee and stability at every vertex of the box are checked by
-    // the certificate (its small-gain norm and its check grid, the box's vertices).
-    // The detection residual, from the car alone (the parity relations are the body's).
-    let car = StateSpaceRows::of(ctx.params);
-    let det = crate::thesis::fault::DetectionResidual::from_car(
-        &car.a,
-        &car.b_r,
-        &car.b_u,
-        &car.c_y,
-        d.fault_time_constant,
-    );
-    let road_leak = (&det.pi * &car.c_y * &car.b_r).amax()
-        + (&det.pi * &car.c_y * &car.a - &det.kappa * &car.c_y).amax();
-    let projection = det.to_force() * &det.g * det.time_constant;
-    let dc: Vec<f64> = (0..N_ACTUATORS)
-        .map(|i| projection.column(i).norm())
-        .collect();
-    if road_leak > 1e-9 * (&car.c_y * &car.a).amax() || dc.iter().any(|v| v.is_nan() || *v <= 0.05)
-    {
-        return Err(ComfortError::Certificate {
-            variant: variant.into(),
-            reason: format!(
-                "the detection residual is not road-decoupled (leak {road_leak:e}) or misses an \
-                 actuator (DC gains {dc:?})"
-            ),
-        });
-    }
-    let notes = vec![
-        format!(
-            "Fault-tolerant: the nominal guaranteed-cost gain on a Kalman estimate of the design \
-             state driven by the measured applied forces f_fl ... f_seat instead of the commands, \
-             so a loss of effectiveness never reaches the estimate; stable at every vertex of \
-             the effectiveness box [{}, 1]^5 on the car model (the check grid below) and \
-             within the unmodelled-delay guarantee (small-gain norm below).",
-            d.fault_rho_min
-        ),
-        format!(
-            "Accommodation: each actuator's effectiveness estimated as the RMS ratio of its \
-             applied force to its (saturated) command over {} s and divided out of the command \
-             (outputs rho_hat_*). Once the estimate settles the loop at every effectiveness of \
-             the box is the nominal loop: the predictions over the box are the nominal \
-             prediction, which is the bound. While it settles (a loss: the estimate falls to it \
-             from above) the loop's gain rho/rho_hat lies in the box, whose frozen loops are \
-             stable (the check grid; their worst figure there is the transient's).",
-            d.accommodation_time_constant
-        ),
-        format!(
-            "Detection: {} parity relations of the measurements the road cannot excite (the \
-             body's momentum balance; |pi C_y B_r| + |pi C_y A - kappa C_y| = {road_leak:.1e}), \
-             filtered with T = {} s, reported as the smallest force deficit consistent with them \
-             (DC gain per unit deficit {:?}); fault_detected latches above fault_threshold \
-             (default {} N).",
-            det.order(),
-            d.fault_time_constant,
-            dc.iter()
-                .map(|v| (v * 1000.0).round() / 1000.0)
-                .collect::<Vec<_>>(),
-            d.fault_threshold
-        ),
-    ];
-    let certificate = certify(
-        ctx,
-        variant,
-        Uncertainty::ActuatorFaults,
-        &law,
-        &wiring,
-        notes,
-    )?;
-    let extensions = Extensions {
-        accommodation: Some(Accommodation {
-            forces: applied_force_names(),
-            rho_min: d.fault_rho_min,
-            time_constant: d.accommodation_time_constant,
-            u_max: force_limits(d).to_vec(),
-        }),
-        fault_detection: Some(
-            det.detector()
-                .file_block(law.inputs.len(), d.fault_threshold),
-        ),
-        ..Extensions::default()
-    };
-    Ok(ComfortDesignResult {
-        law,
-        extensions,
-        certificate,
-    })
-}
+/// The intensities `ζ` of the fictitious mass-channel noise a robust filter is chosen among.
+pub const FICTITIOUS_GRID: [f64; 8] = [0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1];
 
 /// The car's own matrices (16 states) and the output-feedback sensors' rows on them.
 struct StateSpaceRows {
     a: DMatrix<f64>,
-    b_r: DMatrix<f64>,
     /// Per N.
     b_u: DMatrix<f64>,
     c_y: DMatrix<f64>,
@@ -1048,7 +881,6 @@ impl StateSpaceRows {
         );
         StateSpaceRows {
             a: ss.a,
-            b_r: ss.b_r,
             b_u: ss.b_u,
             c_y,
         }
@@ -1512,9 +1344,7 @@ fn over_uncertainty(
                 return Ok(None)
             }
             Uncertainty::SprungMass => {
-                let masses: Vec<f64> = (0..5)
-                    .map(|i| d.mass_min + (d.mass_max - d.mass_min) * i as f64 / 4.0)
-                    .collect();
+                let masses = check_masses(d);
                 let (centre, _, mass) = mass_channel(ctx.params, d);
                 // The dense check grid: the car model at every mass of the file's grid.
                 let grid = (0..d.mass_grid_points)

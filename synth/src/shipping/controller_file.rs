@@ -3,8 +3,8 @@
 
 use crate::numerics::hinf_norm::Controller;
 pub use controller_file::{
-    Accommodation, AntiWindup, CommunicationSteps, ControllerFile, DesignedFor, Extensions,
-    FaultDetection, Guarantee, Predictor, Rows, Signal, FORMAT,
+    Accommodation, AntiWindup, CommunicationSteps, ControllerFile, DesignedFor, DetectorInput,
+    Extensions, FaultDetection, Guarantee, Predictor, Rows, Signal, FORMAT,
 };
 use nalgebra::DMatrix;
 

@@ -302,10 +302,14 @@ pub struct CarDesign {
     pub long_waves: LongWaves,
     /// The seat stroke limit \[m\].
     pub seat_stroke_max: f64,
-    /// The corner of the washout `s / (s + ω)` each accelerometer passes before the Kalman
-    /// filter \[Hz\]: a bias (up to 0.2 m/s² in production) would otherwise read as a lasting
-    /// acceleration and hold the actuators against it (1000 N measured without it).
-    pub accelerometer_washout_hz: f64,
+    /// The corner of the washout `s / (s + ω)` each inertial sensor (accelerometer and gyro)
+    /// passes before the Kalman filter \[Hz\]: a bias (up to 0.2 m/s² and 0.2 °/s in
+    /// production) would otherwise read as a lasting acceleration or rate and hold the actuators
+    /// against it (1000 N measured without the accelerometers' washout; 370 N from the gyros'
+    /// biases without theirs, `robust_of`). Also read as `accelerometer_washout_hz`, its name
+    /// when it washed out the accelerometers alone.
+    #[serde(alias = "accelerometer_washout_hz")]
+    pub inertial_washout_hz: f64,
 }
 
 /// Long waves of a road, the same under every wheel: a height `h = q w / (s + b)²`, `b = 2π V /
@@ -404,7 +408,7 @@ impl ComfortDesign {
                 ("car.long_waves.height_rms", car.long_waves.height_rms),
                 ("car.long_waves.wavelength", car.long_waves.wavelength),
                 ("car.seat_stroke_max", car.seat_stroke_max),
-                ("car.accelerometer_washout_hz", car.accelerometer_washout_hz),
+                ("car.inertial_washout_hz", car.inertial_washout_hz),
             ])?;
         }
         for (name, rear) in [

@@ -13,10 +13,9 @@
 //! comparisons follow.
 
 use crate::comfort::designs::{
-    anti_windup_design, fault_tolerant_design, held_at, nominal_gain, output_feedback_design,
-    robust_gain, robust_output_feedback_design, robust_state_feedback_design,
-    state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, InOrder,
-    Role, Uncertainty,
+    anti_windup_design, held_at, nominal_gain, output_feedback_design, robust_gain,
+    robust_state_feedback_design, state_feedback_design, Comfort, ComfortDesignResult,
+    ComfortError, Context, Held, InOrder, Role, Uncertainty,
 };
 use crate::comfort::guaranteed::StateFeedback;
 use crate::comfort::skyhook::skyhook_design;
@@ -73,9 +72,9 @@ type ComfortSynthesis = fn(&Context, &Shared) -> Result<ComfortDesignResult, Com
 /// road model ([`ComfortDesign::for_output_feedback`]), or the car's ([`ComfortDesign::for_car`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DesignModel {
-    StateFeedback,
-    OutputFeedback,
-    Car,
+    StateFeedback = 0,
+    OutputFeedback = 1,
+    Car = 2,
 }
 
 /// One shipped controller.
@@ -175,11 +174,11 @@ pub const VARIANTS: [Variant; 10] = [
     },
     Variant {
         name: "robust_of",
-        nominal: Some("hinf_of"),
+        nominal: Some("car_of"),
         robust_to: Uncertainty::SprungMass,
-        model: DesignModel::OutputFeedback,
-        summary: "output feedback robust to the sprung mass (thesis Th. 6.2)",
-        comfort: |ctx, s| robust_output_feedback_design(ctx, s.robust(ctx)?),
+        model: DesignModel::Car,
+        summary: "output feedback on car_of's sensors robust to the sprung mass (thesis Th. 6.2)",
+        comfort: |ctx, s| crate::comfort::car::robust_design(ctx, s.robust(ctx)?, s.nominal(ctx)?),
         thesis: true,
         role: Role::Design,
     },
@@ -195,11 +194,11 @@ pub const VARIANTS: [Variant; 10] = [
     },
     Variant {
         name: "ft_of",
-        nominal: Some("hinf_of"),
+        nominal: Some("car_of"),
         robust_to: Uncertainty::ActuatorFaults,
-        model: DesignModel::OutputFeedback,
-        summary: "fault-tolerant output feedback with a fault detector (thesis Th. 8.1)",
-        comfort: |ctx, _| fault_tolerant_design(ctx),
+        model: DesignModel::Car,
+        summary: "fault-tolerant output feedback on car_of's sensors with fault accommodation and a load-cell fault detector (thesis Th. 8.1)",
+        comfort: |ctx, _| crate::comfort::car::fault_tolerant_design(ctx),
         thesis: true,
         role: Role::Design,
     },
@@ -545,11 +544,7 @@ fn comfort_all(
         .map(|name| {
             let v = variant(name).expect("checked above");
             let t = std::time::Instant::now();
-            let k = match v.model {
-                DesignModel::StateFeedback => 0,
-                DesignModel::OutputFeedback => 1,
-                DesignModel::Car => 2,
-            };
+            let k = v.model as usize;
             let r = (v.comfort)(&contexts[k], &shared[k]).and_then(|r| v.accept(r));
             (name.to_string(), r, t.elapsed().as_secs_f64())
         })
@@ -580,22 +575,24 @@ fn comfort_all(
         .collect();
     // Every pair's every condition in one parallel pass (after every design is made this is
     // all that runs; pair by pair, the two threads idled between the pairs' few conditions).
-    let jobs: Vec<(&ControlLaw, Conditions)> = pairs
+    // Each on the robust design's own design model.
+    let jobs: Vec<(&ControlLaw, Conditions, &ComfortDesign)> = pairs
         .iter()
         .filter_map(|(robust, nominal)| {
             let u = by_name[robust].0.certificate.comfort.uncertainty.as_ref()?;
             let law = &by_name[nominal].0.law;
-            Some(u.conditions.iter().map(move |c| (law, *c)))
+            let on = contexts[variant(robust).expect("checked").model as usize].design;
+            Some(u.conditions.iter().map(move |c| (law, *c, on)))
         })
         .flatten()
         .collect();
     let done: Vec<(Option<Figures>, Option<Held>)> = {
         use rayon::prelude::*;
         jobs.par_iter()
-            .map(|(law, c)| {
+            .map(|(law, c, on)| {
                 rayon::join(
-                    || predict(Some(law), *c, &design.road).ok(),
-                    || held_at(law, *c, design),
+                    || predict(Some(law), *c, &on.road).ok(),
+                    || held_at(law, *c, on),
                 )
             })
             .collect()

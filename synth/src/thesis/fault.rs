@@ -30,7 +30,7 @@
 use crate::numerics::hinf_norm::Controller;
 use crate::numerics::hinf_norm::{Analysis, Lti};
 use crate::numerics::lmi::{Affine, LmiError, Problem};
-use crate::shipping::controller_file::{matrix_rows, FaultDetection};
+use crate::shipping::controller_file::{matrix_rows, DetectorInput, FaultDetection};
 use crate::thesis::certificate::{closed_loop, CertificateError, NORM_TOLERANCE};
 use crate::thesis::generalized::{GeneralizedPlant, FORCE_UNIT};
 use crate::thesis::state_feedback::NormBounded;
@@ -368,6 +368,7 @@ impl Detector {
             c: matrix_rows(&self.c),
             d: matrix_rows(&pad(&self.d)),
             threshold,
+            input: DetectorInput::Command,
         }
     }
 }
