@@ -191,8 +191,8 @@ impl DetectorInput {
 }
 
 /// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model
-/// `η̇ = A η + B (u − y_c)` with `u = sat(y_c + F η)`; the controller reads `y − C η`. Forces
-/// in N.
+/// `η̇ = A η + B (u − y_c)` with `u = sat(y_c + F η)`; the controller reads
+/// `y − C η − D (u − y_c)`. Forces in N.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AntiWindup {
@@ -204,6 +204,10 @@ pub struct AntiWindup {
     pub c: Rows,
     #[serde(rename = "F")]
     pub f: Rows,
+    /// The inputs' direct feed-through of the forces (an accelerometer's, a load cell's);
+    /// absent or empty: none.
+    #[serde(rename = "D", default, skip_serializing_if = "Vec::is_empty")]
+    pub d: Rows,
     /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`).
     pub u_max: Vec<f64>,
 }
@@ -443,6 +447,7 @@ mod tests {
             b: vec![],
             c: vec![],
             f: vec![],
+            d: vec![],
             u_max: vec![1.0],
         };
         let f = file().with(Extensions {

@@ -329,7 +329,8 @@ pub struct Controller {
 }
 
 /// `(A, B)` of the stepped system: the controller alone; with the anti-windup compensator
-/// `ẋc = A_K xc + B_K (y − C η)`, `η̇ = A_aw η + B_aw (u − y_c)` (input `[y; u − y_c]`); or with
+/// `ẋc = A_K xc + B_K (y − C η − D (u − y_c))`, `η̇ = A_aw η + B_aw (u − y_c)` (input
+/// `[y; u − y_c]`); or with
 /// the fault detector `ξ̇ = A_d ξ + B_d y + B_du u` (input `[y; u]`, `u` the command sent).
 fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>) {
     if let Some(fd) = &spec.fault_detection {
@@ -364,12 +365,15 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
     a.view_mut((n, n), (m, m)).copy_from(&aw.a);
     let mut b = nalgebra::DMatrix::zeros(n + m, ny + nu);
     b.view_mut((0, 0), (n, ny)).copy_from(&spec.lti.b);
+    b.view_mut((0, ny), (n, nu))
+        .copy_from(&(-&spec.lti.b * &aw.d));
     b.view_mut((n, ny), (m, nu)).copy_from(&aw.b);
     (a, b)
 }
 
 impl Controller {
-    /// Bring `y_c` and `u` up to date. With anti-windup the controller reads `y − C η` and
+    /// Bring `y_c` and `u` up to date. With anti-windup the controller reads `y − C η` (less
+    /// `D_aw (u − y_c)`, which only its state sees: a controller with `D_aw` has no `D`) and
     /// `u = sat(y_c + F η)`; otherwise `u = y_c = C xc + D y`.
     fn update_commands(&mut self) {
         if self.valid {

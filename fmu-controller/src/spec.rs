@@ -7,7 +7,7 @@ use nalgebra::DMatrix;
 
 pub use controller_file::DetectorInput;
 pub use controller_file::{CommunicationSteps, Guarantee, Signal, FORMAT};
-use controller_file::{ControllerFile as Raw, Predictor as RawPredictor};
+use controller_file::{ControllerFile as Raw, Predictor as RawPredictor, Rows};
 
 /// A fault detector (thesis ch. 8): `ξ̇ = A ξ + B y + B_u u` with `u` the command sent (N),
 /// the residual `r = C ξ + D y` (N, the estimated actuator force deficit); `fault_detected`
@@ -75,13 +75,15 @@ pub struct Accommodation {
 }
 
 /// A decoupled anti-windup compensator (thesis Th. 5.3): the plant model `η̇ = A η + B (u − y_c)`
-/// with `u = sat(y_c + F η)`; the controller reads `y − C η`. Forces in N.
+/// with `u = sat(y_c + F η)`; the controller reads `y − C η − D (u − y_c)`. Forces in N.
 #[derive(Debug, Clone)]
 pub struct AntiWindup {
     pub a: DMatrix<f64>,
     pub b: DMatrix<f64>,
     pub c: DMatrix<f64>,
     pub f: DMatrix<f64>,
+    /// The inputs' feed-through of the forces (zero when the file gives none).
+    pub d: DMatrix<f64>,
     /// Default force limit of each output \[N\] (parameters `u_max`, `u_max_seat`).
     pub u_max: Vec<f64>,
 }
@@ -385,11 +387,26 @@ impl Spec {
             None => None,
             Some(aw) => {
                 let m = aw.a.len();
+                let d = if aw.d.is_empty() {
+                    DMatrix::zeros(ny, nu)
+                } else {
+                    matrix("anti_windup.D", &aw.d, ny, nu)?
+                };
+                // The controller's command would then depend on itself through its own D.
+                let feeds_through = |rows: &Rows| rows.iter().flatten().any(|v| *v != 0.0);
+                if d.iter().any(|v| *v != 0.0) && feeds_through(&raw.d) {
+                    return Err(SpecError::Invalid(
+                        "anti_windup.D with a controller whose D is not zero: the command would \
+                         depend on itself"
+                            .into(),
+                    ));
+                }
                 Some(AntiWindup {
                     a: matrix("anti_windup.A", &aw.a, m, m)?,
                     b: matrix("anti_windup.B", &aw.b, m, nu)?,
                     c: matrix("anti_windup.C", &aw.c, ny, m)?,
                     f: matrix("anti_windup.F", &aw.f, nu, m)?,
+                    d,
                     u_max: force_limits("anti_windup.u_max", &aw.u_max, nu)?,
                 })
             }

@@ -292,6 +292,50 @@ fn anti_windup_saturates_and_integrates_the_excess_exactly() {
     assert!((after[1] - eta).abs() < 1e-14, "{after:?} vs η = {eta}");
 }
 
+/// The inputs' feed-through of the forces (`anti_windup.D`): the controller `ẋ = −x + w`,
+/// `y_c = [100 x; x]`, reads `w = y − D (u − y_c)` with `D = [0.5, 0]` (`C = 0`, `F = 0`:
+/// the compensator's state plays no part). With `y = 1` the first step leaves `x₁ = 1 − e^{−0.1}`
+/// unsaturated on the seat output; the corner's `100 x₁` saturates at 4, and its excess
+/// `e = 4 − 100 x₁` enters the next step through `D`: `x₂ = x₁ e^{−0.1} + (1 − 0.5 e)(1 − e^{−0.1})`.
+/// A file that pairs `D` with a controller `D` (the command would depend on itself) is refused.
+#[test]
+fn anti_windup_feeds_the_excess_through_to_the_inputs_that_see_the_forces() {
+    let spec = r#"{
+  "format": "suspension-controller/2", "variant": "test_aw_d", "description": "test", "guarantee": {"name": "gamma", "value": 1.0, "unit": "1", "description": "test"},
+  "inputs": [{"name": "sensor_a_seat", "unit": "m/s2"}],
+  "outputs": [{"name": "u_fl", "unit": "N"}, {"name": "u_seat", "unit": "N"}],
+  "A": [[-1.0]], "B": [[1.0]], "C": [[100.0], [1.0]], "D": [[0.0], [0.0]],
+  "anti_windup": {"A": [[-1.0]], "B": [[1.0, 0.0]], "C": [[0.0]], "D": [[0.5, 0.0]], "F": [[0.0], [0.0]], "u_max": [4.0, 1000.0]}
+}"#;
+    let log = LogCapture::default();
+    let dir = dir_with("aw-d", Some(spec));
+    let (c, _cb) = instantiate(&log, &guid_of(spec), Some(&dir));
+    assert!(!c.is_null(), "{:?}", log.messages());
+    let outs = [vr::OUTPUT, vr::OUTPUT + 1];
+    let mut u = [0.0; 2];
+    let decay = (-0.1f64).exp();
+    unsafe {
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        assert_eq!(fmi2ExitInitializationMode(c), 0);
+        fmi2SetReal(c, &vr::INPUT, 1, &1.0);
+        assert_eq!(fmi2DoStep(c, 0.0, 0.1, 1), 0);
+        fmi2GetReal(c, outs.as_ptr(), 2, u.as_mut_ptr());
+        let x1 = 1.0 - decay;
+        assert!((u[1] - x1).abs() < 1e-14, "{u:?}");
+        assert_eq!(u[0], 4.0);
+        assert_eq!(fmi2DoStep(c, 0.1, 0.1, 1), 0);
+        fmi2GetReal(c, outs.as_ptr(), 2, u.as_mut_ptr());
+        let excess = 4.0 - 100.0 * x1;
+        let x2 = x1 * decay + (1.0 - 0.5 * excess) * (1.0 - decay);
+        assert!((u[1] - x2).abs() < 1e-13, "{u:?} vs x₂ = {x2}");
+        fmi2FreeInstance(c);
+    }
+    let looped = spec.replace(r#""D": [[0.0], [0.0]]"#, r#""D": [[1.0], [0.0]]"#);
+    let e = Spec::from_json(&looped).unwrap_err().to_string();
+    assert!(e.contains("depend on itself"), "{e}");
+}
+
 /// Static controller `u = 2 y` with a scalar detector `ξ̇ = −ξ + y − 0.5 u`, `r = ξ`: with `y = 1`
 /// held, `u = 2`, so `ξ̇ = −ξ` and `ξ(0) = 0` stays 0 (no fault signature); with `ξ(0) = 0` and
 /// an input the command does not cancel, `ξ(t) = c (1 − e^{−t})`.

@@ -52,6 +52,50 @@ pub mod vr {
     pub const SENSOR_OUTPUT: u32 = 500;
 }
 
+/// Every block of value references with the number of variables it holds. A block that
+/// outgrows the room before the next (a 21st vehicle parameter, say) fails the build
+/// ([`blocks_are_disjoint`], evaluated at compile time) instead of colliding at run time.
+const VR_BLOCKS: [(&str, u32, usize); 12] = [
+    ("vehicle parameters", vr::VEHICLE, PARAMETERS.len()),
+    (
+        "actuator parameters",
+        vr::ACTUATOR,
+        ACTUATOR_PARAMETERS.len(),
+    ),
+    ("static values", vr::STATIC, N_STATIC),
+    ("sensor parameters", vr::SENSOR, SENSOR_PARAMETERS.len()),
+    ("sensor_model", vr::SENSOR_SWITCH, 1),
+    ("sensor_seed", vr::SENSOR_SEED, 1),
+    ("inputs", vr::INPUT, N_ROAD + N_ACTUATORS),
+    ("states", vr::STATE, vehicle::model::N_STATES),
+    ("physical outputs", vr::OUTPUT, N_PHYSICAL_OUTPUTS),
+    ("applied forces", vr::FORCE, N_ACTUATORS),
+    ("meter outputs", vr::METER, N_METER),
+    ("sensor outputs", vr::SENSOR_OUTPUT, N_SENSORS),
+];
+
+/// No two blocks of [`VR_BLOCKS`] share a value reference.
+const fn blocks_are_disjoint(blocks: &[(&str, u32, usize)]) -> bool {
+    let mut i = 0;
+    while i < blocks.len() {
+        let mut j = 0;
+        while j < blocks.len() {
+            let (a, b) = (blocks[i], blocks[j]);
+            if i != j && a.1 <= b.1 && b.1 < a.1 + a.2 as u32 {
+                return false;
+            }
+            j += 1;
+        }
+        i += 1;
+    }
+    true
+}
+
+const _: () = assert!(
+    blocks_are_disjoint(&VR_BLOCKS),
+    "two blocks of the plant's value references overlap: move one (vr) or shrink it"
+);
+
 /// The sensor model's Real parameters (`sensors`): noise and bias per kind of sensor, each
 /// from 0 to a bound well above any production sensor's.
 const SENSOR_PARAMETERS: [SensorSpec; 5] = [
@@ -794,3 +838,37 @@ fn input_index(vr: ValueReference) -> Option<usize> {
 }
 
 fmu_core::export_fmi2!(Plant);
+
+#[cfg(test)]
+mod value_reference_blocks {
+    use super::*;
+
+    /// The table the build checks is the variable table's: every variable lies in one block,
+    /// and each block holds exactly as many variables as it says. An overlap is caught.
+    #[test]
+    fn every_variable_is_in_its_block_and_overlaps_are_caught() {
+        let d = Plant::model_description();
+        let mut counts = [0usize; VR_BLOCKS.len()];
+        for v in &d.variables {
+            let r = v.value_reference;
+            let holding: Vec<usize> = (0..VR_BLOCKS.len())
+                .filter(|&b| {
+                    let (_, base, len) = VR_BLOCKS[b];
+                    base <= r && r < base + len as u32
+                })
+                .collect();
+            assert_eq!(holding.len(), 1, "{} ({r}) in blocks {holding:?}", v.name);
+            counts[holding[0]] += 1;
+        }
+        for (b, (name, _, len)) in VR_BLOCKS.iter().enumerate() {
+            assert_eq!(counts[b], *len, "{name}");
+        }
+        let mut grown = VR_BLOCKS;
+        grown[0].2 = 21;
+        assert!(
+            !blocks_are_disjoint(&grown),
+            "a 21st vehicle parameter must collide"
+        );
+        assert!(blocks_are_disjoint(&VR_BLOCKS));
+    }
+}

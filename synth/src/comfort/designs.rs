@@ -14,7 +14,8 @@
 //!   measured applied forces and fault accommodation: each actuator's effectiveness estimated
 //!   from its load cell and divided out of its command
 //!   ([`crate::comfort::car::fault_tolerant_design`]);
-//! * `hinf_of_aw`: saturation, by `hinf_of` plus the decoupled anti-windup of thesis Th. 5.3.
+//! * `hinf_of_aw`: saturation, by `car_of` plus the decoupled anti-windup of thesis Th. 5.3
+//!   ([`anti_windup_design`]).
 //!
 //! Certificates ([`ComfortCertificate`]): the comfort figures predicted on the car as the FMUs
 //! run it ([`crate::predict::continuous`], exact wheelbase delay, full weightings) beside the passive
@@ -547,9 +548,10 @@ pub const CHECKED_ACTUATOR_BANDWIDTHS_HZ: [f64; 2] = [10.0, 5.0];
 /// The nominal loop with first-order actuators of `bandwidth_hz` (the plant FMU's
 /// `actuator_bandwidth`) instead of ideal ones: `"stable"` or `"unstable"` by its spectral
 /// abscissa ([`crate::predict::continuous::abscissa_with_actuator_lag`]), or `"not checked"`
-/// with why (a predictor's loop is not rational; an accommodating controller's estimate of
-/// effectiveness takes a lagging actuator's smaller force for a loss, and reacts); where
-/// stable, its predicted figures (`master/tests/comfort_prediction.rs` co-simulates them).
+/// with why (a predictor's loop is not rational); where stable, its predicted figures
+/// (`master/tests/comfort_prediction.rs` co-simulates them). An accommodating controller is
+/// checked as its unaccommodated loop: with its `actuator_bandwidth` set as the plant's, its
+/// effectiveness estimate models the lag and stays at 1.
 #[derive(Debug, Clone, Serialize)]
 pub struct ActuatorLag {
     pub bandwidth_hz: f64,
@@ -857,47 +859,57 @@ pub fn check_masses(d: &ComfortDesign) -> Vec<f64> {
 /// The intensities `ζ` of the fictitious mass-channel noise a robust filter is chosen among.
 pub const FICTITIOUS_GRID: [f64; 8] = [0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1];
 
-/// The car's own matrices (16 states) and the output-feedback sensors' rows on them.
-struct StateSpaceRows {
-    a: DMatrix<f64>,
-    /// Per N.
-    b_u: DMatrix<f64>,
-    c_y: DMatrix<f64>,
+/// The rows `(C, D)` over the car's 16 states and its five forces (per N) of the plant outputs
+/// `inputs` names: a sensor as its physical output ([`vehicle::sensors::physical_name`]), a load
+/// cell as the force it measures.
+fn input_rows(
+    p: &VehicleParams,
+    inputs: &[String],
+) -> Result<(DMatrix<f64>, DMatrix<f64>), String> {
+    let rows: Vec<_> = vehicle::model::physical_outputs(p)
+        .into_iter()
+        .chain(vehicle::model::applied_force_rows())
+        .collect();
+    let picked = inputs
+        .iter()
+        .map(|name| {
+            let physical = vehicle::sensors::physical_name(name);
+            rows.iter()
+                .find(|r| r.name == physical)
+                .ok_or_else(|| format!("'{name}' is not a plant output of the car"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let c = DMatrix::from_fn(picked.len(), vehicle::model::N_STATES, |i, j| {
+        picked[i].c[j]
+    });
+    let d = DMatrix::from_fn(picked.len(), N_ACTUATORS, |i, j| picked[i].d_u[j]);
+    Ok((c, d))
 }
 
-impl StateSpaceRows {
-    fn of(p: &VehicleParams) -> Self {
-        let ss = vehicle::StateSpace::new(p);
-        let rows = vehicle::model::physical_outputs(p);
-        let c_y = DMatrix::from_fn(
-            crate::comfort::plant::OF_MEASUREMENTS.len(),
-            vehicle::model::N_STATES,
-            |i, j| {
-                rows.iter()
-                    .find(|r| r.name == crate::comfort::plant::OF_MEASUREMENTS[i])
-                    .expect("a plant output")
-                    .c[j]
-            },
-        );
-        StateSpaceRows {
-            a: ss.a,
-            b_u: ss.b_u,
-            c_y,
-        }
-    }
-}
-
-/// `hinf_of_aw`: `hinf_of` plus the decoupled anti-windup compensator of thesis Th. 5.3
-/// ([`crate::thesis::anti_windup`]): `F` from the sector LMI on the car (performance: the comfort
-/// accelerations with their ISO factors), re-checked by the circle criterion. Its linear
-/// behaviour, and so every prediction, is `hinf_of`'s.
+/// `hinf_of_aw`: the nominal output feedback `of` (`car_of`) plus the decoupled model-recovery
+/// anti-windup compensator of thesis Th. 5.3 ([`crate::thesis::anti_windup`]): `F` from the
+/// sector LMI on the car (performance: the comfort accelerations with their ISO factors),
+/// re-checked by the circle criterion. The compensator's model `η̇ = A η + B (u − y_c)` is the
+/// car's; the controller reads its inputs less what that model says the saturation did to them,
+/// `C η + D (u − y_c)` — `D` the accelerometers' and the load cells' direct feed-through of the
+/// forces — so that below and above saturation it sees the loop it was designed in. Its linear
+/// behaviour, and so every prediction, is `of`'s.
 pub fn anti_windup_design(
     ctx: &Context,
     of: &ComfortDesignResult,
 ) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "hinf_of_aw";
+    let nominal = of.certificate.variant.clone();
     let d = ctx.design;
-    let car = StateSpaceRows::of(ctx.params);
+    let ss = vehicle::StateSpace::new(ctx.params);
+    let (c_y, d_y) = input_rows(ctx.params, &of.law.inputs).map_err(|e| ctx.fail(variant, e))?;
+    let feeds_through = d_y.iter().any(|v| *v != 0.0);
+    if feeds_through && of.law.lti.d.iter().any(|v| *v != 0.0) {
+        return Err(ctx.fail(
+            variant,
+            format!("{nominal} has a direct feed-through and its inputs one of the forces"),
+        ));
+    }
     let rows = vehicle::model::physical_outputs(ctx.params);
     let perf: Vec<(&str, f64)> = crate::comfort::plant::COMFORT_OUTPUTS.to_vec();
     let row = |name: &str| {
@@ -913,10 +925,10 @@ pub fn anti_windup_design(
     let d_zu = DMatrix::from_fn(perf.len(), N_ACTUATORS, |i, j| {
         row(perf[i].0).d_u[j] * perf[i].1 * ku
     });
-    let b_u = &car.b_u * ku;
-    let aw = crate::thesis::anti_windup::mraw_for(&car.a, &b_u, &c_z, &d_zu, 1e-6)
+    let b_u = &ss.b_u * ku;
+    let aw = crate::thesis::anti_windup::mraw_for(&ss.a, &b_u, &c_z, &d_zu, 1e-6)
         .map_err(|e| ctx.fail(variant, e))?;
-    let check = crate::thesis::anti_windup::circle_check(&car.a, &b_u, &aw.f, &aw.w);
+    let check = crate::thesis::anti_windup::circle_check(&ss.a, &b_u, &aw.f, &aw.w);
     if !check.holds() {
         return Err(ComfortError::Certificate {
             variant: variant.into(),
@@ -933,20 +945,27 @@ pub fn anti_windup_design(
     certificate.notes.insert(
         0,
         format!(
-            "hinf_of plus the decoupled model-recovery anti-windup of thesis Th. 5.3 (corrected): \
-             eta' = (A + B_u F) eta - B_u dz(u_lin), u = sat(u_lin), the controller reads y - C_y \
-             eta; F from the generalised-sector LMI on the car with the comfort accelerations as \
-             performance (L2 gain {:.4}); re-checked: A + B_u F spectral abscissa {:.3}, circle \
-             criterion with the LMI's multiplier on {} frequencies (min margin {:.3e}). Below \
-             saturation it is hinf_of: the predictions are hinf_of's.",
+            "{nominal} plus the decoupled model-recovery anti-windup of thesis Th. 5.3 \
+             (corrected): eta' = (A + B_u F) eta - B_u dz(u_lin), u = sat(u_lin), the controller \
+             reads y - C_y eta - D_y (u - u_lin) (D_y: its inputs' feed-through of the forces, \
+             the accelerometers' and the load cells'); F from the generalised-sector LMI on the \
+             car with the comfort accelerations as performance (L2 gain {:.4}); re-checked: A + \
+             B_u F spectral abscissa {:.3}, circle criterion with the LMI's multiplier on {} \
+             frequencies (min margin {:.3e}). Below saturation it is {nominal}: the predictions \
+             are {nominal}'s.",
             aw.gamma, check.spectral_abscissa, check.frequencies, check.min_margin
         ),
     );
     let extensions = Extensions {
         anti_windup: Some(AntiWindup {
-            a: matrix_rows(&car.a),
-            b: matrix_rows(&car.b_u),
-            c: matrix_rows(&car.c_y),
+            a: matrix_rows(&ss.a),
+            b: matrix_rows(&ss.b_u),
+            c: matrix_rows(&c_y),
+            d: if feeds_through {
+                matrix_rows(&d_y)
+            } else {
+                Vec::new()
+            },
             f: matrix_rows(&(&aw.f * ku)),
             u_max: force_limits(d).to_vec(),
         }),

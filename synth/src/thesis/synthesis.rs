@@ -626,6 +626,7 @@ fn hinf_of_aw(
             b: matrix_rows(&(&g.b_u / FORCE_UNIT)),
             c: matrix_rows(&g.c_y),
             f: matrix_rows(&(&aw.f * FORCE_UNIT)),
+            d: Vec::new(),
             u_max: vec![
                 design.u_max,
                 design.u_max,
