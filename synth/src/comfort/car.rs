@@ -121,7 +121,7 @@ pub fn car_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
 pub fn robust_design(
     ctx: &Context,
     robust: &(ComfortPlant, StateFeedback),
-    nominal: &(ComfortPlant, StateFeedback),
+    car_of: &ComfortDesignResult,
 ) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "robust_of";
     let d = ctx.design;
@@ -133,30 +133,27 @@ pub fn robust_design(
         });
         predict(Some(law), at, &d.road).map_or(f64::INFINITY, |f| f.wk_rms_seat_m_s2)
     };
-    let reference = CarObserver::new(ctx, variant)?.law(&nominal.0, &nominal.1.k);
-    let reference: Vec<f64> = masses.iter().map(|m| seat(&reference, *m)).collect();
+    let reference: Vec<f64> = masses.iter().map(|m| seat(&car_of.law, *m)).collect();
     let (g, sf) = robust;
     let (_, _, mass) = mass_channel(ctx.params, d);
     let h = mass.b_p.rows(0, plant_of(g).a.nrows()).into_owned();
-    let mut best: Option<(f64, f64, CarObserver)> = None;
+    let mut best: Option<(f64, f64, CarObserver, ControlLaw)> = None;
     for zeta in FICTITIOUS_GRID {
         let Ok(observer) = CarObserver::on(ctx, variant, g, Some(&(&h * zeta))) else {
             continue;
         };
-        let own: Vec<f64> = masses
-            .iter()
-            .map(|m| seat(&observer.law(g, &sf.k), *m))
-            .collect();
+        let law = observer.law(g, &sf.k);
+        let own: Vec<f64> = masses.iter().map(|m| seat(&law, *m)).collect();
         let within = own
             .iter()
             .zip(&reference)
             .all(|(o, r)| *o <= NOMINAL_TOLERANCE * r);
         let worst = own.iter().copied().fold(0.0, f64::max);
         if within && best.as_ref().is_none_or(|b| worst < b.0) {
-            best = Some((worst, zeta, observer));
+            best = Some((worst, zeta, observer, law));
         }
     }
-    let (worst, zeta, observer) = best.ok_or_else(|| {
+    let (worst, zeta, observer, law) = best.ok_or_else(|| {
         ctx.fail(
             variant,
             format!(
@@ -173,7 +170,6 @@ pub fn robust_design(
          car_of's at each",
         d.mass_min, d.mass_max, d.unmodelled_delay, observer.car.seat_stroke_max,
     );
-    let law = observer.law(g, &sf.k);
     observer.certify(ctx, variant, Uncertainty::SprungMass, law, &note)
 }
 
@@ -190,14 +186,16 @@ pub fn robust_design(
 /// * **detection** on the load cells ([`load_cell_detector`]): the force deficit, the modelled
 ///   applied force less the measured one, low-passed. The thesis's parity residual on the body's momentum needs
 ///   the body's heave velocity, which no car measures; a load cell measures the deficit itself.
-pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
+pub fn fault_tolerant_design(
+    ctx: &Context,
+    car_of: &ComfortDesignResult,
+) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "ft_of";
     let d = ctx.design;
-    let observer = CarObserver::new(ctx, variant)?;
-    let (g, sf) = nominal_gain(ctx).map_err(|e| ctx.fail(variant, e))?;
+    let car = car_block(ctx, variant)?;
     let law = ControlLaw {
         accommodation: Some(d.fault_rho_min),
-        ..observer.law(&g, &sf.k)
+        ..car_of.law.clone()
     };
     let detector = load_cell_detector(&law.inputs, d.fault_time_constant, d.fault_threshold)
         .ok_or_else(|| ctx.fail(variant, "a load cell of the actuators is not an input"))?;
@@ -216,13 +214,13 @@ pub fn fault_tolerant_design(ctx: &Context) -> Result<ComfortDesignResult, Comfo
          low-passed with T = {} s; fault_detected latches when its norm exceeds \
          fault_threshold (default {} N)",
         d.unmodelled_delay,
-        observer.car.seat_stroke_max,
+        car.seat_stroke_max,
         d.fault_rho_min,
         d.accommodation_time_constant,
         d.fault_time_constant,
         d.fault_threshold,
     );
-    let mut r = observer.certify(ctx, variant, Uncertainty::ActuatorFaults, law, &note)?;
+    let mut r = certify_on_car(ctx, &car, variant, Uncertainty::ActuatorFaults, law, &note)?;
     r.extensions = Extensions {
         accommodation: Some(Accommodation {
             forces: applied_force_names(),
@@ -338,18 +336,14 @@ impl CarObserver {
         g: &ComfortPlant,
         fictitious: Option<&DMatrix<f64>>,
     ) -> Result<Self, ComfortError> {
-        let car = ctx
-            .design
-            .car
-            .ok_or_else(|| ctx.fail(variant, "the design file has no \"car\" block"))?;
+        let car = car_block(ctx, variant)?;
         let (plant, sensors) = car_sensors(g, &car.noise);
         let l = kalman_gain(&plant, &sensors, fictitious).map_err(|e| ctx.fail(variant, e))?;
         Ok(CarObserver { car, sensors, l })
     }
 
     fn wiring(&self) -> impl Fn(&ComfortPlant) -> (Plant, Sensors) {
-        let noise = self.car.noise;
-        move |g: &ComfortPlant| car_sensors_and_load_cells(g, &noise)
+        car_wiring(self.car.noise)
     }
 
     /// The gain `k` on the design state of `g` (the design plant, or it with the delay weight's
@@ -380,28 +374,53 @@ impl CarObserver {
         law: ControlLaw,
         gain_note: &str,
     ) -> Result<ComfortDesignResult, ComfortError> {
-        let car = &self.car;
-        let notes = vec![format!(
-            "On the sensors a car has: {gain_note}, on a design road with long waves under \
-             every wheel ({} m RMS, a lag chain of order {} at a wavelength of {} m), on a \
-             Kalman estimate of the design state from {} (noise densities: heights {} \
-             m/sqrt(Hz), accelerometers {} m/s2/sqrt(Hz), gyros {} rad/s/sqrt(Hz)), driven by \
-             the load cells' measured applied forces; each accelerometer and gyro washed out at {} Hz \
-             before the filter (no force from a bias).",
-            car.long_waves.height_rms,
-            LONG_WAVE_ORDER,
-            car.long_waves.wavelength,
-            law.inputs.join(", "),
-            car.noise.height,
-            car.noise.acceleration,
-            car.noise.rate,
-            car.inertial_washout_hz,
-        )];
-        let certificate = certify(ctx, variant, robust_to, &law, &self.wiring(), notes)?;
-        Ok(ComfortDesignResult {
-            law,
-            extensions: Extensions::default(),
-            certificate,
-        })
+        certify_on_car(ctx, &self.car, variant, robust_to, law, gain_note)
     }
+}
+
+/// The design file's `car` block, which every design on the car's sensors needs.
+fn car_block(ctx: &Context, variant: &str) -> Result<CarDesign, ComfortError> {
+    ctx.design
+        .car
+        .ok_or_else(|| ctx.fail(variant, "the design file has no \"car\" block"))
+}
+
+/// What a controller on the car's sensors reads: the `sensor_*` outputs with their noise, then
+/// the load cells.
+fn car_wiring(noise: CarSensorNoise) -> impl Fn(&ComfortPlant) -> (Plant, Sensors) {
+    move |g: &ComfortPlant| car_sensors_and_load_cells(g, &noise)
+}
+
+/// `law`, a controller on the car's sensors (`car`), certified as `variant`; `gain_note` says
+/// what its gain is.
+fn certify_on_car(
+    ctx: &Context,
+    car: &CarDesign,
+    variant: &str,
+    robust_to: Uncertainty,
+    law: ControlLaw,
+    gain_note: &str,
+) -> Result<ComfortDesignResult, ComfortError> {
+    let notes = vec![format!(
+        "On the sensors a car has: {gain_note}, on a design road with long waves under \
+         every wheel ({} m RMS, a lag chain of order {} at a wavelength of {} m), on a \
+         Kalman estimate of the design state from {} (noise densities: heights {} \
+         m/sqrt(Hz), accelerometers {} m/s2/sqrt(Hz), gyros {} rad/s/sqrt(Hz)), driven by \
+         the load cells' measured applied forces; each accelerometer and gyro washed out at {} Hz \
+         before the filter (no force from a bias).",
+        car.long_waves.height_rms,
+        LONG_WAVE_ORDER,
+        car.long_waves.wavelength,
+        law.inputs.join(", "),
+        car.noise.height,
+        car.noise.acceleration,
+        car.noise.rate,
+        car.inertial_washout_hz,
+    )];
+    let certificate = certify(ctx, variant, robust_to, &law, &car_wiring(car.noise), notes)?;
+    Ok(ComfortDesignResult {
+        law,
+        extensions: Extensions::default(),
+        certificate,
+    })
 }
