@@ -137,7 +137,7 @@ impl Estimator {
             .iter()
             .chain(&e.command_energy)
             .all(|v| v.is_finite() && *v >= 0.0);
-        let bandwidth_ok = (0.0..=crate::spec::MAX_ACTUATOR_BANDWIDTH).contains(&e.bandwidth);
+        let bandwidth_ok = crate::spec::actuator_bandwidth_ok(e.bandwidth);
         if !means_ok || !bandwidth_ok || !e.modelled.iter().all(|v| v.is_finite()) {
             return Err("FMU state holds an invalid effectiveness estimate".into());
         }

@@ -642,7 +642,7 @@ impl Model for Controller {
         }
         if let Some(e) = &self.estimator {
             let hz = e.bandwidth();
-            if !(0.0..=spec::MAX_ACTUATOR_BANDWIDTH).contains(&hz) {
+            if !spec::actuator_bandwidth_ok(hz) {
                 return Err(format!(
                     "actuator_bandwidth must be in [0, {}] Hz, got {hz}",
                     spec::MAX_ACTUATOR_BANDWIDTH

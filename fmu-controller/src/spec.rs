@@ -249,6 +249,11 @@ fn force_limits(name: &str, u_max: &[f64], nu: usize) -> Result<Vec<f64>, SpecEr
 /// The largest actuator bandwidth \[Hz\] (the plant's bound).
 pub const MAX_ACTUATOR_BANDWIDTH: f64 = 1e5;
 
+/// An actuator bandwidth the runtime takes: in `[0, MAX_ACTUATOR_BANDWIDTH]` Hz (NaN is not).
+pub fn actuator_bandwidth_ok(hz: f64) -> bool {
+    (0.0..=MAX_ACTUATOR_BANDWIDTH).contains(&hz)
+}
+
 fn accommodation(
     a: &controller_file::Accommodation,
     inputs: &[Signal],
@@ -281,7 +286,7 @@ fn accommodation(
             a.time_constant
         )));
     }
-    if !(a.actuator_bandwidth >= 0.0 && a.actuator_bandwidth <= MAX_ACTUATOR_BANDWIDTH) {
+    if !actuator_bandwidth_ok(a.actuator_bandwidth) {
         return Err(SpecError::Invalid(format!(
             "accommodation.actuator_bandwidth must be in [0, {MAX_ACTUATOR_BANDWIDTH}] Hz, found {}",
             a.actuator_bandwidth

@@ -23,7 +23,7 @@ use crate::comfort::controllers::{
 };
 use crate::comfort::designs::{
     certify, check_masses, delay_channel_norm, nominal_gain, ComfortDesignResult, ComfortError,
-    Context, Uncertainty, FICTITIOUS_GRID,
+    Context, Uncertainty,
 };
 use crate::comfort::guaranteed::{self, StateFeedback, FORCE_REGULARISATION};
 use crate::comfort::plant::{force_limits, mass_channel, ComfortPlant, LONG_WAVE_ORDER};
@@ -310,6 +310,9 @@ pub fn lqg_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
     );
     observer.certify(ctx, variant, Uncertainty::None, law, &note)
 }
+
+/// The intensities `ζ` of the fictitious mass-channel noise a robust filter is chosen among.
+pub const FICTITIOUS_GRID: [f64; 8] = [0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1];
 
 /// How much worse than its nominal design a robust design may be anywhere in its uncertainty.
 pub const NOMINAL_TOLERANCE: f64 = 1.05;

@@ -741,34 +741,21 @@ pub fn state_feedback_design(
     })
 }
 
-/// The observer-based controller of `gain` on the sensors of [`output_feedback_sensors`], with
-/// the Kalman filter's fictitious process noise `fictitious` (`None`: the road and the sensor
-/// noise only).
-fn observer_law(
-    ctx: &Context,
-    variant: &str,
-    gain: &(ComfortPlant, StateFeedback),
-    fictitious: Option<&DMatrix<f64>>,
-) -> Result<(ControlLaw, Plant, Sensors), ComfortError> {
-    let (g, sf) = gain;
-    let (plant, sensors) = output_feedback_sensors(g, &ctx.design.sensor_noise);
-    let l = kalman_gain(&plant, &sensors, fictitious).map_err(|e| ctx.fail(variant, e))?;
-    let law = ControlLaw {
-        lti: observer_based(g, &sf.k, &sensors, &l, ObserverInput::Command),
-        inputs: sensors.names.clone(),
-        accommodation: None,
-        predictor: None,
-    };
-    Ok((law, plant, sensors))
-}
-
 /// `hinf_of`: the nominal gain on a Kalman estimate of the design state.
 pub fn output_feedback_design(
     ctx: &Context,
     gain: &(ComfortPlant, StateFeedback),
 ) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "hinf_of";
-    let (law, _, sensors) = observer_law(ctx, variant, gain, None)?;
+    let (g, sf) = gain;
+    let (plant, sensors) = output_feedback_sensors(g, &ctx.design.sensor_noise);
+    let l = kalman_gain(&plant, &sensors, None).map_err(|e| ctx.fail(variant, e))?;
+    let law = ControlLaw {
+        lti: observer_based(g, &sf.k, &sensors, &l, ObserverInput::Command),
+        inputs: sensors.names.clone(),
+        accommodation: None,
+        predictor: None,
+    };
     let notes = vec![format!(
         "Observer-based: a Kalman filter of the design state (car, road with the rear wheels \
              {:?}, weightings) from {} with sensor noise of {} m/sqrt(Hz) (strokes) and {} \
@@ -855,9 +842,6 @@ pub fn check_masses(d: &ComfortDesign) -> Vec<f64> {
         .map(|i| d.mass_min + (d.mass_max - d.mass_min) * i as f64 / 4.0)
         .collect()
 }
-
-/// The intensities `ζ` of the fictitious mass-channel noise a robust filter is chosen among.
-pub const FICTITIOUS_GRID: [f64; 8] = [0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1];
 
 /// The rows `(C, D)` over the car's 16 states and its five forces (per N) of the plant outputs
 /// `inputs` names: a sensor as its physical output ([`vehicle::sensors::physical_name`]), a load

@@ -283,29 +283,7 @@ pub struct DetectionResidual {
 impl DetectionResidual {
     /// From the plant (`B_w` the road only, `B_u` per kN), `T` in s.
     pub fn new(g: &GeneralizedPlant, time_constant: f64) -> Self {
-        Self::build(&g.a, &g.b_w, &g.b_u, FORCE_UNIT, &g.c_y, time_constant)
-    }
-
-    /// From the car's `A`, its road input `B_r`, `B_u` per N and the measurements `C_y`.
-    pub fn from_car(
-        a: &DMatrix<f64>,
-        b_road: &DMatrix<f64>,
-        b_u: &DMatrix<f64>,
-        c_y: &DMatrix<f64>,
-        time_constant: f64,
-    ) -> Self {
-        Self::build(a, b_road, b_u, 1.0, c_y, time_constant)
-    }
-
-    /// `B_u / force_unit` is per N (the division last, as the thesis designs always did).
-    fn build(
-        a: &DMatrix<f64>,
-        b_road: &DMatrix<f64>,
-        b_u: &DMatrix<f64>,
-        force_unit: f64,
-        c_y: &DMatrix<f64>,
-        time_constant: f64,
-    ) -> Self {
+        let (a, b_road, b_u, c_y) = (&g.a, &g.b_w, &g.b_u, &g.c_y);
         let (n, ny, nw) = (a.nrows(), c_y.nrows(), b_road.ncols());
         // [π κ] M = 0, M = [[C_y A, C_y B_w], [−C_y, 0]]: the left null space of M.
         let mut m = DMatrix::zeros(2 * ny, n + nw);
@@ -322,7 +300,8 @@ impl DetectionResidual {
         let basis = DMatrix::from_fn(null.len(), 2 * ny, |i, j| v_t[(null[i], j)]);
         let pi = basis.columns(0, ny).into_owned();
         let kappa = basis.columns(ny, ny).into_owned();
-        let gm = &pi * c_y * b_u / force_unit;
+        // Per N: the division last, as the thesis designs always did.
+        let gm = &pi * c_y * b_u / FORCE_UNIT;
         DetectionResidual {
             pi,
             kappa,
