@@ -8,9 +8,9 @@
 //! ([`crate::thesis::synthesis`], `synth/designs/thesis.json`, `constrained.json`).
 //!
 //! To add a variant: one entry in [`VARIANTS`] with its comfort synthesis (a function of the
-//! [`Context`] and the [`Shared`] designs it builds on) and, if it has one, its thesis synthesis
-//! (the match of [`crate::thesis::synthesis::synthesise`]); the Makefile, the tables and the
-//! comparisons follow.
+//! [`Context`] and the [`Shared`] designs it builds on) and, if it has a thesis design, one in
+//! [`crate::thesis::synthesis::THESIS`] (a variant may exist in one family only); the Makefile,
+//! the tables and the comparisons follow.
 
 use crate::comfort::designs::{
     anti_windup_design, held_at, nominal_gain, output_feedback_design, robust_gain,
@@ -97,9 +97,6 @@ pub struct Variant {
     /// What it is, in a line, with the thesis result it implements.
     pub summary: &'static str,
     pub comfort: ComfortSynthesis,
-    /// It has a thesis design too ([`crate::thesis::synthesis::synthesise`]); a baseline does
-    /// not.
-    pub thesis: bool,
     /// A design of ours or a classical baseline (`Variant::accept`).
     pub role: Role,
 }
@@ -137,7 +134,6 @@ pub const VARIANTS: [Variant; 10] = [
             let notes = vec![state_feedback_note(ctx.design, "the unmodelled delay")];
             state_feedback_design(ctx, "hinf_sf", Uncertainty::None, s.nominal(ctx)?, notes)
         },
-        thesis: true,
         role: Role::Design,
     },
     Variant {
@@ -147,7 +143,6 @@ pub const VARIANTS: [Variant; 10] = [
         model: DesignModel::OutputFeedback,
         summary: "dynamic output feedback from eight sensors (thesis Th. 5.2)",
         comfort: |ctx, s| s.hinf_of(ctx).cloned(),
-        thesis: true,
         role: Role::Design,
     },
     Variant {
@@ -157,7 +152,6 @@ pub const VARIANTS: [Variant; 10] = [
         model: DesignModel::Car,
         summary: "car_of with anti-windup for actuator saturation (thesis Th. 5.3)",
         comfort: |ctx, s| anti_windup_design(ctx, s.car_of(ctx)?),
-        thesis: true,
         role: Role::Design,
     },
     Variant {
@@ -177,7 +171,6 @@ pub const VARIANTS: [Variant; 10] = [
             let nominal = state_feedback_note(ctx.design, "the unmodelled delay");
             robust_state_feedback_design(ctx, (s.robust(ctx)?, robust), (s.nominal(ctx)?, nominal))
         },
-        thesis: true,
         role: Role::Design,
     },
     Variant {
@@ -187,7 +180,6 @@ pub const VARIANTS: [Variant; 10] = [
         model: DesignModel::Car,
         summary: "output feedback on car_of's sensors robust to the sprung mass (thesis Th. 6.2)",
         comfort: |ctx, s| crate::comfort::car::robust_design(ctx, s.robust(ctx)?, s.car_of(ctx)?),
-        thesis: true,
         role: Role::Design,
     },
     Variant {
@@ -197,7 +189,6 @@ pub const VARIANTS: [Variant; 10] = [
         model: DesignModel::StateFeedback,
         summary: "state feedback for a known actuator delay (thesis Prop. 7.1)",
         comfort: |ctx, s| crate::comfort::predictor::predictor_design(ctx, s.nominal(ctx)?),
-        thesis: true,
         role: Role::Design,
     },
     Variant {
@@ -207,7 +198,6 @@ pub const VARIANTS: [Variant; 10] = [
         model: DesignModel::Car,
         summary: "fault-tolerant output feedback on car_of's sensors with fault accommodation and a load-cell fault detector (thesis Th. 8.1)",
         comfort: |ctx, s| crate::comfort::car::fault_tolerant_design(ctx, s.car_of(ctx)?),
-        thesis: true,
         role: Role::Design,
     },
     Variant {
@@ -217,7 +207,6 @@ pub const VARIANTS: [Variant; 10] = [
         model: DesignModel::OutputFeedback,
         summary: "baseline: skyhook dampers on the body and the seat from accelerometers (not H∞)",
         comfort: |ctx, s| skyhook_design(ctx, s.hinf_of(ctx)?),
-        thesis: false,
         role: Role::Baseline,
     },
     Variant {
@@ -227,7 +216,6 @@ pub const VARIANTS: [Variant; 10] = [
         model: DesignModel::Car,
         summary: "output feedback on the sensors a car has and load cells, designed for long waves",
         comfort: |ctx, s| s.car_of(ctx).cloned(),
-        thesis: false,
         role: Role::Design,
     },
     Variant {
@@ -238,7 +226,6 @@ pub const VARIANTS: [Variant; 10] = [
         summary:
             "baseline: LQG (LQR on the comfort cost, Kalman filter) on car_of's sensors (not H∞)",
         comfort: |ctx, _| crate::comfort::car::lqg_design(ctx),
-        thesis: false,
         role: Role::Baseline,
     },
 ];
@@ -260,13 +247,9 @@ pub fn names() -> Vec<&'static str> {
     VARIANTS.iter().map(|v| v.name).collect()
 }
 
-/// The names of the variants with a thesis design.
+/// The names of the variants with a thesis design ([`crate::thesis::synthesis::THESIS`]).
 pub fn thesis_names() -> Vec<&'static str> {
-    VARIANTS
-        .iter()
-        .filter(|v| v.thesis)
-        .map(|v| v.name)
-        .collect()
+    crate::thesis::synthesis::names()
 }
 
 pub fn variant(name: &str) -> Option<&'static Variant> {
