@@ -50,8 +50,8 @@ ZIG := PATH=$(CURDIR)/$(VENV)/bin:$$PATH cargo-zigbuild zigbuild --release --tar
 HARNESS_CC := -std=gnu99 -O2 -Wall -Wextra -Werror
 
 # The variants, as synth's registry lists them (`synth --list`), and those with a thesis design
-# (`synth --list-thesis`; `skyhook`, `car_of` and `lqg` have none).
-CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of skyhook car_of lqg
+# (`synth --list-thesis`; `skyhook` and `lqg` have none).
+CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of skyhook lqg
 THESIS_CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
 FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)

@@ -80,7 +80,7 @@ fn each_certificate_says_at_which_communication_steps_its_loop_is_stable() {
             // the largest). Stable, not as calm: the range certifies stability, and the hold
             // costs comfort. `delay_sf` with a 50 ms delay at its 10 ms step measures 0.38,
             // 86 % of the passive car (0.054 at 1 ms, 0.134 at 7.5 ms), as the nominal
-            // designs lose several times their 1 ms comfort at 10 ms (`hinf_of` 0.0080 → 0.046).
+            // designs lose several times their 1 ms comfort at 10 ms (`hinf_sf` 0.0103 → 0.046).
             let ends = comfort["uncertainty"]["plant_parameters"]
                 .as_array()
                 .map(|c| vec![&c[0], &c[c.len() - 1]])
@@ -139,7 +139,7 @@ fn each_certificate_says_at_which_communication_steps_its_loop_is_stable() {
 }
 
 /// `master compare` of a scenario at a step beyond `ft_of`'s stable range (7.5 ms) and within
-/// `hinf_of`'s (10 ms) lists `ft_of`'s warning in its report, and no other.
+/// `skyhook`'s (10 ms) lists `ft_of`'s warning in its report, and no other.
 #[test]
 fn master_compare_reports_a_controller_stepped_beyond_its_stable_steps() {
     let dir = std::env::temp_dir().join(format!("master-compare-warn-{}", std::process::id()));
@@ -155,7 +155,7 @@ fn master_compare_reports_a_controller_stepped_beyond_its_stable_steps() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_master"))
         .arg("--dist")
         .arg(common::dist())
-        .args(["compare", "--controllers", "hinf_of,ft_of", "--scenarios"])
+        .args(["compare", "--controllers", "skyhook,ft_of", "--scenarios"])
         .arg(dir.join("scenarios"))
         .arg("--out")
         .arg(dir.join("out"))

@@ -147,7 +147,7 @@ fn the_time_at_the_force_limits_is_the_time_the_applied_forces_sit_there() {
     use master::report::figures;
     let mut s = scenario("saturation");
     s.duration = 2.0;
-    for c in ["car_of", "hinf_of_aw"] {
+    for c in ["hinf_of", "hinf_of_aw"] {
         let r = run(&dist(), &s, Some(c)).unwrap();
         assert_eq!(r.delay, 0.0);
         let limits = r.force_limits;
@@ -191,7 +191,7 @@ fn the_time_at_the_force_limits_is_the_time_the_applied_forces_sit_there() {
 fn the_scenario_figure_labels_what_it_shows() {
     let mut s = scenario("fault");
     s.duration = 3.0;
-    let runs: Vec<(String, master::cosim::Run)> = [None, Some("car_of"), Some("hinf_of_aw")]
+    let runs: Vec<(String, master::cosim::Run)> = [None, Some("hinf_of"), Some("hinf_of_aw")]
         .into_iter()
         .map(|c| {
             (
@@ -213,7 +213,7 @@ fn the_scenario_figure_labels_what_it_shows() {
         "fault at 2 s",
         "The controlled cars on their own scale (unweighted)",
         "PSD of the seat acceleration, unweighted",
-        "hinf_of_aw = car_of",
+        "hinf_of_aw = hinf_of",
     ] {
         assert!(svg.contains(text), "the figure lacks '{text}'");
     }

@@ -72,7 +72,7 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             c["passive_wk_rms_seat_m_s2"].as_f64().unwrap(),
         );
         // The floor: seat at least 90 % below the passive car on the design road; the
-        // designs on the car's sensors and design road (`DesignModel::Car`: `car_of`,
+        // designs on the car's sensors and design road (`DesignModel::Car`: `hinf_of`,
         // `hinf_of_aw`, `robust_of`, `ft_of`), which pay on this road for the long waves and the
         // seat stroke limit of their design road, 80 % below. The baselines (no H∞ design) are
         // what they are: the floors guard what they measured (skyhook 0.28, lqg 0.53 of the
@@ -113,21 +113,21 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         // The controller file says what the FMU will report.
         assert!(s.controller_json.guarantee.value > 0.0, "{name}");
     }
-    // robust_of (on the car's sensors): at most 5 % worse than its nominal design car_of
+    // robust_of (on the car's sensors): at most 5 % worse than its nominal design hinf_of
     // anywhere in its mass range (the bound; it picks its filter within it, measured at
-    // most 3.6 % worse), better at both ends, where car_of degrades, and at its worst at least
-    // 15 % better than car_of's worst (measured 21 %).
+    // most 3.6 % worse), better at both ends, where hinf_of degrades, and at its worst at least
+    // 15 % better than hinf_of's worst (measured 21 %).
     let rows = beside_nominal(cert("robust_of"));
     for (label, own, nominal) in &rows {
         assert!(
             *own <= 1.05 * nominal,
-            "robust_of at {label}: {own} vs car_of {nominal}"
+            "robust_of at {label}: {own} vs hinf_of {nominal}"
         );
     }
     for (label, own, nominal) in [&rows[0], &rows[rows.len() - 1]] {
         assert!(
             own < nominal,
-            "robust_of at {label}: {own} vs car_of {nominal}"
+            "robust_of at {label}: {own} vs hinf_of {nominal}"
         );
     }
     let worst = |r: &[(String, f64, f64)], i: usize| {
@@ -195,7 +195,7 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
     }
     // ft_of: accommodated, its loop at every condition of the effectiveness box is, once the
     // estimate settles, the nominal one: every prediction is its nominal prediction. Its nominal
-    // design car_of (the same law, its observer driven by the load cells, no accommodation)
+    // design hinf_of (the same law, its observer driven by the load cells, no accommodation)
     // barely notices a corner at half force (within 2 %: measured 0.3 % better to 2 % worse),
     // but loses its seat isolation, a cancellation by command, with the seat actuator at half
     // (predicted 0.186 m/s²) or all at half (0.271): there ft_of is at least twice as good.
@@ -212,12 +212,12 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         );
         assert!(
             *own <= 1.05 * nominal,
-            "ft_of at {label}: {own} vs car_of {nominal}"
+            "ft_of at {label}: {own} vs hinf_of {nominal}"
         );
         if label.starts_with("seat") || label.starts_with("all") {
             assert!(
                 *own < 0.5 * nominal,
-                "ft_of at {label}: {own} vs car_of {nominal}"
+                "ft_of at {label}: {own} vs hinf_of {nominal}"
             );
         }
     }
@@ -229,9 +229,9 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
     // a design's figures, unevenly over its uncertainty, but keeps the comparisons.
     for (robust, nominal) in [
         ("robust_sf", "hinf_sf"),
-        ("robust_of", "car_of"),
+        ("robust_of", "hinf_of"),
         ("delay_sf", "hinf_sf"),
-        ("ft_of", "car_of"),
+        ("ft_of", "hinf_of"),
     ] {
         let rows = held_beside_nominal(cert(robust));
         for (label, own, nom) in &rows {
@@ -243,7 +243,7 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         }
         // Better where the nominal design degrades: the ends of the mass range, the longest
         // delay, the seat's and every actuator's fault (hinf_sf is robust to mass by physics;
-        // car_of barely notices a corner's fault).
+        // hinf_of barely notices a corner's fault).
         let ends = match robust {
             "robust_sf" => vec![],
             "delay_sf" => vec![&rows[rows.len() - 1]],

@@ -181,18 +181,21 @@ def test_fmpy_hears_a_controller_stepped_beyond_its_stable_communication_steps(c
 # the static load (the passive car too): the wheel would lift. The ISO rows guard the measured
 # tyre loads; every other target is held in full. Roll is judged as ISO 2631-1 weights it (W_e;
 # README "Controllers": the comfort designs trade unweighted roll in the wheel-hop band for
-# their delay guarantee).
-@pytest.mark.parametrize("controller,road,seconds,roll_reduction,tyre_limit", [
-    ("hinf_sf", bump, 4.0, 0.5, 1.0),
-    ("hinf_sf", iso_road(256e-6, 20.0, 7), 10.0, 0.5, 1.15),
-    ("hinf_of", bump, 4.0, 0.5, 1.0),
-    ("hinf_of", iso_road(256e-6, 20.0, 7), 10.0, 0.5, 1.25),
+# their delay guarantee). The seat 90 % below the passive car's for the state feedback, 80 % for
+# `hinf_of`, on the sensors a car has, whose design road with long waves and seat stroke limit
+# cost it comfort on these roads (the Rust master measures 84.9 % on the bump, 81.1 % on class C:
+# tests/tests/closed_loop.rs).
+@pytest.mark.parametrize("controller,road,seconds,seat_reduction,roll_reduction,tyre_limit", [
+    ("hinf_sf", bump, 4.0, 0.9, 0.5, 1.0),
+    ("hinf_sf", iso_road(256e-6, 20.0, 7), 10.0, 0.9, 0.5, 1.15),
+    ("hinf_of", bump, 4.0, 0.8, 0.5, 1.0),
+    ("hinf_of", iso_road(256e-6, 20.0, 7), 10.0, 0.8, 0.5, 1.25),
 ], ids=["sf-bump", "sf-iso_c_20ms", "of-bump", "of-iso_c_20ms"])
-def test_controller_against_passive(controller, road, seconds, roll_reduction, tyre_limit):
+def test_controller_against_passive(controller, road, seconds, seat_reduction, roll_reduction, tyre_limit):
     p = figures(run(None, road, seconds))
     a = figures(run(controller, road, seconds))
     print({k: (np.round(a[k], 4), np.round(p[k], 4)) for k in p})
-    assert a["seat"] <= 0.1 * p["seat"]
+    assert a["seat"] <= (1 - seat_reduction) * p["seat"]
     assert a["we_roll"] <= (1 - roll_reduction) * p["we_roll"]
     assert a["pitch"] <= p["pitch"] and a["body"] <= p["body"]
     assert a["stroke"] < 0.08 and a["corner_force"] < 2500 and a["seat_force"] < 1000
@@ -204,7 +207,7 @@ def test_controller_against_passive(controller, road, seconds, roll_reduction, t
 
 # The seat's (unweighted) RMS against the passive car's: 90 % below for the state feedback;
 # 75 % for `robust_of`, on the sensors a car has, whose design road with long waves and a seat
-# stroke limit costs it comfort on this one (as `car_of`; measured 84 and 77 %).
+# stroke limit costs it comfort on this one (as `hinf_of`'s; measured 84 and 77 %).
 @pytest.mark.parametrize("controller,floor", [("robust_sf", 0.1), ("robust_of", 0.25)])
 @pytest.mark.parametrize("mass", [1200.0, 1800.0])
 def test_robust_controller_on_the_lightest_and_heaviest_car(controller, floor, mass):
@@ -223,13 +226,13 @@ def test_anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output
     road, limits = iso_road(1024e-6, 20.0, 7), {"u_max": 300.0, "u_max_seat": 100.0}
     record = RECORD + FORCES  # the plant's inputs u_* read back: the commands it received
     p = figures(run(None, road, 20.0, plant_parameters=limits))
-    # Its nominal design car_of: the same linear controller without the compensator.
-    plain_log = run("car_of", road, 20.0, plant_parameters=limits, record=record)
+    # Its nominal design hinf_of: the same linear controller without the compensator.
+    plain_log = run("hinf_of", road, 20.0, plant_parameters=limits, record=record)
     aw_log = run("hinf_of_aw", road, 20.0, plant_parameters=limits, record=record)
     plain, aw = figures(plain_log), figures(aw_log)
     plain_cmd, aw_cmd = np.abs(plain_log[:, 17:]).max(), np.abs(aw_log[:, 17:]).max()
-    print("seat RMS passive", p["seat"], "car_of", plain["seat"], "hinf_of_aw", aw["seat"], "peak command", plain_cmd, aw_cmd)
-    # car_of commands far beyond the limits; the anti-windup loop commands within them and is
+    print("seat RMS passive", p["seat"], "hinf_of", plain["seat"], "hinf_of_aw", aw["seat"], "peak command", plain_cmd, aw_cmd)
+    # hinf_of commands far beyond the limits; the anti-windup loop commands within them and is
     # no less comfortable.
     assert plain_cmd > 1000.0 and aw_cmd <= 300.0 + 1e-9
     assert aw["seat"] < plain["seat"] and aw["seat"] < 0.7 * p["seat"]
@@ -256,7 +259,7 @@ def test_ft_of_detects_the_fault_of_fig_8_2_and_keeps_the_seat_quiet():
     road = iso_road(256e-6, 20.0, 11)
     log = run("ft_of", road, 5.0, plant_parameters=fault, record=["a_seat"], controller_record=["residual_norm", "fault_detected"])
     # Its nominal design: the same law without accommodation or detector.
-    of = run("car_of", road, 5.0, plant_parameters=fault, record=["a_seat"])
+    of = run("hinf_of", road, 5.0, plant_parameters=fault, record=["a_seat"])
     passive = run(None, road, 5.0, plant_parameters=fault, record=["a_seat"])
     detected = int(np.argmax(log[:, 2] > 0.5))
     rms = lambda a, lo, hi: float(np.sqrt(np.mean(a[lo:hi, 0] ** 2)))
@@ -266,8 +269,8 @@ def test_ft_of_detects_the_fault_of_fig_8_2_and_keeps_the_seat_quiet():
     # rounding.
     assert log[:1999, 1].max() < 1e-6 and log[:2000, 2].max() == 0.0
     assert 2000 <= detected < 2300 and log[detected:, 2].min() == 1.0
-    # On the car's sensors and design road (as car_of) the unweighted seat RMS is about a
-    # fifth of the passive car's; a corner at half force barely touches car_of's loop, and
+    # On the car's sensors and design road (as hinf_of) the unweighted seat RMS is about a
+    # fifth of the passive car's; a corner at half force barely touches hinf_of's loop, and
     # ft_of's accommodation transient costs at most 5 % against it.
     assert rms(log, 2000, 5000) < 0.25 * rms(passive, 2000, 5000)
     assert rms(log, 2000, 5000) < 1.05 * rms(of, 2000, 5000)
@@ -350,13 +353,14 @@ def test_plant_and_controller_alone_in_fmpy_simulate_fmu():
     spec = json.loads((ROOT / "dist" / "hinf_of" / "controller.json").read_text())
     A, B, C, D = (np.array(spec[m], dtype=float) for m in "ABCD")
     inputs = [s["name"] for s in spec["inputs"]]
+    fl = next(name for name in inputs if name.endswith("stroke_fl"))
     h, n = 1e-3, 200
-    stroke = np.array([(0.0,) + tuple(0.01 if name == "stroke_fl" else 0.0 for name in inputs), (1.0,) + tuple(0.01 if name == "stroke_fl" else 0.0 for name in inputs)],
+    stroke = np.array([(0.0,) + tuple(0.01 if name == fl else 0.0 for name in inputs), (1.0,) + tuple(0.01 if name == fl else 0.0 for name in inputs)],
                       dtype=[("time", float)] + [(name, float) for name in inputs])
     res = simulate_fmu(str(ROOT / "dist" / "hinf_of.fmu"), stop_time=n * h, output_interval=h, step_size=h, input=stroke, output=["u_fl", "u_seat"])
     Ad, Bd, _, _, _ = cont2discrete((A, B, C, D), h, method="zoh")
     y = np.zeros(len(inputs))
-    y[inputs.index("stroke_fl")] = 0.01
+    y[inputs.index(fl)] = 0.01
     x = np.zeros(A.shape[0])
     expected = []
     for _ in range(n + 1):

@@ -43,7 +43,7 @@ def test_make_writes_a_valid_ssp_of_the_bump_loop():
         assert ("road", n, "plant", n) in wired
     for n in ("u_fl", "u_seat"):
         assert ("hinf_of", n, "plant", n) in wired
-    assert ("plant", "stroke_fl", "hinf_of", "stroke_fl") in wired
+    assert ("plant", "sensor_stroke_fl", "hinf_of", "sensor_stroke_fl") in wired
 
 
 def test_unknown_controller_is_refused(tmp_path):

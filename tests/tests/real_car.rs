@@ -1,5 +1,5 @@
 //! The controllers on the sensors a car has — the skyhook baseline (`dist/skyhook.fmu`,
-//! `synth::comfort::skyhook`), `car_of` and the LQG baseline on its observer (`lqg`; both
+//! `synth::comfort::skyhook`), `hinf_of` and the LQG baseline on its observer (`lqg`; both
 //! `synth::comfort::car`) — off their design model, as
 //! a control engineer tries a controller before trusting it: on a long constant grade (no
 //! steady force: each certificate says so, and the force dies out), with the accelerometers'
@@ -12,7 +12,7 @@ use vehicle::terrain::Terrain;
 
 const H: f64 = 1e-3;
 /// The controllers that read only what a car measures.
-const CONTROLLERS: [&str; 5] = ["skyhook", "car_of", "lqg", "robust_of", "ft_of"];
+const CONTROLLERS: [&str; 5] = ["skyhook", "hinf_of", "lqg", "robust_of", "ft_of"];
 const FORCES: [&str; 5] = ["f_fl", "f_fr", "f_rl", "f_rr", "f_seat"];
 
 /// A level road at 20 m/s that rises `rise` m over `length` m from the front wheels' position
@@ -91,9 +91,9 @@ fn no_steady_force_on_a_long_grade() {
 /// up to 0.2 °/s), the skyhook's estimator, whose gain at zero frequency is zero, leaves no mean
 /// force. The observer designs wash out every inertial sensor, so their gain at zero frequency
 /// from a bias is zero too, but the bias's onset rings through their slowest closed-loop modes
-/// (about −0.0085 rad/s and a pair at −0.011 ± 0.011j rad/s in `car_of`: the Kalman filter's
+/// (about −0.0085 rad/s and a pair at −0.011 ± 0.011j rad/s in `hinf_of`: the Kalman filter's
 /// estimate of absolute heights, which only the washed-out accelerations inform) for minutes:
-/// over 40–60 s the mean force is still there and still rising (measured up to 83 N `car_of`
+/// over 40–60 s the mean force is still there and still rising (measured up to 83 N `hinf_of`
 /// and `ft_of`, 8 N `lqg`, 305 N `robust_of`; 136 N and 369 N before the gyros were washed out
 /// too), bounded here by 400 N (without the accelerometers' washout, 1000 N). Making those modes
 /// faster is an open item of the controllers issue.
@@ -174,7 +174,7 @@ fn no_worse_than_the_passive_car_with_any_actuator_lost() {
 /// at their limits through the bump; 8 s later the loop is the unsaturated one again (every
 /// signal within 1e-3 of the peak of its run without limits, and the gap shrinking tenfold).
 /// The skyhook's states are stable filters of the measurements, which no limit winds up;
-/// the observer of `car_of` and `lqg` is driven by the measured applied forces, so its estimate
+/// the observer of `hinf_of` and `lqg` is driven by the measured applied forces, so its estimate
 /// does not see the saturation either.
 #[test]
 fn back_to_the_unsaturated_loop_after_saturation() {

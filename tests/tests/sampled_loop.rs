@@ -160,13 +160,12 @@ fn predicted(case: &Case, f: f64) -> [Complex<f64>; 6] {
 /// fraction of a step, with and without a predictor, whose delayed command then changes
 /// mid-step, below one step among them, where the predictor predicts over the step; at half
 /// force with the fault accommodated), and the master's other orders (Jacobi; the controller
-/// stepped first) for a state feedback, an observer and `car_of`, at a body-mode and a
-/// wheel-hop-side frequency: the amplitudes agree to 5·10⁻⁶. Measured: at most 4.5·10⁻⁷, except `hinf_of`'s weighted seat at
-/// 7 Hz, 2.5·10⁻⁶ (6.5·10⁻⁷ before its Kalman filter was solved with a balanced Lyapunov
-/// solver). That figure is the prediction's own rounding: a diagonal similarity of the
-/// controller's realisation (the factors LAPACK's balancing picks) moves its predicted
-/// amplitude by 1.0·10⁻⁶, and running the co-simulation 240 s instead of 60 s moves nothing,
-/// so it is no transient. (`delay_sf`'s unweighted seat with no delay was held to 10⁻⁴ while
+/// stepped first) for a state feedback and an observer (`hinf_of`), at a body-mode and a
+/// wheel-hop-side frequency: the amplitudes agree to 5·10⁻⁶. Measured: at most 4.5·10⁻⁷
+/// (`delay_sf`'s weighted seat). The ideal-world `hinf_of` this file checked until 27 November
+/// 2026 reached 2.5·10⁻⁶ (its weighted seat at 7 Hz), the prediction's own rounding: a diagonal
+/// similarity of the controller's realisation moved its predicted amplitude by 1.0·10⁻⁶, and a
+/// co-simulation of 240 s instead of 60 s moved nothing. (`delay_sf`'s unweighted seat with no delay was held to 10⁻⁴ while
 /// it predicted over no delay, 6.4·10⁻⁶ and 1.9·10⁻⁵ measured: the force correction then closed
 /// the seat command's loop within the step. Predicting over one step, there is no correction
 /// and it is 4.5·10⁻¹⁰.)
@@ -177,7 +176,7 @@ fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
         Case::new(None, 0.0, healthy),
         Case::new(Some("hinf_sf"), 0.0, healthy),
         Case::new(Some("hinf_of"), 0.0, healthy),
-        Case::new(Some("hinf_of"), 0.0155, healthy),
+        Case::new(Some("hinf_of"), 0.0055, healthy),
         Case::new(Some("delay_sf"), 0.0, healthy),
         Case::new(Some("delay_sf"), 0.0005, healthy),
         Case::new(Some("delay_sf"), 0.02, healthy),
@@ -188,7 +187,6 @@ fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
         Case::in_order("hinf_sf", Order::ControllerFirst),
         Case::in_order("hinf_of", Order::Jacobi),
         Case::in_order("hinf_of", Order::ControllerFirst),
-        Case::in_order("car_of", Order::ControllerFirst),
     ];
     let mut worst = 0.0f64;
     for case in &cases {

@@ -1,4 +1,4 @@
-//! `car_of`: the comfort design on the signals a production car gives it. It reads the plant's
+//! `hinf_of`: the comfort design on the signals a production car gives it. It reads the plant's
 //! `sensor_*` outputs (five height sensors, an accelerometer on the body above each wheel and
 //! one on the seat, the roll and pitch gyros; their noise in the Kalman filter) and the
 //! actuators' load cells (`f_*`), and is designed on a road with long waves and a seat stroke
@@ -89,11 +89,11 @@ pub fn washout(k: &Lti, inputs: &[usize], omega: f64) -> Lti {
     Lti::new(a, b, c, k.d.clone())
 }
 
-/// `car_of` on `ctx`, whose design is the comfort file's `for_car`
+/// `hinf_of` on `ctx`, whose design is the comfort file's `for_car`
 /// (`crate::shipping::design::ComfortDesign::for_car`): the guaranteed-cost gain that tolerates
 /// the unmodelled delay, on the car's observer (`CarObserver`).
 pub fn car_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
-    let variant = "car_of";
+    let variant = "hinf_of";
     let observer = CarObserver::new(ctx, variant)?;
     let (g, sf) = nominal_gain(ctx).map_err(|e| ctx.fail(variant, e))?;
     let note = format!(
@@ -110,18 +110,18 @@ pub fn car_design(ctx: &Context) -> Result<ComfortDesignResult, ComfortError> {
 /// range's harmonic-mean mass, the filter expecting the mass channel's input `H p` as process
 /// noise of intensity `ζ²`. `ζ` of [`FICTITIOUS_GRID`]: the least worst predicted W_k seat over
 /// the certificate's masses ([`check_masses`]) among those within [`NOMINAL_TOLERANCE`] of
-/// `car_of` (the `nominal` gain on its own filter) at each of them.
+/// `hinf_of` (the `nominal` gain on its own filter) at each of them.
 ///
 /// Measured (`synth robust_of`, 2026-11-27): the least worst alone (`ζ = 0.003`) is 5.1 % worse
-/// than `car_of` at 1650 kg; `ζ = 0.001` is 21 % better at 1200 kg and at most 3.6 % worse
-/// anywhere. `car_of`'s own gain on such a filter did better still (worst 0.0669 against
+/// than `hinf_of` at 1650 kg; `ζ = 0.001` is 21 % better at 1200 kg and at most 3.6 % worse
+/// anywhere. `hinf_of`'s own gain on such a filter did better still (worst 0.0669 against
 /// 0.0683 m/s²), but the certificate's multiplier bound over the range, which covers the
 /// robust gain's loop, does not cover that one (the car model's grid exceeded it by 2 %): it is
 /// not offered.
 pub fn robust_design(
     ctx: &Context,
     robust: &(ComfortPlant, StateFeedback),
-    car_of: &ComfortDesignResult,
+    hinf_of: &ComfortDesignResult,
 ) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "robust_of";
     let d = ctx.design;
@@ -133,7 +133,7 @@ pub fn robust_design(
         });
         predict(Some(law), at, &d.road).map_or(f64::INFINITY, |f| f.wk_rms_seat_m_s2)
     };
-    let reference: Vec<f64> = masses.iter().map(|m| seat(&car_of.law, *m)).collect();
+    let reference: Vec<f64> = masses.iter().map(|m| seat(&hinf_of.law, *m)).collect();
     let (g, sf) = robust;
     let (_, _, mass) = mass_channel(ctx.params, d);
     let h = mass.b_p.rows(0, plant_of(g).a.nrows()).into_owned();
@@ -157,7 +157,7 @@ pub fn robust_design(
         ctx.fail(
             variant,
             format!(
-                "no filter of the grid is within {NOMINAL_TOLERANCE} times car_of at every mass"
+                "no filter of the grid is within {NOMINAL_TOLERANCE} times hinf_of at every mass"
             ),
         )
     })?;
@@ -167,13 +167,13 @@ pub fn robust_design(
          limit of {} m, on the filter at the harmonic-mean mass expecting the mass channel's \
          input as process noise of intensity zeta^2, zeta = {zeta:e}: of a grid, the least worst \
          predicted W_k seat at {masses:?} kg ({worst:.6} m/s2) within {NOMINAL_TOLERANCE} times \
-         car_of's at each",
+         hinf_of's at each",
         d.mass_min, d.mass_max, d.unmodelled_delay, observer.car.seat_stroke_max,
     );
     observer.certify(ctx, variant, Uncertainty::SprungMass, law, &note)
 }
 
-/// `ft_of`: fault tolerant on the car's sensors. `car_of`'s law — its observer is already driven
+/// `ft_of`: fault tolerant on the car's sensors. `hinf_of`'s law — its observer is already driven
 /// by the load cells' measured applied forces, so a loss of effectiveness never reaches the
 /// estimate, and the loop at effectiveness `ρ` is stable exactly when the state feedback
 /// `A + B diag(ρ) K` is (checked at every vertex of the box by the certificate) — plus:
@@ -188,19 +188,19 @@ pub fn robust_design(
 ///   the body's heave velocity, which no car measures; a load cell measures the deficit itself.
 pub fn fault_tolerant_design(
     ctx: &Context,
-    car_of: &ComfortDesignResult,
+    hinf_of: &ComfortDesignResult,
 ) -> Result<ComfortDesignResult, ComfortError> {
     let variant = "ft_of";
     let d = ctx.design;
     let car = car_block(ctx, variant)?;
     let law = ControlLaw {
         accommodation: Some(d.fault_rho_min),
-        ..car_of.law.clone()
+        ..hinf_of.law.clone()
     };
     let detector = load_cell_detector(&law.inputs, d.fault_time_constant, d.fault_threshold)
         .ok_or_else(|| ctx.fail(variant, "a load cell of the actuators is not an input"))?;
     let note = format!(
-        "car_of's gain (the guaranteed-cost gain of the unmodelled delay of {} s, the force and \
+        "hinf_of's gain (the guaranteed-cost gain of the unmodelled delay of {} s, the force and \
          stroke limits and a seat stroke limit of {} m), stable at every vertex of the \
          effectiveness box [{}, 1]^5 (the check grid below; the observer, driven by the measured \
          forces, never sees a loss). Accommodation: each actuator's effectiveness estimated as \
@@ -262,7 +262,7 @@ pub fn load_cell_detector(inputs: &[String], t: f64, threshold: f64) -> Option<F
     })
 }
 
-/// `lqg`, the classical baseline on `car_of`'s design and observer: the LQR gain of the same
+/// `lqg`, the classical baseline on `hinf_of`'s design and observer: the LQR gain of the same
 /// comfort cost (the limits weighted in until each holds at the design's standard deviations),
 /// with no robustness channel. Untuned, that loop does not tolerate the unmodelled delay every
 /// design is certified for (its channel's norm is 3.15 at the cost's own force weight), so the

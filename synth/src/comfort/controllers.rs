@@ -7,17 +7,16 @@
 //!   the rear-road Padé states by the front road heights (wheelbase preview), copies of the
 //!   ISO weightings by the measured accelerations `a_seat`, `alpha_roll`, `alpha_pitch`, and the
 //!   delay weight by its own command.
-//! * **Output feedback** ([`observer_based`]): an observer of the design state from the eight
-//!   sensors of [`OF_MEASUREMENTS`] (a Kalman filter of the road model and sensor noise), the same
-//!   kind of gain on the estimate.
+//! * **Output feedback** ([`observer_based`]): an observer of the design state from the
+//!   sensors a car has (a Kalman filter of the road model and sensor noise,
+//!   [`crate::comfort::car`]), the same kind of gain on the estimate.
 //!
 //! Both are plain LTI systems `ξ̇ = A ξ + B y`, `u = C ξ + D y` for the controller FMU.
 
-use crate::comfort::plant::{ComfortPlant, COMFORT_OUTPUTS, OF_MEASUREMENTS};
+use crate::comfort::plant::{ComfortPlant, COMFORT_OUTPUTS};
 use crate::numerics::hinf_norm::Lti;
 use crate::numerics::interconnect::{Plant, Sensors};
 use crate::numerics::riccati::{care, RiccatiError};
-use crate::shipping::design::SensorNoise;
 use nalgebra::DMatrix;
 use vehicle::iso2631::Weighting;
 use vehicle::model::{coord, CORNERS, N_STATES};
@@ -217,23 +216,6 @@ pub fn noisy_sensors(g: &ComfortPlant, named: &[(String, f64)]) -> (Plant, Senso
         d_w[(k, nw + k)] = density / std::f64::consts::SQRT_2;
     }
     (Plant { b_w, ..plant }, Sensors { d_w, ..base })
-}
-
-/// The output-feedback designs' sensors ([`OF_MEASUREMENTS`]) with the noise densities of
-/// `noise` ([`noisy_sensors`]).
-pub fn output_feedback_sensors(g: &ComfortPlant, noise: &SensorNoise) -> (Plant, Sensors) {
-    let named: Vec<(String, f64)> = OF_MEASUREMENTS
-        .iter()
-        .map(|name| {
-            let density = if name.starts_with("stroke") {
-                noise.stroke
-            } else {
-                noise.rate
-            };
-            (name.to_string(), density)
-        })
-        .collect();
-    noisy_sensors(g, &named)
 }
 
 /// The Kalman filter gain `L` of `plant` from `sensors` (noise in their `D_w`), with

@@ -14,7 +14,7 @@
 //!   measured applied forces and fault accommodation: each actuator's effectiveness estimated
 //!   from its load cell and divided out of its command
 //!   ([`crate::comfort::car::fault_tolerant_design`]);
-//! * `hinf_of_aw`: saturation, by `car_of` plus the decoupled anti-windup of thesis Th. 5.3
+//! * `hinf_of_aw`: saturation, by `hinf_of` plus the decoupled anti-windup of thesis Th. 5.3
 //!   ([`anti_windup_design`]).
 //!
 //! Certificates ([`ComfortCertificate`]): the comfort figures predicted on the car as the FMUs
@@ -26,10 +26,7 @@
 //! uncertainty; predictions over the uncertainty; the limits at `limit_sigmas` standard
 //! deviations. A failed check is an error.
 
-use crate::comfort::controllers::{
-    kalman_gain, observer_based, output_feedback_sensors, plant_of, realise_state_feedback,
-    state_feedback_sensors, ObserverInput,
-};
+use crate::comfort::controllers::{plant_of, realise_state_feedback, state_feedback_sensors};
 use crate::comfort::guaranteed::{self, Bound, StateFeedback, UncertainLoop};
 use crate::comfort::plant::{fault_channel, force_limits, mass_channel, Channel, ComfortPlant};
 use crate::numerics::hinf_norm::{Analysis, Lti};
@@ -465,7 +462,7 @@ pub struct UnmodelledDelay {
 pub struct Limits {
     pub limit_sigmas: f64,
     pub stroke: [f64; 4],
-    /// Where the design limits the seat stroke (`car_of`).
+    /// Where the design limits the seat stroke (`hinf_of`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seat_stroke: Option<f64>,
     pub tire_load: [f64; 4],
@@ -692,7 +689,8 @@ impl Context<'_> {
 }
 
 /// The nominal guaranteed-cost state feedback (the unmodelled delay only): `(plant with the
-/// delay weight, gain)`. `hinf_sf`, `hinf_of` and `delay_sf` share it.
+/// delay weight, gain)`: `hinf_sf`'s and `delay_sf`'s on the ideal road, `hinf_of`'s on the car's
+/// design model ([`crate::comfort::car::car_design`]).
 pub fn nominal_gain(ctx: &Context) -> Result<(ComfortPlant, StateFeedback), ComfortError> {
     let d = ctx.design;
     let (g, delay) = ctx
@@ -734,40 +732,6 @@ pub fn state_feedback_design(
 ) -> Result<ComfortDesignResult, ComfortError> {
     let law = state_feedback_law(gain);
     let certificate = certify(ctx, variant, robust_to, &law, &state_feedback_wiring, notes)?;
-    Ok(ComfortDesignResult {
-        law,
-        extensions: Extensions::default(),
-        certificate,
-    })
-}
-
-/// `hinf_of`: the nominal gain on a Kalman estimate of the design state.
-pub fn output_feedback_design(
-    ctx: &Context,
-    gain: &(ComfortPlant, StateFeedback),
-) -> Result<ComfortDesignResult, ComfortError> {
-    let variant = "hinf_of";
-    let (g, sf) = gain;
-    let (plant, sensors) = output_feedback_sensors(g, &ctx.design.sensor_noise);
-    let l = kalman_gain(&plant, &sensors, None).map_err(|e| ctx.fail(variant, e))?;
-    let law = ControlLaw {
-        lti: observer_based(g, &sf.k, &sensors, &l, ObserverInput::Command),
-        inputs: sensors.names.clone(),
-        accommodation: None,
-        predictor: None,
-    };
-    let notes = vec![format!(
-        "Observer-based: a Kalman filter of the design state (car, road with the rear wheels \
-             {:?}, weightings) from {} with sensor noise of {} m/sqrt(Hz) (strokes) and {} \
-             (rates), the nominal guaranteed-cost gain (on the same road model) on its estimate.",
-        ctx.design.road.rear_wheels,
-        sensors.names.join(", "),
-        ctx.design.sensor_noise.stroke,
-        ctx.design.sensor_noise.rate
-    )];
-    let noise = ctx.design.sensor_noise;
-    let wiring = move |g: &ComfortPlant| output_feedback_sensors(g, &noise);
-    let certificate = certify(ctx, variant, Uncertainty::None, &law, &wiring, notes)?;
     Ok(ComfortDesignResult {
         law,
         extensions: Extensions::default(),
@@ -870,7 +834,7 @@ fn input_rows(
     Ok((c, d))
 }
 
-/// `hinf_of_aw`: the nominal output feedback `of` (`car_of`) plus the decoupled model-recovery
+/// `hinf_of_aw`: the nominal output feedback `of` (`hinf_of`) plus the decoupled model-recovery
 /// anti-windup compensator of thesis Th. 5.3 ([`crate::thesis::anti_windup`]): `F` from the
 /// sector LMI on the car (performance: the comfort accelerations with their ISO factors),
 /// re-checked by the circle criterion. The compensator's model `η̇ = A η + B (u − y_c)` is the

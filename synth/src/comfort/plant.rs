@@ -31,9 +31,6 @@ use vehicle::model::{
 };
 use vehicle::VehicleParams;
 
-/// The plant outputs the output-feedback designs measure: the thesis designs' eight sensors.
-pub use crate::thesis::generalized::MEASUREMENTS as OF_MEASUREMENTS;
-
 /// The accelerations the comfort output weights, in the order of `z`, with their factors.
 pub const COMFORT_OUTPUTS: [(&str, f64); 3] = [
     ("a_seat", 1.0),

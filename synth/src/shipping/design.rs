@@ -159,7 +159,7 @@ pub struct ComfortRoad {
     /// designs" has the measurements).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output_feedback_rear_wheels: Option<RearWheels>,
-    /// Long waves under all four wheels at once in the design model (hills, a grade: `car_of`,
+    /// Long waves under all four wheels at once in the design model (hills, a grade: `hinf_of`,
     /// [`CarDesign`]); `None`: the ISO roughness alone.
     #[serde(skip)]
     pub long_waves: Option<LongWaves>,
@@ -222,16 +222,6 @@ impl IsoRoad {
     }
 }
 
-/// One-sided noise density of the output-feedback designs' sensors (per √Hz).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorNoise {
-    /// Suspension and seat stroke sensors [m/√Hz].
-    pub stroke: f64,
-    /// Body heave velocity, roll and pitch rate [(m/s or rad/s)/√Hz].
-    pub rate: f64,
-}
-
 /// The comfort designs (`synth/designs/comfort.json`, what `make` ships): every variant
 /// minimises the ISO 2631-1 comfort norm on one ISO 8608 road, subject to its own guarantee
 /// ([`crate::comfort::designs`]).
@@ -255,7 +245,6 @@ pub struct ComfortDesign {
     /// Actuator delay every design tolerates without being told \[s\]: the lag of the actuators
     /// and of the co-simulation's hold, as an input-multiplicative uncertainty.
     pub unmodelled_delay: f64,
-    pub sensor_noise: SensorNoise,
     /// Robust designs: the sprung-mass range \[kg\].
     pub mass_min: f64,
     pub mass_max: f64,
@@ -281,7 +270,7 @@ pub struct ComfortDesign {
     /// high-passed twice there \[Hz\] ([`crate::comfort::skyhook`]).
     #[serde(default = "default_skyhook_highpass_hz")]
     pub skyhook_highpass_hz: f64,
-    /// `car_of`: the design on the sensors a car has ([`CarDesign`]; absent: no `car_of`).
+    /// `hinf_of`: the design on the sensors a car has ([`CarDesign`]; absent: no `hinf_of`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub car: Option<CarDesign>,
     /// A limit on the seat stroke \[m\] (3 σ like the others), imposed by the design built on
@@ -290,7 +279,7 @@ pub struct ComfortDesign {
     pub seat_stroke_max: Option<f64>,
 }
 
-/// `car_of`: an output feedback on the sensors a production car has (`sensor_*`: five height
+/// `hinf_of`: an output feedback on the sensors a production car has (`sensor_*`: five height
 /// sensors, four body accelerometers and one on the seat, the roll and pitch gyros) and the
 /// actuators' load cells, designed on a road with long waves and with the seat stroke limited.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -348,7 +337,7 @@ fn default_skyhook_highpass_hz() -> f64 {
 impl ComfortDesign {
     /// The design the output-feedback variants are synthesised on: this one with their rear-wheel
     /// model ([`ComfortRoad::output_feedback_rear_wheels`]).
-    /// The design `car_of` is synthesised on ([`CarDesign`]): the output-feedback road model with
+    /// The design `hinf_of` is synthesised on ([`CarDesign`]): the output-feedback road model with
     /// its long waves, and its seat stroke limit. `None` without a `car` block.
     pub fn for_car(&self) -> Option<ComfortDesign> {
         let car = self.car?;
@@ -387,8 +376,6 @@ impl ComfortDesign {
             ("stroke_max", self.stroke_max),
             ("limit_sigmas", self.limit_sigmas),
             ("unmodelled_delay", self.unmodelled_delay),
-            ("sensor_noise.stroke", self.sensor_noise.stroke),
-            ("sensor_noise.rate", self.sensor_noise.rate),
             ("delay_max", self.delay_max),
             ("communication_step", self.communication_step),
             ("skyhook_highpass_hz", self.skyhook_highpass_hz),

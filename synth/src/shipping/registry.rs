@@ -13,9 +13,9 @@
 //! the tables and the comparisons follow.
 
 use crate::comfort::designs::{
-    anti_windup_design, held_at, nominal_gain, output_feedback_design, robust_gain,
-    robust_state_feedback_design, state_feedback_design, Comfort, ComfortDesignResult,
-    ComfortError, Context, Held, InOrder, Role, Uncertainty,
+    anti_windup_design, held_at, nominal_gain, robust_gain, robust_state_feedback_design,
+    state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, InOrder,
+    Role, Uncertainty,
 };
 use crate::comfort::guaranteed::StateFeedback;
 use crate::comfort::skyhook::skyhook_design;
@@ -34,7 +34,6 @@ pub struct Shared {
     nominal: OnceLock<Result<(ComfortPlant, StateFeedback), String>>,
     robust: OnceLock<Result<(ComfortPlant, StateFeedback), String>>,
     hinf_of: OnceLock<Result<ComfortDesignResult, String>>,
-    car_of: OnceLock<Result<ComfortDesignResult, String>>,
 }
 
 impl Shared {
@@ -45,18 +44,10 @@ impl Shared {
         shared(&self.robust, || robust_gain(ctx), "robust_sf")
     }
     fn hinf_of(&self, ctx: &Context) -> Result<&ComfortDesignResult, ComfortError> {
-        let nominal = self.nominal(ctx)?;
         shared(
             &self.hinf_of,
-            || output_feedback_design(ctx, nominal),
-            "hinf_of",
-        )
-    }
-    fn car_of(&self, ctx: &Context) -> Result<&ComfortDesignResult, ComfortError> {
-        shared(
-            &self.car_of,
             || crate::comfort::car::car_design(ctx),
-            "car_of",
+            "hinf_of",
         )
     }
 }
@@ -76,13 +67,12 @@ fn shared<'a, T>(
 
 type ComfortSynthesis = fn(&Context, &Shared) -> Result<ComfortDesignResult, ComfortError>;
 
-/// The design model a variant is synthesised on: the comfort file's, its output-feedback
-/// road model ([`ComfortDesign::for_output_feedback`]), or the car's ([`ComfortDesign::for_car`]).
+/// The design model a variant is synthesised on: the comfort file's (the state feedbacks', on
+/// the ideal road), or the car's ([`ComfortDesign::for_car`]: its sensors, long waves).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DesignModel {
     StateFeedback = 0,
-    OutputFeedback = 1,
-    Car = 2,
+    Car = 1,
 }
 
 /// One shipped controller.
@@ -123,7 +113,7 @@ impl Variant {
 }
 
 /// Every shipped controller, in the order of the tables.
-pub const VARIANTS: [Variant; 10] = [
+pub const VARIANTS: [Variant; 9] = [
     Variant {
         name: "hinf_sf",
         nominal: None,
@@ -140,18 +130,18 @@ pub const VARIANTS: [Variant; 10] = [
         name: "hinf_of",
         nominal: None,
         robust_to: Uncertainty::None,
-        model: DesignModel::OutputFeedback,
-        summary: "dynamic output feedback from eight sensors (thesis Th. 5.2)",
+        model: DesignModel::Car,
+        summary: "output feedback on the sensors a car has and load cells, designed for long waves (the guaranteed-cost gain on a Kalman filter)",
         comfort: |ctx, s| s.hinf_of(ctx).cloned(),
         role: Role::Design,
     },
     Variant {
         name: "hinf_of_aw",
-        nominal: Some("car_of"),
+        nominal: Some("hinf_of"),
         robust_to: Uncertainty::Saturation,
         model: DesignModel::Car,
-        summary: "car_of with anti-windup for actuator saturation (thesis Th. 5.3)",
-        comfort: |ctx, s| anti_windup_design(ctx, s.car_of(ctx)?),
+        summary: "hinf_of with anti-windup for actuator saturation (thesis Th. 5.3)",
+        comfort: |ctx, s| anti_windup_design(ctx, s.hinf_of(ctx)?),
         role: Role::Design,
     },
     Variant {
@@ -175,11 +165,11 @@ pub const VARIANTS: [Variant; 10] = [
     },
     Variant {
         name: "robust_of",
-        nominal: Some("car_of"),
+        nominal: Some("hinf_of"),
         robust_to: Uncertainty::SprungMass,
         model: DesignModel::Car,
-        summary: "output feedback on car_of's sensors robust to the sprung mass (thesis Th. 6.2)",
-        comfort: |ctx, s| crate::comfort::car::robust_design(ctx, s.robust(ctx)?, s.car_of(ctx)?),
+        summary: "output feedback on hinf_of's sensors robust to the sprung mass (thesis Th. 6.2)",
+        comfort: |ctx, s| crate::comfort::car::robust_design(ctx, s.robust(ctx)?, s.hinf_of(ctx)?),
         role: Role::Design,
     },
     Variant {
@@ -193,30 +183,21 @@ pub const VARIANTS: [Variant; 10] = [
     },
     Variant {
         name: "ft_of",
-        nominal: Some("car_of"),
+        nominal: Some("hinf_of"),
         robust_to: Uncertainty::ActuatorFaults,
         model: DesignModel::Car,
-        summary: "fault-tolerant output feedback on car_of's sensors with fault accommodation and a load-cell fault detector (thesis Th. 8.1)",
-        comfort: |ctx, s| crate::comfort::car::fault_tolerant_design(ctx, s.car_of(ctx)?),
+        summary: "fault-tolerant output feedback on hinf_of's sensors with fault accommodation and a load-cell fault detector (thesis Th. 8.1)",
+        comfort: |ctx, s| crate::comfort::car::fault_tolerant_design(ctx, s.hinf_of(ctx)?),
         role: Role::Design,
     },
     Variant {
         name: "skyhook",
         nominal: None,
         robust_to: Uncertainty::None,
-        model: DesignModel::OutputFeedback,
+        model: DesignModel::Car,
         summary: "baseline: skyhook dampers on the body and the seat from accelerometers (not H∞)",
         comfort: |ctx, s| skyhook_design(ctx, s.hinf_of(ctx)?),
         role: Role::Baseline,
-    },
-    Variant {
-        name: "car_of",
-        nominal: None,
-        robust_to: Uncertainty::None,
-        model: DesignModel::Car,
-        summary: "output feedback on the sensors a car has and load cells, designed for long waves",
-        comfort: |ctx, s| s.car_of(ctx).cloned(),
-        role: Role::Design,
     },
     Variant {
         name: "lqg",
@@ -224,7 +205,7 @@ pub const VARIANTS: [Variant; 10] = [
         robust_to: Uncertainty::None,
         model: DesignModel::Car,
         summary:
-            "baseline: LQG (LQR on the comfort cost, Kalman filter) on car_of's sensors (not H∞)",
+            "baseline: LQG (LQR on the comfort cost, Kalman filter) on hinf_of's sensors (not H∞)",
         comfort: |ctx, _| crate::comfort::car::lqg_design(ctx),
         role: Role::Baseline,
     },
@@ -506,23 +487,20 @@ fn comfort_all(
     design: &ComfortDesign,
 ) -> Result<Outcome, SynthError> {
     use rayon::prelude::*;
-    // The state-feedback designs and the output-feedback ones, each on its road model and with
-    // the designs they share.
-    let of_design = design.for_output_feedback();
-    // Without a `car` block the car's design is the output-feedback one; `car_of` refuses it.
-    let car_design = design.for_car().unwrap_or_else(|| of_design.clone());
+    // The state-feedback designs and those on the car's sensors, each on its design model and
+    // with the designs they share. Without a `car` block the car's design is the
+    // output-feedback road model's, which the designs on the car's sensors refuse.
+    let car_design = design
+        .for_car()
+        .unwrap_or_else(|| design.for_output_feedback());
     let contexts = [
         Context { params, design },
-        Context {
-            params,
-            design: &of_design,
-        },
         Context {
             params,
             design: &car_design,
         },
     ];
-    let shared = [Shared::default(), Shared::default(), Shared::default()];
+    let shared = [Shared::default(), Shared::default()];
     let names: Vec<&str> = if names.is_empty() {
         self::names()
     } else {
@@ -919,7 +897,7 @@ pub fn summary_table(rows: &[SummaryRow], wall_seconds: f64) -> String {
         }
     }
     t += &format!(
-        "\nAll {} designs in {wall_seconds:.2} s wall time (designs in parallel, one BLAS thread each). A design several variants build on (the nominal gain, `hinf_of`, `car_of`) is timed in the synthesis of whichever variant built it first: `car_of` shows next to nothing when `hinf_of_aw` made it.\n",
+        "\nAll {} designs in {wall_seconds:.2} s wall time (designs in parallel, one BLAS thread each). A design several variants build on (the nominal gain, `hinf_of`) is timed in the synthesis of whichever variant built it first: `hinf_of` shows next to nothing when `hinf_of_aw` made it.\n",
         rows.len()
     );
     if let Some(first) = rows.iter().find(|r| !r.steps.is_empty()) {
