@@ -181,15 +181,15 @@ def test_fmpy_hears_a_controller_stepped_beyond_its_stable_communication_steps(c
 # the static load (the passive car too): the wheel would lift. The ISO rows guard the measured
 # tyre loads; every other target is held in full. Roll is judged as ISO 2631-1 weights it (W_e;
 # README "Controllers": the comfort designs trade unweighted roll in the wheel-hop band for
-# their delay guarantee). The seat 90 % below the passive car's for the state feedback, 80 % for
+# their delay guarantee). The seat 90 % below the passive car's for the state feedback, 75 % for
 # `hinf_of`, on the sensors a car has, whose design road with long waves and seat stroke limit
-# cost it comfort on these roads (the Rust master measures 84.9 % on the bump, 81.1 % on class C:
+# cost it comfort on these roads (the Rust master measures 84.2 % on the bump, 80.5 % on class C:
 # tests/tests/closed_loop.rs).
 @pytest.mark.parametrize("controller,road,seconds,seat_reduction,roll_reduction,tyre_limit", [
     ("hinf_sf", bump, 4.0, 0.9, 0.5, 1.0),
     ("hinf_sf", iso_road(256e-6, 20.0, 7), 10.0, 0.9, 0.5, 1.15),
-    ("hinf_of", bump, 4.0, 0.8, 0.5, 1.0),
-    ("hinf_of", iso_road(256e-6, 20.0, 7), 10.0, 0.8, 0.5, 1.25),
+    ("hinf_of", bump, 4.0, 0.75, 0.5, 1.0),
+    ("hinf_of", iso_road(256e-6, 20.0, 7), 10.0, 0.75, 0.5, 1.25),
 ], ids=["sf-bump", "sf-iso_c_20ms", "of-bump", "of-iso_c_20ms"])
 def test_controller_against_passive(controller, road, seconds, seat_reduction, roll_reduction, tyre_limit):
     p = figures(run(None, road, seconds))

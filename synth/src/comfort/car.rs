@@ -341,7 +341,17 @@ impl CarObserver {
     ) -> Result<Self, ComfortError> {
         let car = car_block(ctx, variant)?;
         let (plant, sensors) = car_sensors(g, &car.noise);
-        let l = kalman_gain(&plant, &sensors, fictitious).map_err(|e| ctx.fail(variant, e))?;
+        let drift = rigid_drift(ctx.params, g, plant.a.nrows(), car.rigid_drift);
+        let extra = match fictitious {
+            Some(f) => {
+                let mut both = DMatrix::zeros(drift.nrows(), drift.ncols() + f.ncols());
+                both.columns_mut(0, drift.ncols()).copy_from(&drift);
+                both.columns_mut(drift.ncols(), f.ncols()).copy_from(f);
+                both
+            }
+            None => drift,
+        };
+        let l = kalman_gain(&plant, &sensors, Some(&extra)).map_err(|e| ctx.fail(variant, e))?;
         Ok(CarObserver { car, sensors, l })
     }
 
@@ -379,6 +389,43 @@ impl CarObserver {
     ) -> Result<ComfortDesignResult, ComfortError> {
         certify_on_car(ctx, &self.car, variant, robust_to, law, gain_note)
     }
+}
+
+/// The filter's doubt about where the car is ([`crate::shipping::design::RigidDrift`]):
+/// fictitious process noise that moves the car at rest on a planar road, and that road's
+/// heights in the road model, in height, roll and pitch, and the car alone in their rates. Columns
+/// on the `n` states of `g`'s plant.
+fn rigid_drift(
+    p: &VehicleParams,
+    g: &ComfortPlant,
+    n: usize,
+    drift: crate::shipping::design::RigidDrift,
+) -> DMatrix<f64> {
+    use vehicle::model::{N_DOF, N_WHEELS};
+    let ss = vehicle::StateSpace::new(p);
+    let stiffness = ss.a.view((N_DOF, 0), (N_DOF, N_DOF)).into_owned();
+    let road = ss.b_r.view((N_DOF, 0), (N_DOF, N_WHEELS)).into_owned();
+    let lu = stiffness.lu();
+    let corners = vehicle::model::corner_positions(p);
+    let mut b = DMatrix::zeros(n, 6);
+    for (j, (h, roll, pitch)) in [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)]
+        .iter()
+        .enumerate()
+    {
+        let z = nalgebra::DVector::from_iterator(
+            N_WHEELS,
+            corners.iter().map(|(x, y)| h + y * roll + x * pitch),
+        );
+        let q = -lu.solve(&(&road * &z)).expect("K is nonsingular");
+        b.view_mut((0, j), (N_DOF, 1))
+            .copy_from(&(&q * drift.position));
+        for (state, wheel) in g.road_height_rows() {
+            b[(state, j)] = z[wheel] * drift.position;
+        }
+        b.view_mut((N_DOF, 3 + j), (N_DOF, 1))
+            .copy_from(&(&q * drift.velocity));
+    }
+    b
 }
 
 /// The design file's `car` block, which every design on the car's sensors needs.

@@ -299,6 +299,35 @@ pub struct CarDesign {
     /// when it washed out the accelerometers alone.
     #[serde(alias = "accelerometer_washout_hz")]
     pub inertial_washout_hz: f64,
+    /// The Kalman filter's doubt about where the car is ([`RigidDrift`]); absent, the
+    /// production default.
+    #[serde(default)]
+    pub rigid_drift: RigidDrift,
+}
+
+/// Fictitious process noise in the Kalman filter of the designs on the car's sensors that moves
+/// the car and the road under it together, as a rigid body: a random walk of the height, roll
+/// and pitch (`position`, intensity `position²`, m/√s or rad/√s) and of their rates
+/// (`velocity`, m/s/√s or rad/s/√s). Only integrated accelerations tell the filter where the
+/// car is; without the doubt it trusted its own integral for minutes (its slowest modes −0.0085
+/// and −0.011 ± 0.011j rad/s), and a grade's onset or a sensor's bias held the actuators for as
+/// long (up to 305 N over 40–60 s after a bias, `robust_of`). Zero: no doubt.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidDrift {
+    pub position: f64,
+    pub velocity: f64,
+}
+
+impl Default for RigidDrift {
+    /// 1 mm/√s and 1 cm/s/√s: the slowest modes at about −0.064 rad/s, for 4 % of the
+    /// predicted W_k seat on the design road (`hinf_of` 0.0620 → 0.0644 m/s²).
+    fn default() -> Self {
+        RigidDrift {
+            position: 1e-3,
+            velocity: 1e-2,
+        }
+    }
 }
 
 /// Long waves of a road, the same under every wheel: a height `h = q w / (s + b)²`, `b = 2π V /
@@ -397,6 +426,18 @@ impl ComfortDesign {
                 ("car.seat_stroke_max", car.seat_stroke_max),
                 ("car.inertial_washout_hz", car.inertial_washout_hz),
             ])?;
+            for (name, value) in [
+                ("car.rigid_drift.position", car.rigid_drift.position),
+                ("car.rigid_drift.velocity", car.rigid_drift.velocity),
+            ] {
+                if !(value >= 0.0 && value.is_finite()) {
+                    return Err(DesignError::Value {
+                        name,
+                        expected: "a finite number >= 0",
+                        value,
+                    });
+                }
+            }
         }
         for (name, rear) in [
             ("road.rear_wheels.pade.order", Some(self.road.rear_wheels)),
@@ -822,6 +863,42 @@ mod tests {
         assert!(e.contains('Z'), "{e}");
         let without = THESIS_DESIGN_FILE.replace(&format!("  {road},\n"), "");
         assert_eq!(Design::from_json(&without).unwrap().comfort_road, None);
+    }
+
+    /// The car's rigid drift: zero is allowed (no doubt), a negative or missing-a-field one is
+    /// refused by name, and a file without it takes the production default.
+    #[test]
+    fn the_car_s_rigid_drift_is_checked_and_defaults() {
+        const COMFORT_DESIGN_FILE: &str = include_str!("../../designs/comfort.json");
+        let drift = r#""rigid_drift": { "position": 1e-3, "velocity": 1e-2 }"#;
+        assert!(COMFORT_DESIGN_FILE.contains(drift));
+        let with = |text: &str| COMFORT_DESIGN_FILE.replace(drift, text);
+        let zero =
+            ComfortDesign::from_json(&with(r#""rigid_drift": { "position": 0, "velocity": 0 }"#))
+                .unwrap();
+        assert_eq!(zero.car.unwrap().rigid_drift.position, 0.0);
+        assert!(matches!(
+            ComfortDesign::from_json(&with(
+                r#""rigid_drift": { "position": -1e-3, "velocity": 1e-2 }"#
+            )),
+            Err(DesignError::Value {
+                name: "car.rigid_drift.position",
+                ..
+            })
+        ));
+        let e = ComfortDesign::from_json(&with(r#""rigid_drift": { "position": 1e-3 }"#))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("velocity"), "{e}");
+        let without = COMFORT_DESIGN_FILE.replace(&format!(", {drift}"), "");
+        assert_eq!(
+            ComfortDesign::from_json(&without)
+                .unwrap()
+                .car
+                .unwrap()
+                .rigid_drift,
+            RigidDrift::default()
+        );
     }
 
     #[test]
