@@ -401,29 +401,19 @@ fn rigid_drift(
     n: usize,
     drift: crate::shipping::design::RigidDrift,
 ) -> DMatrix<f64> {
-    use vehicle::model::{N_DOF, N_WHEELS};
-    let ss = vehicle::StateSpace::new(p);
-    let stiffness = ss.a.view((N_DOF, 0), (N_DOF, N_DOF)).into_owned();
-    let road = ss.b_r.view((N_DOF, 0), (N_DOF, N_WHEELS)).into_owned();
-    let lu = stiffness.lu();
-    let corners = vehicle::model::corner_positions(p);
+    use vehicle::model::N_DOF;
     let mut b = DMatrix::zeros(n, 6);
-    for (j, (h, roll, pitch)) in [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)]
+    for (j, (q, z)) in crate::predict::continuous::planar_rests(p)
         .iter()
         .enumerate()
     {
-        let z = nalgebra::DVector::from_iterator(
-            N_WHEELS,
-            corners.iter().map(|(x, y)| h + y * roll + x * pitch),
-        );
-        let q = -lu.solve(&(&road * &z)).expect("K is nonsingular");
         b.view_mut((0, j), (N_DOF, 1))
-            .copy_from(&(&q * drift.position));
+            .copy_from(&(q * drift.position));
         for (state, wheel) in g.road_height_rows() {
             b[(state, j)] = z[wheel] * drift.position;
         }
         b.view_mut((N_DOF, 3 + j), (N_DOF, 1))
-            .copy_from(&(&q * drift.velocity));
+            .copy_from(&(q * drift.velocity));
     }
     b
 }

@@ -340,6 +340,30 @@ fn rational_loop(
         .map_err(|e| PredictionError::Unstable(e.to_string()))
 }
 
+/// The car at rest on a planar road raised by 1 m, rolled by 1 rad and pitched by 1 rad, in
+/// turn: `(q, z)`, its configuration (every spring at its static length) and the road heights
+/// under its wheels.
+pub fn planar_rests(p: &VehicleParams) -> [(DVector<f64>, DVector<f64>); 3] {
+    let ss = StateSpace::new(p);
+    let stiffness = ss.a.view((N_DOF, 0), (N_DOF, N_DOF)).into_owned();
+    let road = ss.b_r.view((N_DOF, 0), (N_DOF, N_WHEELS)).into_owned();
+    let lu = stiffness.lu();
+    // The car's configuration on the constant road heights `z`: M⁻¹(−K q + K_r z) = 0.
+    let on = |z: DVector<f64>| (-lu.solve(&(&road * &z)).expect("K is nonsingular"), z);
+    let corners = vehicle::model::corner_positions(p);
+    let planar = |h: f64, roll: f64, pitch: f64| {
+        DVector::from_iterator(
+            N_WHEELS,
+            corners.iter().map(|(x, y)| h + y * roll + x * pitch),
+        )
+    };
+    [
+        on(planar(1.0, 0.0, 0.0)),
+        on(planar(0.0, 1.0, 0.0)),
+        on(planar(0.0, 0.0, 1.0)),
+    ]
+}
+
 /// What each of `names` (plant outputs a controller reads) reads of a rigid motion of the car
 /// with a planar road under it, at rest: the whole car and its road raised by 1 m, rolled or
 /// pitched by 1 rad (the static equilibrium on that road, with no force: every spring at its
@@ -352,34 +376,18 @@ pub fn rigid_readings(
     p: &VehicleParams,
     names: &[String],
 ) -> Result<Vec<(String, f64)>, PredictionError> {
-    let ss = StateSpace::new(p);
-    let stiffness = ss.a.view((N_DOF, 0), (N_DOF, N_DOF)).into_owned();
-    let road = ss.b_r.view((N_DOF, 0), (N_DOF, N_WHEELS)).into_owned();
-    let lu = stiffness.lu();
-    // The car's configuration on the constant road heights `z`: M⁻¹(−K q + K_r z) = 0.
-    let on = |z: &DVector<f64>| -lu.solve(&(&road * z)).expect("K is nonsingular");
-    let corners = vehicle::model::corner_positions(p);
-    let planar = |h: f64, roll: f64, pitch: f64| {
-        DVector::from_iterator(
-            N_WHEELS,
-            corners.iter().map(|(x, y)| h + y * roll + x * pitch),
-        )
-    };
+    let rests = planar_rests(p);
     let mut motions: Vec<(DVector<f64>, DVector<f64>)> = Vec::new();
-    for z in [
-        planar(1.0, 0.0, 0.0),
-        planar(0.0, 1.0, 0.0),
-        planar(0.0, 0.0, 1.0),
-    ] {
+    for (q, z) in &rests {
         let (mut x, mut r) = (DVector::zeros(N_STATES), DVector::zeros(N_ROAD));
-        x.rows_mut(0, N_DOF).copy_from(&on(&z));
-        r.rows_mut(0, N_WHEELS).copy_from(&z);
+        x.rows_mut(0, N_DOF).copy_from(q);
+        r.rows_mut(0, N_WHEELS).copy_from(z);
         motions.push((x, r));
     }
-    let up = planar(1.0, 0.0, 0.0);
+    let (up_q, up) = &rests[0];
     let (mut x, mut r) = (DVector::zeros(N_STATES), DVector::zeros(N_ROAD));
-    x.rows_mut(N_DOF, N_DOF).copy_from(&on(&up));
-    r.rows_mut(N_WHEELS, N_WHEELS).copy_from(&up);
+    x.rows_mut(N_DOF, N_DOF).copy_from(up_q);
+    r.rows_mut(N_WHEELS, N_WHEELS).copy_from(up);
     motions.push((x, r));
     let outputs = plant_outputs(p);
     let mut out = Vec::new();
