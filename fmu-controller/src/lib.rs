@@ -24,7 +24,7 @@ use std::path::Path;
 
 /// Value references: inputs from 0, outputs from 1000, the guarantee at 2000, force limits of an
 /// anti-windup controller from 3000, a fault detector's variables from 4000, a predictor's
-/// delay at 5000, the effectiveness estimates of fault accommodation from 6000 and its actuators'
+/// delay at 5000 and its master order at 5001, the effectiveness estimates of fault accommodation from 6000 and its actuators'
 /// bandwidth at 7000.
 pub mod vr {
     pub const INPUT: u32 = 0;
@@ -35,8 +35,45 @@ pub mod vr {
     pub const FAULT_DETECTED: u32 = 4001;
     pub const FAULT_THRESHOLD: u32 = 4002;
     pub const DELAY: u32 = 5000;
+    pub const MASTER_ORDER: u32 = 5001;
     pub const RHO_HAT: u32 = 6000;
     pub const ACTUATOR_BANDWIDTH: u32 = 7000;
+}
+
+/// The order in which the master exchanges values at a communication point `t_k`, as a
+/// predictor must know it: its commands in flight are those the plant applies, and when each
+/// reaches the plant depends on the order (parameter `master_order`). With it set to the
+/// master's order the loop is the Gauss–Seidel one's: bit for bit in the controller-first
+/// order, and in the Jacobi order that of a Gauss–Seidel master with every command one step
+/// later (a delay of `tau` plus the step), which the certificate predicts
+/// (`synth::predict::sampled::order_check`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MasterOrder {
+    /// The plant's outputs to the controller, its command read and set, then every FMU steps:
+    /// the command read at `t_k` is computed from the inputs at `t_k`.
+    GaussSeidel = 0,
+    /// Every output read before any input is set: the command read at `t_k` is the one the
+    /// predictor computed at `t_{k−1}`, predicting over `tau` plus that step.
+    Jacobi = 1,
+    /// The controller given the plant's outputs and stepped first, its command then driving the
+    /// plant over the step it took: the command read after a step is the one it computed at
+    /// the step's start.
+    ControllerFirst = 2,
+}
+
+impl MasterOrder {
+    const DESCRIPTION: &'static str = "The order in which the master exchanges values, which the predictor's commands in flight depend on: 0 Gauss-Seidel (the plant's outputs set on the controller before its command is read; FMPy's and libcosim's), 1 Jacobi (every output read before any input is set: the command read at t is the one computed at the previous communication point, predicted over tau plus that step; exact at a constant step), 2 controller first (stepped before the plant: the command read after a step is the one computed at its start)";
+
+    fn from_i32(v: i32) -> Result<Self, String> {
+        match v {
+            0 => Ok(MasterOrder::GaussSeidel),
+            1 => Ok(MasterOrder::Jacobi),
+            2 => Ok(MasterOrder::ControllerFirst),
+            _ => Err(format!(
+                "master_order must be 0 (Gauss-Seidel), 1 (Jacobi) or 2 (controller first), got {v}"
+            )),
+        }
+    }
 }
 
 /// An anti-windup controller's force-limit parameters, named like the plant's (`u_max` for the
@@ -94,7 +131,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
     // parameter `tau`; clamped when it has force limits), through the anti-windup saturation,
     // or as the constant `D` of the resource file (divided by the effectiveness estimate, a
     // state, with accommodation). In Initialization Mode the state is zero, so a command also
-    // reads its saturation limit or the delay, and nothing else.
+    // reads its saturation limit or the delay and the master's order, and nothing else.
     let clamped = spec.predictor.as_ref().is_some_and(|p| p.u_max.is_some());
     let kind = if spec.predictor.is_some() && !clamped {
         DependencyKind::Fixed
@@ -111,9 +148,11 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
                 .filter(|g| g.1.contains(&i))
                 .map(|g| g.0.to_string())
         };
+        // A predictor's command at the start: over `tau`, and none yet in the Jacobi order.
+        let predicted = || ["tau", "master_order"].map(String::from).into_iter();
         match &spec.predictor {
-            Some(_) if clamped => std::iter::once("tau".to_string()).chain(limit()).collect(),
-            Some(_) => vec!["tau".to_string()],
+            Some(_) if clamped => predicted().chain(limit()).collect(),
+            Some(_) => predicted().collect(),
             None if spec.anti_windup.is_some() => limit().collect(),
             None => Vec::new(),
         }
@@ -220,6 +259,13 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .with_min(0.0)
             .with_max(p.delay_max),
         );
+        vars.push(Variable::integer(
+            "master_order",
+            vr::MASTER_ORDER,
+            Causality::Parameter,
+            MasterOrder::GaussSeidel as i32,
+            MasterOrder::DESCRIPTION,
+        ));
     }
     if let Some(acc) = &spec.accommodation {
         for (i, &k) in acc.force_inputs.iter().enumerate() {
@@ -324,6 +370,14 @@ pub struct Controller {
     /// hears it once.
     warned_step: Option<u64>,
     tau: f64,
+    /// The order the master exchanges values in (parameter `master_order`, as set: checked with
+    /// the parameters), for a predictor.
+    order: i32,
+    /// In the Jacobi and controller-first orders, the command the predictor computed at the
+    /// last step's start, which the master reads after the step (`None` before the first), and
+    /// the one before it.
+    sent: Option<DVector<f64>>,
+    sent_before: Option<DVector<f64>>,
     /// Fault accommodation: the effectiveness estimator the commands are divided by.
     estimator: Option<accommodation::Estimator>,
 }
@@ -445,18 +499,76 @@ impl Controller {
 
     /// Command `i` sent to the plant.
     fn output(&mut self, i: usize) -> f64 {
+        if self.predictor.is_some() {
+            match (self.master_order(), &self.sent) {
+                (MasterOrder::GaussSeidel, _) | (MasterOrder::ControllerFirst, None) => {}
+                (_, Some(sent)) => return sent[i],
+                // Jacobi before the first step: nothing computed yet, as with the car at rest.
+                (MasterOrder::Jacobi, None) => return 0.0,
+            }
+        }
         self.update_commands();
         self.u[i]
+    }
+
+    /// `master_order` (Gauss–Seidel while it is not a valid order: the parameters' check
+    /// refuses it before a step).
+    fn master_order(&self) -> MasterOrder {
+        MasterOrder::from_i32(self.order).unwrap_or(MasterOrder::GaussSeidel)
+    }
+
+    /// A predictor's step: the command for the inputs now, predicted over `tau` (over `tau`
+    /// plus this step in the Jacobi order, where it acts one step later), held over the step.
+    /// In the Jacobi and controller-first orders the master reads it after the step.
+    fn step_predictor(&mut self, step: f64) -> Result<(), String> {
+        let order = self.master_order();
+        let p = self.predictor.as_mut().expect("a predictor");
+        let mut retargeted = None;
+        if order == MasterOrder::Jacobi && p.tau().to_bits() != (self.tau + step).to_bits() {
+            let mut q = p.clone();
+            q.retarget(self.tau + step).map_err(|e| {
+                format!(
+                    "in the Jacobi order (master_order = 1) a command acts one step after it is \
+                     computed, so it is predicted over tau + step = {} s: {e}; the step was \
+                     discarded",
+                    self.tau + step
+                )
+            })?;
+            retargeted = Some(q);
+        }
+        let p = retargeted.as_mut().unwrap_or(p);
+        // In the Jacobi order with no delay the inputs are read before the command taking over
+        // now is set: they carry the force of the one before it, where the Gauss–Seidel loop
+        // with a step more delay (the one the predictor runs) has the new one taking over. Read
+        // as that loop's plant reads them: plus the feedthrough `D_yu` of the difference.
+        self.w.copy_from(&self.y);
+        if order == MasterOrder::Jacobi && self.tau == 0.0 {
+            if let (Some(spec), Some(now)) = (&self.spec.predictor, &self.sent) {
+                self.w.gemv(1.0, &spec.d_yu, now, 1.0);
+                if let Some(before) = &self.sent_before {
+                    self.w.gemv(-1.0, &spec.d_yu, before, 1.0);
+                }
+            }
+        }
+        p.command(&self.w, self.x.as_slice(), &mut self.yc);
+        self.u.copy_from(&self.yc);
+        clamp(&mut self.u, &self.limits);
+        let next = p.step(self.x.as_slice(), &self.w, &self.u, step)?;
+        if let Some(q) = retargeted {
+            self.predictor = Some(q);
+        }
+        self.x = next;
+        if order != MasterOrder::GaussSeidel {
+            self.sent_before = self.sent.replace(self.u.clone());
+        }
+        self.valid = false;
+        Ok(())
     }
 
     /// One step of `step` s, or why not with nothing changed.
     fn step_or_keep(&mut self, step: f64) -> Result<(), String> {
         if self.predictor.is_some() {
-            self.update_commands();
-            let p = self.predictor.as_mut().expect("checked above");
-            self.x = p.step(self.x.as_slice(), &self.y, &self.u, step)?;
-            self.valid = false;
-            return Ok(());
+            return self.step_predictor(step);
         }
         if self.a.nrows() == 0 {
             self.update_commands();
@@ -549,6 +661,9 @@ impl Model for Controller {
             predictor,
             warned_step: None,
             tau: 0.0,
+            order: MasterOrder::GaussSeidel as i32,
+            sent: None,
+            sent_before: None,
             estimator,
             x: DVector::zeros(nx),
             y: DVector::zeros(ny),
@@ -621,6 +736,20 @@ impl Model for Controller {
         }
     }
 
+    fn set_integer(&mut self, vr: ValueReference, value: i32) {
+        if vr == vr::MASTER_ORDER {
+            self.order = value;
+            self.valid = false;
+        }
+    }
+
+    fn get_integer(&mut self, vr: ValueReference) -> i32 {
+        match vr {
+            vr::MASTER_ORDER => self.order,
+            _ => 0,
+        }
+    }
+
     fn get_boolean(&mut self, vr: ValueReference) -> bool {
         vr == vr::FAULT_DETECTED && self.fault_detected()
     }
@@ -651,7 +780,10 @@ impl Model for Controller {
             }
         }
         match &self.predictor {
-            Some(p) => p.check(self.tau).map_err(ModelError::from),
+            Some(p) => {
+                MasterOrder::from_i32(self.order)?;
+                p.check(self.tau).map_err(ModelError::from)
+            }
             None => Ok(()),
         }
     }
@@ -675,6 +807,7 @@ impl Model for Controller {
         if let Some(p) = &mut self.predictor {
             p.reset(self.tau)?;
         }
+        (self.sent, self.sent_before) = (None, None);
         self.x.fill(0.0);
         if let Some(e) = &mut self.estimator {
             e.reset();
@@ -720,6 +853,10 @@ impl Model for Controller {
         if let Some(p) = &self.predictor {
             out.f64(self.tau);
             out.f64s(&p.save());
+            out.f64(f64::from(self.order));
+            for sent in [&self.sent, &self.sent_before] {
+                out.f64s(sent.as_ref().map_or(&[][..], |u| u.as_slice()));
+            }
         }
         if let Some(e) = &self.estimator {
             e.save(out);
@@ -740,7 +877,25 @@ impl Model for Controller {
                 let tau = input.f64()?;
                 let mut p = p.clone();
                 p.restore(tau, &input.f64s()?)?;
-                Some((tau, p))
+                let order = input.f64()?;
+                if !MasterOrder::from_i32(order as i32).is_ok_and(|o| f64::from(o as i32) == order)
+                {
+                    return Err(format!("FMU state: master_order {order} is not an order").into());
+                }
+                let nu = self.spec.outputs.len();
+                let mut sent = || -> Result<Option<DVector<f64>>, ModelError> {
+                    let u = input.f64s()?;
+                    if !(u.is_empty() || u.len() == nu && u.iter().all(|v| v.is_finite())) {
+                        return Err(format!(
+                            "FMU state: a command sent has {} values, not {nu} finite ones or none",
+                            u.len()
+                        )
+                        .into());
+                    }
+                    Ok((!u.is_empty()).then(|| DVector::from_vec(u)))
+                };
+                let (now, before) = (sent()?, sent()?);
+                Some((tau, p, order as i32, now, before))
             }
             None => None,
         };
@@ -752,9 +907,10 @@ impl Model for Controller {
         if estimator.is_some() {
             self.estimator = estimator;
         }
-        if let Some((tau, p)) = predictor {
+        if let Some((tau, p, order, now, before)) = predictor {
             self.tau = tau;
             self.predictor = Some(p);
+            (self.order, self.sent, self.sent_before) = (order, now, before);
         }
         self.threshold = detector[0];
         self.detected = detector[1] != 0.0;

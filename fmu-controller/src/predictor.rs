@@ -196,6 +196,22 @@ impl Runtime {
         Ok(())
     }
 
+    /// Told the delay `tau` from now on, the commands in flight kept: the next command is
+    /// predicted over `tau` (the Jacobi order's `tau + h`, whose `h` is known only at a step).
+    /// Nothing changes when it fails.
+    pub fn retarget(&mut self, tau: f64) -> Result<(), String> {
+        self.check(tau)?;
+        if tau.to_bits() != self.at.theta.to_bits() {
+            let mut at = Prediction::new(&self.spec, tau)?;
+            let in_flight = at
+                .in_flight_of(&self.spec, &self.history, self.history.len())
+                .map_err(|e| format!("cannot predict the state {tau} s ahead: {e}"))?;
+            (self.at, self.in_flight) = (at, in_flight);
+        }
+        self.tau = tau;
+        Ok(())
+    }
+
     /// The command for inputs `y` and own states `xi`.
     pub fn command(&self, y: &DVector<f64>, xi: &[f64], u: &mut DVector<f64>) {
         u.copy_from(&self.in_flight);

@@ -622,6 +622,121 @@ fn predictor_commands_are_the_closed_form_over_any_steps_and_restore_whole() {
     }
 }
 
+/// The commands [`PRED_SPEC`]'s predictor gives, told the delay `tau` and `master_order`, at
+/// steps of 0.1 s over inputs `y(t_k) + correction(k, commands so far)`, exchanged in that
+/// order: per step, the command read (before the step in the Gauss–Seidel and Jacobi orders,
+/// after it in the controller-first one). The state is saved after step 5 and restored at the
+/// end: the steps after it give the same commands again.
+fn told_the_order(tau: f64, order: i32, correction: impl Fn(usize, &[f64]) -> f64) -> Vec<f64> {
+    let log = LogCapture::default();
+    let dir = dir_with("pred_order", Some(PRED_SPEC));
+    let (c, _cb) = instantiate(&log, &guid_of(PRED_SPEC), Some(&dir));
+    let (h, steps) = (0.1, 12);
+    let y = |t: f64| (3.0 * t).sin() + 0.5;
+    let mut read = Vec::new();
+    let mut saved: Fmi2FmuState = std::ptr::null_mut();
+    let run = |from: usize, read: &mut Vec<f64>, saved: &mut Fmi2FmuState| unsafe {
+        for k in from..steps {
+            if k == 5 && saved.is_null() {
+                assert_eq!(fmi2GetFMUstate(c, saved), 0);
+            }
+            let (t, mut u) = (k as f64 * h, 0.0);
+            let input = y(t) + correction(k, read);
+            if order != 1 {
+                fmi2SetReal(c, &vr::INPUT, 1, &input);
+            }
+            if order != 2 {
+                fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+            }
+            if order == 1 {
+                fmi2SetReal(c, &vr::INPUT, 1, &input);
+            }
+            assert_eq!(fmi2DoStep(c, t, h, 1), 0, "{:?}", log.messages());
+            if order == 2 {
+                fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+            }
+            read.push(u);
+        }
+    };
+    unsafe {
+        assert_eq!(
+            fmi2SetReal(c, &vr::DELAY, 1, &tau),
+            0,
+            "{:?}",
+            log.messages()
+        );
+        assert_eq!(fmi2SetInteger(c, &vr::MASTER_ORDER, 1, &order), 0);
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        assert_eq!(fmi2ExitInitializationMode(c), 0, "{:?}", log.messages());
+    }
+    run(0, &mut read, &mut saved);
+    unsafe {
+        assert_eq!(fmi2SetFMUstate(c, saved), 0);
+        fmi2FreeFMUstate(c, &mut saved);
+    }
+    let mut again = read[..5].to_vec();
+    run(5, &mut again, &mut saved);
+    assert_eq!(
+        again, read,
+        "order {order}: after restoring the state of step 5"
+    );
+    unsafe { fmi2FreeInstance(c) };
+    read
+}
+
+/// A predictor told the master's order (`master_order`) keeps the commands in flight the plant
+/// gets. Stepped first (2), it gives after each step the command the Gauss–Seidel order (0)
+/// reads before it, bit for bit. In the Jacobi order (1) it gives at `t_k` the command it
+/// computed at `t_{k−1}` (0 at the start), predicted over `tau` plus the step: the commands of
+/// the Gauss–Seidel order told that delay, for the inputs that order's plant, a step more
+/// delayed, gives — the same inputs with a delay, and with none the inputs read before the
+/// master sets the command taking over, which the controller corrects by the feedthrough `D_yu`
+/// of the two commands in flight. An order that is not one is refused by name.
+#[test]
+fn a_predictor_told_the_masters_order_runs_the_gauss_seidel_loop() {
+    let none = |_: usize, _: &[f64]| 0.0;
+    for tau in [0.0, 0.15, 0.1] {
+        let gauss_seidel = told_the_order(tau, 0, none);
+        assert_eq!(told_the_order(tau, 2, none), gauss_seidel, "tau = {tau}");
+        // The Gauss–Seidel loop a step later: told tau + h, its inputs carrying the command
+        // taking over (with no delay the controller in the Jacobi order adds `D_yu (c_{k−1} −
+        // c_{k−2})` to the inputs it reads, which carry c_{k−2}'s force).
+        let later = told_the_order(tau + 0.1, 0, |k, c: &[f64]| {
+            let at = |j: usize| if k >= j { c[k - j] } else { 0.0 };
+            if tau == 0.0 {
+                0.4 * (at(1) - at(2))
+            } else {
+                0.0
+            }
+        });
+        let jacobi = told_the_order(tau, 1, none);
+        assert_eq!(jacobi[0], 0.0);
+        for (k, (j, l)) in jacobi[1..].iter().zip(&later).enumerate() {
+            assert!(
+                (j - l).abs() <= 1e-12 * l.abs().max(1.0),
+                "tau = {tau}, step {k}: Jacobi {j}, Gauss-Seidel a step later {l}"
+            );
+        }
+        assert!(later.iter().any(|u| u.abs() > 0.1), "{later:?}");
+    }
+    let log = LogCapture::default();
+    let dir = dir_with("pred_bad_order", Some(PRED_SPEC));
+    let (c, _cb) = instantiate(&log, &guid_of(PRED_SPEC), Some(&dir));
+    unsafe {
+        assert_eq!(fmi2SetInteger(c, &vr::MASTER_ORDER, 1, &3), 0);
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        assert_ne!(fmi2ExitInitializationMode(c), 0);
+        fmi2FreeInstance(c);
+    }
+    assert!(
+        log.contains("master_order must be 0"),
+        "{:?}",
+        log.messages()
+    );
+}
+
 /// Why `Spec::from_json` refuses `text` with `from` replaced by `to`.
 fn refusal(text: &str, from: &str, to: &str) -> String {
     let edited = text.replace(from, to);

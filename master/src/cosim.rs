@@ -171,6 +171,20 @@ pub enum Order {
     ControllerFirst,
 }
 
+/// The controller parameter a master tells its order (`fmu_controller::MasterOrder`).
+pub const MASTER_ORDER: &str = "master_order";
+
+impl Order {
+    /// The value of a controller's `master_order` for this order.
+    pub fn code(self) -> i32 {
+        match self {
+            Order::GaussSeidel => 0,
+            Order::Jacobi => 1,
+            Order::ControllerFirst => 2,
+        }
+    }
+}
+
 /// The stroke limit of the flags when a scenario does not give one \[m\] (the comfort designs'
 /// `stroke_max`, synth/designs/comfort.json).
 pub const DEFAULT_STROKE_MAX: f64 = 0.08;
@@ -753,7 +767,15 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     let mut p = plant.start(setup.plant.params)?;
     let mut c = setup
         .controller
-        .map(|c| c.fmu.start(c.params))
+        .map(|c| {
+            // A controller with a parameter `master_order` (a predictor, whose commands in
+            // flight depend on it) is told the order it runs in, unless its parameters say.
+            let mut params = c.params.to_vec();
+            if c.fmu.has(MASTER_ORDER) && !params.iter().any(|(n, _)| n == MASTER_ORDER) {
+                params.push((MASTER_ORDER.to_string(), Typed::Integer(setup.order.code())));
+            }
+            c.fmu.start(&params)
+        })
         .transpose()?;
     let road_in = vrs(plant, &ROAD)?;
     let force_in = vrs(plant, &FORCES)?;

@@ -160,7 +160,9 @@ fn predicted(case: &Case, f: f64) -> [Complex<f64>; 6] {
 /// fraction of a step, with and without a predictor, whose delayed command then changes
 /// mid-step, below one step among them, where the predictor predicts over the step; at half
 /// force with the fault accommodated), and the master's other orders (Jacobi; the controller
-/// stepped first) for a state feedback and an observer (`hinf_of`), at a body-mode and a
+/// stepped first) for a state feedback, an observer (`hinf_of`) and a predictor told the order
+/// (`delay_sf`'s `master_order`, which the master sets; in the Jacobi order with no delay and
+/// with one of a fraction of a step), at a body-mode and a
 /// wheel-hop-side frequency: the amplitudes agree to 5·10⁻⁶. Measured: at most 4.5·10⁻⁷
 /// (`delay_sf`'s weighted seat). The ideal-world `hinf_of` this file checked until 27 November
 /// 2026 reached 2.5·10⁻⁶ (its weighted seat at 7 Hz), the prediction's own rounding: a diagonal
@@ -187,6 +189,12 @@ fn the_sampled_prediction_is_the_cosimulation_of_a_sinusoidal_road() {
         Case::in_order("hinf_sf", Order::ControllerFirst),
         Case::in_order("hinf_of", Order::Jacobi),
         Case::in_order("hinf_of", Order::ControllerFirst),
+        Case::in_order("delay_sf", Order::Jacobi),
+        Case::in_order("delay_sf", Order::ControllerFirst),
+        Case {
+            order: Order::Jacobi,
+            ..Case::new(Some("delay_sf"), 0.0205, healthy)
+        },
     ];
     let mut worst = 0.0f64;
     for case in &cases {

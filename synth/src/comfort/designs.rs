@@ -107,8 +107,8 @@ pub struct Comfort {
 #[derive(Debug, Clone, Serialize)]
 pub struct InOrder {
     pub order: crate::predict::sampled::Order,
-    /// `predicted`, `unstable`, or `not modelled: …` (a predictor's commands in flight in
-    /// another order than the one it keeps them for).
+    /// `predicted`, `unstable`, or `not modelled: …` (a loop the sampled prediction does not
+    /// model). A predictor is told the order (`synth::predict::sampled`'s `told_the_order`).
     pub verdict: String,
     /// `W_k` seat RMS time-averaged, where predicted.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -259,19 +259,13 @@ impl DiscreteController {
     /// The controller as a master of `order` runs it, as a controller of the Gauss–Seidel form
     /// (`u_k = C ξ_k + D y_k`) on a state of its own: for [`Order::ControllerFirst`]
     /// `u_k = C (Φ ξ_k + Γ y_k) + D y_k`; for [`Order::Jacobi`] the input it holds, `y_{k−1}`,
-    /// joins its state. A predictor's commands in flight are those its runtime sent in the
-    /// default order: in another, what it keeps is not what the plant got, and that is not
-    /// modelled.
-    fn in_order(self, order: Order) -> Result<Self, PredictionError> {
-        if self.commands > 0 && order != Order::GaussSeidel {
-            return Err(PredictionError::NotModelled(format!(
-                "a predictor in the {order:?} order (its commands in flight assume the \
-                 Gauss-Seidel order)"
-            )));
-        }
+    /// joins its state. A predictor is told the order, which makes its loop a Gauss–Seidel one
+    /// ([`told_the_order`]): it comes here in that order only.
+    fn in_order(self, order: Order) -> Self {
+        debug_assert!(self.commands == 0 || order == Order::GaussSeidel);
         let k = &self.lti;
         let lti = match order {
-            Order::GaussSeidel => return Ok(self),
+            Order::GaussSeidel => return self,
             Order::ControllerFirst => {
                 Lti::new(k.a.clone(), k.b.clone(), &k.c * &k.a, &k.c * &k.b + &k.d)
             }
@@ -289,12 +283,12 @@ impl DiscreteController {
             }
         };
         let nc = lti.a.nrows();
-        Ok(DiscreteController {
+        DiscreteController {
             lti,
             commands: 0,
             g_u: DMatrix::zeros(nc, 0),
             k_u: DMatrix::zeros(self.k_u.nrows(), 0),
-        })
+        }
     }
 }
 
@@ -492,6 +486,8 @@ impl Instants {
                 "the held loop with lagging actuators".into(),
             ));
         }
+        let (told, conditions, order, read_before) = told_the_order(law, conditions, step, order);
+        let law = told.as_ref().or(law);
         let mut conditions = conditions;
         if let Some(rho_min) = law.and_then(|l| l.accommodation) {
             for rho in conditions.effectiveness.iter_mut() {
@@ -517,7 +513,7 @@ impl Instants {
         let rho = DMatrix::from_diagonal(&DVector::from_column_slice(&conditions.effectiveness));
 
         let controller = law
-            .map(|l| DiscreteController::new(l, h)?.in_order(order))
+            .map(|l| DiscreteController::new(l, h).map(|k| k.in_order(order)))
             .transpose()?;
         let nc = controller.as_ref().map_or(0, |k| k.lti.order());
         // The plant's outputs read at `t_k` carry the force of the command `lag_read` back.
@@ -595,7 +591,12 @@ impl Instants {
         // at `t_k` (with the force it applies then; `recorded`).
         let mut c_out = DMatrix::zeros(na + 2 * N_HELD + 3, n);
         let mut d_out = DMatrix::zeros(na + 2 * N_HELD + 3, N_ROAD);
-        let (recorded_s, recorded_r) = read(&sensor_rows(&outputs, &WEIGHTED_SIGNALS)?);
+        let (mut recorded_s, recorded_r) = read(&sensor_rows(&outputs, &WEIGHTED_SIGNALS)?);
+        if read_before {
+            // Recorded with the force before the one the controller is corrected to.
+            let d_u = sensor_rows(&outputs, &WEIGHTED_SIGNALS)?.d_u * &rho;
+            recorded_s += &d_u * (past(lag_read + 1).0 - past(lag_read).0);
+        }
         let at = na + 2 * N_HELD;
         c_out.rows_mut(at, 3).copy_from(&recorded_s);
         d_out.rows_mut(at, 3).copy_from(&recorded_r);
@@ -860,6 +861,42 @@ pub fn order_check(
         _ => None,
     };
     Ok(StepCheck { radius, seat })
+}
+
+/// A predictor told the master's `order` (the controller FMU's `master_order`) as a
+/// Gauss–Seidel loop. In the controller-first order the command read after a step is the one
+/// computed at its start from the same inputs: the Gauss–Seidel loop. In the Jacobi order the
+/// command read at `t_k` is the one computed at `t_{k−1}`, predicted over the delay told plus
+/// the step: a Gauss–Seidel master's loop with every command a step later, the plant's delay and
+/// the predictor's a step longer (at a constant step). With no delay the plant is read before
+/// the master sets the command taking over, so its outputs carry the one before, one further
+/// back than that loop's (`true`: recorded so); the controller reads them corrected by the
+/// difference's feedthrough, as that loop's (`fmu-controller`). Any other law, or order, as it
+/// is.
+fn told_the_order(
+    law: Option<&ControlLaw>,
+    conditions: Conditions,
+    step: f64,
+    order: Order,
+) -> (Option<ControlLaw>, Conditions, Order, bool) {
+    match (law, order) {
+        (Some(l), Order::ControllerFirst) if l.predictor.is_some() => {
+            (None, conditions, Order::GaussSeidel, false)
+        }
+        (Some(l), Order::Jacobi) if l.predictor.is_some() => {
+            let mut later = l.clone();
+            if let Some(p) = later.predictor.as_mut() {
+                p.delay += step;
+            }
+            let shifted = Conditions {
+                delay: conditions.delay + step,
+                ..conditions
+            };
+            let before = conditions.delay == 0.0;
+            (Some(later), shifted, Order::GaussSeidel, before)
+        }
+        _ => (None, conditions, order, false),
+    }
 }
 
 /// The predicted figures of a held loop ([`SampledLoop::figures`]).
