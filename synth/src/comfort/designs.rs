@@ -628,6 +628,9 @@ pub struct ComfortCertificate {
     pub grade: Grade,
     /// Each actuator lost in turn ([`LostActuator`]).
     pub lost_actuators: Vec<LostActuator>,
+    /// The loop at its force limits: the circle criterion of its dead zones
+    /// ([`crate::predict::saturation`]; an anti-windup design's own check is in its notes).
+    pub saturation: crate::predict::saturation::SaturationCheck,
     /// First-order actuators instead of ideal ones ([`ActuatorLag`]).
     pub actuator_lag: Vec<ActuatorLag>,
     pub hinf_comfort: HinfComfort,
@@ -890,6 +893,8 @@ pub fn anti_windup_design(
     let mut certificate = of.certificate.clone();
     certificate.variant = variant.into();
     certificate.robust_to = Uncertainty::Saturation;
+    certificate.saturation =
+        crate::predict::saturation::SaturationCheck::anti_windup(aw.w.as_slice(), &check);
     certificate.notes.insert(
         0,
         format!(
@@ -1069,6 +1074,7 @@ pub fn certify(
     let nominal = Conditions::nominal(*ctx.params);
     let lp = Loop::new(Some(law), nominal).map_err(|e| fail(e.to_string()))?;
     let delay_margin = lp.delay_margin();
+    let saturation = crate::predict::saturation::saturation_check(&lp);
     if delay_margin.is_nan() || delay_margin <= d.unmodelled_delay {
         return Err(fail(format!(
             "delay margin {delay_margin} s is not above the unmodelled delay {} s",
@@ -1243,6 +1249,7 @@ pub fn certify(
             }
         },
         lost_actuators: lost_actuators(law, ctx.params, &d.road),
+        saturation,
         actuator_lag: actuator_lags(law, ctx.params, &d.road).map_err(&fail)?,
         hinf_comfort: HinfComfort {
             design: hd.upper,

@@ -864,7 +864,7 @@ impl Loop {
     /// `K(jω) G_y(jω) diag(ρ)`: the loop broken at the actuators (positive feedback). With a
     /// predictor, `E (I − P₂ e^{−jωθ} − P₃)⁻¹ P₁ G_y` including the actuators' delay `E`, whose
     /// margins are then the extra delay (or advance) the loop tolerates.
-    fn loop_gain(&self, omega: f64) -> DMatrix<C64> {
+    pub(crate) fn loop_gain(&self, omega: f64) -> DMatrix<C64> {
         let g_y = self.sensed.at(omega);
         if let Some(p) = &self.predictor {
             let (p1, inner) = p.at(omega);
