@@ -740,9 +740,49 @@ impl Recording {
         refs.push(vr);
     }
 
+    /// What `record` names, in batches by FMU and type: a plant variable, or else the
+    /// controller's (a name neither has is refused).
+    fn of(record: &[String], plant: &Fmu, ctrl: Option<&Fmu>) -> Result<Self, MasterError> {
+        let mut recording = Recording {
+            plant: vec![],
+            controller_real: vec![],
+            controller_boolean: vec![],
+            columns: vec![],
+        };
+        for n in record {
+            match (plant.has(n), ctrl) {
+                (true, _) => recording.add(Batch::Plant, plant.vr(n)?),
+                (false, Some(cf)) => {
+                    let boolean = matches!(
+                        cf.variable(n).map(|v| v.1),
+                        Some(ScalarVariableElement::Boolean(_))
+                    );
+                    let batch = match boolean {
+                        true => Batch::ControllerBoolean,
+                        false => Batch::ControllerReal,
+                    };
+                    recording.add(batch, cf.vr(n)?)
+                }
+                (false, None) => return Err(err(format!("plant has no variable '{n}' to record"))),
+            }
+        }
+        Ok(recording)
+    }
+
     fn on_controller(&self) -> bool {
         !(self.controller_real.is_empty() && self.controller_boolean.is_empty())
     }
+}
+
+/// Instantiate and initialise the controller with its parameters. One with a parameter
+/// `master_order` (a predictor, whose commands in flight depend on it) is told the order it runs
+/// in, unless its parameters say.
+fn start_controller(c: &Participant, order: Order) -> Result<Instance<CS>, MasterError> {
+    let mut params = c.params.to_vec();
+    if c.fmu.has(MASTER_ORDER) && !params.iter().any(|(n, _)| n == MASTER_ORDER) {
+        params.push((MASTER_ORDER.to_string(), Typed::Integer(order.code())));
+    }
+    c.fmu.start(&params)
 }
 
 /// The co-simulation loop of this module's order (see the module's documentation), the one
@@ -767,41 +807,11 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     let mut p = plant.start(setup.plant.params)?;
     let mut c = setup
         .controller
-        .map(|c| {
-            // A controller with a parameter `master_order` (a predictor, whose commands in
-            // flight depend on it) is told the order it runs in, unless its parameters say.
-            let mut params = c.params.to_vec();
-            if c.fmu.has(MASTER_ORDER) && !params.iter().any(|(n, _)| n == MASTER_ORDER) {
-                params.push((MASTER_ORDER.to_string(), Typed::Integer(setup.order.code())));
-            }
-            c.fmu.start(&params)
-        })
+        .map(|c| start_controller(&c, setup.order))
         .transpose()?;
     let road_in = vrs(plant, &ROAD)?;
     let force_in = vrs(plant, &FORCES)?;
-    let mut recording = Recording {
-        plant: vec![],
-        controller_real: vec![],
-        controller_boolean: vec![],
-        columns: vec![],
-    };
-    for n in setup.record {
-        match (plant.has(n), ctrl) {
-            (true, _) => recording.add(Batch::Plant, plant.vr(n)?),
-            (false, Some(cf)) => {
-                let boolean = matches!(
-                    cf.variable(n).map(|v| v.1),
-                    Some(ScalarVariableElement::Boolean(_))
-                );
-                let batch = match boolean {
-                    true => Batch::ControllerBoolean,
-                    false => Batch::ControllerReal,
-                };
-                recording.add(batch, cf.vr(n)?)
-            }
-            (false, None) => return Err(err(format!("plant has no variable '{n}' to record"))),
-        }
-    }
+    let recording = Recording::of(setup.record, plant, ctrl)?;
     let (y_from, y_to, u_from) = match ctrl {
         Some(cf) => {
             let inputs = cf.names_with_causality("input");

@@ -1094,38 +1094,7 @@ pub fn certify(
             predicted.wk_rms_seat_m_s2, passive.wk_rms_seat_m_s2
         )));
     }
-    // The limits.
-    let k = d.limit_sigmas;
-    let lim = Limits {
-        limit_sigmas: k,
-        stroke: predicted.rms_stroke_m.map(|s| k * s / d.stroke_max),
-        seat_stroke: d
-            .seat_stroke_max
-            .map(|max| k * predicted.rms_seat_stroke_m / max),
-        tire_load: predicted.rms_tire_load_ratio.map(|s| k * s),
-        force: std::array::from_fn(|i| k * predicted.rms_force_n[i] / limits[i]),
-    };
-    if let Some(bad) = lim
-        .stroke
-        .iter()
-        .chain(&lim.force)
-        .chain(&lim.seat_stroke)
-        .find(|v| **v > 1.0)
-    {
-        return Err(fail(format!(
-            "a stroke or force exceeds its limit at {k} standard deviations ({bad:.3} of it)"
-        )));
-    }
-    // Accommodated, an actuator of effectiveness ρ_min is sent the asked force over ρ_min: it
-    // must fit its limit too, or the stationary loop is not the nominal one.
-    if let Some(rho_min) = law.accommodation {
-        if let Some(bad) = lim.force.iter().map(|f| f / rho_min).find(|v| *v > 1.0) {
-            return Err(fail(format!(
-                "accommodated down to ρ = {rho_min}, a command exceeds its limit at {k} \
-                 standard deviations ({bad:.3} of it)"
-            )));
-        }
-    }
+    let lim = limits_at(&predicted, d, law.accommodation).map_err(&fail)?;
     // The comfort channel's worst-case gain, design and passive (design model).
     let passive_sys = Lti::new(
         plant.a.clone(),
@@ -1151,29 +1120,7 @@ pub fn certify(
     if let Some(u) = uncertainty.as_mut() {
         u.predict_held(law, d);
     }
-    // The communication steps at the nominal car and at every condition of the uncertainty:
-    // the hold's effect on a loop moves with the car it closes.
-    let communication_steps = match &uncertainty {
-        None => StepStability::check(
-            &[(law.clone(), nominal)],
-            "the nominal car",
-            &d.road,
-            d.communication_step,
-        ),
-        Some(u) => {
-            let loops: Vec<(ControlLaw, Conditions)> = std::iter::once(nominal)
-                .chain(u.conditions.iter().copied())
-                .map(|c| (law.clone(), c))
-                .collect();
-            let labels: Vec<&str> = u.predictions.iter().map(|(l, _)| l.as_str()).collect();
-            StepStability::check(
-                &loops,
-                &format!("the nominal car and {}", labels.join(", ")),
-                &d.road,
-                d.communication_step,
-            )
-        }
-    };
+    let communication_steps = communication_steps(law, nominal, uncertainty.as_ref(), d);
     // The prediction for a nominal design; for a robust one the car model's bound, claimed
     // only where it covers every prediction on the exact car (the car model's Padé rear track
     // and band-unlimited weightings differ from the car; a bound that does not cover is no
@@ -1268,6 +1215,79 @@ pub fn certify(
         }),
         notes,
     })
+}
+
+/// The limits at `limit_sigmas` standard deviations of `predicted` over their bounds, each
+/// at most 1 (accommodated down to `ρ_min`, the forces over `ρ_min` too), or which is not.
+fn limits_at(
+    predicted: &Figures,
+    d: &ComfortDesign,
+    accommodation: Option<f64>,
+) -> Result<Limits, String> {
+    let limits = force_limits(d);
+    let k = d.limit_sigmas;
+    let lim = Limits {
+        limit_sigmas: k,
+        stroke: predicted.rms_stroke_m.map(|s| k * s / d.stroke_max),
+        seat_stroke: d
+            .seat_stroke_max
+            .map(|max| k * predicted.rms_seat_stroke_m / max),
+        tire_load: predicted.rms_tire_load_ratio.map(|s| k * s),
+        force: std::array::from_fn(|i| k * predicted.rms_force_n[i] / limits[i]),
+    };
+    if let Some(bad) = lim
+        .stroke
+        .iter()
+        .chain(&lim.force)
+        .chain(&lim.seat_stroke)
+        .find(|v| **v > 1.0)
+    {
+        return Err(format!(
+            "a stroke or force exceeds its limit at {k} standard deviations ({bad:.3} of it)"
+        ));
+    }
+    // Accommodated, an actuator of effectiveness ρ_min is sent the asked force over ρ_min: it
+    // must fit its limit too, or the stationary loop is not the nominal one.
+    if let Some(rho_min) = accommodation {
+        if let Some(bad) = lim.force.iter().map(|f| f / rho_min).find(|v| *v > 1.0) {
+            return Err(format!(
+                "accommodated down to ρ = {rho_min}, a command exceeds its limit at {k} \
+                 standard deviations ({bad:.3} of it)"
+            ));
+        }
+    }
+    Ok(lim)
+}
+
+/// The communication steps at the nominal car and at every condition of the uncertainty: the
+/// hold's effect on a loop moves with the car it closes.
+fn communication_steps(
+    law: &ControlLaw,
+    nominal: Conditions,
+    uncertainty: Option<&OverUncertainty>,
+    d: &ComfortDesign,
+) -> StepStability {
+    match uncertainty {
+        None => StepStability::check(
+            &[(law.clone(), nominal)],
+            "the nominal car",
+            &d.road,
+            d.communication_step,
+        ),
+        Some(u) => {
+            let loops: Vec<(ControlLaw, Conditions)> = std::iter::once(nominal)
+                .chain(u.conditions.iter().copied())
+                .map(|c| (law.clone(), c))
+                .collect();
+            let labels: Vec<&str> = u.predictions.iter().map(|(l, _)| l.as_str()).collect();
+            StepStability::check(
+                &loops,
+                &format!("the nominal car and {}", labels.join(", ")),
+                &d.road,
+                d.communication_step,
+            )
+        }
+    }
 }
 
 /// The rear track of the model the mass and fault bounds are computed on: the front track

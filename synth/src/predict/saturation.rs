@@ -21,7 +21,8 @@
 //! `M` is the best of a small SDP ([`crate::numerics::lmi`]) on a coarse grid of frequencies, the
 //! largest `t` with `2M − He(M L(jω_k)) ⪰ t I`, `M ⪯ I`; the certificate is that `M` checked
 //! on a fine grid, as the delay margins are ([`Loop::delay_margin`]): between grid points nothing
-//! is claimed beyond the margin's continuity.
+//! is claimed beyond the margin's continuity. Where no diagonal `M` exists (the H∞ designs' seat
+//! loop), a Popov multiplier `M + jωQ` found none either (tried; `docs/comfort-designs.md`).
 
 use crate::numerics::lmi::{Affine, Problem};
 use crate::predict::continuous::Loop;
