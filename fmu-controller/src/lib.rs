@@ -62,7 +62,7 @@ pub enum MasterOrder {
 }
 
 impl MasterOrder {
-    const DESCRIPTION: &'static str = "The order in which the master exchanges values, which the predictor's commands in flight depend on: 0 Gauss-Seidel (the plant's outputs set on the controller before its command is read; FMPy's and libcosim's), 1 Jacobi (every output read before any input is set: the command read at t is the one computed at the previous communication point, predicted over tau plus that step; exact at a constant step), 2 controller first (stepped before the plant: the command read after a step is the one computed at its start)";
+    const DESCRIPTION: &'static str = "The order in which the master exchanges values, which the predictor's commands in flight depend on: 0 Gauss-Seidel (the plant's outputs set on the controller before its command is read; FMPy's fixed-step master), 1 Jacobi (every output read before any input is set, as libcosim's fixed-step algorithm does: the command read at t is the one computed at the previous communication point, predicted over tau plus that step; exact at a constant step), 2 controller first (stepped before the plant: the command read after a step is the one computed at its start)";
 
     fn from_i32(v: i32) -> Result<Self, String> {
         match v {

@@ -160,11 +160,11 @@ pub struct Scenario {
 #[serde(rename_all = "snake_case")]
 pub enum Order {
     /// The plant's outputs to the controller, its command read and set on the plant, then
-    /// every FMU steps (the module's order; FMPy's and libcosim's fixed-step masters).
+    /// every FMU steps (the module's order; FMPy's fixed-step master).
     #[default]
     GaussSeidel,
     /// Every output read before any input is set, then every FMU steps: the command read is
-    /// the one the controller gives with its previous input.
+    /// the one the controller gives with its previous input (libcosim's fixed-step algorithm).
     Jacobi,
     /// Gauss–Seidel with the controller first: given the plant's outputs, stepped to
     /// `t_{k+1}`, and its command there drives the plant over `[t_k, t_{k+1})`.

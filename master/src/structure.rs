@@ -5,8 +5,8 @@
 //! initial values; the communication step is the scenario's.
 
 use crate::cosim::{
-    check_connections, err, scenario_parameters, Fmu, MasterError, Scenario, Typed, FORCES, RECORD,
-    ROAD,
+    check_connections, err, scenario_parameters, Fmu, MasterError, Order, Scenario, Typed, FORCES,
+    MASTER_ORDER, RECORD, ROAD,
 };
 use std::io::Write;
 use std::path::Path;
@@ -32,6 +32,8 @@ pub struct Loop {
     /// The controller's inputs (plant outputs it reads).
     pub measured: Vec<String>,
     pub controller: String,
+    /// The controller has a parameter `master_order` (a predictor) the scenario does not set.
+    pub told_the_order: bool,
 }
 
 impl Loop {
@@ -50,6 +52,8 @@ impl Loop {
         let measured = ctrl.names_with_causality("input");
         let [road_values, plant_values, ctrl_values] =
             scenario_parameters(scenario, &road, &plant, Some(&ctrl))?;
+        let told_the_order =
+            ctrl.has(MASTER_ORDER) && !ctrl_values.iter().any(|(n, _)| n == MASTER_ORDER);
         let mut connections = Vec::new();
         connections.extend(
             ROAD.iter()
@@ -75,17 +79,26 @@ impl Loop {
             connections,
             measured,
             controller: controller.into(),
+            told_the_order,
         })
     }
 
     /// `OspSystemStructure.xml`. libcosim's fixed-step algorithm exchanges the values of all
-    /// simulators after each step (Jacobi), not in the master's Gauss-Seidel order.
+    /// simulators after each step (Jacobi), not in the master's Gauss-Seidel order: a
+    /// controller with a parameter `master_order` (a predictor) is told so (1), unless the
+    /// scenario sets it.
     pub fn osp(&self) -> String {
         let h = self.scenario.step;
         let mut x = format!("<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<!-- {}: written by `master osp` from scenario '{}' -->\n<OspSystemStructure xmlns=\"http://opensimulationplatform.com/MSMI/OSPSystemStructure\" version=\"0.1\">\n  <StartTime>0.0</StartTime>\n  <BaseStepSize>{h:e}</BaseStepSize>\n  <Algorithm>fixedStep</Algorithm>\n  <Simulators>\n", self.controller, self.scenario.name);
         for (name, values) in &self.components {
             x += &format!("    <Simulator name=\"{name}\" source=\"{name}.fmu\" stepSize=\"{h:e}\">\n      <InitialValues>\n");
-            for (k, v) in values {
+            let jacobi = (name == &self.controller && self.told_the_order).then(|| {
+                (
+                    MASTER_ORDER.to_string(),
+                    Typed::Integer(Order::Jacobi.code()),
+                )
+            });
+            for (k, v) in values.iter().chain(jacobi.as_ref()) {
                 x += &format!(
                     "        <InitialValue variable=\"{k}\">{}</InitialValue>\n",
                     v.xml("")

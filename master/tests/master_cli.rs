@@ -275,6 +275,13 @@ fn system_descriptions_carry_typed_parameters_and_refuse_bad_ones() {
     assert!(l
         .osp()
         .contains("<InitialValue variable=\"u_max\"><Real value=\"3e2\"/></InitialValue>"));
+    // libcosim steps every simulator before it exchanges values (Jacobi): a predictor is told so
+    // in the OSP structure, and only there; a controller without the parameter is not.
+    let told = "<InitialValue variable=\"master_order\"><Integer value=\"1\"/></InitialValue>";
+    let predictor = Loop::new(&dist(), &scenario("bump"), "delay_sf").unwrap();
+    assert!(predictor.osp().contains(told), "{}", predictor.osp());
+    assert!(!predictor.ssd().contains("master_order"));
+    assert!(!l.osp().contains("master_order"));
     // A value the variable's type cannot take is refused with the names.
     let mut bad = scenario("bump");
     bad.road.insert("profile".into(), serde_json::json!(1.5));

@@ -2,8 +2,8 @@
 //! `h`**: the prediction of [`crate::predict::continuous`] for the sampled-data loop the co-simulation
 //! actually is, not the continuous-time loop the synthesis designs.
 //!
-//! The master's loop (`master::cosim::simulate`, Gauss–Seidel, the same for FMPy's and
-//! libcosim's fixed-step masters): at `t_k = k h` it reads the plant's outputs `y_k`, hands them
+//! The master's loop (`master::cosim::simulate`, Gauss–Seidel, the same for FMPy's fixed-step
+//! master; libcosim's steps every simulator before it exchanges values, the Jacobi order): at `t_k = k h` it reads the plant's outputs `y_k`, hands them
 //! to the controller, sets the controller's command `u_k` on the plant, steps both over `h`,
 //! and sets the road at `t_{k+1}`. So over `[t_k, t_{k+1})` the plant sees the road **held** at
 //! its value at `t_k` and each actuator the command held and delayed by `θ = d h + ε`
@@ -54,12 +54,13 @@ type C64 = Complex<f64>;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Order {
-    /// Gauss–Seidel, the plant's outputs first (`master`'s default, FMPy's and libcosim's
-    /// fixed-step masters): the controller is given `y_k`, its command read and set, then every
+    /// Gauss–Seidel, the plant's outputs first (`master`'s default, FMPy's fixed-step
+    /// master): the controller is given `y_k`, its command read and set, then every
     /// FMU steps. `u_k = C ξ_k + D y_k`.
     GaussSeidel,
-    /// Jacobi: every output read at `t_k` before any input is set, so the command is the one
-    /// the controller gives with its previous input. `u_k = C ξ_k + D y_{k−1}`.
+    /// Jacobi: every output read at `t_k` before any input is set (libcosim's fixed-step
+    /// algorithm), so the command is the one the controller gives with its previous input.
+    /// `u_k = C ξ_k + D y_{k−1}`.
     Jacobi,
     /// Gauss–Seidel with the controller stepped first: given `y_k`, stepped to `t_{k+1}`, and
     /// its command then drives the plant over `[t_k, t_{k+1})`. `u_k = C ξ_{k+1} + D y_k`.

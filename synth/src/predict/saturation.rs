@@ -160,21 +160,21 @@ pub fn saturation_check(lp: &Loop) -> SaturationCheck {
             }
         }
     }
+    let refused = |why: String| SaturationCheck {
+        verdict: "not certified",
+        multiplier: Vec::new(),
+        margin: None,
+        worst_frequency_hz: Some(hz(at)),
+        frequencies: fine.len(),
+        why,
+    };
     if worst >= 1.0 {
-        return SaturationCheck {
-            verdict: "not certified",
-            multiplier: Vec::new(),
-            margin: None,
-            worst_frequency_hz: Some(hz(at)),
-            frequencies: fine.len(),
-            why: format!(
-                "actuator {}'s own loop reaches Re L = {worst:.3} >= 1 at {:.3} Hz: no diagonal \
-                 multiplier exists (its loop gain there, in negative-feedback terms, is left of \
-                 -1)",
-                vehicle::model::ACTUATORS[which],
-                hz(at)
-            ),
-        };
+        return refused(format!(
+            "actuator {}'s own loop reaches Re L = {worst:.3} >= 1 at {:.3} Hz: no diagonal \
+             multiplier exists (its loop gain there, in negative-feedback terms, is left of -1)",
+            vehicle::model::ACTUATORS[which],
+            hz(at)
+        ));
     }
     let coarse: Vec<_> = grid(SDP_FREQUENCIES)
         .iter()
@@ -182,16 +182,7 @@ pub fn saturation_check(lp: &Loop) -> SaturationCheck {
         .collect();
     let m = match multiplier(&coarse) {
         Ok(m) => m,
-        Err(e) => {
-            return SaturationCheck {
-                verdict: "not certified",
-                multiplier: Vec::new(),
-                margin: None,
-                worst_frequency_hz: Some(hz(at)),
-                frequencies: fine.len(),
-                why: format!("no diagonal multiplier found: {e}"),
-            }
-        }
+        Err(e) => return refused(format!("no diagonal multiplier found: {e}")),
     };
     let scale = m.iter().cloned().fold(0.0, f64::max);
     let (mut margin, mut at) = (f64::INFINITY, 0.0);
