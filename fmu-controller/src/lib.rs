@@ -101,6 +101,22 @@ fn clamp(u: &mut DVector<f64>, limits: &[f64]) {
     }
 }
 
+/// A predictor's command `yc` for inputs `y` and own states `x`, and `u` the command sent:
+/// clamped to the actuators' limits (when the file gives them), so that the commands in flight
+/// the predictor integrates are the forces the actuators apply.
+fn predicted_command(
+    p: &predictor::Runtime,
+    y: &DVector<f64>,
+    x: &DVector<f64>,
+    limits: &[f64],
+    yc: &mut DVector<f64>,
+    u: &mut DVector<f64>,
+) {
+    p.command(y, x.as_slice(), yc);
+    u.copy_from(yc);
+    clamp(u, limits);
+}
+
 pub const RESOURCE_FILE: &str = "controller.json";
 
 /// Read and check `resources/controller.json`.
@@ -434,11 +450,7 @@ impl Controller {
             return;
         }
         if let Some(p) = &self.predictor {
-            // Clamped to the actuators' limits (when the file gives them): the commands in
-            // flight the predictor integrates are then the forces the actuators apply.
-            p.command(&self.y, self.x.as_slice(), &mut self.yc);
-            self.u.copy_from(&self.yc);
-            clamp(&mut self.u, &self.limits);
+            predicted_command(p, &self.y, &self.x, &self.limits, &mut self.yc, &mut self.u);
             self.valid = true;
             return;
         }
@@ -550,9 +562,7 @@ impl Controller {
                 }
             }
         }
-        p.command(&self.w, self.x.as_slice(), &mut self.yc);
-        self.u.copy_from(&self.yc);
-        clamp(&mut self.u, &self.limits);
+        predicted_command(p, &self.w, &self.x, &self.limits, &mut self.yc, &mut self.u);
         let next = p.step(self.x.as_slice(), &self.w, &self.u, step)?;
         if let Some(q) = retargeted {
             self.predictor = Some(q);

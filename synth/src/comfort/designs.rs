@@ -1074,13 +1074,13 @@ pub fn certify(
     let nominal = Conditions::nominal(*ctx.params);
     let lp = Loop::new(Some(law), nominal).map_err(|e| fail(e.to_string()))?;
     let delay_margin = lp.delay_margin();
-    let saturation = crate::predict::saturation::saturation_check(&lp);
     if delay_margin.is_nan() || delay_margin <= d.unmodelled_delay {
         return Err(fail(format!(
             "delay margin {delay_margin} s is not above the unmodelled delay {} s",
             d.unmodelled_delay
         )));
     }
+    let saturation = crate::predict::saturation::saturation_check(&lp);
     // Predictions, design and passive.
     let predicted = lp.figures(&d.road);
     let held = held_prediction(law, nominal, d).map_err(&fail)?;
