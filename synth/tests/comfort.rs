@@ -147,15 +147,35 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         );
     }
     // The mass designs' bounds are certified on the car model (its own rear track, Padé
-    // order 8, beside the controller's order-2 preview) and claimed: each covers every
+    // order 8, beside the controller's order-2 preview) and claimed where each covers every
     // prediction on the exact car (checked above) and the car model at every mass of the
-    // file's grid. On the design model robust_sf's bound (0.008971) fell 0.03 % short of the
-    // car's worst prediction (0.008974): that model's preview was the rear road itself.
+    // file's grid: robust_of's does. On the design model robust_sf's bound (0.008971) fell
+    // 0.03 % short of the car's worst prediction (0.008974): that model's preview was the rear
+    // road itself. In its frame (`synth::comfort::plant::Frame`) robust_sf follows the road's
+    // long waves, of which the car's road (a flat velocity spectrum down to its band's lower
+    // end) has more than the car model's first-order one: its bound falls about 1 % short of
+    // the car's worst, and is not claimed; the certificate says so.
     for name in ["robust_sf", "robust_of"] {
         let u = &cert(name)["comfort"]["uncertainty"];
         let guaranteed = cert(name)["comfort"]["guaranteed_wk_rms_seat_m_s2"].as_f64();
         let bound = u["bound_wk_rms_seat"]["value"].as_f64().unwrap();
-        assert_eq!(guaranteed, Some(bound), "{name}: {}", u["bound_failure"]);
+        if name == "robust_sf" {
+            let worst = u["worst_predicted_wk_rms_seat_m_s2"].as_f64().unwrap();
+            assert_eq!(guaranteed, None, "{name}");
+            assert!(
+                bound < worst && worst < 1.02 * bound,
+                "{name}: bound {bound}, worst {worst}"
+            );
+            assert!(
+                u["bound_failure"]
+                    .as_str()
+                    .is_some_and(|f| f.contains("does not cover")),
+                "{name}: {}",
+                u["bound_failure"]
+            );
+        } else {
+            assert_eq!(guaranteed, Some(bound), "{name}: {}", u["bound_failure"]);
+        }
         assert!(
             u["bound_model"].as_str().unwrap().contains("order 8"),
             "{name}: {}",
@@ -165,13 +185,20 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         assert!(grid <= bound, "{name}: grid {grid} above bound {bound}");
         assert_eq!(u["bound_model_grid_points"].as_u64(), Some(61), "{name}");
     }
-    // delay_sf predicts the car model, so its closed form over the delays is a bound on that
-    // model (with the predictor matched) and is claimed for the car: it covers every prediction
-    // on the exact car. (Predicting the design model, the car's worst was 8.7 % above it.)
+    // delay_sf predicts the car model's state relative to its frame, so the closed form over
+    // the delays (the car model with the predictor matched to its state) is computed and
+    // reported but not claimed for it. (Without the frame it was, and covered every prediction
+    // on the exact car; predicting the design model, the car's worst was 8.7 % above it.)
     let u = &cert("delay_sf")["comfort"]["uncertainty"];
     assert_eq!(
         cert("delay_sf")["comfort"]["guaranteed_wk_rms_seat_m_s2"].as_f64(),
-        u["over_delays"]["bound"].as_f64(),
+        None
+    );
+    assert!(u["over_delays"]["bound"].as_f64().is_some());
+    assert!(
+        u["bound_failure"]
+            .as_str()
+            .is_some_and(|f| f.contains("relative to its frame")),
         "{}",
         u["bound_failure"]
     );

@@ -136,10 +136,16 @@ pub fn reconstruction(g: &ComfortPlant) -> Reconstruction {
         .clone()
         .map(|r| r.collect())
         .unwrap_or_default();
+    let frame: Vec<usize> = layout
+        .frame
+        .clone()
+        .map(|r| r.collect())
+        .unwrap_or_default();
     let own: Vec<usize> = preview
         .iter()
         .chain(&filters)
         .chain(&weight)
+        .chain(&frame)
         .copied()
         .collect();
     let (n, nc, nu) = (g.n(), own.len(), g.b_u.ncols());
@@ -162,7 +168,8 @@ pub fn reconstruction(g: &ComfortPlant) -> Reconstruction {
     let mut b_xi = DMatrix::zeros(nc, ny);
     let mut b_xiu = DMatrix::zeros(nc, nu);
     for (j, state) in own.iter().enumerate() {
-        if preview.contains(state) {
+        // The preview and the frame, driven by the road, as the model drives them.
+        if preview.contains(state) || frame.contains(state) {
             let row = g.a.row(*state);
             a_xi.row_mut(j).copy_from(&(row * &s_xi));
             b_xi.row_mut(j).copy_from(&(row * &s_y));
@@ -196,10 +203,29 @@ pub fn reconstruction(g: &ComfortPlant) -> Reconstruction {
 /// on [`state_feedback_sensors`]: `C = K S_ξ`, `D = K S_y`, and with `u_a = u`,
 /// `A = A_ξ + B_ξu C`, `B = B_ξ + B_ξu D` ([`reconstruction`]).
 pub fn realise_state_feedback(g: &ComfortPlant, k: &DMatrix<f64>) -> Lti {
-    let r = reconstruction(g);
-    let c = k * &r.s_xi;
-    let d = k * &r.s_y;
-    Lti::new(&r.a_xi + &r.b_xiu * &c, &r.b_xi + &r.b_xiu * &d, c, d)
+    reconstruction(g).realise(k)
+}
+
+impl Reconstruction {
+    /// `u = K x` on the state this reconstructs ([`realise_state_feedback`]).
+    pub fn realise(&self, k: &DMatrix<f64>) -> Lti {
+        let c = k * &self.s_xi;
+        let d = k * &self.s_y;
+        Lti::new(
+            &self.a_xi + &self.b_xiu * &c,
+            &self.b_xi + &self.b_xiu * &d,
+            c,
+            d,
+        )
+    }
+
+    /// The state `T x` instead of `x` (the relative state of
+    /// [`ComfortPlant::with_frame`]), from the same inputs and own states.
+    pub fn of(mut self, t: &DMatrix<f64>) -> Reconstruction {
+        self.s_y = t * &self.s_y;
+        self.s_xi = t * &self.s_xi;
+        self
+    }
 }
 
 /// The sensors `named` (plant outputs, each with its one-sided noise density) of `g`: `y = C x

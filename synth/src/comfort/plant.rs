@@ -26,8 +26,8 @@ use nalgebra::DMatrix;
 use std::ops::Range;
 use vehicle::iso2631::{Weighting, PITCH_FACTOR, ROLL_FACTOR};
 use vehicle::model::{
-    physical_outputs, OutputRow, StateSpace, StaticEquilibrium, ACTUATORS, CORNERS, N_ACTUATORS,
-    N_ROAD, N_STATES, N_WHEELS,
+    coord, corner_positions, physical_outputs, OutputRow, StateSpace, StaticEquilibrium, ACTUATORS,
+    CORNERS, N_ACTUATORS, N_DOF, N_ROAD, N_STATES, N_WHEELS,
 };
 use vehicle::VehicleParams;
 
@@ -106,6 +106,8 @@ pub struct Layout {
     pub filters: Vec<Range<usize>>,
     /// The delay weight's states, one per actuator ([`ComfortPlant::with_delay_weight`]).
     pub weight: Option<Range<usize>>,
+    /// The frame's six states ([`ComfortPlant::with_frame`]).
+    pub frame: Option<Range<usize>>,
 }
 
 /// The road model's numbers.
@@ -163,6 +165,78 @@ pub struct ComfortPlant {
     /// scales `B_u`'s car and weighting rows and the outputs' `D_u` (accelerometers feel the
     /// applied force), not the delay weight, which the command drives.
     pub effectiveness: [f64; N_ACTUATORS],
+    /// The frame a state feedback measures the car from ([`Frame`]; `None`: the equilibrium).
+    pub frame: Option<Frame>,
+}
+
+/// A frame that follows the road's pose `p = (z, φ, θ)` (the plane through the road heights
+/// under the four wheels) below `ω`: `f = F(s) p` with the type-2 low-pass
+/// `F(s) = (2ζω s + ω²) / (s² + 2ζω s + ω²)`, which follows a ramp with no error. A state
+/// feedback in the frame reads every height (the road's too) and velocity relative to the frame
+/// moved rigidly ([`ComfortPlant::with_frame`]). On a constant grade or crossfall the car and
+/// the road settle into a rigid pose moving at a constant rate, which the frame follows
+/// exactly: the feedback then reads zero and holds no force, where on heights from the
+/// equilibrium it held its force limits. The frame reads only the road: it moves no pole of
+/// the loop.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// `R` (8 × 3): each coordinate of `q` under a rigid pose `(z_s, φ, θ)` of the car.
+    pub rigid: DMatrix<f64>,
+    pub omega: f64,
+    pub zeta: f64,
+}
+
+/// The order of [`Frame`]'s low-pass, per axis.
+pub const FRAME_ORDER: usize = 3;
+
+impl Frame {
+    /// The damping of [`Frame`]'s low-pass: `1/√2`.
+    pub const ZETA: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+    /// `(F_η, Ḟ_η)`: the frame's pose `f = F_η η` and rate `ḟ = Ḟ_η η` from its states
+    /// (three per axis, [`ComfortPlant::with_frame`]).
+    pub fn outputs(&self) -> (DMatrix<f64>, DMatrix<f64>) {
+        let [a0, a1, _] = self.denominator();
+        let m = 3 * FRAME_ORDER;
+        let (mut f, mut rate) = (DMatrix::zeros(3, m), DMatrix::zeros(3, m));
+        for c in 0..3 {
+            let o = FRAME_ORDER * c;
+            f[(c, o)] = a0;
+            f[(c, o + 1)] = a1;
+            rate[(c, o + 1)] = a0;
+            rate[(c, o + 2)] = a1;
+        }
+        (f, rate)
+    }
+
+    /// `[a₀, a₁, a₂]` of `F(s)`'s denominator `(s² + 2ζω s + ω²)(s + ω)`; its numerator is
+    /// `a₁ s + a₀`.
+    pub fn denominator(&self) -> [f64; 3] {
+        let (w, d) = (self.omega, 2.0 * self.zeta * self.omega);
+        [w * w * w, w * w + d * w, d + w]
+    }
+
+    pub fn new(p: &VehicleParams, hz: f64) -> Self {
+        let mut rigid = DMatrix::zeros(N_DOF, 3);
+        let point = |x: f64, y: f64| [1.0, y, x];
+        let mut set = |k: usize, r: [f64; 3]| {
+            for (c, v) in r.iter().enumerate() {
+                rigid[(k, c)] = *v;
+            }
+        };
+        set(coord::HEAVE, [1.0, 0.0, 0.0]);
+        set(coord::ROLL, [0.0, 1.0, 0.0]);
+        set(coord::PITCH, [0.0, 0.0, 1.0]);
+        set(coord::SEAT, point(p.s2, -p.s1));
+        for (i, &(x, y)) in corner_positions(p).iter().enumerate() {
+            set(coord::WHEEL[i], point(x, y));
+        }
+        Frame {
+            rigid,
+            omega: 2.0 * std::f64::consts::PI * hz,
+            zeta: Self::ZETA,
+        }
+    }
 }
 
 /// The order of the long waves' low-pass ([`RoadModel::long_waves`]): steep enough that they
@@ -373,6 +447,7 @@ impl ComfortPlant {
                 road: road_range,
                 filters,
                 weight: None,
+                frame: None,
             },
             road,
             r_x,
@@ -380,6 +455,7 @@ impl ComfortPlant {
             outputs,
             sprung_mass: m_s,
             effectiveness: [1.0; N_ACTUATORS],
+            frame: d.state_feedback_frame_hz.map(|hz| Frame::new(&car, hz)),
         }
     }
 
@@ -481,6 +557,24 @@ impl ComfortPlant {
     /// `u_applied = (I + Δ W) u` with `W` the [`delay_cover`], and the plant with `W`'s states
     /// (one per actuator, driven by the command `u`): `(plant, channel)`. `q` and `p` are in
     /// units of each actuator's force limit, so one multiplier serves all five.
+    /// This plant with `m` states appended, zero everywhere until the caller fills them in.
+    fn with_states_appended(&self, m: usize) -> ComfortPlant {
+        let n = self.n();
+        let grow = |x: &DMatrix<f64>, rows: usize, cols: usize| {
+            let mut y = DMatrix::zeros(rows, cols);
+            y.view_mut((0, 0), x.shape()).copy_from(x);
+            y
+        };
+        ComfortPlant {
+            a: grow(&self.a, n + m, n + m),
+            b_w: grow(&self.b_w, n + m, self.b_w.ncols()),
+            b_u: grow(&self.b_u, n + m, self.b_u.ncols()),
+            c_z: grow(&self.c_z, self.c_z.nrows(), n + m),
+            c_lim: grow(&self.c_lim, self.c_lim.nrows(), n + m),
+            ..self.clone()
+        }
+    }
+
     pub fn with_delay_weight(
         &self,
         tau: f64,
@@ -488,17 +582,7 @@ impl ComfortPlant {
     ) -> (ComfortPlant, Channel) {
         let (c, d) = delay_cover();
         let (n, m) = (self.n(), N_ACTUATORS);
-        let mut g = self.clone();
-        let grow = |x: &DMatrix<f64>, rows: usize, cols: usize| {
-            let mut y = DMatrix::zeros(rows, cols);
-            y.view_mut((0, 0), x.shape()).copy_from(x);
-            y
-        };
-        g.a = grow(&self.a, n + m, n + m);
-        g.b_w = grow(&self.b_w, n + m, self.b_w.ncols());
-        g.b_u = grow(&self.b_u, n + m, m);
-        g.c_z = grow(&self.c_z, self.c_z.nrows(), n + m);
-        g.c_lim = grow(&self.c_lim, self.c_lim.nrows(), n + m);
+        let mut g = self.with_states_appended(m);
         for k in 0..m {
             g.a[(n + k, n + k)] = -d / tau;
             g.b_u[(n + k, k)] = d / tau;
@@ -521,6 +605,86 @@ impl ComfortPlant {
             d_q: per_limit * (c * d),
         };
         (g, channel)
+    }
+}
+
+impl ComfortPlant {
+    /// This plant with its frame's states `η` appended ([`Frame`]; itself where it has none),
+    /// and `T`, the relative state `x̃ = T [x; η] = x − E_f f − E_ḟ ḟ` (a gain `K` on this
+    /// plant's state is `K T` on the other's).
+    ///
+    /// The road's pose `p = P x` is the least-squares plane through the road heights under the
+    /// wheels; per axis `η̇₁ = η₂`, `η̇₂ = −ω² η₁ − 2ζω η₂ + p`, `f = ω² η₁ + 2ζω η₂`, so
+    /// `ḟ = ω² η₂ + 2ζω η̇₂`. `E` is the state of the car and road in the rigid pose `f` moving
+    /// at `ḟ`: the car's heights `R f` and velocities `R ḟ`, the road heights under the wheels
+    /// `R f`, and the other road states (the rear road's preview) their steady state under
+    /// those heights rising at a constant rate, `M h + A_pp⁻¹ M ḣ` with `M = −A_pp⁻¹ A_ph`
+    /// (exact for a Padé track, which passes a ramp with its delay). The frame's states are
+    /// the design model's (driven by its road states), so a predictor of this model is still
+    /// matched, and a controller realising `K T` reconstructs them from the road it reads.
+    pub fn with_frame(&self) -> (ComfortPlant, DMatrix<f64>) {
+        let Some(frame) = &self.frame else {
+            return (self.clone(), DMatrix::identity(self.n(), self.n()));
+        };
+        let n = self.n();
+        let rigid = &frame.rigid;
+        let wheels = rigid.select_rows(&coord::WHEEL);
+        let plane = (wheels.transpose() * &wheels)
+            .try_inverse()
+            .expect("the wheels span a plane")
+            * wheels.transpose();
+        let mut pose = DMatrix::zeros(3, n);
+        pose.view_mut((0, self.layout.road.start), (3, self.layout.road.len()))
+            .copy_from(&(&plane * self.r_x.rows(0, N_WHEELS)));
+        let heights = self.road_height_rows();
+        let hs: Vec<usize> = heights.iter().map(|(s, _)| *s).collect();
+        let others: Vec<usize> = self
+            .layout
+            .road
+            .clone()
+            .filter(|s| !hs.contains(s))
+            .collect();
+        let (mut e_f, mut e_d) = (DMatrix::zeros(n, 3), DMatrix::zeros(n, 3));
+        for i in 0..N_DOF {
+            e_f.row_mut(i).copy_from(&rigid.row(i));
+            e_d.row_mut(N_DOF + i).copy_from(&rigid.row(i));
+        }
+        for (state, wheel) in &heights {
+            e_f.row_mut(*state)
+                .copy_from(&rigid.row(coord::WHEEL[*wheel]));
+        }
+        if !others.is_empty() {
+            let a_pp = self.a.select_rows(&others).select_columns(&others);
+            let a_ph = self.a.select_rows(&others).select_columns(&hs);
+            let inv = a_pp.try_inverse().expect("the road's preview is stable");
+            let m = -&inv * a_ph * e_f.select_rows(&hs);
+            let dm = &inv * &m;
+            for (j, state) in others.iter().enumerate() {
+                e_f.row_mut(*state).copy_from(&m.row(j));
+                e_d.row_mut(*state).copy_from(&dm.row(j));
+            }
+        }
+        // Per axis, in controllable form: `η̇₁ = η₂`, `η̇₂ = η₃`,
+        // `η̇₃ = −a₀ η₁ − a₁ η₂ − a₂ η₃ + p`, `f = a₀ η₁ + a₁ η₂`, `ḟ = a₀ η₂ + a₁ η₃`.
+        let [a0, a1, a2] = frame.denominator();
+        let m = 3 * FRAME_ORDER;
+        let (f_eta, fd_eta) = frame.outputs();
+        let mut g = self.with_states_appended(m);
+        for c in 0..3 {
+            let [e1, e2, e3] = [0, 1, 2].map(|i| FRAME_ORDER * c + i);
+            g.a[(n + e1, n + e2)] = 1.0;
+            g.a[(n + e2, n + e3)] = 1.0;
+            g.a[(n + e3, n + e1)] = -a0;
+            g.a[(n + e3, n + e2)] = -a1;
+            g.a[(n + e3, n + e3)] = -a2;
+            g.a.view_mut((n + e3, 0), (1, n)).copy_from(&pose.row(c));
+        }
+        g.layout.frame = Some(n..n + m);
+        let mut t = DMatrix::zeros(n, n + m);
+        t.view_mut((0, 0), (n, n)).fill_with_identity();
+        t.view_mut((0, n), (n, m))
+            .copy_from(&(-&e_f * f_eta - &e_d * fd_eta));
+        (g, t)
     }
 }
 

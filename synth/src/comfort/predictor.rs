@@ -16,7 +16,10 @@
 //!
 //! The model it predicts is the car model ([`predictor_model`]: the rear wheels on the front
 //! track through a Padé approximant of order 8, the gain's order-2 preview beside it), so on that
-//! model the predictor is matched and the closed form holds.
+//! model the predictor is matched and the closed form holds. In a frame
+//! ([`crate::comfort::plant::Frame`], the shipped design) it predicts the state relative to the
+//! frame instead, which is zero on a constant grade; the closed form is then reported, not
+//! claimed.
 //!
 //! Certified: stability for every `θ` (the roots above), and the car model's seat comfort
 //! `J(θ)` bounded at every delay of the interval ([`over_delays`]), which is the guarantee
@@ -33,9 +36,7 @@
 //! `fmu-controller/src/predictor.rs`). Equal in continuous time; the hold no longer enters the
 //! gain's fastest loop (stable to 7.5 ms at every delay instead of 1.1 ms).
 
-use crate::comfort::controllers::{
-    realise_state_feedback, reconstruction, state_feedback_sensors, Reconstruction,
-};
+use crate::comfort::controllers::{reconstruction, state_feedback_sensors, Reconstruction};
 use crate::comfort::designs::{
     bound_model, certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context,
     OverDelays, OverUncertainty, Uncertainty,
@@ -207,7 +208,7 @@ fn predictor_law(
     theta: f64,
 ) -> ControlLaw {
     ControlLaw {
-        lti: realise_state_feedback(g, k),
+        lti: reconstruction.realise(k),
         inputs: state_feedback_sensors(g).names,
         accommodation: None,
         predictor: Some(PredictorLaw {
@@ -323,7 +324,10 @@ pub fn predictor_design(
     };
     let (g, k) = predictor_model(ctx, &nominal.0, &nominal.1.k).map_err(&fail)?;
     let (g, k) = (&g, &k);
-    let r = reconstruction(g);
+    // In a frame, the predictor predicts the relative state with the model: on a constant
+    // grade it is zero, and so is its prediction.
+    let (framed, t) = g.with_frame();
+    let r = reconstruction(&framed).of(&t);
     let law_at = |theta: f64| predictor_law(g, k, r.clone(), theta);
     let law = law_at(0.0);
     let notes = vec![format!(
@@ -450,11 +454,23 @@ pub fn predictor_design(
         bound_model(d, ctx.params).1
     );
     // Claimed for the car only where the car model's bound covers every prediction on it (exact
-    // wheelbase delay, the road FMU's band), as for the other robust designs.
-    certificate.comfort.guaranteed_wk_rms_seat_m_s2 = uncertainty.claim(
-        over.bound,
-        &format!(" over every delay of [0, {} s]", d.delay_max),
-    );
+    // wheelbase delay, the road FMU's band), as for the other robust designs, and only for the
+    // predictor the bound is about: one that predicts the model's state. In a frame the
+    // predictor predicts the state relative to it instead, and the closed form says nothing
+    // of that.
+    certificate.comfort.guaranteed_wk_rms_seat_m_s2 = if g.frame.is_some() {
+        uncertainty.bound_failure = Some(format!(
+            "the bound {:.5} is the car model's with the predictor matched to its state; this \
+             predictor predicts the state relative to its frame: no guarantee claimed",
+            over.bound
+        ));
+        None
+    } else {
+        uncertainty.claim(
+            over.bound,
+            &format!(" over every delay of [0, {} s]", d.delay_max),
+        )
+    };
     uncertainty.bound_model_grid_worst_wk_rms_seat = Some(over.grid_worst);
     uncertainty.bound_model_grid_points = over.intervals + 1;
     uncertainty.over_delays = Some(over);
@@ -504,6 +520,7 @@ pub fn predictor_design(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::comfort::controllers::realise_state_feedback;
     use crate::comfort::designs::nominal_gain;
     use crate::predict::continuous::Figures;
     use crate::shipping::design::ComfortDesign;

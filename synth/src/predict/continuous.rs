@@ -364,18 +364,22 @@ pub fn planar_rests(p: &VehicleParams) -> [(DVector<f64>, DVector<f64>); 3] {
     ]
 }
 
-/// What each of `names` (plant outputs a controller reads) reads of a rigid motion of the car
-/// with a planar road under it, at rest: the whole car and its road raised by 1 m, rolled or
-/// pitched by 1 rad (the static equilibrium on that road, with no force: every spring at its
-/// static length), and climbing at 1 m/s. Those reading any of them (beyond `1e-9` of the sum
-/// of their row's coefficients) are returned with their largest reading. A controller that
-/// reads none of them has no steady force on a constant grade or crossfall once its loop is
-/// stable: the car moving rigidly along the grade, its controller's state at zero and no force
-/// is then a steady state of the loop (every input reads zero), and a stable loop has one.
-pub fn rigid_readings(
+/// The rigid motions of a car with a planar road under it, at rest or climbing: the whole car
+/// and its road raised by 1 m, rolled or pitched by 1 rad (the static equilibrium on that road,
+/// with no force: every spring at its static length), and climbing at 1 m/s.
+pub const RIGID_MOTIONS: [&str; 4] = [
+    "raised 1 m",
+    "rolled 1 rad",
+    "pitched 1 rad",
+    "climbing 1 m/s",
+];
+
+/// What each of `names` (plant outputs a controller reads) reads of each of [`RIGID_MOTIONS`]
+/// (`ny × 4`), and the sum of each row's coefficients' magnitudes.
+fn rigid_motion_readings(
     p: &VehicleParams,
     names: &[String],
-) -> Result<Vec<(String, f64)>, PredictionError> {
+) -> Result<(DMatrix<f64>, Vec<f64>), PredictionError> {
     let rests = planar_rests(p);
     let mut motions: Vec<(DVector<f64>, DVector<f64>)> = Vec::new();
     for (q, z) in &rests {
@@ -390,23 +394,86 @@ pub fn rigid_readings(
     r.rows_mut(N_WHEELS, N_WHEELS).copy_from(up);
     motions.push((x, r));
     let outputs = plant_outputs(p);
-    let mut out = Vec::new();
-    for name in names {
+    let mut readings = DMatrix::zeros(names.len(), motions.len());
+    let mut scales = Vec::with_capacity(names.len());
+    for (i, name) in names.iter().enumerate() {
         let row = output_row(&outputs, name)?;
-        let scale: f64 = row.c.iter().chain(&row.d_r).map(|v| v.abs()).sum();
-        let reading = motions
-            .iter()
-            .map(|(x, r)| {
-                let c: f64 = row.c.iter().zip(x.iter()).map(|(a, b)| a * b).sum();
-                let d: f64 = row.d_r.iter().zip(r.iter()).map(|(a, b)| a * b).sum();
-                (c + d).abs()
-            })
-            .fold(0.0, f64::max);
-        if reading > 1e-9 * scale {
-            out.push((name.clone(), reading));
+        scales.push(row.c.iter().chain(&row.d_r).map(|v| v.abs()).sum());
+        for (j, (x, r)) in motions.iter().enumerate() {
+            let c: f64 = row.c.iter().zip(x.iter()).map(|(a, b)| a * b).sum();
+            let d: f64 = row.d_r.iter().zip(r.iter()).map(|(a, b)| a * b).sum();
+            readings[(i, j)] = c + d;
         }
     }
-    Ok(out)
+    Ok((readings, scales))
+}
+
+/// What each of `names` (plant outputs a controller reads) reads of a rigid motion of the car
+/// ([`RIGID_MOTIONS`]). Those reading any of them (beyond `1e-9` of the sum of their row's
+/// coefficients) are returned with their largest reading. A controller that reads none of
+/// them has no steady force on a constant grade or crossfall once its loop is stable: the car
+/// moving rigidly along the grade, its controller's state at zero and no force is then a
+/// steady state of the loop (every input reads zero), and a stable loop has one.
+pub fn rigid_readings(
+    p: &VehicleParams,
+    names: &[String],
+) -> Result<Vec<(String, f64)>, PredictionError> {
+    let (readings, scales) = rigid_motion_readings(p, names)?;
+    Ok(names
+        .iter()
+        .enumerate()
+        .filter_map(|(i, name)| {
+            let reading = readings.row(i).amax();
+            (reading > 1e-9 * scales[i]).then(|| (name.clone(), reading))
+        })
+        .collect())
+}
+
+/// What a controller holds in the steady states a road can put the car in: raised by 1 m,
+/// rolled by 1 rad (a crossfall), and on a 1 % grade at the design speed.
+pub const STEADY_STATES: [&str; 3] = ["raised 1 m", "rolled 1 rad", "on a 1 % grade"];
+
+/// The steady force \[N\] (largest over the actuators) of the controller `k` reading `names`
+/// in each of [`STEADY_STATES`], from its gain at `s = 0`: `K(s) = K₀ + K₁ s + …` with
+/// `K₀ = D − C A⁻¹ B`, `K₁ = −C A⁻² B`. In a pose `y₀` the force settles at `K₀ y₀`. On a
+/// grade `g` at `speed` the car is pitched by `g` and climbs at `g V`: its inputs read
+/// `y(t) = g (y_θ + V y_v) + g V y_h t` (`y_θ` the pitched car's reading, `y_v` the climbing
+/// one's, `y_h` the raised one's) and the force settles at `g K₀ (y_θ + V y_v) + g V K₁ y_h`
+/// (plus `g V K₀ y_h t`, the raised car's force growing). The pitch and the climb go together:
+/// a controller that previews the rear road from the front one (the state feedbacks) is right
+/// only about a road both axles drive over. A controller that reads rigid motion holds no
+/// steady force on a grade or crossfall exactly when these vanish: its loop, stable, then
+/// settles with the car in the road's pose and every force zero. `None` where `A` is singular
+/// (an integrator: no steady force to speak of).
+pub fn steady_forces(
+    p: &VehicleParams,
+    names: &[String],
+    k: &Lti,
+    speed: f64,
+) -> Result<Option<[f64; 3]>, PredictionError> {
+    let (readings, _) = rigid_motion_readings(p, names)?;
+    let n = k.a.nrows();
+    let (k0, k1) = if n == 0 {
+        (k.d.clone(), DMatrix::zeros(k.d.nrows(), k.d.ncols()))
+    } else {
+        let lu = k.a.clone().lu();
+        let Some(ainv_b) = lu.solve(&k.b) else {
+            return Ok(None);
+        };
+        let Some(ainv2_b) = lu.solve(&ainv_b) else {
+            return Ok(None);
+        };
+        (&k.d - &k.c * &ainv_b, -&k.c * ainv2_b)
+    };
+    let forces = &k0 * &readings;
+    let g = 0.01;
+    let grade =
+        (forces.column(2) + forces.column(3) * speed + &k1 * readings.column(0) * speed) * g;
+    Ok(Some([
+        forces.column(0).amax(),
+        forces.column(1).amax(),
+        grade.amax(),
+    ]))
 }
 
 /// The rows `y = C x + D_r r + D_u f` of the plant outputs a controller reads (`f` the applied

@@ -270,6 +270,11 @@ pub struct ComfortDesign {
     /// high-passed twice there \[Hz\] ([`crate::comfort::skyhook`]).
     #[serde(default = "default_skyhook_highpass_hz")]
     pub skyhook_highpass_hz: f64,
+    /// The state feedbacks (`hinf_sf`, `robust_sf`, `delay_sf`): the corner of the frame they
+    /// measure heights and velocities from \[Hz\] ([`crate::comfort::plant::Frame`]); absent: from
+    /// the equilibrium at `t = 0`, as designed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_feedback_frame_hz: Option<f64>,
     /// `hinf_of`: the design on the sensors a car has ([`CarDesign`]; absent: no `hinf_of`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub car: Option<CarDesign>,
@@ -408,6 +413,10 @@ impl ComfortDesign {
             ("delay_max", self.delay_max),
             ("communication_step", self.communication_step),
             ("skyhook_highpass_hz", self.skyhook_highpass_hz),
+            (
+                "state_feedback_frame_hz",
+                self.state_feedback_frame_hz.unwrap_or(1.0),
+            ),
             ("fault_time_constant", self.fault_time_constant),
             ("fault_threshold", self.fault_threshold),
             (
