@@ -185,9 +185,9 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
         assert!(grid <= bound, "{name}: grid {grid} above bound {bound}");
         assert_eq!(u["bound_model_grid_points"].as_u64(), Some(61), "{name}");
     }
-    // delay_sf predicts the car model's state relative to its frame, so the closed form over
-    // the delays (the car model with the predictor matched to its state) is computed and
-    // reported but not claimed for it. (Without the frame it was, and covered every prediction
+    // delay_sf's predictor lets the car model's road climb at its frame's rate, so the closed
+    // form over the delays (the car model with the predictor matched to its road) is computed
+    // and reported but not claimed for it. (Without the frame it was, and covered every prediction
     // on the exact car; predicting the design model, the car's worst was 8.7 % above it.)
     let u = &cert("delay_sf")["comfort"]["uncertainty"];
     assert_eq!(
@@ -198,7 +198,7 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
     assert!(
         u["bound_failure"]
             .as_str()
-            .is_some_and(|f| f.contains("relative to its frame")),
+            .is_some_and(|f| f.contains("climb at its frame's rate")),
         "{}",
         u["bound_failure"]
     );

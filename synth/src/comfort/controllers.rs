@@ -218,14 +218,6 @@ impl Reconstruction {
             d,
         )
     }
-
-    /// The state `T x` instead of `x` (the relative state of
-    /// [`ComfortPlant::with_frame`]), from the same inputs and own states.
-    pub fn of(mut self, t: &DMatrix<f64>) -> Reconstruction {
-        self.s_y = t * &self.s_y;
-        self.s_xi = t * &self.s_xi;
-        self
-    }
 }
 
 /// The sensors `named` (plant outputs, each with its one-sided noise density) of `g`: `y = C x

@@ -167,6 +167,10 @@ pub struct ComfortPlant {
     pub effectiveness: [f64; N_ACTUATORS],
     /// The frame a state feedback measures the car from ([`Frame`]; `None`: the equilibrium).
     pub frame: Option<Frame>,
+    /// `∂ẋ/∂v_r` (`n × 4`): each state's rate per m/s of road velocity under each wheel (the
+    /// tyre dampers, and through them the accelerations the weightings filter). `A` holds it
+    /// times the road model's velocity, [`ComfortPlant::prediction_model`] times another.
+    pub road_velocity: DMatrix<f64>,
 }
 
 /// A frame that follows the road's pose `p = (z, φ, θ)` (the plane through the road heights
@@ -388,6 +392,10 @@ impl ComfortPlant {
         let out = |name: &str| physical_rows(row(&outputs, name), &r_x, &r_w, n);
         let mut c_z = DMatrix::zeros(COMFORT_OUTPUTS.len(), n);
         let mut filters = Vec::new();
+        let mut road_velocity = DMatrix::zeros(n, N_WHEELS);
+        road_velocity
+            .view_mut((0, 0), (N_STATES, N_WHEELS))
+            .copy_from(&ss.b_r.columns(N_WHEELS, N_WHEELS));
         let mut o = N_STATES + nr;
         for (i, ((name, factor), [fa, fb, fc, fd])) in
             COMFORT_OUTPUTS.iter().zip(&weightings).enumerate()
@@ -395,6 +403,10 @@ impl ComfortPlant {
             assert_eq!(fd[(0, 0)], 0.0, "the weightings are strictly proper");
             let m = fa.nrows();
             let (cx, dw, du) = out(name);
+            let d_v = DMatrix::from_row_slice(1, N_WHEELS, &row(&outputs, name).d_r[N_WHEELS..]);
+            road_velocity
+                .view_mut((o, 0), (m, N_WHEELS))
+                .copy_from(&(fb * d_v));
             a.view_mut((o, o), (m, m)).copy_from(fa);
             let drive = fb * &cx;
             let mut block = a.view_mut((o, 0), (m, n));
@@ -456,6 +468,7 @@ impl ComfortPlant {
             sprung_mass: m_s,
             effectiveness: [1.0; N_ACTUATORS],
             frame: d.state_feedback_frame_hz.map(|hz| Frame::new(&car, hz)),
+            road_velocity,
         }
     }
 
@@ -571,6 +584,7 @@ impl ComfortPlant {
             b_u: grow(&self.b_u, n + m, self.b_u.ncols()),
             c_z: grow(&self.c_z, self.c_z.nrows(), n + m),
             c_lim: grow(&self.c_lim, self.c_lim.nrows(), n + m),
+            road_velocity: grow(&self.road_velocity, n + m, N_WHEELS),
             ..self.clone()
         }
     }
@@ -685,6 +699,41 @@ impl ComfortPlant {
         t.view_mut((0, n), (n, m))
             .copy_from(&(-&e_f * f_eta - &e_d * fd_eta));
         (g, t)
+    }
+}
+
+impl ComfortPlant {
+    /// The model a predictor of this plant runs: its `A`, except that with a frame
+    /// ([`ComfortPlant::with_frame`]) the road heights that are states rise at the frame's rate
+    /// (`ż_f = R ḟ` under each front wheel) instead of reverting to zero at `a` (1.4 rad/s at
+    /// 20 m/s), and the car's tyre dampers (and the accelerations) feel that road velocity.
+    /// The design road forgets a height: predicted from 30 m up a long grade it sank under the
+    /// car (and the tyre dampers felt it sink), and the predictor held its force limits. Here a
+    /// car and road in a rigid pose climbing at a constant rate, with the frame settled on it,
+    /// is a solution: predicted exactly, so on a grade the gain in the frame reads zero. The
+    /// road is the predictor's guess either way; nothing the controller does reaches it.
+    pub fn prediction_model(&self) -> DMatrix<f64> {
+        let mut a = self.a.clone();
+        let (Some(frame), Some(states)) = (&self.frame, &self.layout.frame) else {
+            return a;
+        };
+        let (n, road) = (self.n(), self.layout.road.clone());
+        let (_, rate) = frame.outputs();
+        for (state, wheel) in self.road_height_rows() {
+            a.row_mut(state).fill(0.0);
+            a.view_mut((state, states.start), (1, states.len()))
+                .copy_from(&(frame.rigid.row(coord::WHEEL[wheel]) * &rate));
+        }
+        // The road velocity under the wheels: the heights' rate under the new road rows,
+        // against the road model's.
+        let heights = self.r_x.rows(0, N_WHEELS);
+        let velocity = heights * a.rows(road.start, road.len());
+        let mut before = DMatrix::zeros(N_WHEELS, n);
+        before
+            .view_mut((0, road.start), (N_WHEELS, road.len()))
+            .copy_from(&self.r_x.rows(N_WHEELS, N_WHEELS));
+        a += &self.road_velocity * (velocity - before);
+        a
     }
 }
 

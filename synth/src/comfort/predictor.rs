@@ -17,9 +17,9 @@
 //! The model it predicts is the car model ([`predictor_model`]: the rear wheels on the front
 //! track through a Padé approximant of order 8, the gain's order-2 preview beside it), so on that
 //! model the predictor is matched and the closed form holds. In a frame
-//! ([`crate::comfort::plant::Frame`], the shipped design) it predicts the state relative to the
-//! frame instead, which is zero on a constant grade; the closed form is then reported, not
-//! claimed.
+//! ([`crate::comfort::plant::Frame`], the shipped design) it lets the road climb at the frame's
+//! rate instead ([`ComfortPlant::prediction_model`]), exact on a constant grade; the closed form
+//! is then reported, not claimed.
 //!
 //! Certified: stability for every `θ` (the roots above), and the car model's seat comfort
 //! `J(θ)` bounded at every delay of the interval ([`over_delays`]), which is the guarantee
@@ -212,7 +212,7 @@ fn predictor_law(
         inputs: state_feedback_sensors(g).names,
         accommodation: None,
         predictor: Some(PredictorLaw {
-            a: g.a.clone(),
+            a: g.prediction_model(),
             b: g.b_u.clone(),
             k: k.clone(),
             reconstruction,
@@ -291,6 +291,7 @@ pub fn predictor_model(
         a,
         b_w: rows(&car.b_w),
         b_u: rows(&car.b_u),
+        road_velocity: rows(&car.road_velocity),
         c_z: cols(&car.c_z),
         c_lim: cols(&car.c_lim),
         // `R_x` reads the road states only; the preview states, last among them, drive nothing.
@@ -324,11 +325,13 @@ pub fn predictor_design(
     };
     let (g, k) = predictor_model(ctx, &nominal.0, &nominal.1.k).map_err(&fail)?;
     let (g, k) = (&g, &k);
-    // In a frame, the predictor predicts the relative state with the model: on a constant
-    // grade it is zero, and so is its prediction.
+    // In a frame, the gain `K T` on the model with the frame's states, whose predictor runs
+    // the model with a road that climbs at the frame's rate: on a constant grade the
+    // prediction is exact and the gain reads zero.
     let (framed, t) = g.with_frame();
-    let r = reconstruction(&framed).of(&t);
-    let law_at = |theta: f64| predictor_law(g, k, r.clone(), theta);
+    let k_framed = k * t;
+    let r = reconstruction(&framed);
+    let law_at = |theta: f64| predictor_law(&framed, &k_framed, r.clone(), theta);
     let law = law_at(0.0);
     let notes = vec![format!(
         "hinf_sf's guaranteed-cost gain behind a predictor over the actuators' known delay \
@@ -455,13 +458,13 @@ pub fn predictor_design(
     );
     // Claimed for the car only where the car model's bound covers every prediction on it (exact
     // wheelbase delay, the road FMU's band), as for the other robust designs, and only for the
-    // predictor the bound is about: one that predicts the model's state. In a frame the
-    // predictor predicts the state relative to it instead, and the closed form says nothing
-    // of that.
+    // predictor the bound is about: one that predicts the model's road. In a frame the
+    // predictor lets the road climb at the frame's rate instead, and the closed form says
+    // nothing of that.
     certificate.comfort.guaranteed_wk_rms_seat_m_s2 = if g.frame.is_some() {
         uncertainty.bound_failure = Some(format!(
-            "the bound {:.5} is the car model's with the predictor matched to its state; this \
-             predictor predicts the state relative to its frame: no guarantee claimed",
+            "the bound {:.5} is the car model's with the predictor matched to it; this \
+             predictor lets the road climb at its frame's rate: no guarantee claimed",
             over.bound
         ));
         None
@@ -493,11 +496,17 @@ pub fn predictor_design(
         facts.fractional_worst_radius,
     ));
     let m = crate::shipping::controller_file::matrix_rows;
+    // The controller file carries the predictor the certificate checked.
+    let p = law
+        .predictor
+        .as_ref()
+        .expect("predictor_law sets the predictor");
+    let r = &p.reconstruction;
     let extensions = crate::shipping::controller_file::Extensions {
         predictor: Some(crate::shipping::controller_file::Predictor {
-            a: m(&g.a),
-            b: m(&g.b_u),
-            k: m(k),
+            a: m(&p.a),
+            b: m(&p.b),
+            k: m(&p.k),
             s_y: m(&r.s_y),
             s_xi: m(&r.s_xi),
             a_xi: m(&r.a_xi),

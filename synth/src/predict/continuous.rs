@@ -364,6 +364,23 @@ pub fn planar_rests(p: &VehicleParams) -> [(DVector<f64>, DVector<f64>); 3] {
     ]
 }
 
+/// The states `ẋ = A x + B u` lets `u` reach (through `B`, then `A`'s nonzero entries), in
+/// order. `A` is block-triangular on them and the rest: its roots are theirs and the rest's.
+fn reached_states(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Vec<usize> {
+    let n = a.nrows();
+    let mut reached: Vec<bool> = (0..n).map(|i| b.row(i).iter().any(|v| *v != 0.0)).collect();
+    let mut frontier: Vec<usize> = (0..n).filter(|i| reached[*i]).collect();
+    while let Some(j) = frontier.pop() {
+        for i in 0..n {
+            if !reached[i] && a[(i, j)] != 0.0 {
+                reached[i] = true;
+                frontier.push(i);
+            }
+        }
+    }
+    (0..n).filter(|i| reached[*i]).collect()
+}
+
 /// The rigid motions of a car with a planar road under it, at rest or climbing: the whole car
 /// and its road raised by 1 m, rolled or pitched by 1 rad (the static equilibrium on that road,
 /// with no force: every spring at its static length), and climbing at 1 m/s.
@@ -1066,8 +1083,13 @@ impl Loop {
     /// exogenous, so the car's loop is the design model's). Otherwise the mismatch must lie
     /// within the matched loop's margins ([`Loop::delay_margins`]).
     fn check_predictor_stable(&self, p: &PredictorLaw) -> Result<(), PredictionError> {
-        let closed = crate::numerics::eig::spectral_abscissa(&(&p.a + &p.b * &p.k));
-        let open = crate::numerics::eig::spectral_abscissa(&p.a);
+        // On the states the commands reach: the rest (the road the predictor guesses, which
+        // may climb for ever, [`crate::comfort::plant::ComfortPlant::prediction_model`]) is
+        // exogenous, and predicting it over `θ` is a finite sum, no mode of the loop.
+        let reached = reached_states(&p.a, &p.b);
+        let on = |m: &DMatrix<f64>| m.select_rows(&reached).select_columns(&reached);
+        let closed = crate::numerics::eig::spectral_abscissa(&on(&(&p.a + &p.b * &p.k)));
+        let open = crate::numerics::eig::spectral_abscissa(&on(&p.a));
         if !(closed < 0.0 && open < 0.0) {
             return Err(PredictionError::Unstable(format!(
                 "the predictor's A + B K (spectral abscissa {closed:e}) or A ({open:e}) is not Hurwitz"
