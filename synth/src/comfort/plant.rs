@@ -106,7 +106,7 @@ pub struct Layout {
     pub filters: Vec<Range<usize>>,
     /// The delay weight's states, one per actuator ([`ComfortPlant::with_delay_weight`]).
     pub weight: Option<Range<usize>>,
-    /// The frame's six states ([`ComfortPlant::with_frame`]).
+    /// The frame's nine states ([`ComfortPlant::with_frame`]).
     pub frame: Option<Range<usize>>,
 }
 
@@ -175,7 +175,9 @@ pub struct ComfortPlant {
 
 /// A frame that follows the road's pose `p = (z, φ, θ)` (the plane through the road heights
 /// under the four wheels) below `ω`: `f = F(s) p` with the type-2 low-pass
-/// `F(s) = (2ζω s + ω²) / (s² + 2ζω s + ω²)`, which follows a ramp with no error. A state
+/// `F(s) = (a₁ s + a₀) / ((s² + 2ζω s + ω²)(s + ω))` ([`Frame::denominator`]), whose error
+/// `1 − F` has `s²`, so it follows a ramp with no error, and whose rate `s F` rolls off (a
+/// second-order frame's rate passed the road's pose through at every frequency). A state
 /// feedback in the frame reads every height (the road's too) and velocity relative to the frame
 /// moved rigidly ([`ComfortPlant::with_frame`]). On a constant grade or crossfall the car and
 /// the road settle into a rigid pose moving at a constant rate, which the frame follows
@@ -628,14 +630,14 @@ impl ComfortPlant {
     /// plant's state is `K T` on the other's).
     ///
     /// The road's pose `p = P x` is the least-squares plane through the road heights under the
-    /// wheels; per axis `η̇₁ = η₂`, `η̇₂ = −ω² η₁ − 2ζω η₂ + p`, `f = ω² η₁ + 2ζω η₂`, so
-    /// `ḟ = ω² η₂ + 2ζω η̇₂`. `E` is the state of the car and road in the rigid pose `f` moving
+    /// wheels; per axis `η̇₁ = η₂`, `η̇₂ = η₃`, `η̇₃ = −a₀ η₁ − a₁ η₂ − a₂ η₃ + p`,
+    /// `f = a₀ η₁ + a₁ η₂`, `ḟ = a₀ η₂ + a₁ η₃` ([`Frame::outputs`]). `E` is the state of the car and road in the rigid pose `f` moving
     /// at `ḟ`: the car's heights `R f` and velocities `R ḟ`, the road heights under the wheels
     /// `R f`, and the other road states (the rear road's preview) their steady state under
     /// those heights rising at a constant rate, `M h + A_pp⁻¹ M ḣ` with `M = −A_pp⁻¹ A_ph`
     /// (exact for a Padé track, which passes a ramp with its delay). The frame's states are
-    /// the design model's (driven by its road states), so a predictor of this model is still
-    /// matched, and a controller realising `K T` reconstructs them from the road it reads.
+    /// the design model's (driven by its road states): a controller realising `K T`
+    /// reconstructs them from the road it reads, and they move no pole of its loop.
     pub fn with_frame(&self) -> (ComfortPlant, DMatrix<f64>) {
         let Some(frame) = &self.frame else {
             return (self.clone(), DMatrix::identity(self.n(), self.n()));
