@@ -14,8 +14,9 @@ use fmu_core::{
     ModelError, ValueReference, Variable,
 };
 use sensors::{SensorParams, Sensors, N_SENSORS, SENSORS};
-use simulator::{ActuatorParams, Simulator, N_METER};
+use simulator::{ActuatorParams, ContactState, Simulator, N_METER};
 use std::path::Path;
+use vehicle::contact::ContactParams;
 use vehicle::iso2631::METER_OUTPUTS;
 use vehicle::model::{
     physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, FORCE_PORTS, N_ACTUATORS,
@@ -50,12 +51,24 @@ pub mod vr {
     pub const SENSOR_SEED: u32 = 71;
     /// `sensor_*`: what the sensors read, in the order of `sensors::SENSORS`.
     pub const SENSOR_OUTPUT: u32 = 500;
+    /// The contact and stop parameters, in the order of `CONTACT_PARAMETERS`.
+    pub const CONTACT: u32 = 80;
+    /// The Boolean `contact_model`.
+    pub const CONTACT_SWITCH: u32 = 90;
+    /// Tyre forces, stop forces, time airborne and at a stop (`CONTACT_OUTPUTS`).
+    pub const CONTACT_OUTPUT: u32 = 600;
+    /// The Booleans `on_road_*`.
+    pub const ON_ROAD: u32 = 630;
 }
 
 /// Every block of value references with the number of variables it holds. A block that
 /// outgrows the room before the next (a 21st vehicle parameter, say) fails the build
 /// ([`blocks_are_disjoint`], evaluated at compile time) instead of colliding at run time.
-const VR_BLOCKS: [(&str, u32, usize); 12] = [
+const VR_BLOCKS: [(&str, u32, usize); 16] = [
+    ("contact parameters", vr::CONTACT, CONTACT_PARAMETERS.len()),
+    ("contact_model", vr::CONTACT_SWITCH, 1),
+    ("contact outputs", vr::CONTACT_OUTPUT, N_CONTACT_OUTPUTS),
+    ("on_road", vr::ON_ROAD, 4),
     ("vehicle parameters", vr::VEHICLE, PARAMETERS.len()),
     (
         "actuator parameters",
@@ -146,6 +159,125 @@ const SENSOR_PARAMETERS: [SensorSpec; 5] = [
     },
 ];
 
+/// The stops' Real parameters (`vehicle::contact::ContactParams`).
+const CONTACT_PARAMETERS: [ContactSpec; 7] = [
+    ContactSpec {
+        name: "bump_travel",
+        unit: "m",
+        min: 0.0,
+        max: Some(1.0),
+        description: "Free travel of each corner in bump (compression) from its static position before the bump stop engages",
+        get: |p| p.bump_travel,
+        set: |p, v| p.bump_travel = v,
+    },
+    ContactSpec {
+        name: "rebound_travel",
+        unit: "m",
+        min: 0.0,
+        max: Some(1.0),
+        description: "Free travel of each corner in rebound (extension) from its static position before the rebound stop engages",
+        get: |p| p.rebound_travel,
+        set: |p, v| p.rebound_travel = v,
+    },
+    ContactSpec {
+        name: "stop_stiffness",
+        unit: "N/m",
+        min: 0.0,
+        max: Some(1e9),
+        description: "Stiffness of each corner's bump and rebound stop",
+        get: |p| p.stop_stiffness,
+        set: |p, v| p.stop_stiffness = v,
+    },
+    ContactSpec {
+        name: "stop_damping",
+        unit: "N.s/m",
+        min: 0.0,
+        max: Some(1e7),
+        description: "Damping of each corner's bump and rebound stop",
+        get: |p| p.stop_damping,
+        set: |p, v| p.stop_damping = v,
+    },
+    ContactSpec {
+        name: "seat_travel",
+        unit: "m",
+        min: 0.0,
+        max: Some(1.0),
+        description: "Free travel of the seat each way from its static position before an end stop engages",
+        get: |p| p.seat_travel,
+        set: |p, v| p.seat_travel = v,
+    },
+    ContactSpec {
+        name: "seat_stop_stiffness",
+        unit: "N/m",
+        min: 0.0,
+        max: Some(1e9),
+        description: "Stiffness of each seat end stop",
+        get: |p| p.seat_stop_stiffness,
+        set: |p, v| p.seat_stop_stiffness = v,
+    },
+    ContactSpec {
+        name: "seat_stop_damping",
+        unit: "N.s/m",
+        min: 0.0,
+        max: Some(1e7),
+        description: "Damping of each seat end stop",
+        get: |p| p.seat_stop_damping,
+        set: |p, v| p.seat_stop_damping = v,
+    },
+];
+
+fn contact_param(vr: ValueReference) -> Option<&'static ContactSpec> {
+    vr.checked_sub(vr::CONTACT)
+        .and_then(|i| CONTACT_PARAMETERS.get(i as usize))
+}
+
+/// Number of Real contact outputs: tyre forces (4), stop forces (5), time airborne (4), time
+/// at a stop (5).
+const N_CONTACT_OUTPUTS: usize = 18;
+
+/// Name, unit and description of each Real contact output, in value-reference order.
+fn contact_outputs() -> Vec<(String, &'static str, String)> {
+    let mut v = Vec::new();
+    let places: Vec<(String, String)> = CORNERS
+        .iter()
+        .map(|c| (c.to_string(), c.to_uppercase()))
+        .chain([("seat".to_string(), "seat".to_string())])
+        .collect();
+    for (c, upper) in &places[..4] {
+        v.push((format!("tire_force_{c}"), "N", format!("Whole load of the {upper} tyre on the road, static part included (0 while the wheel is in the air; the linear car's may go negative)")));
+    }
+    for (c, upper) in &places {
+        v.push((format!("stop_force_{c}"), "N", format!("Force of the {upper} stops: positive while the bump stop pushes back, negative while the rebound stop holds, 0 between them")));
+    }
+    for (c, upper) in &places[..4] {
+        v.push((
+            format!("airborne_time_{c}"),
+            "s",
+            format!("Time the {upper} wheel has spent off the road since the start"),
+        ));
+    }
+    for (c, upper) in &places {
+        v.push((
+            format!("stop_time_{c}"),
+            "s",
+            format!(
+                "Time the {upper} suspension has spent on a stop (bump or rebound) since the start"
+            ),
+        ));
+    }
+    assert_eq!(v.len(), N_CONTACT_OUTPUTS);
+    v
+}
+
+fn contact_values(c: &ContactState) -> [f64; N_CONTACT_OUTPUTS] {
+    let mut v = [0.0; N_CONTACT_OUTPUTS];
+    v[..4].copy_from_slice(&c.tyre_force);
+    v[4..9].copy_from_slice(&c.stop_force);
+    v[9..13].copy_from_slice(&c.dwell.airborne);
+    v[13..].copy_from_slice(&c.dwell.at_stop);
+    v
+}
+
 fn sensor_param(vr: ValueReference) -> Option<&'static SensorSpec> {
     vr.checked_sub(vr::SENSOR)
         .and_then(|i| SENSOR_PARAMETERS.get(i as usize))
@@ -196,6 +328,7 @@ impl<P> ParamSpec<P> {
 
 type ActuatorSpec = ParamSpec<ActuatorParams>;
 type SensorSpec = ParamSpec<SensorParams>;
+type ContactSpec = ParamSpec<ContactParams>;
 
 macro_rules! act {
     ($name:literal, $unit:literal, $min:expr, $max:expr, $desc:literal, |$p:ident| $field:expr) => {
@@ -397,6 +530,70 @@ fn static_variables() -> Vec<Variable> {
     v
 }
 
+/// The physical car's parameters and outputs: the stops, the switch back to the linear car,
+/// each tyre's load and whether it is on the road, the stop forces, the time airborne and at
+/// a stop.
+fn contact_variables() -> Vec<Variable> {
+    let defaults = ContactParams::default();
+    let mut vars: Vec<Variable> = CONTACT_PARAMETERS
+        .iter()
+        .enumerate()
+        .map(|(i, s)| s.variable(vr::CONTACT + i as u32, &defaults))
+        .collect();
+    vars.push(
+        Variable::boolean(
+            "contact_model",
+            vr::CONTACT_SWITCH,
+            Causality::Parameter,
+            "The physical car: tyres leave the road, the suspensions and the seat hit their stops (off: the linear car of the thesis, whose tyres pull on the road and whose travel has no end)",
+        )
+        .with_boolean_start(defaults.physical),
+    );
+    // At the start every stroke is at its static value, so no stop is engaged whatever the
+    // parameters (the stop forces depend on none); a tyre's load is its static load (the
+    // static equilibrium's parameters, as `static_tire_load_*`), moved by its road's height
+    // and, through the tyre's damping, velocity, and zero above the road unless the car is the
+    // linear one.
+    let tyre: Vec<String> = PARAMETERS
+        .iter()
+        .filter(|s| !matches!(s.unit, "N.s/m" | "kg.m2") || s.name == "c_t")
+        .map(|s| s.name.to_string())
+        .chain(["contact_model".to_string()])
+        .collect();
+    let road = |c: &str| vec![format!("road_z_{c}"), format!("road_v_{c}")];
+    for (k, (name, unit, description)) in contact_outputs().into_iter().enumerate() {
+        let mut v = Variable::real(
+            name,
+            vr::CONTACT_OUTPUT + k as u32,
+            Causality::Output,
+            unit,
+            description,
+        );
+        if k < 4 {
+            v = v
+                .depending_on(road(CORNERS[k]), DependencyKind::Dependent)
+                .initially_depending_on(tyre.clone());
+        }
+        vars.push(v);
+    }
+    for (i, c) in CORNERS.iter().enumerate() {
+        vars.push(
+            Variable::boolean(
+                format!("on_road_{c}"),
+                vr::ON_ROAD + i as u32,
+                Causality::Output,
+                format!(
+                    "Whether the {} tyre touches the road (always, in the linear car)",
+                    c.to_uppercase()
+                ),
+            )
+            .depending_on(road(c), DependencyKind::Dependent)
+            .initially_depending_on(tyre.clone()),
+        );
+    }
+    vars
+}
+
 /// The plant as an FMI model.
 pub struct Plant {
     sim: Simulator,
@@ -410,6 +607,8 @@ pub struct Plant {
     sensor_rows: [usize; N_SENSORS],
     /// What the sensors read, with the outputs.
     readings: [f64; N_SENSORS],
+    /// The tyres and stops now, with the outputs.
+    contact: ContactState,
     outputs_valid: bool,
 }
 
@@ -432,6 +631,7 @@ impl Plant {
         self.meter = self.sim.meter();
         let truth = self.sensor_rows.map(|k| self.outputs[k]);
         self.readings = self.sensors.read(&truth);
+        self.contact = self.sim.contact_state();
         self.outputs_valid = true;
     }
 }
@@ -513,6 +713,8 @@ impl Plant {
         // parameters of those matrices and of the actuators it feeds through from.
         let inputs = input_names();
         let matrix_parameters = feedthrough_parameters(&defaults);
+        // A tyre's load reads the road only while the tyre is on it (the physical car).
+        let switched = Simulator::new(defaults, act_defaults).outputs_switched_by_tyres();
         for (k, row) in physical_outputs(&defaults).iter().enumerate() {
             let road: Vec<String> = (0..N_ROAD)
                 .filter(|&j| row.d_r[j] != 0.0)
@@ -535,7 +737,14 @@ impl Plant {
                     row.unit,
                     row.description.clone(),
                 )
-                .depending_on(road, DependencyKind::Fixed)
+                .depending_on(
+                    road,
+                    if switched[k] {
+                        DependencyKind::Dependent
+                    } else {
+                        DependencyKind::Fixed
+                    },
+                )
                 .depending_on(commands, DependencyKind::Dependent)
                 .initially_depending_on(initial),
             );
@@ -600,6 +809,7 @@ impl Plant {
             );
             vars.push(v);
         }
+        vars.extend(contact_variables());
         ModelDescription {
             model_name: "plant".into(),
             model_identifier: "plant".into(),
@@ -628,6 +838,7 @@ impl Model for Plant {
             sensors: Sensors::new(SensorParams::default()),
             sensor_rows: sensor_rows(),
             readings: [0.0; N_SENSORS],
+            contact: ContactState::default(),
             outputs_valid: false,
         })
     }
@@ -655,6 +866,10 @@ impl Model for Plant {
             self.invalidate_outputs();
         } else if let Some(spec) = sensor_param(vr) {
             (spec.set)(&mut self.sensors.params, value);
+            self.invalidate_outputs();
+        } else if let Some(spec) = contact_param(vr) {
+            (spec.set)(&mut self.sim.contact, value);
+            self.sim.invalidate();
             self.invalidate_outputs();
         } else if let Some(k) = input_index(vr) {
             let slot = if k < N_ROAD {
@@ -685,6 +900,12 @@ impl Model for Plant {
         } else if (vr::SENSOR_OUTPUT..vr::SENSOR_OUTPUT + N_SENSORS as u32).contains(&vr) {
             self.update_outputs();
             self.readings[(vr - vr::SENSOR_OUTPUT) as usize]
+        } else if (vr::CONTACT_OUTPUT..vr::CONTACT_OUTPUT + N_CONTACT_OUTPUTS as u32).contains(&vr)
+        {
+            self.update_outputs();
+            contact_values(&self.contact)[(vr - vr::CONTACT_OUTPUT) as usize]
+        } else if let Some(spec) = contact_param(vr) {
+            (spec.get)(&self.sim.contact)
         } else if let Some(spec) = sensor_param(vr) {
             (spec.get)(&self.sensors.params)
         } else if let Some(spec) = vehicle_param(vr) {
@@ -714,14 +935,26 @@ impl Model for Plant {
         self.sensors.params.seed as i64 as i32
     }
 
-    fn set_boolean(&mut self, _vr: ValueReference, value: bool) {
-        // The only Boolean: sensor_model.
-        self.sensors.params.on = value;
+    fn set_boolean(&mut self, vr: ValueReference, value: bool) {
+        // The settable Booleans: sensor_model, contact_model.
+        if vr == vr::CONTACT_SWITCH {
+            self.sim.contact.physical = value;
+            self.sim.invalidate();
+        } else {
+            self.sensors.params.on = value;
+        }
         self.invalidate_outputs();
     }
 
-    fn get_boolean(&mut self, _vr: ValueReference) -> bool {
-        self.sensors.params.on
+    fn get_boolean(&mut self, vr: ValueReference) -> bool {
+        match vr {
+            vr::CONTACT_SWITCH => self.sim.contact.physical,
+            vr::SENSOR_SWITCH => self.sensors.params.on,
+            _ => {
+                self.update_outputs();
+                self.contact.on_road[(vr - vr::ON_ROAD) as usize]
+            }
+        }
     }
 
     fn set_input_derivative(&mut self, vr: ValueReference, value: f64) {
@@ -753,7 +986,10 @@ impl Model for Plant {
         self.invalidate_outputs();
         self.sim.step(time, step).map_err(|e| match e {
             // Too long for the car's stiffness: shorter steps may be taken (fmi2Discard).
-            simulator::StepError::Exponential { .. } => ModelError::discard(e.to_string()),
+            // Shorter steps hold fewer events (fmi2Discard).
+            simulator::StepError::Exponential { .. } | simulator::StepError::Chattering(_) => {
+                ModelError::discard(e.to_string())
+            }
             simulator::StepError::NonFinite(_) => ModelError::error(e.to_string()),
         })?;
         self.sensors.advance(step);
@@ -772,6 +1008,12 @@ impl Model for Plant {
         out.f64s(&params);
         out.f64s(&act);
         out.f64s(&self.sim.save());
+        let contact: Vec<f64> = CONTACT_PARAMETERS
+            .iter()
+            .map(|s| (s.get)(&self.sim.contact))
+            .collect();
+        out.f64s(&contact);
+        out.bool(self.sim.contact.physical);
         let sensor_params: Vec<f64> = SENSOR_PARAMETERS
             .iter()
             .map(|s| (s.get)(&self.sensors.params))
@@ -786,6 +1028,15 @@ impl Model for Plant {
         let params = input.f64s_exact(PARAMETERS.len(), "vehicle parameters")?;
         let act = input.f64s_exact(ACTUATOR_PARAMETERS.len(), "actuator parameters")?;
         let data = input.f64s()?;
+        let mut contact = ContactParams::default();
+        let values = input.f64s_exact(CONTACT_PARAMETERS.len(), "contact parameters")?;
+        for (s, v) in CONTACT_PARAMETERS.iter().zip(values) {
+            if !(v.is_finite() && v >= s.min && s.max.is_none_or(|m| v <= m)) {
+                return Err(format!("FMU state: {} = {v} is out of range", s.name).into());
+            }
+            (s.set)(&mut contact, v);
+        }
+        contact.physical = input.bool()?;
         let mut sensor_params = SensorParams::default();
         let values = input.f64s_exact(SENSOR_PARAMETERS.len(), "sensor parameters")?;
         for (s, v) in SENSOR_PARAMETERS.iter().zip(values) {
@@ -804,8 +1055,9 @@ impl Model for Plant {
             (s.set)(&mut a, *v);
         }
         let mut sim = Simulator::new(p, a);
+        sim.contact = contact;
         sim.restore(&data)?;
-        let same = p == self.sim.params && a == self.sim.actuator;
+        let same = p == self.sim.params && a == self.sim.actuator && contact == self.sim.contact;
         if same {
             // Same parameters: keep the cached discretisations (they would be recomputed
             // bit-identically anyway, this only saves the matrix exponentials).

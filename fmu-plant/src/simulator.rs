@@ -14,15 +14,25 @@
 //! limit. The step is cut at those breakpoints and each piece is integrated with the exact
 //! triangle-hold discretisation of [`linsys`]; nothing is approximated.
 //!
+//! The car is the physical one by default ([`ContactParams`]): a tyre leaves the road, a
+//! suspension or the seat hits its stop. Between those events it is linear (and affine: a
+//! tyre in the air no longer carries its static load), so each piece is still stepped exactly,
+//! in the matrices of its [`Mode`]; an event inside a piece is located on that exact
+//! trajectory by bisection to [`EVENT_TOLERANCE`] and the piece continues in the new mode
+//! from there. The guards are read at the end of each piece: a contact that opens and closes
+//! again within one piece (shorter than a communication step) is not seen.
+//!
 //! The seat's vibration meter ([`vehicle::iso2631::ComfortMeter`]) is part of the linear
 //! system: the ISO 2631-1 weighted accelerations are states, stepped exactly with the car.
 
 use linsys::{discretize, mat_vec_sum, Discretization, ExpError};
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
+use vehicle::contact::{self, Contact, ContactParams, Contacts, Mode, Unilateral, N_UNILATERAL};
 use vehicle::iso2631::{ComfortMeter, Forces, METER_OUTPUTS};
 use vehicle::model::{
-    physical_outputs, StateSpace, StaticEquilibrium, N_ACTUATORS, N_ROAD, N_STATES,
+    physical_outputs_with_accelerations, StateSpace, StaticEquilibrium, N_ACTUATORS, N_DOF, N_ROAD,
+    N_STATES, N_WHEELS,
 };
 use vehicle::VehicleParams;
 
@@ -30,6 +40,10 @@ use vehicle::VehicleParams;
 const N_INPUTS: usize = N_ROAD + N_ACTUATORS;
 /// How many step sizes keep their discretisation.
 const CACHE_SIZE: usize = 16;
+/// How precisely an event (a contact opening or closing) is located in time \[s\].
+pub const EVENT_TOLERANCE: f64 = 1e-13;
+/// More events than this within one communication step is an error (a contact that chatters).
+pub const MAX_EVENTS_PER_STEP: usize = 10_000;
 
 /// Actuator model parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -180,10 +194,164 @@ struct System {
     /// Static deflections and loads under gravity.
     statics: StaticEquilibrium,
     cache: VecDeque<StepMatrices>,
+    /// The unilateral elements (tyres, stops), and how each physical output moves per newton
+    /// of each one's force (`n_outputs × N_UNILATERAL`).
+    contacts: Contacts,
+    output_per_contact: DMatrix<f64>,
+    /// How each meter signal moves per newton of each contact's force (`3 × N_UNILATERAL`).
+    meter_per_contact: DMatrix<f64>,
+    meter_gain: DMatrix<f64>,
+    /// The modes met so far other than the linear car's, each with its matrices.
+    modes: Vec<ModeSystem>,
+}
+
+/// The plant in a mode other than the linear car's: `ẋ = A x + B [v; 1]` (the constant input
+/// carries the static preload a free tyre no longer holds, or a stop's free travel).
+struct ModeSystem {
+    mode: Mode,
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
+    cache: VecDeque<StepMatrices>,
+}
+
+/// Split discretisation of `(a, b)` over `h`: the car's first `nc` rows from their own
+/// exponential, the meter's from the whole system's (see [`StepMatrices`]).
+fn split_discretization(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    nc: usize,
+    h: f64,
+) -> Result<StepMatrices, ExpError> {
+    let n = a.nrows();
+    let car = discretize(
+        &a.view((0, 0), (nc, nc)).into_owned(),
+        &b.rows(0, nc).into_owned(),
+        h,
+    )?;
+    let whole = discretize(a, b, h)?;
+    let rows = |m: &DMatrix<f64>| m.rows(nc, n - nc).into_owned();
+    let meter = Discretization {
+        step: h,
+        phi: rows(&whole.phi),
+        gamma_hold: rows(&whole.gamma_hold),
+        gamma_ramp: rows(&whole.gamma_ramp),
+    };
+    Ok(StepMatrices { car, meter })
+}
+
+/// The cached discretisation of step `h`, or a new one pushed into `cache`.
+fn cached(
+    cache: &mut VecDeque<StepMatrices>,
+    h: f64,
+    make: impl FnOnce() -> Result<StepMatrices, ExpError>,
+) -> Result<&StepMatrices, ExpError> {
+    if let Some(pos) = cache
+        .iter()
+        .position(|d| d.car.step.to_bits() == h.to_bits())
+    {
+        return Ok(&cache[pos]);
+    }
+    let d = make()?;
+    if cache.len() == CACHE_SIZE {
+        cache.pop_front();
+    }
+    cache.push_back(d);
+    Ok(cache.back().unwrap())
+}
+
+/// The first `rows` states after `s` of `ẋ = A x + B v`, `v` going from `w` by `dw` over `s`
+/// (with `B`'s constant input, if it has one, held at 1), from `x`. The inputs enter as two
+/// columns, `B w` held and `B dw` ramped, so the exponential is of order `rows + 4` instead of
+/// `rows + 2 m`: what an event's piece, met once, costs.
+#[allow(clippy::too_many_arguments)]
+fn response(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    rows: usize,
+    x: &[f64],
+    w: &[f64],
+    dw: &[f64],
+    s: f64,
+) -> Result<DVector<f64>, ExpError> {
+    let mut columns = DMatrix::zeros(rows, 2);
+    for j in 0..b.ncols() {
+        let (held, ramped) = match j {
+            j if j < N_INPUTS => (w[j], dw[j]),
+            _ => (1.0, 0.0),
+        };
+        for i in 0..rows {
+            columns[(i, 0)] += b[(i, j)] * held;
+            columns[(i, 1)] += b[(i, j)] * ramped;
+        }
+    }
+    let d = discretize(&a.view((0, 0), (rows, rows)).into_owned(), &columns, s)?;
+    let mut y = DVector::zeros(rows);
+    let (unit, none) = ([1.0, 0.0], [0.0, 1.0]);
+    mat_vec_sum(
+        y.as_mut_slice(),
+        &[
+            (&d.phi, &x[..rows]),
+            (&d.gamma_hold, &unit),
+            (&d.gamma_ramp, &none),
+        ],
+    );
+    Ok(y)
+}
+
+/// `y = Φ x + Γ₀ w + Γ₁ dw` for both row blocks (the ramp term only when the inputs move).
+fn apply(d: &StepMatrices, x: &[f64], w: &[f64], dw: &[f64], ramp: bool, y: &mut [f64]) {
+    let (car, meter) = y.split_at_mut(d.car.phi.nrows());
+    for (y, d, x) in [(car, &d.car, &x[..d.car.phi.ncols()]), (meter, &d.meter, x)] {
+        if ramp {
+            mat_vec_sum(y, &[(&d.phi, x), (&d.gamma_hold, w), (&d.gamma_ramp, dw)]);
+        } else {
+            mat_vec_sum(y, &[(&d.phi, x), (&d.gamma_hold, w)]);
+        }
+    }
+}
+
+/// Time spent off the road and at a stop, per corner (and the seat for the stops) \[s\].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Dwell {
+    pub airborne: [f64; N_WHEELS],
+    pub at_stop: [f64; N_WHEELS + 1],
+}
+
+impl Dwell {
+    fn add(&mut self, mode: Mode, dt: f64) {
+        if mode == Mode::LINEAR {
+            // Every tyre on the road, no stop touched: nothing to count.
+            return;
+        }
+        for (k, element) in Unilateral::ALL.iter().enumerate() {
+            let engaged = mode.engaged(k);
+            match *element {
+                Unilateral::Tyre(i) if !engaged => self.airborne[i] += dt,
+                Unilateral::Bump(i) | Unilateral::Rebound(i) if engaged => self.at_stop[i] += dt,
+                Unilateral::SeatBump | Unilateral::SeatRebound if engaged => {
+                    self.at_stop[N_WHEELS] += dt
+                }
+                _ => {}
+            }
+        }
+    }
+}
+
+/// What the contacts do now: each a corner's, then the seat's.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ContactState {
+    /// Whether each tyre is on the road.
+    pub on_road: [bool; N_WHEELS],
+    /// Each tyre's whole load on the road (static part included; 0 in the air) \[N\].
+    pub tyre_force: [f64; N_WHEELS],
+    /// Each corner's and the seat's stop force: positive pushing back in bump, negative in
+    /// rebound, 0 between the stops \[N\].
+    pub stop_force: [f64; N_WHEELS + 1],
+    pub dwell: Dwell,
 }
 
 impl System {
-    fn new(p: &VehicleParams, act: &ActuatorParams) -> Self {
+    fn new(p: &VehicleParams, act: &ActuatorParams, contact: &ContactParams) -> Self {
         let ss = StateSpace::new(p);
         let lag = act.bandwidth > 0.0;
         let (n, meter_at) = (state_count(act), car_states(act));
@@ -206,9 +374,34 @@ impl System {
                 .copy_from(&ss.b_u);
             Forces::Inputs(N_ROAD)
         };
-        let outputs = physical_outputs(p);
+        let weighted = physical_outputs_with_accelerations(p);
+        let outputs: Vec<_> = weighted.iter().map(|(row, _)| row.clone()).collect();
         let meter = ComfortMeter::new(&outputs);
         meter.place(&mut a, &mut b, meter_at, forces);
+        let contacts = contact::contacts(p, contact);
+        // An output moves by its accelerations' share of a contact's force, and a tyre's load
+        // by the whole correction of its force.
+        let per_newton = |w: &[f64; N_DOF], c: &Contact| -> f64 {
+            (0..N_DOF).map(|j| w[j] * c.acceleration[N_DOF + j]).sum()
+        };
+        let output_per_contact = DMatrix::from_fn(outputs.len(), N_UNILATERAL, |o, k| {
+            let c = &contacts.elements[k];
+            let load = match c.kind {
+                Unilateral::Tyre(i) => {
+                    outputs[o].name == format!("tire_load_{}", vehicle::model::CORNERS[i])
+                }
+                _ => false,
+            };
+            per_newton(&weighted[o].1, c) + if load { 1.0 } else { 0.0 }
+        });
+        let meter_per_contact = DMatrix::from_fn(METER_OUTPUTS.len(), N_UNILATERAL, |l, k| {
+            let signal = METER_OUTPUTS[l].1;
+            let (_, w) = weighted
+                .iter()
+                .find(|(row, _)| row.name == signal)
+                .expect("the meter weights outputs of the car");
+            per_newton(w, &contacts.elements[k])
+        });
         System {
             n,
             lag,
@@ -219,38 +412,289 @@ impl System {
             outputs: SparseRows::new(outputs.iter().map(|r| r.coefficients().copied().collect())),
             statics: StaticEquilibrium::new(p),
             cache: VecDeque::with_capacity(CACHE_SIZE),
+            contacts,
+            output_per_contact,
+            meter_per_contact,
+            meter_gain: meter.gain,
+            modes: Vec::new(),
         }
+    }
+
+    /// The matrices of `mode` (not the linear car's), built at its first use.
+    fn mode_system(&mut self, mode: Mode) -> &mut ModeSystem {
+        if let Some(k) = self.modes.iter().position(|m| m.mode == mode) {
+            return &mut self.modes[k];
+        }
+        let mut a = self.a.clone();
+        let mut b = DMatrix::zeros(self.n, N_INPUTS + 1);
+        b.columns_mut(0, N_INPUTS).copy_from(&self.b);
+        let meter_n = self.n - self.meter_at;
+        for (k, sign) in contact::corrections(mode) {
+            let c = &self.contacts.elements[k];
+            // ẋ gains sign · F · (c.acceleration on the car's rows; the meter's signals' share
+            // through its filters' gains on the meter's rows), F = c.force · [x; r] + offset.
+            let mut column = DVector::zeros(self.n);
+            for i in 0..N_STATES {
+                column[i] = sign * c.acceleration[i];
+            }
+            let meter_rows = &self.meter_gain * self.meter_per_contact.column(k) * sign;
+            column
+                .rows_mut(self.meter_at, meter_n)
+                .copy_from(&meter_rows);
+            for j in 0..N_STATES {
+                if c.force[j] != 0.0 {
+                    a.column_mut(j).axpy(c.force[j], &column, 1.0);
+                }
+            }
+            for j in 0..N_ROAD {
+                if c.force[N_STATES + j] != 0.0 {
+                    b.column_mut(j).axpy(c.force[N_STATES + j], &column, 1.0);
+                }
+            }
+            b.column_mut(N_INPUTS).axpy(c.force_offset, &column, 1.0);
+        }
+        self.modes.push(ModeSystem {
+            mode,
+            a,
+            b,
+            cache: VecDeque::with_capacity(CACHE_SIZE),
+        });
+        self.modes.last_mut().unwrap()
+    }
+
+    /// `(A, B)` of `mode`: the linear car's, or the mode's with its constant input last.
+    fn matrices(&mut self, mode: Mode) -> (&DMatrix<f64>, &DMatrix<f64>) {
+        if mode == Mode::LINEAR {
+            (&self.a, &self.b)
+        } else {
+            let ms = self.mode_system(mode);
+            (&ms.a, &ms.b)
+        }
+    }
+
+    /// Advance `x` by `h` in `mode` with inputs `w` changing by `dw` over the step, into `y`.
+    /// `keep`: a whole communication step, whose discretisation is cached and split as
+    /// [`StepMatrices`] says; otherwise a piece cut at an event, of a length met once, stepped
+    /// in one exponential of the whole system with the inputs folded into two columns
+    /// ([`response`]).
+    #[allow(clippy::too_many_arguments)]
+    fn propagate(
+        &mut self,
+        mode: Mode,
+        h: f64,
+        keep: bool,
+        x: &[f64],
+        w: &[f64],
+        dw: &[f64],
+        y: &mut [f64],
+    ) -> Result<(), ExpError> {
+        if !keep {
+            let n = self.n;
+            let (a, b) = self.matrices(mode);
+            let next = response(a, b, n, x, w, dw, h)?;
+            y.copy_from_slice(next.as_slice());
+            return Ok(());
+        }
+        let ramp = dw.iter().any(|&v| v != 0.0);
+        let nc = self.meter_at;
+        if mode == Mode::LINEAR {
+            let d = self.discretization(h)?;
+            apply(d, x, w, dw, ramp, y);
+            return Ok(());
+        }
+        let mut we = [0.0; N_INPUTS + 1];
+        let mut dwe = [0.0; N_INPUTS + 1];
+        we[..N_INPUTS].copy_from_slice(w);
+        we[N_INPUTS] = 1.0;
+        dwe[..N_INPUTS].copy_from_slice(dw);
+        let ms = self.mode_system(mode);
+        let (a, b) = (&ms.a, &ms.b);
+        let d = cached(&mut ms.cache, h, || split_discretization(a, b, nc, h))?;
+        apply(d, x, &we, &dwe, ramp, y);
+        Ok(())
+    }
+
+    /// The car's state (its first 16 states) after `s` in `mode` from `x` with inputs `w`
+    /// changing by `dw · s / h` (the piece's inputs, `h` long, cut at `s`).
+    #[allow(clippy::too_many_arguments)]
+    fn car_at(
+        &mut self,
+        mode: Mode,
+        s: f64,
+        h: f64,
+        x: &[f64],
+        w: &[f64],
+        dw: &[f64],
+    ) -> Result<[f64; N_STATES], ExpError> {
+        let nc = self.meter_at;
+        let (a, b) = self.matrices(mode);
+        let cut: [f64; N_INPUTS] = std::array::from_fn(|j| dw[j] * (s / h));
+        let y = response(a, b, nc, x, w, &cut, s)?;
+        Ok(std::array::from_fn(|i| y[i]))
+    }
+
+    /// The first time in `(0, h]` at which a contact switches, within [`EVENT_TOLERANCE`]
+    /// after it, and the mode there; `(0, mode)` when one is already past zero at the start
+    /// (rounding). On the exact trajectory: the earliest zero of `φ(s)`, the least of the
+    /// guards of the elements found switched at `h` (each signed so that it falls through zero
+    /// where its element switches), by regula falsi with the Illinois modification, a
+    /// bisection whenever the bracket fails to halve.
+    #[allow(clippy::too_many_arguments)]
+    fn locate(
+        &mut self,
+        mode: Mode,
+        h: f64,
+        x: &[f64],
+        w: &[f64],
+        dw: &[f64],
+        at_end: Mode,
+    ) -> Result<(f64, Mode), ExpError> {
+        let switching: Vec<(usize, f64)> = (0..N_UNILATERAL)
+            .filter(|&k| at_end.engaged(k) != mode.engaged(k))
+            .map(|k| (k, if mode.engaged(k) { 1.0 } else { -1.0 }))
+            .collect();
+        let road = |s: f64| -> [f64; N_ROAD] { std::array::from_fn(|j| w[j] + dw[j] * (s / h)) };
+        let phi = |contacts: &Contacts, z: &contact::Point| -> f64 {
+            switching
+                .iter()
+                .map(|&(k, sign)| sign * contacts.penetration(k, z).min(contacts.force(k, z)))
+                .fold(f64::INFINITY, f64::min)
+        };
+        let z0 = contact::point(x, &road(0.0));
+        let f0 = phi(&self.contacts, &z0);
+        if f0 < 0.0 {
+            return Ok((0.0, self.contacts.reconcile(mode, &z0)));
+        }
+        let (mut lo, mut hi, mut flo, mut fhi) = (0.0, h, f0, -1.0);
+        let mut hi_mode = at_end;
+        // Until the first evaluation inside the piece, the value at h is not the guard's
+        // (the end state came from another discretisation): bisect first.
+        let (mut side, mut width, mut bisect) = (0, h, true);
+        while hi - lo > EVENT_TOLERANCE {
+            let secant = lo + (hi - lo) * flo / (flo - fhi);
+            let mid = if bisect || !(secant > lo && secant < hi) {
+                0.5 * (lo + hi)
+            } else {
+                secant
+            };
+            if mid <= lo || mid >= hi {
+                break;
+            }
+            let car = self.car_at(mode, mid, h, x, w, dw)?;
+            let z = contact::point(&car, &road(mid));
+            let f = phi(&self.contacts, &z);
+            if f < 0.0 {
+                (hi, fhi) = (mid, f);
+                hi_mode = self.contacts.reconcile(mode, &z);
+                if side == -1 {
+                    flo *= 0.5;
+                }
+                side = -1;
+            } else {
+                (lo, flo) = (mid, f);
+                if side == 1 {
+                    fhi *= 0.5;
+                }
+                side = 1;
+            }
+            // Every other evaluation must have halved the bracket; if not, bisect.
+            bisect = !bisect && hi - lo > 0.5 * width;
+            if !bisect {
+                width = hi - lo;
+            }
+        }
+        Ok((hi, hi_mode))
     }
 
     /// The discretisation for step `h`, from the cache or computed (matrix exponentials).
     fn discretization(&mut self, h: f64) -> Result<&StepMatrices, ExpError> {
-        if let Some(pos) = self
-            .cache
-            .iter()
-            .position(|d| d.car.step.to_bits() == h.to_bits())
-        {
-            return Ok(&self.cache[pos]);
-        }
-        let nc = self.meter_at;
-        let car = discretize(
-            &self.a.view((0, 0), (nc, nc)).into_owned(),
-            &self.b.rows(0, nc).into_owned(),
-            h,
-        )?;
-        let whole = discretize(&self.a, &self.b, h)?;
-        let rows = |m: &DMatrix<f64>| m.rows(nc, self.n - nc).into_owned();
-        let meter = Discretization {
-            step: h,
-            phi: rows(&whole.phi),
-            gamma_hold: rows(&whole.gamma_hold),
-            gamma_ramp: rows(&whole.gamma_ramp),
+        let (a, b, nc) = (&self.a, &self.b, self.meter_at);
+        cached(&mut self.cache, h, || split_discretization(a, b, nc, h))
+    }
+}
+
+/// Advance `xi` over one piece of a step, `len` long, with inputs `wa` changing by `dw`: in one
+/// go while no contact switches; else to each switch ([`System::locate`]), switching the mode
+/// there, and on. On return `xi` holds the state at the piece's end (`next` is work space);
+/// `wa`, `dw` may have been cut.
+#[allow(clippy::too_many_arguments)]
+fn advance_piece(
+    sys: &mut System,
+    physical: bool,
+    mode: &mut Mode,
+    dwell: &mut Dwell,
+    len: f64,
+    xi: &mut DVector<f64>,
+    next: &mut DVector<f64>,
+    wa: &mut DVector<f64>,
+    dw: &mut DVector<f64>,
+    events: &mut usize,
+) -> Result<(), StepError> {
+    let exponential = |step| move |error| StepError::Exponential { step, error };
+    let (mut rest, mut whole) = (len, true);
+    loop {
+        sys.propagate(
+            *mode,
+            rest,
+            whole,
+            xi.as_slice(),
+            wa.as_slice(),
+            dw.as_slice(),
+            next.as_mut_slice(),
+        )
+        .map_err(exponential(rest))?;
+        let at_end = if physical {
+            let road_end: [f64; N_ROAD] = std::array::from_fn(|j| wa[j] + dw[j]);
+            sys.contacts
+                .reconcile(*mode, &contact::point(next.as_slice(), &road_end))
+        } else {
+            *mode
         };
-        let d = StepMatrices { car, meter };
-        if self.cache.len() == CACHE_SIZE {
-            self.cache.pop_front();
+        if at_end == *mode {
+            std::mem::swap(xi, next);
+            dwell.add(*mode, rest);
+            return Ok(());
         }
-        self.cache.push_back(d);
-        Ok(self.cache.back().unwrap())
+        *events += 1;
+        if *events > MAX_EVENTS_PER_STEP {
+            return Err(StepError::Chattering(MAX_EVENTS_PER_STEP));
+        }
+        let (s, switched) = sys
+            .locate(
+                *mode,
+                rest,
+                xi.as_slice(),
+                wa.as_slice(),
+                dw.as_slice(),
+                at_end,
+            )
+            .map_err(exponential(rest))?;
+        if s > 0.0 {
+            // To the switch: the inputs' change cut at s.
+            let cut: [f64; N_INPUTS] = std::array::from_fn(|j| dw[j] * (s / rest));
+            sys.propagate(
+                *mode,
+                s,
+                false,
+                xi.as_slice(),
+                wa.as_slice(),
+                &cut,
+                next.as_mut_slice(),
+            )
+            .map_err(exponential(s))?;
+            std::mem::swap(xi, next);
+            dwell.add(*mode, s);
+            for j in 0..N_INPUTS {
+                wa[j] += cut[j];
+                dw[j] -= cut[j];
+            }
+        }
+        *mode = switched;
+        rest -= s;
+        whole = false;
+        if rest <= 0.0 {
+            return Ok(());
+        }
     }
 }
 
@@ -264,6 +708,11 @@ pub struct Simulator {
     /// Actuator commands (FL, FR, RL, RR, seat) \[N\].
     pub command: [f64; N_ACTUATORS],
     pub command_slope: [f64; N_ACTUATORS],
+    /// Tyre contact and stops (the physical car), or the linear car.
+    pub contact: ContactParams,
+    /// Which tyres touch the road and which stops are engaged, and for how long so far.
+    mode: Mode,
+    dwell: Dwell,
     /// `[x; f_lag]` (the lag states only with a finite bandwidth).
     xi: DVector<f64>,
     history: VecDeque<Segment>,
@@ -281,6 +730,8 @@ pub struct Simulator {
 #[derive(Debug, Clone, PartialEq)]
 pub enum StepError {
     NonFinite(f64),
+    /// More contact events in one step than [`MAX_EVENTS_PER_STEP`].
+    Chattering(usize),
     /// The step's matrix exponential was refused (a step far too long for the parameters).
     Exponential {
         step: f64,
@@ -294,6 +745,11 @@ impl std::fmt::Display for StepError {
             StepError::NonFinite(t) => write!(
                 f,
                 "the state became non-finite at t = {t}; the step was discarded"
+            ),
+            StepError::Chattering(n) => write!(
+                f,
+                "more than {n} contact events (a tyre leaving or touching the road, a stop) \
+                 within one step; the step was discarded"
             ),
             StepError::Exponential { step, error } => write!(
                 f,
@@ -313,6 +769,9 @@ impl Simulator {
             road_slope: [0.0; N_ROAD],
             command: [0.0; N_ACTUATORS],
             command_slope: [0.0; N_ACTUATORS],
+            contact: ContactParams::default(),
+            mode: Mode::LINEAR,
+            dwell: Dwell::default(),
             xi: DVector::zeros(state_count(&actuator)),
             history: VecDeque::new(),
             time: 0.0,
@@ -327,9 +786,11 @@ impl Simulator {
     /// Start at `t0` in static equilibrium (all dynamic states zero).
     pub fn start(&mut self, t0: f64) {
         self.time = t0;
-        self.system = Some(System::new(&self.params, &self.actuator));
+        self.system = Some(System::new(&self.params, &self.actuator, &self.contact));
         self.xi = DVector::zeros(self.system.as_ref().unwrap().n);
         self.history.clear();
+        self.mode = Mode::LINEAR;
+        self.dwell = Dwell::default();
     }
 
     /// Parameters changed (before the start): rebuild the matrices before the next use, and
@@ -345,7 +806,7 @@ impl Simulator {
 
     fn system(&mut self) -> &mut System {
         if self.system.is_none() {
-            let sys = System::new(&self.params, &self.actuator);
+            let sys = System::new(&self.params, &self.actuator, &self.contact);
             if self.xi.len() != sys.n {
                 self.xi = DVector::zeros(sys.n);
             }
@@ -435,12 +896,78 @@ impl Simulator {
         z[..N_STATES].copy_from_slice(self.state());
         z[N_STATES..N_STATES + N_ROAD].copy_from_slice(&self.road);
         z[N_STATES + N_ROAD..].copy_from_slice(&f);
+        let mode = self.mode_now();
         let sys = self
             .system
             .as_ref()
             .expect("applied_force built the system");
         sys.outputs.apply(&z, out);
+        if mode != Mode::LINEAR {
+            let at = contact::point(&z[..N_STATES], &self.road);
+            for (k, sign) in contact::corrections(mode) {
+                let force = sign * sys.contacts.force(k, &at);
+                for (y, per) in out.iter_mut().zip(sys.output_per_contact.column(k).iter()) {
+                    *y += per * force;
+                }
+            }
+        }
         f
+    }
+
+    /// The mode at the current state and inputs: the stored one, where the road has moved
+    /// since (a held road jumps at every communication point) the tyres switched. The stops
+    /// read the state alone, which is where the last step left it and checked it.
+    fn mode_now(&mut self) -> Mode {
+        if !self.contact.physical {
+            return Mode::LINEAR;
+        }
+        self.system();
+        let sys = self.system.as_ref().expect("built above");
+        let z = contact::point(self.state(), &self.road);
+        sys.contacts.reconcile_tyres(self.mode, &z)
+    }
+
+    /// For each physical output, whether a tyre leaving the road changes how the road enters it
+    /// (its feed-through is then not fixed: a tyre's load reads the road only on the road).
+    pub fn outputs_switched_by_tyres(&mut self) -> Vec<bool> {
+        let sys = self.system();
+        (0..sys.output_per_contact.nrows())
+            .map(|o| {
+                Unilateral::ALL.iter().enumerate().any(|(k, e)| {
+                    matches!(e, Unilateral::Tyre(_)) && sys.output_per_contact[(o, k)] != 0.0
+                })
+            })
+            .collect()
+    }
+
+    /// The tyres' and the stops' forces now, and the time spent off the road and at a stop.
+    pub fn contact_state(&mut self) -> ContactState {
+        let mode = self.mode_now();
+        let sys = self.system.as_ref().expect("mode_now built the system");
+        let z = contact::point(self.state(), &self.road);
+        let mut state = ContactState {
+            on_road: [true; N_WHEELS],
+            tyre_force: [0.0; N_WHEELS],
+            stop_force: [0.0; N_WHEELS + 1],
+            dwell: self.dwell,
+        };
+        for (k, element) in Unilateral::ALL.iter().enumerate() {
+            if !mode.engaged(k) {
+                if let Unilateral::Tyre(i) = *element {
+                    state.on_road[i] = false;
+                }
+                continue;
+            }
+            let force = sys.contacts.force(k, &z);
+            match *element {
+                Unilateral::Tyre(i) => state.tyre_force[i] = force,
+                Unilateral::Bump(i) => state.stop_force[i] += force,
+                Unilateral::Rebound(i) => state.stop_force[i] -= force,
+                Unilateral::SeatBump => state.stop_force[N_WHEELS] += force,
+                Unilateral::SeatRebound => state.stop_force[N_WHEELS] -= force,
+            }
+        }
+        state
     }
 
     /// Advance from `t` by `h` with the current inputs and slopes. Afterwards the inputs hold
@@ -506,6 +1033,11 @@ impl Simulator {
         xi.copy_from(&self.xi);
         let (mut wa, mut dw) = (std::mem::take(&mut self.wa), std::mem::take(&mut self.dw));
         let mut failure = None;
+        // The mode and the dwell times advance on copies: a failed step changes nothing.
+        let physical = self.contact.physical;
+        let mut mode = self.mode_now();
+        let mut dwell = self.dwell;
+        let mut events = 0;
         for k in 0..breaks.len() - 1 {
             let (a, b) = (breaks[k], breaks[k + 1]);
             // A step in one piece is `h` long, not `(t + h) − t`: that is `h` rounded to `t`'s
@@ -514,36 +1046,32 @@ impl Simulator {
             let len = if breaks.len() == 2 { h } else { b - a };
             let mid = 0.5 * (a + b);
             let seg = self.segment_at(mid - tau);
-            let mut ramp = false;
             for j in 0..N_ROAD {
                 wa[j] = self.road[j] + self.road_slope[j] * (a - t);
                 dw[j] = self.road_slope[j] * len;
-                ramp |= dw[j] != 0.0;
             }
             for i in 0..N_ACTUATORS {
                 let va = self.actuator_output(&seg, i, a, mid);
                 let vb = self.actuator_output(&seg, i, b, mid);
                 wa[N_ROAD + i] = va;
                 dw[N_ROAD + i] = vb - va;
-                ramp |= vb != va;
             }
-            let d = match self.system.as_mut().unwrap().discretization(len) {
-                Ok(d) => d,
-                Err(error) => {
-                    failure = Some(StepError::Exponential { step: len, error });
-                    break;
-                }
-            };
-            let (x, wa, dw) = (xi.as_slice(), wa.as_slice(), dw.as_slice());
-            let (car, meter) = next.as_mut_slice().split_at_mut(d.car.phi.nrows());
-            for (y, d, x) in [(car, &d.car, &x[..d.car.phi.ncols()]), (meter, &d.meter, x)] {
-                if ramp {
-                    mat_vec_sum(y, &[(&d.phi, x), (&d.gamma_hold, wa), (&d.gamma_ramp, dw)]);
-                } else {
-                    mat_vec_sum(y, &[(&d.phi, x), (&d.gamma_hold, wa)]);
-                }
+            let sys = self.system.as_mut().unwrap();
+            if let Err(e) = advance_piece(
+                sys,
+                physical,
+                &mut mode,
+                &mut dwell,
+                len,
+                &mut xi,
+                &mut next,
+                &mut wa,
+                &mut dw,
+                &mut events,
+            ) {
+                failure = Some(e);
+                break;
             }
-            std::mem::swap(&mut xi, &mut next);
         }
         self.breaks = breaks;
         (self.wa, self.dw) = (wa, dw);
@@ -552,6 +1080,8 @@ impl Simulator {
         }
         if failure.is_none() {
             std::mem::swap(&mut self.xi, &mut xi);
+            self.mode = mode;
+            self.dwell = dwell;
         }
         self.work = [xi, next];
         if let Some(e) = failure {
@@ -591,6 +1121,9 @@ impl Simulator {
             v.extend_from_slice(&g.value);
             v.extend_from_slice(&g.slope);
         }
+        v.push(self.mode.0 as f64);
+        v.extend_from_slice(&self.dwell.airborne);
+        v.extend_from_slice(&self.dwell.at_stop);
         v
     }
 
@@ -628,6 +1161,14 @@ impl Simulator {
                 slope: std::array::from_fn(|i| g[6 + i]),
             });
         }
+        let bits = arr(1)?[0];
+        let mode = Mode::from_bits(bits)
+            .ok_or_else(|| format!("plant state has an invalid contact mode {bits}"))?;
+        let airborne = arr(N_WHEELS)?;
+        let at_stop = arr(N_WHEELS + 1)?;
+        if airborne.iter().chain(&at_stop).any(|&t| t < 0.0) {
+            return Err("plant state has a negative time off the road or at a stop".into());
+        }
         if next().is_ok() {
             return Err("plant state has trailing values".into());
         }
@@ -641,6 +1182,11 @@ impl Simulator {
         self.command_slope.copy_from_slice(&command_slope);
         self.xi = DVector::from_vec(xi);
         self.history = history;
+        self.mode = mode;
+        self.dwell = Dwell {
+            airborne: std::array::from_fn(|i| airborne[i]),
+            at_stop: std::array::from_fn(|i| at_stop[i]),
+        };
         Ok(())
     }
 }
@@ -712,7 +1258,7 @@ mod tests {
     #[test]
     fn the_meter_outputs_are_the_weighted_accelerations() {
         let p = VehicleParams::default();
-        let rows = physical_outputs(&p);
+        let rows = vehicle::model::physical_outputs(&p);
         let index = |n: &str| rows.iter().position(|r| r.name == n).unwrap();
         let signals = METER_OUTPUTS.map(|(_, signal, _, _)| index(signal));
         let weightings = ComfortMeter::weightings();

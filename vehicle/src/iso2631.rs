@@ -192,6 +192,9 @@ pub struct ComfortMeter {
     pub b: DMatrix<f64>,
     /// `3 × n_w`: the weighted signals in the order of [`METER_OUTPUTS`].
     pub c: DMatrix<f64>,
+    /// `n_w × 3`: the filters' inputs per unit of each signal of [`METER_OUTPUTS`]
+    /// (`b` is this times the signals' rows).
+    pub gain: DMatrix<f64>,
 }
 
 impl ComfortMeter {
@@ -210,6 +213,7 @@ impl ComfortMeter {
             DMatrix::zeros(n, inputs),
             DMatrix::zeros(METER_OUTPUTS.len(), n),
         );
+        let mut gain = DMatrix::zeros(n, METER_OUTPUTS.len());
         let mut at = 0;
         for (k, ([a_w, b_w, c_w, d_w], (_, signal, _, _))) in
             filters.iter().zip(METER_OUTPUTS).enumerate()
@@ -229,9 +233,10 @@ impl ComfortMeter {
             b.view_mut((at, 0), (nw, inputs))
                 .copy_from(&(b_w * DMatrix::from_row_slice(1, inputs, &over_inputs)));
             c.view_mut((k, at), (1, nw)).copy_from(c_w);
+            gain.view_mut((at, k), (nw, 1)).copy_from(b_w);
             at += nw;
         }
-        ComfortMeter { a, b, c }
+        ComfortMeter { a, b, c, gain }
     }
 
     /// Writes the meter into a system `ẋ = A x + B v` whose first 16 states are the car's and

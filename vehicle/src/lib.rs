@@ -5,11 +5,14 @@
 //!   physical outputs;
 //! * [`polytope`]: the vertex and COG forms over the sprung mass;
 //! * [`road`]: road profiles under the four wheels (the road FMU, the tests, the master);
+//! * [`contact`]: where the car stops being linear: tyres leaving the road, bump, rebound and
+//!   seat end stops, as unilateral elements switched by mode;
 //! * [`iso2631`]: the ISO 2631-1 comfort weightings `W_k`, `W_e` (the master's metrics and the
 //!   synthesis's comfort objective).
 //!
 //! Nothing here knows about FMI.
 
+pub mod contact;
 pub mod iso2631;
 pub mod model;
 pub mod params;

@@ -376,11 +376,25 @@ impl OutputRow {
 /// static equilibrium): accelerations, the velocities measured by the output-feedback designs,
 /// suspension and seat strokes, tyre deflections and dynamic tyre loads.
 pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
+    physical_outputs_with_accelerations(p)
+        .into_iter()
+        .map(|(row, _)| row)
+        .collect()
+}
+
+/// [`physical_outputs`], each with the combination `w` of the generalised accelerations it is
+/// (`y = w · q̈`; zero for an output that is no acceleration): a force the linear car does not
+/// have (a tyre off the road, a stop) moves it by `w · M⁻¹ Q`.
+pub fn physical_outputs_with_accelerations(p: &VehicleParams) -> Vec<(OutputRow, [f64; N_DOF])> {
     let mech = MechanicalModel::new(p);
     let ss = StateSpace::from_mechanical(&mech);
     let mut rows = Vec::new();
+    let mut weights = Vec::new();
     let mut acceleration = |name: &str, unit, description: &str, j: usize| {
         let r = N_DOF + j;
+        let mut w = [0.0; N_DOF];
+        w[j] = 1.0;
+        weights.push((rows.len(), w));
         rows.push(OutputRow {
             name: name.into(),
             unit,
@@ -524,6 +538,7 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
     // so its acceleration is that row applied to `q̈`, the velocity rows of `A` and `B`.
     for (i, corner) in CORNERS.iter().enumerate() {
         let top_mount = body_point(corner_positions(p)[i].0, corner_positions(p)[i].1);
+        weights.push((rows.len(), top_mount));
         let combine = |m: &nalgebra::DMatrix<f64>, k: usize| -> f64 {
             (0..N_DOF).map(|j| top_mount[j] * m[(N_DOF + j, k)]).sum()
         };
@@ -540,7 +555,11 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
         });
     }
     assert_eq!(rows.len(), N_PHYSICAL_OUTPUTS);
-    rows
+    let mut out: Vec<_> = rows.into_iter().map(|r| (r, [0.0; N_DOF])).collect();
+    for (k, w) in weights {
+        out[k].1 = w;
+    }
+    out
 }
 
 /// The forces the actuators actually apply (`f_fl … f_seat`, the plant FMU's outputs of those
