@@ -22,8 +22,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 pub use vehicle::model::{FORCE_PORTS as FORCES, ROAD_PORTS as ROAD};
-/// The plant outputs every run records.
-pub const RECORD: [&str; 21] = [
+/// The plant outputs every run records (the physical car's clocks of time off the road and at a
+/// stop last).
+pub const RECORD: [&str; 30] = [
     "a_seat",
     "alpha_roll",
     "alpha_pitch",
@@ -45,6 +46,15 @@ pub const RECORD: [&str; 21] = [
     "f_rl",
     "f_rr",
     "f_seat",
+    "airborne_time_fl",
+    "airborne_time_fr",
+    "airborne_time_rl",
+    "airborne_time_rr",
+    "stop_time_fl",
+    "stop_time_fr",
+    "stop_time_rl",
+    "stop_time_rr",
+    "stop_time_seat",
 ];
 /// Controller outputs recorded when the controller has them: a fault detector's, and the
 /// effectiveness estimates of fault accommodation.

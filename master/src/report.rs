@@ -38,9 +38,15 @@ pub struct Flags {
     /// A suspension stroke beyond the scenario's `stroke_max` (into the bump stops, which the
     /// model does not have).
     pub stroke_exceeded: bool,
-    /// A tyre's load reaches zero (dynamic load down to minus the static one): the wheel leaves
-    /// the road, and the linear tyre model, which would pull it back, no longer holds.
+    /// A wheel leaves the road: the physical car says so (its time off the road grows), the
+    /// linear car's tyre load reaches zero (dynamic load down to minus the static one) where its
+    /// tyre model, which pulls the wheel back, no longer holds.
     pub tyre_lift_off: bool,
+    /// Share of the time each wheel (FL … RR) is off the road, from the plant's clock.
+    pub airborne: [f64; 4],
+    /// Share of the time each corner (FL … RR) and the seat is on a stop, from the plant's
+    /// clock.
+    pub at_stop: [f64; 5],
     /// Share of the time an actuator is at its force limit: its delayed command at or beyond
     /// `u_max` (`u_max_seat` for the seat).
     pub saturated_share: f64,
@@ -50,8 +56,29 @@ impl Flags {
     /// What the flags say, in words (empty when nothing is flagged).
     pub fn describe(&self, stroke_max: f64) -> Vec<String> {
         let mut said = Vec::new();
-        if self.tyre_lift_off {
+        let places = ["FL", "FR", "RL", "RR", "seat"];
+        let shares = |shares: &[f64]| -> String {
+            let said: Vec<String> = shares
+                .iter()
+                .zip(places)
+                .filter(|(s, _)| **s > 0.0)
+                .map(|(s, p)| match 100.0 * s {
+                    p100 if p100 < 0.1 => format!("{p} < 0.1 %"),
+                    p100 => format!("{p} {p100:.1} %"),
+                })
+                .collect();
+            said.join(", ")
+        };
+        if self.airborne.iter().any(|s| *s > 0.0) {
+            said.push(format!(
+                "wheel lift-off ({} of the time)",
+                shares(&self.airborne)
+            ));
+        } else if self.tyre_lift_off {
             said.push("wheel lift-off".to_string());
+        }
+        if self.at_stop.iter().any(|s| *s > 0.0) {
+            said.push(format!("on a stop ({} of the time)", shares(&self.at_stop)));
         }
         if self.stroke_exceeded {
             said.push(format!("stroke > {:.1} cm", 100.0 * stroke_max));
@@ -126,6 +153,25 @@ pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
         .map(|n| peak(&window(col(n))))
         .into_iter()
         .fold(0.0, f64::max);
+    // The physical car's clocks of time off the road and at a stop: their growth over the
+    // window (zero for a plant without them).
+    let window_start = if from > 0 {
+        run.time[from - 1]
+    } else {
+        run.time.first().map_or(0.0, |t| t - scenario.step)
+    };
+    let window_length = run.time.last().map_or(0.0, |t| t - window_start);
+    let share = |n: String| -> f64 {
+        match run.column(&n) {
+            Some(c) if window_length > 0.0 && !c.is_empty() => {
+                let before = if from > 0 { c[from - 1] } else { 0.0 };
+                ((c[c.len() - 1] - before) / window_length).max(0.0)
+            }
+            _ => 0.0,
+        }
+    };
+    let airborne = ["fl", "fr", "rl", "rr"].map(|c| share(format!("airborne_time_{c}")));
+    let at_stop = ["fl", "fr", "rl", "rr", "seat"].map(|c| share(format!("stop_time_{c}")));
     let detection_time = run
         .column("fault_detected")
         .and_then(|f| f.iter().position(|v| *v > 0.5).map(|k| run.time[k]));
@@ -143,7 +189,10 @@ pub fn figures(run: &Run, scenario: &Scenario) -> Figures {
         detection_time,
         flags: Flags {
             stroke_exceeded: strokes > scenario.stroke_max,
-            tyre_lift_off: tyres.iter().flatten().any(|r| *r <= -1.0),
+            tyre_lift_off: tyres.iter().flatten().any(|r| *r <= -1.0)
+                || airborne.iter().any(|s| *s > 0.0),
+            airborne,
+            at_stop,
             saturated_share: saturated_share(run, scenario.step, scenario.metrics_from),
         },
     }
@@ -836,6 +885,8 @@ mod tests {
             flags: Flags {
                 stroke_exceeded: false,
                 tyre_lift_off: false,
+                airborne: [0.0; 4],
+                at_stop: [0.0; 5],
                 saturated_share,
             },
         }

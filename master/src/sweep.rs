@@ -622,6 +622,22 @@ mod tests {
         let r = run_with(10, &[("tire_load_rr", 6, 4000.0)]);
         let f = outcome(&r, &s).finished().unwrap().flags;
         assert!(!f.tyre_lift_off);
+        // The physical car's clocks: 2 ms off the road at RL and 5 ms at the seat's stop over
+        // the 10 ms run (metrics from the start), whatever the loads say.
+        let mut set: Vec<(&str, usize, f64)> =
+            (6..10).map(|k| ("airborne_time_rl", k, 0.002)).collect();
+        set.extend((5..10).map(|k| ("stop_time_seat", k, (k as f64 - 4.0) * 1e-3)));
+        let f = outcome(&run_with(10, &set), &s).finished().unwrap().flags;
+        assert!(f.tyre_lift_off);
+        assert_eq!(f.airborne, [0.0, 0.0, 0.2, 0.0]);
+        assert!((f.at_stop[4] - 0.5).abs() < 1e-12 && f.at_stop[..4] == [0.0; 4]);
+        assert_eq!(
+            f.describe(0.08),
+            [
+                "wheel lift-off (RL 20.0 % of the time)",
+                "on a stop (seat 50.0 % of the time)"
+            ]
+        );
         // Never at a limit is +0 (the report prints no "-0.00 %").
         assert!(f.saturated_share == 0.0 && f.saturated_share.is_sign_positive());
         // The sweep's stroke limit replaces the base scenario's.
