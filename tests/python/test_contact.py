@@ -252,3 +252,41 @@ def test_the_linear_car_is_still_the_linear_reference(plant_fmu):
     for j in range(16):
         scale = np.max(np.abs(X_ref[:, j]))
         assert np.max(np.abs(X[:, j] - X_ref[:, j])) < 1e-9 * scale, STATE_NAMES[j]
+
+
+def test_a_state_saved_in_flight_restores_in_a_fresh_instance_bit_for_bit(plant_fmu):
+    """Saved through FMI while a wheel is in the air (the pothole), serialised, restored into a
+    fresh instance: both go on through the landing bit for bit, the contact mode and the clocks
+    included."""
+    h = 1e-3
+    names = STATE_NAMES + [f"airborne_time_{c}" for c in ref.CORNERS] + ["tire_force_fl"]
+
+    def started(s):
+        s.fmu.setupExperiment(startTime=0.0)
+        s.fmu.enterInitializationMode()
+        s.fmu.exitInitializationMode()
+
+    a = Slave(plant_fmu)
+    started(a)
+    in_refs, out_refs = a.refs(INPUT_NAMES), a.refs(names)
+    on_road = a.refs(["on_road_fl"])
+    k = 0
+    while not (k > 200 and not a.fmu.getBoolean(on_road)[0]):
+        a.fmu.setReal(in_refs, list(pothole(k * h)))
+        a.fmu.doStep(k * h, h)
+        k += 1
+        assert k < 400, "the FL wheel leaves the road in the pothole"
+    state = a.fmu.serializeFMUState(a.fmu.getFMUState())
+    b = Slave(plant_fmu)
+    started(b)
+    b.fmu.setFMUState(b.fmu.deserializeFMUState(state))
+    assert not b.fmu.getBoolean(on_road)[0], "restored in the air"
+    for j in range(k, k + 300):
+        for s in (a, b):
+            s.fmu.setReal(in_refs, list(pothole(j * h)))
+            s.fmu.doStep(j * h, h)
+        assert a.fmu.getReal(out_refs) == b.fmu.getReal(out_refs)
+    assert a.fmu.getBoolean(on_road)[0], "landed again"
+    for s in (a, b):
+        s.fmu.terminate()
+        s.close()
