@@ -37,7 +37,7 @@ use crate::shipping::design::{ComfortDesign, ComfortRoad, RearWheels};
 use crate::thesis::fault::FaultBox;
 use nalgebra::DMatrix;
 use serde::Serialize;
-use vehicle::model::N_ACTUATORS;
+use vehicle::model::{ACTUATORS, CORNERS, N_ACTUATORS};
 use vehicle::VehicleParams;
 
 /// Why a comfort design was not produced.
@@ -1267,15 +1267,17 @@ fn limits_at(
         tire_load: predicted.rms_tire_load_ratio.map(|s| k * s),
         force: std::array::from_fn(|i| k * predicted.rms_force_n[i] / limits[i]),
     };
-    if let Some(bad) = lim
-        .stroke
+    let names = CORNERS
         .iter()
-        .chain(&lim.force)
-        .chain(&lim.seat_stroke)
-        .find(|v| **v > 1.0)
+        .map(|c| format!("stroke_{c}"))
+        .chain(ACTUATORS.iter().map(|a| format!("force_{a}")))
+        .chain(["stroke_seat".to_string()]);
+    if let Some((name, bad)) = names
+        .zip(lim.stroke.iter().chain(&lim.force).chain(&lim.seat_stroke))
+        .find(|(_, v)| **v > 1.0)
     {
         return Err(format!(
-            "a stroke or force exceeds its limit at {k} standard deviations ({bad:.3} of it)"
+            "{name} exceeds its limit at {k} standard deviations ({bad:.3} of it)"
         ));
     }
     // Accommodated, an actuator of effectiveness ρ_min is sent the asked force over ρ_min: it
@@ -1584,6 +1586,33 @@ pub fn comfort_rows(g0: &ComfortPlant, cl: &ClosedLoop, rows: &[usize]) -> DMatr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A limit broken at 3 σ is named in the refusal, so a designer knows which to relax.
+    #[test]
+    fn a_broken_limit_is_named() {
+        let d = ComfortDesign::from_json(include_str!("../../designs/comfort.json")).unwrap();
+        let mut f = Figures {
+            wk_rms_seat_m_s2: 0.02,
+            we_rms_roll_rad_s2: 0.0,
+            we_rms_pitch_rad_s2: 0.0,
+            vibration_total_m_s2: 0.02,
+            rms_body_heave_m_s2: 0.0,
+            rms_roll_rad_s2: 0.0,
+            rms_pitch_rad_s2: 0.0,
+            rms_stroke_m: [0.01; 4],
+            rms_tire_load_ratio: [0.1; 4],
+            rms_seat_stroke_m: 0.01,
+            rms_force_n: [100.0; 5],
+        };
+        assert!(limits_at(&f, &d, None).is_ok());
+        f.rms_stroke_m[2] = 0.03;
+        let e = limits_at(&f, &d, None).unwrap_err();
+        assert!(e.starts_with("stroke_rl exceeds its limit"), "{e}");
+        f.rms_stroke_m[2] = 0.01;
+        f.rms_force_n[4] = 400.0;
+        let e = limits_at(&f, &d, None).unwrap_err();
+        assert!(e.starts_with("force_seat exceeds its limit"), "{e}");
+    }
 
     /// The state feedback in its frame ([`crate::comfort::plant::Frame`]) holds no force on a
     /// grade: its gain at `s = 0` on the raised, rolled and climbing car is zero to round-off,
