@@ -419,6 +419,27 @@ fn inadmissible_parameters_are_refused_with_a_message() {
             1.5,
             "value 1.5 of 'fault_loss_rr' is above its maximum 1",
         ),
+        (
+            "bump_travel",
+            -0.01,
+            "value -0.01 of 'bump_travel' is below its minimum 0",
+        ),
+        (
+            "seat_travel",
+            2.0,
+            "value 2 of 'seat_travel' is above its maximum 1",
+        ),
+        (
+            "stop_stiffness",
+            1e12,
+            "'stop_stiffness' is above its maximum",
+        ),
+        (
+            "seat_stop_damping",
+            -5.0,
+            "'seat_stop_damping' is below its minimum 0",
+        ),
+        ("rebound_travel", f64::NAN, "'rebound_travel'"),
     ] {
         let p = Plant::new(&log);
         let default = match p.desc.variable(name).unwrap().kind {
