@@ -41,6 +41,10 @@ enum Column {
     Metric(usize),
     StrokeExceeded,
     TyreLiftOff,
+    /// The largest share of the time a wheel is off the road.
+    AirborneShare,
+    /// The largest share of the time a corner or the seat is on a stop.
+    StopShare,
     SaturatedShare,
     LoopSeconds,
 }
@@ -61,7 +65,14 @@ fn columns(parameters: usize) -> Vec<Column> {
     c.extend((0..parameters).map(Swept));
     c.extend([Status, Message, Warnings]);
     c.extend((0..METRICS.len()).map(Metric));
-    c.extend([StrokeExceeded, TyreLiftOff, SaturatedShare, LoopSeconds]);
+    c.extend([
+        StrokeExceeded,
+        TyreLiftOff,
+        AirborneShare,
+        StopShare,
+        SaturatedShare,
+        LoopSeconds,
+    ]);
     c
 }
 
@@ -78,6 +89,8 @@ impl Column {
             Column::Metric(m) => METRICS[m].into(),
             Column::StrokeExceeded => "stroke_exceeded".into(),
             Column::TyreLiftOff => "tyre_lift_off".into(),
+            Column::AirborneShare => "airborne_share".into(),
+            Column::StopShare => "stop_share".into(),
             Column::SaturatedShare => "saturated_share".into(),
             Column::LoopSeconds => "loop_seconds".into(),
         }
@@ -99,6 +112,8 @@ impl Column {
             Column::Metric(m) => Cell::Real(done.map(|f| metric_values(f)[m])),
             Column::StrokeExceeded => Cell::Bool(done.map(|f| f.flags.stroke_exceeded)),
             Column::TyreLiftOff => Cell::Bool(done.map(|f| f.flags.tyre_lift_off)),
+            Column::AirborneShare => Cell::Real(done.map(|f| largest(&f.flags.airborne))),
+            Column::StopShare => Cell::Real(done.map(|f| largest(&f.flags.at_stop))),
             Column::SaturatedShare => Cell::Real(done.map(|f| f.flags.saturated_share)),
             Column::LoopSeconds => Cell::Real(Some(r.loop_seconds)),
         }
@@ -112,10 +127,17 @@ impl Column {
                 (Physical::BYTE_ARRAY, REQUIRED)
             }
             Column::Swept(_) | Column::LoopSeconds => (Physical::DOUBLE, REQUIRED),
-            Column::Metric(_) | Column::SaturatedShare => (Physical::DOUBLE, OPTIONAL),
+            Column::Metric(_)
+            | Column::SaturatedShare
+            | Column::AirborneShare
+            | Column::StopShare => (Physical::DOUBLE, OPTIONAL),
             Column::StrokeExceeded | Column::TyreLiftOff => (Physical::BOOLEAN, OPTIONAL),
         }
     }
+}
+
+fn largest(shares: &[f64]) -> f64 {
+    shares.iter().copied().fold(0.0, f64::max)
 }
 
 fn csv_field(s: &str) -> String {

@@ -138,6 +138,14 @@ fn a_sweep_is_its_runs_row_by_row_and_a_chunk_is_the_same_rows() {
             r[col("tyre_lift_off")],
             (f.max_tyre_ratio >= 1.0).to_string()
         );
+        // The plant's clocks: the largest share of the time off the road and on a stop.
+        for (name, shares) in [
+            ("airborne_share", &f.flags.airborne[..]),
+            ("stop_share", &f.flags.at_stop[..]),
+        ] {
+            let largest = shares.iter().copied().fold(0.0, f64::max);
+            assert_eq!(r[col(name)].parse::<f64>().unwrap(), largest, "{name}");
+        }
     }
     // The same draw of τ at every mass; the passive car does not feel τ.
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
