@@ -159,73 +159,6 @@ const SENSOR_PARAMETERS: [SensorSpec; 5] = [
     },
 ];
 
-/// The stops' Real parameters (`vehicle::contact::ContactParams`).
-const CONTACT_PARAMETERS: [ContactSpec; 7] = [
-    ContactSpec {
-        name: "bump_travel",
-        unit: "m",
-        min: 0.0,
-        max: Some(1.0),
-        description: "Free travel of each corner in bump (compression) from its static position before the bump stop engages",
-        get: |p| p.bump_travel,
-        set: |p, v| p.bump_travel = v,
-    },
-    ContactSpec {
-        name: "rebound_travel",
-        unit: "m",
-        min: 0.0,
-        max: Some(1.0),
-        description: "Free travel of each corner in rebound (extension) from its static position before the rebound stop engages",
-        get: |p| p.rebound_travel,
-        set: |p, v| p.rebound_travel = v,
-    },
-    ContactSpec {
-        name: "stop_stiffness",
-        unit: "N/m",
-        min: 0.0,
-        max: Some(1e9),
-        description: "Stiffness of each corner's bump and rebound stop",
-        get: |p| p.stop_stiffness,
-        set: |p, v| p.stop_stiffness = v,
-    },
-    ContactSpec {
-        name: "stop_damping",
-        unit: "N.s/m",
-        min: 0.0,
-        max: Some(1e7),
-        description: "Damping of each corner's bump and rebound stop",
-        get: |p| p.stop_damping,
-        set: |p, v| p.stop_damping = v,
-    },
-    ContactSpec {
-        name: "seat_travel",
-        unit: "m",
-        min: 0.0,
-        max: Some(1.0),
-        description: "Free travel of the seat each way from its static position before an end stop engages",
-        get: |p| p.seat_travel,
-        set: |p, v| p.seat_travel = v,
-    },
-    ContactSpec {
-        name: "seat_stop_stiffness",
-        unit: "N/m",
-        min: 0.0,
-        max: Some(1e9),
-        description: "Stiffness of each seat end stop",
-        get: |p| p.seat_stop_stiffness,
-        set: |p, v| p.seat_stop_stiffness = v,
-    },
-    ContactSpec {
-        name: "seat_stop_damping",
-        unit: "N.s/m",
-        min: 0.0,
-        max: Some(1e7),
-        description: "Damping of each seat end stop",
-        get: |p| p.seat_stop_damping,
-        set: |p, v| p.seat_stop_damping = v,
-    },
-];
-
 fn contact_param(vr: ValueReference) -> Option<&'static ContactSpec> {
     vr.checked_sub(vr::CONTACT)
         .and_then(|i| CONTACT_PARAMETERS.get(i as usize))
@@ -330,9 +263,9 @@ type ActuatorSpec = ParamSpec<ActuatorParams>;
 type SensorSpec = ParamSpec<SensorParams>;
 type ContactSpec = ParamSpec<ContactParams>;
 
-macro_rules! act {
+macro_rules! spec {
     ($name:literal, $unit:literal, $min:expr, $max:expr, $desc:literal, |$p:ident| $field:expr) => {
-        ActuatorSpec {
+        ParamSpec {
             name: $name,
             unit: $unit,
             description: $desc,
@@ -346,7 +279,7 @@ macro_rules! act {
 
 /// Actuator parameters (SPEC §2): limits, delay, bandwidth and the fault profile.
 const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
-    act!(
+    spec!(
         "u_max",
         "N",
         0.0,
@@ -354,7 +287,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Force limit of each corner actuator (saturation; 0 = the actuator gives no force)",
         |p| p.u_max
     ),
-    act!(
+    spec!(
         "u_max_seat",
         "N",
         0.0,
@@ -362,7 +295,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Force limit of the seat actuator (saturation; 0 = the actuator gives no force)",
         |p| p.u_max_seat
     ),
-    act!(
+    spec!(
         "tau",
         "s",
         0.0,
@@ -370,7 +303,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Transport delay between force command and actuator (0 = none)",
         |p| p.tau
     ),
-    act!(
+    spec!(
         "actuator_bandwidth",
         "Hz",
         0.0,
@@ -378,7 +311,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Bandwidth of the first-order actuator lag (0 = ideal actuator)",
         |p| p.bandwidth
     ),
-    act!(
+    spec!(
         "fault_time",
         "s",
         f64::NEG_INFINITY,
@@ -386,7 +319,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Time at which the actuator faults start (thesis fig. 8.2)",
         |p| p.fault_time
     ),
-    act!(
+    spec!(
         "fault_loss_fl",
         "1",
         0.0,
@@ -394,7 +327,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Loss of effectiveness of the FL actuator after fault_time (0 = healthy, 1 = dead)",
         |p| p.fault_loss[0]
     ),
-    act!(
+    spec!(
         "fault_loss_fr",
         "1",
         0.0,
@@ -402,7 +335,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Loss of effectiveness of the FR actuator after fault_time",
         |p| p.fault_loss[1]
     ),
-    act!(
+    spec!(
         "fault_loss_rl",
         "1",
         0.0,
@@ -410,7 +343,7 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Loss of effectiveness of the RL actuator after fault_time",
         |p| p.fault_loss[2]
     ),
-    act!(
+    spec!(
         "fault_loss_rr",
         "1",
         0.0,
@@ -418,13 +351,73 @@ const ACTUATOR_PARAMETERS: [ActuatorSpec; 10] = [
         "Loss of effectiveness of the RR actuator after fault_time",
         |p| p.fault_loss[3]
     ),
-    act!(
+    spec!(
         "fault_loss_seat",
         "1",
         0.0,
         Some(1.0),
         "Loss of effectiveness of the seat actuator after fault_time",
         |p| p.fault_loss[4]
+    ),
+];
+
+/// The stops' Real parameters (`vehicle::contact::ContactParams`).
+const CONTACT_PARAMETERS: [ContactSpec; 7] = [
+    spec!(
+        "bump_travel",
+        "m",
+        0.0,
+        Some(1.0),
+        "Free travel of each corner in bump (compression) from its static position before the bump stop engages",
+        |p| p.bump_travel
+    ),
+    spec!(
+        "rebound_travel",
+        "m",
+        0.0,
+        Some(1.0),
+        "Free travel of each corner in rebound (extension) from its static position before the rebound stop engages",
+        |p| p.rebound_travel
+    ),
+    spec!(
+        "stop_stiffness",
+        "N/m",
+        0.0,
+        Some(1e9),
+        "Stiffness of each corner's bump and rebound stop",
+        |p| p.stop_stiffness
+    ),
+    spec!(
+        "stop_damping",
+        "N.s/m",
+        0.0,
+        Some(1e7),
+        "Damping of each corner's bump and rebound stop",
+        |p| p.stop_damping
+    ),
+    spec!(
+        "seat_travel",
+        "m",
+        0.0,
+        Some(1.0),
+        "Free travel of the seat each way from its static position before an end stop engages",
+        |p| p.seat_travel
+    ),
+    spec!(
+        "seat_stop_stiffness",
+        "N/m",
+        0.0,
+        Some(1e9),
+        "Stiffness of each seat end stop",
+        |p| p.seat_stop_stiffness
+    ),
+    spec!(
+        "seat_stop_damping",
+        "N.s/m",
+        0.0,
+        Some(1e7),
+        "Damping of each seat end stop",
+        |p| p.seat_stop_damping
     ),
 ];
 
