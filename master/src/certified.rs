@@ -47,6 +47,14 @@ pub fn certificate_path(dist: &Path, controller: &str) -> PathBuf {
     }
 }
 
+/// The role `controller`'s certificate gives it (`design`, or `baseline` for the classical
+/// controllers the designs are measured against); `None` without a certificate or a role.
+pub fn role(dist: &Path, controller: &str) -> Option<String> {
+    let text = std::fs::read_to_string(certificate_path(dist, controller)).ok()?;
+    let json: Value = serde_json::from_str(&text).ok()?;
+    json.get("role")?.as_str().map(String::from)
+}
+
 /// The predictions of `controller`'s certificate: `Ok(None)` if it has no certificate or the
 /// certificate predicts no held loop (a thesis design); an error for a file that is not a
 /// certificate.

@@ -262,8 +262,20 @@ fn compare(
         report += t;
         report += "\n";
     }
-    if let Some(t) = real_car_table(scenarios, &all, controllers) {
-        report += &format!("## On a real car\n\nOn `hills` (ISO C at 20 m/s over 1 m hills every 200 m, 10 Hz actuators, the plant's sensor model on: noise and bias) each controller's W_k RMS seat acceleration against the passive car's and the `skyhook` baseline's; and the scenarios off the design model ({}) in which it does not hold: no better than the passive car, or at a force limit 5 % of the time or more.\n\n", master::report::REAL_CAR_SCENARIOS.map(|s| format!("`{s}`")).join(", "));
+    let baselines: Vec<String> = controllers
+        .iter()
+        .filter(|c| master::certified::role(dist, c).as_deref() == Some("baseline"))
+        .cloned()
+        .collect();
+    if let Some(t) = real_car_table(scenarios, &all, controllers, &baselines) {
+        report += &format!("## On a real car\n\nOn `hills` (ISO C at 20 m/s over 1 m hills every 200 m, 10 Hz actuators, the plant's sensor model on: noise and bias) each controller's W_k RMS seat acceleration against the passive car's and the `skyhook` baseline's; and the scenarios off the design model ({}) in which it does not hold: no better than the passive car anywhere; at a force limit {} % of the time or more on {} (a grade, a crossfall and long waves hold no force in steady state; on the rough roads, with slow actuators or an actuator lost a limit is the scenario's physics and the figure against the passive car says whether the loop stays stable); and, for a design (not a baseline: {}), on `hills` above {} × the passive car's W_k seat or less than {} % better than `skyhook`'s.\n\n",
+            master::report::REAL_CAR_SCENARIOS.map(|s| format!("`{s}`")).join(", "),
+            5,
+            master::report::FORCE_LIMIT_SCENARIOS.map(|s| format!("`{s}`")).join(", "),
+            if baselines.is_empty() { "none".to_string() } else { baselines.iter().map(|b| format!("`{b}`")).collect::<Vec<_>>().join(", ") },
+            master::report::HILLS_OF_PASSIVE,
+            100.0 * master::report::HILLS_BELOW_SKYHOOK,
+        );
         report += &t;
         report += "\n";
     }

@@ -336,20 +336,55 @@ pub const REAL_CAR_SCENARIOS: [&str; 8] = [
     "actuators_5hz",
 ];
 
-/// Whether a run holds: below the passive car's W_k seat and at a force limit less than 5 % of
-/// the time.
-fn holds(f: &Figures, passive: &Figures) -> bool {
-    f.wk_rms_seat < passive.wk_rms_seat && f.flags.saturated_share < 0.05
+/// The scenarios of [`REAL_CAR_SCENARIOS`] on which a controller must not sit at a force limit
+/// (5 % of the time or more): a grade, a crossfall and long waves hold no force in steady state.
+/// On the rough roads, with slow actuators and with an actuator lost, reaching a limit is the
+/// scenario's physics; there the controller must be stable, which the comparison with the
+/// passive car measures (a loop that goes unstable on the physical car bangs its stops).
+pub const FORCE_LIMIT_SCENARIOS: [&str; 3] = ["hills", "grade_ramp", "crossfall"];
+
+/// The share of the time at a force limit from which a run of [`FORCE_LIMIT_SCENARIOS`] does
+/// not hold.
+pub const FORCE_LIMIT_SHARE: f64 = 0.05;
+
+/// The controllers issue's comfort target on `hills`: at most this share of the passive car's
+/// W_k seat ...
+pub const HILLS_OF_PASSIVE: f64 = 0.3;
+/// ... and at least this much better than the `skyhook` baseline's.
+pub const HILLS_BELOW_SKYHOOK: f64 = 0.10;
+
+/// Whether a run of `scenario` holds: below the passive car's W_k seat everywhere; on
+/// [`FORCE_LIMIT_SCENARIOS`] at a force limit less than 5 % of the time; and a design (not a
+/// `baseline`) on `hills` within the comfort target ([`HILLS_OF_PASSIVE`],
+/// [`HILLS_BELOW_SKYHOOK`]).
+fn holds(
+    scenario: &str,
+    baseline: bool,
+    f: &Figures,
+    passive: &Figures,
+    skyhook: Option<&Figures>,
+) -> bool {
+    let limits =
+        !FORCE_LIMIT_SCENARIOS.contains(&scenario) || f.flags.saturated_share < FORCE_LIMIT_SHARE;
+    let target = baseline
+        || scenario != "hills"
+        || (f.wk_rms_seat <= HILLS_OF_PASSIVE * passive.wk_rms_seat
+            && skyhook
+                .is_none_or(|s| f.wk_rms_seat <= (1.0 - HILLS_BELOW_SKYHOOK) * s.wk_rms_seat));
+    f.wk_rms_seat < passive.wk_rms_seat && limits && target
 }
 
 /// The headline on a real car: each controller's W_k seat on `hills` (ISO C over hills, 10 Hz
 /// actuators, the sensors' noise and bias) against the passive car and the `skyhook` baseline,
-/// and the scenarios of [`REAL_CAR_SCENARIOS`] where it does not hold (worse than the passive
-/// car, or at a force limit 5 % of the time or more). `None` unless all of them were run.
+/// and the scenarios of [`REAL_CAR_SCENARIOS`] where it does not hold ([`holds`]: worse than
+/// the passive car; at a force limit 5 % of the time or more on a grade, a crossfall or hills;
+/// a design short of the comfort target on hills; `baselines` are measured against the passive
+/// car only). `None` unless all of them were run.
 pub fn real_car_table(
     scenarios: &[Scenario],
     results: &[Vec<(String, Figures)>],
     controllers: &[String],
+    baselines: &[String],
 ) -> Option<String> {
     let runs = runs_of(scenarios, results, &REAL_CAR_SCENARIOS)?;
     let (hills_scenario, hills) = runs[0];
@@ -364,8 +399,14 @@ pub fn real_car_table(
         };
         let failed: Vec<&str> = runs
             .iter()
-            .filter(|(_, r)| match (run_of(r, name), run_of(r, "passive")) {
-                (Some(f), Some(p)) => !holds(f, p),
+            .filter(|(s, r)| match (run_of(r, name), run_of(r, "passive")) {
+                (Some(f), Some(p)) => !holds(
+                    &s.name,
+                    baselines.contains(name),
+                    f,
+                    p,
+                    run_of(r, "skyhook"),
+                ),
                 _ => false,
             })
             .map(|(s, _)| s.name.as_str())
@@ -892,30 +933,37 @@ mod tests {
         }
     }
 
-    /// A controller holds where it beats the passive car and is at a force limit under 5 % of
-    /// the time; the headline names every real-car scenario where it does not, and is left out
-    /// unless every one was run.
+    /// A controller holds where it beats the passive car; on a grade, a crossfall or hills it
+    /// must also be at a force limit under 5 % of the time (elsewhere a limit is the scenario's
+    /// physics), and a design on hills must meet the comfort target against the passive car and
+    /// `skyhook` (a baseline need not). The headline names every real-car scenario where a
+    /// controller does not hold, and is left out unless every one was run.
     #[test]
     fn the_real_car_headline_names_where_a_controller_does_not_hold() {
         let scenarios: Vec<Scenario> = REAL_CAR_SCENARIOS.iter().map(|n| scenario(n)).collect();
         let results: Vec<Vec<(String, Figures)>> = REAL_CAR_SCENARIOS
             .iter()
             .map(|name| {
-                let mine = match *name {
-                    "hills" => run(0.1, 0.0),
-                    "grade_ramp" => run(0.1, 0.05),
-                    "seat_lost" => run(0.5, 0.0),
-                    _ => run(0.1, 0.049),
+                let (mine, near) = match *name {
+                    "hills" => (run(0.1, 0.0), run(0.19, 0.0)),
+                    "grade_ramp" => (run(0.1, 0.05), run(0.1, 0.0)),
+                    "crossfall" => (run(0.1, 0.049), run(0.1, 0.06)),
+                    "seat_lost" => (run(0.5, 0.0), run(0.39, 0.0)),
+                    "iso_e" => (run(0.1, 0.049), run(0.3, 0.5)),
+                    _ => (run(0.1, 0.049), run(0.1, 0.2)),
                 };
                 vec![
                     ("passive".to_string(), run(0.4, 0.0)),
                     ("skyhook".to_string(), run(0.2, 0.0)),
                     ("mine".to_string(), mine),
+                    ("near".to_string(), near),
                 ]
             })
             .collect();
-        let names = ["skyhook".to_string(), "mine".to_string()];
-        let t = real_car_table(&scenarios, &results, &names).unwrap();
+        let names = ["skyhook", "mine", "near"].map(String::from);
+        let baselines = ["skyhook".to_string()];
+        let t = real_car_table(&scenarios, &results, &names, &baselines).unwrap();
+        // skyhook: 0.5 × the passive car on hills, a baseline: no comfort target.
         assert!(
             t.contains("| `skyhook` | 0.2000 | -50.0 % | - | holds in all |"),
             "{t}"
@@ -924,7 +972,24 @@ mod tests {
             t.contains("| `mine` | 0.1000 | -75.0 % | -50.0 % | grade_ramp, seat_lost |"),
             "{t}"
         );
-        assert_eq!(real_car_table(&scenarios[1..], &results[1..], &names), None);
+        // near: 5 % better than skyhook on hills (short of 10 %), at a limit 6 % of the time on
+        // the crossfall; at a limit half the time on ISO E and 20 % on the other rough or
+        // faulty roads, where it still beats the passive car.
+        assert!(
+            t.contains("| `near` | 0.1900 | -52.5 % | -5.0 % | hills, crossfall |"),
+            "{t}"
+        );
+        // As a design skyhook itself would miss the target (0.5 × the passive car).
+        let none: [String; 0] = [];
+        let t = real_car_table(&scenarios, &results, &names[..1], &none).unwrap();
+        assert!(
+            t.contains("| `skyhook` | 0.2000 | -50.0 % | - | hills |"),
+            "{t}"
+        );
+        assert_eq!(
+            real_car_table(&scenarios[1..], &results[1..], &names, &baselines),
+            None
+        );
     }
 
     #[test]

@@ -576,6 +576,121 @@ fn lost_actuators(
         .collect()
 }
 
+/// The loop with end stops engaged for good, on the design road at the nominal car: the stops'
+/// stiffness and damping ([`vehicle::contact::ContactParams`]'s defaults, the plant FMU's) added
+/// to the seat's spring and damper (`seat`) or to both corners' of an axle (`front`, `rear`;
+/// the car's parameters are per axle). On the physical car a stop engages only beyond its free
+/// travel, so a loop unstable with it engaged can still be stable on the car, but not where the
+/// stop stays engaged long enough for the unstable mode to grow (a rough road: it then bangs
+/// between the stops). `"stable"` with its predicted `W_k` seat; `"unstable"` with the
+/// stiffest spring at which it still is ([`stable_up_to`]); `"not checked"` for a predictor's
+/// loop.
+#[derive(Debug, Clone, Serialize)]
+pub struct EngagedStop {
+    pub stop: &'static str,
+    /// The element's spring \[N/m\]: nominal, and with the stop engaged.
+    pub stiffness_n_m: [f64; 2],
+    pub verdict: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predicted_wk_rms_seat_m_s2: Option<f64>,
+    /// Where unstable with the stop: the stiffest spring of a stable loop (to 1 %), stiffness
+    /// and damping added in proportion.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stable_up_to_n_m: Option<f64>,
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub why: String,
+}
+
+/// [`EngagedStop`] for the seat's stops and each axle's bump stops.
+fn engaged_stops(law: &ControlLaw, params: &VehicleParams, road: &ComfortRoad) -> Vec<EngagedStop> {
+    let stops = vehicle::contact::ContactParams::default();
+    // The car with a share `s` of the stop's stiffness and damping added to the element.
+    type Stiffen = fn(&VehicleParams, &vehicle::contact::ContactParams, f64) -> VehicleParams;
+    let elements: [(&str, f64, f64, Stiffen); 3] = [
+        (
+            "seat",
+            params.k_seat,
+            stops.seat_stop_stiffness,
+            |p, c, s| VehicleParams {
+                k_seat: p.k_seat + s * c.seat_stop_stiffness,
+                c_seat: p.c_seat + s * c.seat_stop_damping,
+                ..*p
+            },
+        ),
+        ("front", params.k_s_f, stops.stop_stiffness, |p, c, s| {
+            VehicleParams {
+                k_s_f: p.k_s_f + s * c.stop_stiffness,
+                c_s_f: p.c_s_f + s * c.stop_damping,
+                ..*p
+            }
+        }),
+        ("rear", params.k_s_r, stops.stop_stiffness, |p, c, s| {
+            VehicleParams {
+                k_s_r: p.k_s_r + s * c.stop_stiffness,
+                c_s_r: p.c_s_r + s * c.stop_damping,
+                ..*p
+            }
+        }),
+    ];
+    elements
+        .iter()
+        .map(|&(stop, k, k_stop, stiffen)| {
+            let at = |share: f64| {
+                Loop::new(
+                    Some(law),
+                    Conditions::nominal(stiffen(params, &stops, share)),
+                )
+            };
+            let (verdict, predicted, up_to, why) = match at(1.0) {
+                _ if law.predictor.is_some() => (
+                    "not checked",
+                    None,
+                    None,
+                    "a predictor's loop is not rational".to_string(),
+                ),
+                Ok(lp) => (
+                    "stable",
+                    Some(lp.figures(road).wk_rms_seat_m_s2),
+                    None,
+                    String::new(),
+                ),
+                Err(e) => (
+                    "unstable",
+                    None,
+                    stable_up_to(|s| at(s).is_ok()).map(|s| k + s * k_stop),
+                    e.to_string(),
+                ),
+            };
+            EngagedStop {
+                stop,
+                stiffness_n_m: [k, k + k_stop],
+                verdict,
+                predicted_wk_rms_seat_m_s2: predicted,
+                stable_up_to_n_m: up_to,
+                why,
+            }
+        })
+        .collect()
+}
+
+/// The largest share `s ∈ [0, 1]` with `stable(s)`, by bisection to 1 % (`None` if even the
+/// nominal loop, `s = 0`, is not). Assumes one boundary: stable below it, not above.
+fn stable_up_to(stable: impl Fn(f64) -> bool) -> Option<f64> {
+    if !stable(0.0) {
+        return None;
+    }
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while hi - lo > 0.01 {
+        let mid = 0.5 * (lo + hi);
+        if stable(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(lo)
+}
+
 /// The actuator bandwidths every loop is checked at: a hydraulic unit's 10 Hz, and 5 Hz, the
 /// slowest the controllers issue asks a design to tolerate.
 pub const CHECKED_ACTUATOR_BANDWIDTHS_HZ: [f64; 2] = [10.0, 5.0];
@@ -666,6 +781,8 @@ pub struct ComfortCertificate {
     pub grade: Grade,
     /// Each actuator lost in turn ([`LostActuator`]).
     pub lost_actuators: Vec<LostActuator>,
+    /// The seat's and each axle's end stops engaged ([`EngagedStop`]).
+    pub engaged_stops: Vec<EngagedStop>,
     /// The loop at its force limits: the circle criterion of its dead zones
     /// ([`crate::predict::saturation`]; an anti-windup design's own check is in its notes).
     pub saturation: crate::predict::saturation::SaturationCheck,
@@ -1228,6 +1345,7 @@ pub fn certify(
         limits: lim,
         grade: Grade::of(ctx.params, law, d.road.speed).map_err(|e| fail(e.to_string()))?,
         lost_actuators: lost_actuators(law, ctx.params, &d.road),
+        engaged_stops: engaged_stops(law, ctx.params, &d.road),
         saturation,
         actuator_lag: actuator_lags(law, ctx.params, &d.road).map_err(&fail)?,
         hinf_comfort: HinfComfort {
@@ -1586,6 +1704,17 @@ pub fn comfort_rows(g0: &ComfortPlant, cl: &ClosedLoop, rows: &[usize]) -> DMatr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The bisection of [`engaged_stops`] finds a stability boundary to 1 % of the stop and
+    /// never reports a share at which the loop is unstable.
+    #[test]
+    fn the_stiffest_stable_spring_is_bisected_from_below() {
+        for edge in [0.0, 0.004, 0.37, 0.999] {
+            let s = stable_up_to(|x| x <= edge).unwrap();
+            assert!(s <= edge && edge - s <= 0.01, "{edge}: {s}");
+        }
+        assert_eq!(stable_up_to(|_| false), None);
+    }
 
     /// A limit broken at 3 σ is named in the refusal, so a designer knows which to relax.
     #[test]

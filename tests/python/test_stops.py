@@ -1,0 +1,102 @@
+"""The certificates' engaged end stops (`engaged_stops`), checked by a second computation.
+
+Each comfort controller of `dist/` is closed around the hand-written car of `reference_car.py`
+(not the Rust model) with a stop engaged for good: its stiffness and damping added to the
+seat's spring and damper, or to both corners' of an axle. The loop's eigenvalues must say what
+the certificate says: stable, or unstable with the stiffest stable spring where the certificate
+puts it.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+import reference_car as rc
+from conftest import ROOT
+
+# vehicle::contact::ContactParams::default(): the plant FMU's stops.
+STOP_STIFFNESS, STOP_DAMPING = 250e3, 500.0
+SEAT_STOP_STIFFNESS, SEAT_STOP_DAMPING = 100e3, 200.0
+
+STOPS = {
+    "seat": [("k_seat", SEAT_STOP_STIFFNESS), ("c_seat", SEAT_STOP_DAMPING)],
+    "front": [("k_s_f", STOP_STIFFNESS), ("c_s_f", STOP_DAMPING)],
+    "rear": [("k_s_r", STOP_STIFFNESS), ("c_s_r", STOP_DAMPING)],
+}
+
+
+def comfort_controllers():
+    out = []
+    for path in sorted((ROOT / "dist").glob("*.certificate.json")):
+        cert = json.loads(path.read_text())
+        if "engaged_stops" in cert:
+            out.append(path.name.removesuffix(".certificate.json"))
+    return out
+
+
+def measured(p, names):
+    """Rows (over x, then u) of what a controller reads, from the reference car's equations."""
+    corners = [(p["L2"], p["w1"]), (p["L2"], -p["w2"]), (-p["L1"], p["w1"]), (-p["L1"], -p["w2"])]
+
+    def read(x, u):
+        ddq, named = rc.accelerations(p, x[:8], x[8:], np.zeros(4), np.zeros(4), u)
+        values = dict(named)
+        for i, c in enumerate(rc.CORNERS):
+            xc, yc = corners[i]
+            values[f"a_body_{c}"] = ddq[0] + yc * ddq[1] + xc * ddq[2]
+            values[f"f_{c}"] = u[i]
+        values["f_seat"] = u[4]
+        values["omega_roll"], values["omega_pitch"] = x[9], x[10]
+        for k in range(16):
+            values[f"x[{k + 1}]"] = x[k]
+        return np.array([values[n.removeprefix("sensor_")] for n in names])
+
+    x0, u0 = np.zeros(16), np.zeros(5)
+    C = np.column_stack([read(e, u0) for e in np.eye(16)])
+    D = np.column_stack([read(x0, e) for e in np.eye(5)])
+    return C, D
+
+
+def abscissa(controller, p):
+    """The largest real part of the closed loop's eigenvalues on a flat road."""
+    A, B, _, _ = rc.linear_maps(p)
+    Bu = B[:, 8:]
+    Ak, Bk, Ck, Dk = (np.array(controller[k], float) for k in "ABCD")
+    Cy, Dy = measured(p, [i["name"] for i in controller["inputs"]])
+    # u = Ck ξ + Dk (Cy x + Dy u)
+    solve = np.linalg.inv(np.eye(5) - Dk @ Dy)
+    ux, uxi = solve @ Dk @ Cy, solve @ Ck
+    n, nk = 16, Ak.shape[0]
+    a = np.zeros((n + nk, n + nk))
+    a[:n, :n] = A + Bu @ ux
+    a[:n, n:] = Bu @ uxi
+    a[n:, :n] = Bk @ (Cy + Dy @ ux)
+    a[n:, n:] = Ak + Bk @ Dy @ uxi
+    return np.linalg.eigvals(a).real.max()
+
+
+def engaged(stop, share):
+    p = dict(rc.PARAMS)
+    for name, extra in STOPS[stop]:
+        p[name] += share * extra
+    return p
+
+
+@pytest.mark.parametrize("variant", comfort_controllers())
+def test_a_certificates_engaged_stops_are_the_reference_cars(variant):
+    cert = json.loads((ROOT / "dist" / f"{variant}.certificate.json").read_text())
+    controller = json.loads((ROOT / "dist" / variant / "controller.json").read_text())
+    assert abscissa(controller, dict(rc.PARAMS)) < 0, "the nominal loop is stable"
+    for e in cert["engaged_stops"]:
+        if e["verdict"] == "not checked":
+            assert "predictor" in controller, e
+            continue
+        at_stop = abscissa(controller, engaged(e["stop"], 1.0))
+        assert (at_stop < 0) == (e["verdict"] == "stable"), (e, at_stop)
+        if e["verdict"] == "unstable":
+            # The certificate's bisection is to 1 % of the stop's stiffness.
+            (k_name, extra), _ = STOPS[e["stop"]]
+            share = (e["stable_up_to_n_m"] - rc.PARAMS[k_name]) / extra
+            assert abscissa(controller, engaged(e["stop"], share)) < 0, e
+            assert abscissa(controller, engaged(e["stop"], share + 0.011)) > 0, e
