@@ -23,7 +23,7 @@ const SEEDS: [u64; 4] = [7, 8, 9, 10];
 
 #[test]
 fn each_certificate_says_which_lost_actuator_its_loop_survives() {
-    let mut cases: Vec<(String, String, String, Option<f64>, f64)> = Vec::new();
+    let mut cases: Vec<(String, String, String, Option<f64>, f64, f64)> = Vec::new();
     for (variant, c) in certificates() {
         for lost in c["lost_actuators"].as_array().expect("lost_actuators") {
             cases.push((
@@ -34,6 +34,8 @@ fn each_certificate_says_which_lost_actuator_its_loop_survives() {
                 c["comfort"]["predicted_wk_rms_seat_m_s2"]
                     .as_f64()
                     .expect("nominal"),
+                // A predictor's loop is checked as a master runs it, at its step.
+                lost["step_s"].as_f64().unwrap_or(1e-4),
             ));
         }
     }
@@ -44,16 +46,17 @@ fn each_certificate_says_which_lost_actuator_its_loop_survives() {
     );
     let lines: Vec<String> = cases
         .par_iter()
-        .map(|(variant, actuator, verdict, predicted, nominal)| {
+        .map(|(variant, actuator, verdict, predicted, nominal, step)| {
             let runs: Vec<(f64, bool)> = SEEDS
                 .iter()
                 .map(|seed| {
-                    // 30 s at 0.1 ms with the actuator lost from the start.
+                    // 30 s at 0.1 ms (or the held loop's step) with the actuator lost from the
+                    // start.
                     let plant = serde_json::json!({
                         "fault_time": 0.0,
                         format!("fault_loss_{actuator}"): 1.0,
                     });
-                    judge(&road_run(variant, 30.0, 1e-4, *seed, &plant).expect("a run"))
+                    judge(&road_run(variant, 30.0, *step, *seed, &plant).expect("a run"))
                 })
                 .collect();
             let seat = (runs.iter().map(|(s, _)| s * s).sum::<f64>() / runs.len() as f64).sqrt();
@@ -76,6 +79,87 @@ fn each_certificate_says_which_lost_actuator_its_loop_survives() {
                     "{line}: the certified unstable loop did not grow"
                 ),
                 _ => {}
+            }
+            line
+        })
+        .collect();
+    for line in lines {
+        println!("{line}");
+    }
+}
+
+/// **End stops engaged.** Each certificate says whether its loop stays stable with the seat's
+/// or an axle's end stops engaged for good (`engaged_stops`): the stop's stiffness and damping
+/// added to the spring and damper (the plant's `k_seat`, `c_seat`, `k_s_f` … set so), on the
+/// linear car, co-simulated on the design road at 0.1 ms (or a predictor's held loop at its
+/// step). A loop called stable stays off the force limits and within half of its prediction on
+/// one seed; one called unstable grows until an actuator saturates (or far from its comfort).
+#[test]
+fn each_certificate_says_whether_an_engaged_stop_keeps_its_loop_stable() {
+    let stops = vehicle::contact::ContactParams::default();
+    let p = vehicle::VehicleParams::default();
+    let mut cases = Vec::new();
+    for (variant, c) in certificates() {
+        let nominal = c["comfort"]["predicted_wk_rms_seat_m_s2"]
+            .as_f64()
+            .expect("nominal");
+        for e in c["engaged_stops"].as_array().expect("engaged_stops") {
+            let plant = match e["stop"].as_str().expect("stop") {
+                "seat" => serde_json::json!({
+                    "k_seat": p.k_seat + stops.seat_stop_stiffness,
+                    "c_seat": p.c_seat + stops.seat_stop_damping,
+                }),
+                "front" => serde_json::json!({
+                    "k_s_f": p.k_s_f + stops.stop_stiffness,
+                    "c_s_f": p.c_s_f + stops.stop_damping,
+                }),
+                "rear" => serde_json::json!({
+                    "k_s_r": p.k_s_r + stops.stop_stiffness,
+                    "c_s_r": p.c_s_r + stops.stop_damping,
+                }),
+                other => panic!("{variant}: an engaged stop {other}"),
+            };
+            let mut plant = plant;
+            plant["contact_model"] = serde_json::json!(0.0);
+            cases.push((
+                variant.clone(),
+                e.clone(),
+                plant,
+                nominal,
+                e["step_s"].as_f64().unwrap_or(1e-4),
+            ));
+        }
+    }
+    assert!(cases.len() >= 27, "three stops per design: {}", cases.len());
+    let lines: Vec<String> = cases
+        .par_iter()
+        .map(|(variant, e, plant, nominal, step)| {
+            let (seat, saturated) =
+                judge(&road_run(variant, 20.0, *step, SEEDS[0], plant).expect("a run"));
+            let verdict = e["verdict"].as_str().expect("verdict");
+            let line = format!(
+                "{variant}, {} stop engaged: certified {verdict} ({}); measured W_k seat \
+                 {seat:.4}, saturated {saturated}",
+                e["stop"],
+                e["predicted_wk_rms_seat_m_s2"]
+                    .as_f64()
+                    .map_or("-".to_string(), |p| format!("{p:.4}")),
+            );
+            match verdict {
+                "stable" => {
+                    let p = e["predicted_wk_rms_seat_m_s2"]
+                        .as_f64()
+                        .expect("prediction");
+                    assert!(
+                        !saturated && (seat / p - 1.0).abs() < 0.5,
+                        "{line}: not the stable loop it certifies"
+                    );
+                }
+                "unstable" => assert!(
+                    saturated || seat > 5.0 * nominal,
+                    "{line}: the certified unstable loop did not grow"
+                ),
+                other => panic!("{line}: every loop is checked, not {other}"),
             }
             line
         })

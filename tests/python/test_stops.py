@@ -89,8 +89,10 @@ def test_a_certificates_engaged_stops_are_the_reference_cars(variant):
     controller = json.loads((ROOT / "dist" / variant / "controller.json").read_text())
     assert abscissa(controller, dict(rc.PARAMS)) < 0, "the nominal loop is stable"
     for e in cert["engaged_stops"]:
-        if e["verdict"] == "not checked":
-            assert "predictor" in controller, e
+        if "predictor" in controller:
+            # Not a rational loop: checked at the sampling instants of a master's step, which
+            # `master/tests/off_design_certificates.rs` co-simulates.
+            assert e["step_s"] > 0 and e["verdict"] in ("stable", "unstable"), e
             continue
         at_stop = abscissa(controller, engaged(e["stop"], 1.0))
         assert (at_stop < 0) == (e["verdict"] == "stable"), (e, at_stop)

@@ -527,25 +527,75 @@ impl Grade {
     }
 }
 
-/// The loop with one actuator giving no force (its controller not told), on the design road at
-/// the nominal car: `"stable"` with its predicted `W_k` seat, or `"unstable"` (the rational
-/// loop's eigenvalues, [`Loop::new`]), or `"not checked"` (a predictor's loop, certified for
-/// healthy actuators only), each with why.
+/// A loop off the design model checked on the design road: by the rational loop's eigenvalues
+/// ([`Loop::new`]) with its continuous-time prediction, or, for a predictor's loop (not
+/// rational), at the sampling instants as a master runs it at the design's communication step
+/// ([`crate::predict::sampled::SampledLoop`]) with the `W_k` seat a master measures there.
 #[derive(Debug, Clone, Serialize)]
-pub struct LostActuator {
-    pub actuator: String,
+pub struct Checked {
+    /// `"stable"`, `"unstable"` or `"not checked"`.
     pub verdict: &'static str,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub predicted_wk_rms_seat_m_s2: Option<f64>,
+    /// The communication step of a check at the sampling instants \[s\] (`None`: the
+    /// continuous loop).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_s: Option<f64>,
     #[serde(skip_serializing_if = "String::is_empty")]
     pub why: String,
+}
+
+impl Checked {
+    fn of(law: &ControlLaw, conditions: Conditions, d: &ComfortDesign) -> Self {
+        use crate::predict::continuous::PredictionError;
+        let checked = |verdict, predicted, why: String| Checked {
+            verdict,
+            predicted_wk_rms_seat_m_s2: predicted,
+            step_s: law.predictor.is_some().then_some(d.communication_step),
+            why,
+        };
+        if law.predictor.is_none() {
+            return match Loop::new(Some(law), conditions) {
+                Ok(lp) => checked(
+                    "stable",
+                    Some(lp.figures(&d.road).wk_rms_seat_m_s2),
+                    String::new(),
+                ),
+                Err(e) => checked("unstable", None, e.to_string()),
+            };
+        }
+        let held = "a predictor's loop is not rational: checked at the sampling instants";
+        match crate::predict::sampled::SampledLoop::new(Some(law), conditions, d.communication_step)
+        {
+            Ok(lp) => checked(
+                "stable",
+                Some(lp.figures(&d.road).recorded_weighted[0]),
+                held.into(),
+            ),
+            Err(PredictionError::Unstable(e)) => checked("unstable", None, format!("{held}: {e}")),
+            Err(e) => checked("not checked", None, e.to_string()),
+        }
+    }
+
+    fn stable(&self) -> bool {
+        self.verdict == "stable"
+    }
+}
+
+/// The loop with one actuator giving no force (its controller not told), on the design road at
+/// the nominal car ([`Checked`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct LostActuator {
+    pub actuator: String,
+    #[serde(flatten)]
+    pub check: Checked,
 }
 
 /// [`LostActuator`] for each actuator in turn.
 fn lost_actuators(
     law: &ControlLaw,
     params: &VehicleParams,
-    road: &ComfortRoad,
+    d: &ComfortDesign,
 ) -> Vec<LostActuator> {
     vehicle::model::ACTUATORS
         .iter()
@@ -553,24 +603,9 @@ fn lost_actuators(
         .map(|(i, a)| {
             let mut conditions = Conditions::nominal(*params);
             conditions.effectiveness[i] = 0.0;
-            let (verdict, predicted, why) = match Loop::new(Some(law), conditions) {
-                _ if law.predictor.is_some() => (
-                    "not checked",
-                    None,
-                    "a predictor's loop is certified for healthy actuators only".to_string(),
-                ),
-                Ok(lp) => (
-                    "stable",
-                    Some(lp.figures(road).wk_rms_seat_m_s2),
-                    String::new(),
-                ),
-                Err(e) => ("unstable", None, e.to_string()),
-            };
             LostActuator {
                 actuator: a.to_string(),
-                verdict,
-                predicted_wk_rms_seat_m_s2: predicted,
-                why,
+                check: Checked::of(law, conditions, d),
             }
         })
         .collect()
@@ -582,27 +617,23 @@ fn lost_actuators(
 /// the car's parameters are per axle). On the physical car a stop engages only beyond its free
 /// travel, so a loop unstable with it engaged can still be stable on the car, but not where the
 /// stop stays engaged long enough for the unstable mode to grow (a rough road: it then bangs
-/// between the stops). `"stable"` with its predicted `W_k` seat; `"unstable"` with the
-/// stiffest spring at which it still is ([`stable_up_to`]); `"not checked"` for a predictor's
-/// loop.
+/// between the stops). [`Checked`], and where unstable the stiffest spring at which it still is
+/// ([`stable_up_to`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct EngagedStop {
     pub stop: &'static str,
     /// The element's spring \[N/m\]: nominal, and with the stop engaged.
     pub stiffness_n_m: [f64; 2],
-    pub verdict: &'static str,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub predicted_wk_rms_seat_m_s2: Option<f64>,
-    /// Where unstable with the stop: the stiffest spring of a stable loop (to 1 %), stiffness
-    /// and damping added in proportion.
+    #[serde(flatten)]
+    pub check: Checked,
+    /// Where unstable with the stop: the stiffest spring of a stable loop (to 1 % of the
+    /// stop's), stiffness and damping added in proportion.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stable_up_to_n_m: Option<f64>,
-    #[serde(skip_serializing_if = "String::is_empty")]
-    pub why: String,
 }
 
 /// [`EngagedStop`] for the seat's stops and each axle's bump stops.
-fn engaged_stops(law: &ControlLaw, params: &VehicleParams, road: &ComfortRoad) -> Vec<EngagedStop> {
+fn engaged_stops(law: &ControlLaw, params: &VehicleParams, d: &ComfortDesign) -> Vec<EngagedStop> {
     let stops = vehicle::contact::ContactParams::default();
     // The car with a share `s` of the stop's stiffness and damping added to the element.
     type Stiffen = fn(&VehicleParams, &vehicle::contact::ContactParams, f64) -> VehicleParams;
@@ -636,38 +667,17 @@ fn engaged_stops(law: &ControlLaw, params: &VehicleParams, road: &ComfortRoad) -
         .iter()
         .map(|&(stop, k, k_stop, stiffen)| {
             let at = |share: f64| {
-                Loop::new(
-                    Some(law),
-                    Conditions::nominal(stiffen(params, &stops, share)),
-                )
+                Checked::of(law, Conditions::nominal(stiffen(params, &stops, share)), d)
             };
-            let (verdict, predicted, up_to, why) = match at(1.0) {
-                _ if law.predictor.is_some() => (
-                    "not checked",
-                    None,
-                    None,
-                    "a predictor's loop is not rational".to_string(),
-                ),
-                Ok(lp) => (
-                    "stable",
-                    Some(lp.figures(road).wk_rms_seat_m_s2),
-                    None,
-                    String::new(),
-                ),
-                Err(e) => (
-                    "unstable",
-                    None,
-                    stable_up_to(|s| at(s).is_ok()).map(|s| k + s * k_stop),
-                    e.to_string(),
-                ),
-            };
+            let check = at(1.0);
+            let stable_up_to_n_m = (check.verdict == "unstable")
+                .then(|| stable_up_to(|s| at(s).stable()).map(|s| k + s * k_stop))
+                .flatten();
             EngagedStop {
                 stop,
                 stiffness_n_m: [k, k + k_stop],
-                verdict,
-                predicted_wk_rms_seat_m_s2: predicted,
-                stable_up_to_n_m: up_to,
-                why,
+                check,
+                stable_up_to_n_m,
             }
         })
         .collect()
@@ -1344,8 +1354,8 @@ pub fn certify(
         },
         limits: lim,
         grade: Grade::of(ctx.params, law, d.road.speed).map_err(|e| fail(e.to_string()))?,
-        lost_actuators: lost_actuators(law, ctx.params, &d.road),
-        engaged_stops: engaged_stops(law, ctx.params, &d.road),
+        lost_actuators: lost_actuators(law, ctx.params, d),
+        engaged_stops: engaged_stops(law, ctx.params, d),
         saturation,
         actuator_lag: actuator_lags(law, ctx.params, &d.road).map_err(&fail)?,
         hinf_comfort: HinfComfort {
