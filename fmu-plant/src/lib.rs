@@ -620,11 +620,10 @@ impl Plant {
 
     #[inline(never)]
     fn compute_outputs(&mut self) {
-        self.forces = self.sim.physical_outputs(&mut self.outputs);
+        (self.forces, self.contact) = self.sim.physical_outputs(&mut self.outputs);
         self.meter = self.sim.meter();
         let truth = self.sensor_rows.map(|k| self.outputs[k]);
         self.readings = self.sensors.read(&truth);
-        self.contact = self.sim.contact_state();
         self.outputs_valid = true;
     }
 }

@@ -888,9 +888,10 @@ impl Simulator {
         out
     }
 
-    /// Physical outputs (the rows of [`vehicle::model::physical_outputs`]) now, and the applied
-    /// forces they were computed with.
-    pub fn physical_outputs(&mut self, out: &mut [f64]) -> [f64; N_ACTUATORS] {
+    /// Physical outputs (the rows of [`vehicle::model::physical_outputs`]) now, the applied
+    /// forces they were computed with, and the tyres' and stops' state: the mode is reconciled
+    /// once for all of them.
+    pub fn physical_outputs(&mut self, out: &mut [f64]) -> ([f64; N_ACTUATORS], ContactState) {
         let f = self.applied_force();
         let mut z = [0.0; N_STATES + N_ROAD + N_ACTUATORS];
         z[..N_STATES].copy_from_slice(self.state());
@@ -902,8 +903,8 @@ impl Simulator {
             .as_ref()
             .expect("applied_force built the system");
         sys.outputs.apply(&z, out);
+        let at = contact::point(&z[..N_STATES], &self.road);
         if mode != Mode::LINEAR {
-            let at = contact::point(&z[..N_STATES], &self.road);
             for (k, sign) in contact::corrections(mode) {
                 let force = sign * sys.contacts.force(k, &at);
                 for (y, per) in out.iter_mut().zip(sys.output_per_contact.column(k).iter()) {
@@ -911,7 +912,7 @@ impl Simulator {
                 }
             }
         }
-        f
+        (f, self.contact_state_at(mode, &at))
     }
 
     /// The mode at the current state and inputs: the stored one, where the road has moved
@@ -943,8 +944,13 @@ impl Simulator {
     /// The tyres' and the stops' forces now, and the time spent off the road and at a stop.
     pub fn contact_state(&mut self) -> ContactState {
         let mode = self.mode_now();
-        let sys = self.system.as_ref().expect("mode_now built the system");
         let z = contact::point(self.state(), &self.road);
+        self.contact_state_at(mode, &z)
+    }
+
+    /// [`Self::contact_state`] in `mode` at the point `z` ([`contact::point`]).
+    fn contact_state_at(&self, mode: Mode, z: &contact::Point) -> ContactState {
+        let sys = self.system.as_ref().expect("mode_now built the system");
         let mut state = ContactState {
             on_road: [true; N_WHEELS],
             tyre_force: [0.0; N_WHEELS],
@@ -958,7 +964,7 @@ impl Simulator {
                 }
                 continue;
             }
-            let force = sys.contacts.force(k, &z);
+            let force = sys.contacts.force(k, z);
             match *element {
                 Unilateral::Tyre(i) => state.tyre_force[i] = force,
                 Unilateral::Bump(i) => state.stop_force[i] += force,

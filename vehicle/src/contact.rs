@@ -164,10 +164,9 @@ pub struct Contact {
     /// `F = force · [x; r] + force_offset` \[N\], the force while engaged (≥ 0 pressing).
     pub force: [f64; N_STATES + N_ROAD],
     pub force_offset: f64,
-    /// `ẋ` per newton of `F` (zero in the position rows): `M⁻¹ (−σ Jᵀ)`.
+    /// `ẋ` per newton of `F` (zero in the position rows): `M⁻¹ (−σ Jᵀ)`, the generalised force
+    /// per newton over each coordinate's mass.
     pub acceleration: [f64; N_STATES],
-    /// The generalised force per newton of `F`, `−σ Jᵀ`.
-    pub generalised: [f64; N_DOF],
     /// `ṗ = rate · [x; r]`.
     pub rate: Point,
     /// `σ`: the penetration is `σ (J q − R z_r) + offset`.
@@ -383,10 +382,9 @@ fn elements(p: &VehicleParams, c: &ContactParams) -> Vec<Contact> {
             }
             let force: [f64; N_STATES + N_ROAD] =
                 std::array::from_fn(|m| k * penetration[m] + d * rate[m]);
-            let generalised: [f64; N_DOF] = std::array::from_fn(|j| -sigma * on.jacobian[j]);
             let mut acceleration = [0.0; N_STATES];
             for j in 0..N_DOF {
-                acceleration[N_DOF + j] = generalised[j] / mech.mass[(j, j)];
+                acceleration[N_DOF + j] = -sigma * on.jacobian[j] / mech.mass[(j, j)];
             }
             Contact {
                 kind,
@@ -399,7 +397,6 @@ fn elements(p: &VehicleParams, c: &ContactParams) -> Vec<Contact> {
                 force,
                 force_offset: k * offset,
                 acceleration,
-                generalised,
             }
         })
         .collect()
