@@ -376,7 +376,7 @@ fn holds(
 
 /// The headline on a real car: each controller's W_k seat on `hills` (ISO C over hills, 10 Hz
 /// actuators, the sensors' noise and bias) against the passive car and the `skyhook` baseline,
-/// and the scenarios of [`REAL_CAR_SCENARIOS`] where it does not hold ([`holds`]: worse than
+/// and the scenarios of [`REAL_CAR_SCENARIOS`] where it does not hold (worse than
 /// the passive car; at a force limit 5 % of the time or more on a grade, a crossfall or hills;
 /// a design short of the comfort target on hills; `baselines` are measured against the passive
 /// car only). `None` unless all of them were run.

@@ -618,7 +618,7 @@ fn lost_actuators(
 /// travel, so a loop unstable with it engaged can still be stable on the car, but not where the
 /// stop stays engaged long enough for the unstable mode to grow (a rough road: it then bangs
 /// between the stops). [`Checked`], and where unstable the stiffest spring at which it still is
-/// ([`stable_up_to`]).
+/// (a bisection to 1 % of the stop).
 #[derive(Debug, Clone, Serialize)]
 pub struct EngagedStop {
     pub stop: &'static str,
