@@ -379,7 +379,7 @@ fn robust_of_keeps_comfort_and_limits_from_1200_to_1800_kg() {
 
 /// Thesis §5.1.4 / Th. 5.3, with the plant's and the controller's force limits lowered to 300 N
 /// (corners) and 100 N (seat): `hinf_of_aw` against its nominal design `hinf_of`, the same linear
-/// controller without the compensator.
+/// controller without the compensator; and `robust_of`, which carries the same compensator.
 #[test]
 fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedback_in_saturation()
 {
@@ -415,7 +415,7 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedb
     // 0.366 and 0.253 against the passive car's 0.421).
     let bump = bump(0.1);
     let (passive, ..) = run(None, &bump, 12.0);
-    for v in ["hinf_of", "hinf_of_aw"] {
+    for v in ["hinf_of", "hinf_of_aw", "robust_of"] {
         let (f, command, saturated, settled) = run(Some(v), &bump, 12.0);
         eprintln!("10 cm bump, 300/100 N: {v}: seat RMS {:.4} (passive {:.4}) m/s², max stroke {:.4} m, peak command {command:.0} N, FL saturated {:.1} % of the time, |a_seat| over the last second {settled:.1e}", f.seat, passive.seat, f.stroke, 100.0 * saturated);
         assert!(
@@ -450,6 +450,19 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedb
         "anti-windup should not lose comfort"
     );
     assert!(aw_saturated < plain_saturated);
+    // robust_of's compensator holds its commands within the limits too, and its comfort.
+    let (robust, robust_command, robust_saturated, _) = run(Some("robust_of"), &road, 20.0);
+    eprintln!(
+        "ISO D 20 m/s, 300/100 N: robust_of seat RMS {:.4} m/s², FL saturated {:.0} %, peak command {robust_command:.0} N",
+        robust.seat,
+        100.0 * robust_saturated
+    );
+    assert!(
+        robust_command <= 300.0 + 1e-9 && robust.seat < 0.7 * passive.seat,
+        "robust_of's anti-windup: peak command {robust_command} N, seat {} (passive {})",
+        robust.seat,
+        passive.seat
+    );
 }
 
 /// The 5 cm bump with the plant's transport delay `tau` (15 s run at communication step `h`):

@@ -1003,19 +1003,22 @@ fn input_rows(
     Ok((c, d))
 }
 
-/// `hinf_of_aw`: the nominal output feedback `of` (`hinf_of`) plus the decoupled model-recovery
-/// anti-windup compensator of thesis Th. 5.3 ([`crate::thesis::anti_windup`]): `F` from the
-/// sector LMI on the car (performance: the comfort accelerations with their ISO factors),
-/// re-checked by the circle criterion. The compensator's model `η̇ = A η + B (u − y_c)` is the
-/// car's; the controller reads its inputs less what that model says the saturation did to them,
-/// `C η + D (u − y_c)` — `D` the accelerometers' and the load cells' direct feed-through of the
-/// forces — so that below and above saturation it sees the loop it was designed in. Its linear
-/// behaviour, and so every prediction, is `of`'s.
+/// `variant`: the output feedback `of` (`hinf_of` for `hinf_of_aw`, `robust_of` for itself)
+/// plus the decoupled model-recovery anti-windup compensator of thesis Th. 5.3
+/// ([`crate::thesis::anti_windup`]): `F` from the sector LMI on the car (performance: the
+/// comfort accelerations with their ISO factors), re-checked by the circle criterion. The
+/// compensator's model `η̇ = A η + B (u − y_c)` is the nominal car's; the controller reads its
+/// inputs less what that model says the saturation did to them, `C η + D (u − y_c)` — `D` the
+/// accelerometers' and the load cells' direct feed-through of the forces — so that below and
+/// above saturation it sees the loop it was designed in. Its linear behaviour, and so every
+/// prediction, is `of`'s; its certificate is `of`'s with `robust_to` and the saturation check
+/// (the anti-windup loop's) replaced.
 pub fn anti_windup_design(
     ctx: &Context,
     of: &ComfortDesignResult,
+    variant: &str,
+    robust_to: Uncertainty,
 ) -> Result<ComfortDesignResult, ComfortError> {
-    let variant = "hinf_of_aw";
     let nominal = of.certificate.variant.clone();
     let d = ctx.design;
     let ss = vehicle::StateSpace::new(ctx.params);
@@ -1058,20 +1061,32 @@ pub fn anti_windup_design(
     }
     let mut certificate = of.certificate.clone();
     certificate.variant = variant.into();
-    certificate.robust_to = Uncertainty::Saturation;
+    certificate.robust_to = robust_to;
     certificate.saturation =
         crate::predict::saturation::SaturationCheck::anti_windup(aw.w.as_slice(), &check);
+    let (with, below) = if nominal == variant {
+        (
+            "With".to_string(),
+            "Below saturation it is the loop without it, whose predictions these are; its model \
+             and check are the nominal car's"
+                .to_string(),
+        )
+    } else {
+        (
+            format!("{nominal} plus"),
+            format!("Below saturation it is {nominal}: the predictions are {nominal}'s"),
+        )
+    };
     certificate.notes.insert(
         0,
         format!(
-            "{nominal} plus the decoupled model-recovery anti-windup of thesis Th. 5.3 \
+            "{with} the decoupled model-recovery anti-windup of thesis Th. 5.3 \
              (corrected): eta' = (A + B_u F) eta - B_u dz(u_lin), u = sat(u_lin), the controller \
              reads y - C_y eta - D_y (u - u_lin) (D_y: its inputs' feed-through of the forces, \
              the accelerometers' and the load cells'); F from the generalised-sector LMI on the \
              car with the comfort accelerations as performance (L2 gain {:.4}); re-checked: A + \
              B_u F spectral abscissa {:.3}, circle criterion with the LMI's multiplier on {} \
-             frequencies (min margin {:.3e}). Below saturation it is {nominal}: the predictions \
-             are {nominal}'s.",
+             frequencies (min margin {:.3e}). {below}.",
             aw.gamma, check.spectral_abscissa, check.frequencies, check.min_margin
         ),
     );

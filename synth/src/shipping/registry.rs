@@ -141,7 +141,9 @@ pub const VARIANTS: [Variant; 9] = [
         robust_to: Uncertainty::Saturation,
         model: DesignModel::Car,
         summary: "hinf_of with anti-windup for actuator saturation (thesis Th. 5.3)",
-        comfort: |ctx, s| anti_windup_design(ctx, s.hinf_of(ctx)?),
+        comfort: |ctx, s| {
+            anti_windup_design(ctx, s.hinf_of(ctx)?, "hinf_of_aw", Uncertainty::Saturation)
+        },
         role: Role::Design,
     },
     Variant {
@@ -168,8 +170,11 @@ pub const VARIANTS: [Variant; 9] = [
         nominal: Some("hinf_of"),
         robust_to: Uncertainty::SprungMass,
         model: DesignModel::Car,
-        summary: "output feedback on hinf_of's sensors robust to the sprung mass (thesis Th. 6.2)",
-        comfort: |ctx, s| crate::comfort::car::robust_design(ctx, s.robust(ctx)?, s.hinf_of(ctx)?),
+        summary: "output feedback on hinf_of's sensors robust to the sprung mass (thesis Th. 6.2), with hinf_of_aw's anti-windup (Th. 5.3)",
+        comfort: |ctx, s| {
+            let of = crate::comfort::car::robust_design(ctx, s.robust(ctx)?, s.hinf_of(ctx)?)?;
+            anti_windup_design(ctx, &of, "robust_of", Uncertainty::SprungMass)
+        },
         role: Role::Design,
     },
     Variant {
