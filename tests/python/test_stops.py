@@ -102,3 +102,16 @@ def test_a_certificates_engaged_stops_are_the_reference_cars(variant):
             share = (e["stable_up_to_n_m"] - rc.PARAMS[k_name]) / extra
             assert abscissa(controller, engaged(e["stop"], share)) < 0, e
             assert abscissa(controller, engaged(e["stop"], share + 0.011)) > 0, e
+
+
+@pytest.mark.parametrize("variant", comfort_controllers())
+def test_every_controller_is_stable_on_its_own_as_its_certificate_says(variant):
+    """The controllers issue: each controller stable on its own (an unstable one would need a
+    reason in its certificate). numpy's eigenvalues of the shipped `A` against the
+    certificate's `controller_spectral_abscissa` (nalgebra's)."""
+    cert = json.loads((ROOT / "dist" / f"{variant}.certificate.json").read_text())
+    a = np.array(json.loads((ROOT / "dist" / variant / "controller.json").read_text())["A"], float)
+    mine = np.linalg.eigvals(a).real.max()
+    theirs = cert["controller_spectral_abscissa"]
+    assert mine < 0 and theirs < 0, (mine, theirs)
+    assert abs(mine - theirs) <= 1e-6 * max(1.0, abs(mine)), (mine, theirs)

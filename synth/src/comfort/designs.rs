@@ -800,6 +800,10 @@ pub struct ComfortCertificate {
     pub actuator_lag: Vec<ActuatorLag>,
     pub hinf_comfort: HinfComfort,
     pub spectral_abscissa: f64,
+    /// The controller on its own (its `A`), open loop: the largest real part of its poles
+    /// (negative: stable, so a master that runs it without the car, or a car that stops
+    /// answering it, does not see it diverge).
+    pub controller_spectral_abscissa: f64,
     pub closed_loop_poles: Vec<[f64; 2]>,
     pub measurements: Vec<String>,
     pub controller: serde_json::Value,
@@ -1380,6 +1384,7 @@ pub fn certify(
             passive_peak_hz: hz(hp.peak_frequency),
         },
         spectral_abscissa: abscissa,
+        controller_spectral_abscissa: crate::numerics::eig::spectral_abscissa(&law.lti.a),
         closed_loop_poles: poles,
         measurements: law.inputs.clone(),
         controller: serde_json::json!({
