@@ -897,13 +897,13 @@ impl Simulator {
         z[..N_STATES].copy_from_slice(self.state());
         z[N_STATES..N_STATES + N_ROAD].copy_from_slice(&self.road);
         z[N_STATES + N_ROAD..].copy_from_slice(&f);
-        let mode = self.mode_now();
+        let at = contact::point(&z[..N_STATES], &self.road);
+        let mode = self.mode_at(&at);
         let sys = self
             .system
             .as_ref()
             .expect("applied_force built the system");
         sys.outputs.apply(&z, out);
-        let at = contact::point(&z[..N_STATES], &self.road);
         if mode != Mode::LINEAR {
             for (k, sign) in contact::corrections(mode) {
                 let force = sign * sys.contacts.force(k, &at);
@@ -919,13 +919,18 @@ impl Simulator {
     /// since (a held road jumps at every communication point) the tyres switched. The stops
     /// read the state alone, which is where the last step left it and checked it.
     fn mode_now(&mut self) -> Mode {
+        let z = contact::point(self.state(), &self.road);
+        self.mode_at(&z)
+    }
+
+    /// [`Self::mode_now`] at `z`, the current state and road as a [`contact::point`].
+    fn mode_at(&mut self, z: &contact::Point) -> Mode {
         if !self.contact.physical {
             return Mode::LINEAR;
         }
         self.system();
         let sys = self.system.as_ref().expect("built above");
-        let z = contact::point(self.state(), &self.road);
-        sys.contacts.reconcile_tyres(self.mode, &z)
+        sys.contacts.reconcile_tyres(self.mode, z)
     }
 
     /// For each physical output, whether a tyre leaving the road changes how the road enters it
@@ -943,8 +948,8 @@ impl Simulator {
 
     /// The tyres' and the stops' forces now, and the time spent off the road and at a stop.
     pub fn contact_state(&mut self) -> ContactState {
-        let mode = self.mode_now();
         let z = contact::point(self.state(), &self.road);
+        let mode = self.mode_at(&z);
         self.contact_state_at(mode, &z)
     }
 

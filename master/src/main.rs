@@ -268,9 +268,9 @@ fn compare(
         .cloned()
         .collect();
     if let Some(t) = real_car_table(scenarios, &all, controllers, &baselines) {
-        report += &format!("## On a real car\n\nOn `hills` (ISO C at 20 m/s over 1 m hills every 200 m, 10 Hz actuators, the plant's sensor model on: noise and bias) each controller's W_k RMS seat acceleration against the passive car's and the `skyhook` baseline's; and the scenarios off the design model ({}) in which it does not hold: no better than the passive car anywhere; at a force limit {} % of the time or more on {} (a grade, a crossfall and long waves hold no force in steady state; on the rough roads, with slow actuators or an actuator lost a limit is the scenario's physics and the figure against the passive car says whether the loop stays stable); and, for a design (not a baseline: {}), on `hills` above {} × the passive car's W_k seat or less than {} % better than `skyhook`'s.\n\n",
+        report += &format!("## On a real car\n\nOn `hills` (ISO C at 20 m/s over 1 m hills every 200 m, 10 Hz actuators, the plant's sensor model on: noise and bias) each controller's W_k RMS seat acceleration against the passive car's and the `skyhook` baseline's; and the scenarios off the design model ({}) in which it does not hold: no better than the passive car anywhere; at a force limit {:.0} % of the time or more on {} (a grade, a crossfall and long waves hold no force in steady state; on the rough roads, with slow actuators or an actuator lost a limit is the scenario's physics and the figure against the passive car says whether the loop stays stable); and, for a design (not a baseline: {}), on `hills` above {} × the passive car's W_k seat or less than {} % better than `skyhook`'s.\n\n",
             master::report::REAL_CAR_SCENARIOS.map(|s| format!("`{s}`")).join(", "),
-            5,
+            100.0 * master::report::FORCE_LIMIT_SHARE,
             master::report::FORCE_LIMIT_SCENARIOS.map(|s| format!("`{s}`")).join(", "),
             if baselines.is_empty() { "none".to_string() } else { baselines.iter().map(|b| format!("`{b}`")).collect::<Vec<_>>().join(", ") },
             master::report::HILLS_OF_PASSIVE,
