@@ -443,7 +443,8 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
 
 impl Controller {
     /// Bring `y_c` and `u` up to date. With anti-windup the controller reads `y − C η` (less
-    /// `D_aw (u − y_c)`, which only its state sees: a controller with `D_aw` has no `D`) and
+    /// `D_aw (u − y_c)`, which only its state sees: the controller's `D` reads no input `D_aw`
+    /// feeds, `D D_aw = 0`) and
     /// `u = sat(y_c + F η)`; otherwise `u = y_c = C xc + D y`.
     fn update_commands(&mut self) {
         if self.valid {

@@ -7,7 +7,7 @@ use nalgebra::DMatrix;
 
 pub use controller_file::DetectorInput;
 pub use controller_file::{CommunicationSteps, Guarantee, Signal, FORMAT};
-use controller_file::{ControllerFile as Raw, Predictor as RawPredictor, Rows};
+use controller_file::{ControllerFile as Raw, Predictor as RawPredictor};
 
 /// A fault detector (thesis ch. 8): `ξ̇ = A ξ + B y + B_u u` with `u` the command sent (N),
 /// the residual `r = C ξ + D y` (N, the estimated actuator force deficit); `fault_detected`
@@ -397,12 +397,15 @@ impl Spec {
                 } else {
                     matrix("anti_windup.D", &aw.d, ny, nu)?
                 };
-                // The controller's command would then depend on itself through its own D.
-                let feeds_through = |rows: &Rows| rows.iter().flatten().any(|v| *v != 0.0);
-                if d.iter().any(|v| *v != 0.0) && feeds_through(&raw.d) {
+                // The command would depend on itself where the controller's D reads an input
+                // that `D` feeds the forces through to (a state feedback's D on the states
+                // beside accelerometers only its filters read is fine: `D_K D = 0`).
+                let d_k = matrix("D", &raw.d, nu, ny)?;
+                if (&d_k * &d).iter().any(|v| *v != 0.0) {
                     return Err(SpecError::Invalid(
-                        "anti_windup.D with a controller whose D is not zero: the command would \
-                         depend on itself"
+                        "anti_windup.D feeds the forces through to inputs the controller's D \
+                         reads (D_K anti_windup.D is not zero): the command would depend on \
+                         itself"
                             .into(),
                     ));
                 }

@@ -297,7 +297,8 @@ fn anti_windup_saturates_and_integrates_the_excess_exactly() {
 /// the compensator's state plays no part). With `y = 1` the first step leaves `x₁ = 1 − e^{−0.1}`
 /// unsaturated on the seat output; the corner's `100 x₁` saturates at 4, and its excess
 /// `e = 4 − 100 x₁` enters the next step through `D`: `x₂ = x₁ e^{−0.1} + (1 − 0.5 e)(1 − e^{−0.1})`.
-/// A file that pairs `D` with a controller `D` (the command would depend on itself) is refused.
+/// A file whose controller `D` reads an input `D` feeds the forces through to (the command would
+/// depend on itself) is refused; one whose `D` reads only other inputs is not.
 #[test]
 fn anti_windup_feeds_the_excess_through_to_the_inputs_that_see_the_forces() {
     let spec = r#"{
@@ -333,6 +334,24 @@ fn anti_windup_feeds_the_excess_through_to_the_inputs_that_see_the_forces() {
     }
     let looped = spec.replace(r#""D": [[0.0], [0.0]]"#, r#""D": [[1.0], [0.0]]"#);
     let e = Spec::from_json(&looped).unwrap_err().to_string();
+    assert!(e.contains("depend on itself"), "{e}");
+    // A feed-through on an input the forces do not reach is no loop (`D_K D = 0`: a state
+    // feedback's gain on the stroke beside the accelerometer only its filters read).
+    let two = spec
+        .replace(
+            r#"[{"name": "sensor_a_seat", "unit": "m/s2"}]"#,
+            r#"[{"name": "sensor_a_seat", "unit": "m/s2"}, {"name": "sensor_stroke_seat", "unit": "m"}]"#,
+        )
+        .replace(r#""B": [[1.0]]"#, r#""B": [[1.0, 0.0]]"#)
+        .replace(r#""C": [[0.0]], "D": [[0.5, 0.0]]"#, r#""C": [[0.0], [0.0]], "D": [[0.5, 0.0], [0.0, 0.0]]"#);
+    let on_stroke = two.replace(r#""D": [[0.0], [0.0]]"#, r#""D": [[0.0, 3.0], [0.0, 0.0]]"#);
+    assert!(
+        Spec::from_json(&on_stroke).is_ok(),
+        "{:?}",
+        Spec::from_json(&on_stroke).err()
+    );
+    let on_acceleration = two.replace(r#""D": [[0.0], [0.0]]"#, r#""D": [[3.0, 0.0], [0.0, 0.0]]"#);
+    let e = Spec::from_json(&on_acceleration).unwrap_err().to_string();
     assert!(e.contains("depend on itself"), "{e}");
 }
 

@@ -179,8 +179,8 @@ fn contact_outputs() -> Vec<(String, &'static str, String)> {
     for (c, upper) in &places[..4] {
         v.push((format!("tire_force_{c}"), "N", format!("Whole load of the {upper} tyre on the road, static part included (0 while the wheel is in the air; the linear car's may go negative)")));
     }
-    for (c, upper) in &places {
-        v.push((format!("stop_force_{c}"), "N", format!("Force of the {upper} stops: positive while the bump stop pushes back, negative while the rebound stop holds, 0 between them")));
+    for row in vehicle::model::stop_force_rows() {
+        v.push((row.name, row.unit, row.description));
     }
     for (c, upper) in &places[..4] {
         v.push((

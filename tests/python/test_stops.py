@@ -2,8 +2,9 @@
 
 Each comfort controller of `dist/` is closed around the hand-written car of `reference_car.py`
 (not the Rust model) with a stop engaged for good: its stiffness and damping added to the
-seat's spring and damper, or to both corners' of an axle. The loop's eigenvalues must say what
-the certificate says: stable, or unstable with the stiffest stable spring where the certificate
+seat's spring and damper, or to both corners' of an axle, and the plant's `stop_force_*` there
+reading it (what `robust_sf`'s stop recovery reads). The loop's eigenvalues must say what the
+certificate says: stable, or unstable with the stiffest stable spring where the certificate
 puts it.
 """
 
@@ -35,13 +36,23 @@ def comfort_controllers():
     return out
 
 
-def measured(p, names):
-    """Rows (over x, then u) of what a controller reads, from the reference car's equations."""
+def measured(p, names, stop_forces=None):
+    """Rows (over x, then u) of what a controller reads, from the reference car's equations.
+
+    `stop_forces`: the places (`fl` … `seat`) whose stop is engaged for good, each with its
+    (stiffness, damping): the plant's `stop_force_<place>` pushes back, `-(k s + c ds/dt)` for
+    the stroke `s`; every other stop's force is zero."""
     corners = [(p["L2"], p["w1"]), (p["L2"], -p["w2"]), (-p["L1"], p["w1"]), (-p["L1"], -p["w2"])]
+    stop_forces = stop_forces or {}
 
     def read(x, u):
         ddq, named = rc.accelerations(p, x[:8], x[8:], np.zeros(4), np.zeros(4), u)
+        # Strokes are linear in the positions: at the velocities they are the strokes' rates.
+        _, rates = rc.accelerations(p, x[8:], np.zeros(8), np.zeros(4), np.zeros(4), np.zeros(5))
         values = dict(named)
+        for place in rc.CORNERS + ["seat"]:
+            k, c = stop_forces.get(place, (0.0, 0.0))
+            values[f"stop_force_{place}"] = -(k * named[f"stroke_{place}"] + c * rates[f"stroke_{place}"])
         for i, c in enumerate(rc.CORNERS):
             xc, yc = corners[i]
             values[f"a_body_{c}"] = ddq[0] + yc * ddq[1] + xc * ddq[2]
@@ -58,12 +69,12 @@ def measured(p, names):
     return C, D
 
 
-def abscissa(controller, p):
+def abscissa(controller, p, stop_forces=None):
     """The largest real part of the closed loop's eigenvalues on a flat road."""
     A, B, _, _ = rc.linear_maps(p)
     Bu = B[:, 8:]
     Ak, Bk, Ck, Dk = (np.array(controller[k], float) for k in "ABCD")
-    Cy, Dy = measured(p, [i["name"] for i in controller["inputs"]])
+    Cy, Dy = measured(p, [i["name"] for i in controller["inputs"]], stop_forces)
     # u = Ck ξ + Dk (Cy x + Dy u)
     solve = np.linalg.inv(np.eye(5) - Dk @ Dy)
     ux, uxi = solve @ Dk @ Cy, solve @ Ck
@@ -76,11 +87,17 @@ def abscissa(controller, p):
     return np.linalg.eigvals(a).real.max()
 
 
+PLACES = {"seat": ["seat"], "front": ["fl", "fr"], "rear": ["rl", "rr"]}
+
+
 def engaged(stop, share):
+    """The car with a share of `stop` engaged for good, and the stop forces it reads
+    (`abscissa`'s last two arguments)."""
     p = dict(rc.PARAMS)
     for name, extra in STOPS[stop]:
         p[name] += share * extra
-    return p
+    (_, k), (_, c) = STOPS[stop]
+    return p, {place: (share * k, share * c) for place in PLACES[stop]}
 
 
 @pytest.mark.parametrize("variant", comfort_controllers())
@@ -94,14 +111,14 @@ def test_a_certificates_engaged_stops_are_the_reference_cars(variant):
             # `master/tests/off_design_certificates.rs` co-simulates.
             assert e["step_s"] > 0 and e["verdict"] in ("stable", "unstable"), e
             continue
-        at_stop = abscissa(controller, engaged(e["stop"], 1.0))
+        at_stop = abscissa(controller, *engaged(e["stop"], 1.0))
         assert (at_stop < 0) == (e["verdict"] == "stable"), (e, at_stop)
         if e["verdict"] == "unstable":
             # The certificate's bisection is to 1 % of the stop's stiffness.
             (k_name, extra), _ = STOPS[e["stop"]]
             share = (e["stable_up_to_n_m"] - rc.PARAMS[k_name]) / extra
-            assert abscissa(controller, engaged(e["stop"], share)) < 0, e
-            assert abscissa(controller, engaged(e["stop"], share + 0.011)) > 0, e
+            assert abscissa(controller, *engaged(e["stop"], share)) < 0, e
+            assert abscissa(controller, *engaged(e["stop"], share + 0.011)) > 0, e
 
 
 @pytest.mark.parametrize("variant", comfort_controllers())

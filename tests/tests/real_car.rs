@@ -127,7 +127,7 @@ fn no_steady_force_on_a_long_grade() {
 }
 
 /// Each certificate's `saturation` (`synth::predict::saturation`): the baselines' loops
-/// (`skyhook`, `lqg`) and the anti-windup loops of `hinf_of_aw` and `robust_of` are absolutely stable at any force
+/// (`skyhook`, `lqg`) and the anti-windup loops of `hinf_of_aw`, `robust_of` and `robust_sf` are absolutely stable at any force
 /// limits by the circle criterion with a diagonal multiplier, its margin positive on every
 /// frequency checked. The H∞ designs' seat actuator has a loop whose real part exceeds 1 (near
 /// 1.9 Hz): no diagonal multiplier exists, and their certificates say so and where. Every
@@ -141,7 +141,7 @@ fn the_certificates_say_which_saturated_loops_are_proven_stable() {
         serde_json::from_str(&std::fs::read_to_string(&path).expect("the certificate (make)"))
             .expect("JSON")
     };
-    for name in ["skyhook", "lqg", "hinf_of_aw", "robust_of"] {
+    for name in ["skyhook", "lqg", "hinf_of_aw", "robust_of", "robust_sf"] {
         let s = &read(name)["saturation"];
         assert_eq!(s["verdict"], "circle criterion", "{name}: {s}");
         assert!(s["margin"].as_f64().is_some_and(|m| m > 0.0), "{name}: {s}");
@@ -349,4 +349,50 @@ fn back_to_the_unsaturated_loop_after_saturation() {
             );
         }
     }
+}
+
+/// **A state feedback that recovers from its seat's end stops** (`synth::comfort::stop_recovery`).
+/// On ISO E at the default force limits (`scenarios/iso_e.json`, the physical car) the seat
+/// reaches its stops. `hinf_sf`, whose loop grows with a seat stop engaged (its certificate's
+/// `engaged_stops`), ends far worse than the passive car; `robust_sf`, the same gain reading the
+/// stops' force and recovering from it, with anti-windup, is certified stable with the stop
+/// engaged and in saturation, and measures better than the passive car.
+#[test]
+fn recovering_from_its_seat_stops_keeps_a_state_feedback_stable_on_iso_e() {
+    let text = std::fs::read_to_string(dist().join("../scenarios/iso_e.json")).expect("iso_e");
+    let scenario: master::cosim::Scenario = serde_json::from_str(&text).expect("a scenario");
+    let seat = |controller: Option<&str>| {
+        let run = master::cosim::run(&dist(), &scenario, controller).expect("a run");
+        let wk = run
+            .column(vehicle::iso2631::METER_OUTPUTS[0].0)
+            .expect("W_k");
+        master::metrics::rms(&wk)
+    };
+    let certified = |name: &str| -> String {
+        let path = dist().join(format!("{name}.certificate.json"));
+        let c: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).expect("certificate")).unwrap();
+        let seat = c["engaged_stops"]
+            .as_array()
+            .expect("engaged_stops")
+            .iter()
+            .find(|e| e["stop"] == "seat")
+            .expect("the seat's stop")
+            .clone();
+        format!("{} / {}", seat["verdict"], c["saturation"]["verdict"])
+    };
+    let (passive, plain, recovered) = (seat(None), seat(Some("hinf_sf")), seat(Some("robust_sf")));
+    eprintln!(
+        "ISO E, W_k seat: passive {passive:.3}, hinf_sf {plain:.3}, robust_sf {recovered:.3}"
+    );
+    assert_eq!(certified("hinf_sf"), "\"unstable\" / \"not certified\"");
+    assert_eq!(certified("robust_sf"), "\"stable\" / \"circle criterion\"");
+    assert!(
+        plain > passive,
+        "hinf_sf {plain} against the passive car's {passive}"
+    );
+    assert!(
+        recovered < 0.9 * passive,
+        "robust_sf {recovered} against the passive car's {passive}"
+    );
 }

@@ -420,6 +420,46 @@ mod tests {
         contacts(&VehicleParams::default(), &ContactParams::default())
     }
 
+    /// What a stop-force recovery in a controller assumes (`synth`'s `stop_recovery`): the plant's
+    /// `stop_force_*` output (bump positive, rebound negative) acts on the car as the actuator
+    /// at its place does, per newton, and engaged it reads [`crate::model::engaged_stop_row`].
+    #[test]
+    fn a_stop_force_acts_as_the_actuator_at_its_place_and_reads_its_engaged_row() {
+        let p = VehicleParams::default();
+        let ss = StateSpace::new(&p);
+        for c in &default_contacts().elements {
+            let (place, sign) = match c.kind {
+                Unilateral::Tyre(_) => continue,
+                Unilateral::Bump(i) => (i, 1.0),
+                Unilateral::Rebound(i) => (i, -1.0),
+                Unilateral::SeatBump => (4, 1.0),
+                Unilateral::SeatRebound => (4, -1.0),
+            };
+            for j in 0..N_STATES {
+                let (stop, actuator) = (sign * c.acceleration[j], ss.b_u[(j, place)]);
+                assert!(
+                    (stop - actuator).abs() < 1e-12,
+                    "{}: {stop} {actuator}",
+                    c.kind.name()
+                );
+            }
+            let row = crate::model::engaged_stop_row(&p, place, c.stiffness, c.damping);
+            for j in 0..N_STATES {
+                let force = sign * c.force[j];
+                assert!(
+                    (row.c[j] - force).abs() < 1e-9 * c.stiffness,
+                    "{}",
+                    c.kind.name()
+                );
+            }
+            assert!(
+                c.force[N_STATES..].iter().all(|v| *v == 0.0),
+                "{}",
+                c.kind.name()
+            );
+        }
+    }
+
     #[test]
     fn at_rest_on_a_flat_road_the_tyres_carry_the_static_load_and_no_stop_touches() {
         let p = VehicleParams::default();

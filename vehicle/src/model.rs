@@ -588,6 +588,76 @@ pub fn applied_force_rows() -> Vec<OutputRow> {
         .collect()
 }
 
+/// Every plant output a controller may read, as rows of the linear car `p`: its physical
+/// outputs, the forces the actuators apply ([`applied_force_rows`], load cells) and the stops'
+/// forces ([`stop_force_rows`]).
+pub fn readable_outputs(p: &VehicleParams) -> Vec<OutputRow> {
+    let mut rows = physical_outputs(p);
+    rows.extend(applied_force_rows());
+    rows.extend(stop_force_rows());
+    rows
+}
+
+/// The stops' forces as the plant FMU outputs them (`stop_force_fl` … `stop_force_seat`, one
+/// per place of [`ACTUATORS`]) as output rows of the linear car, where no stop acts: each row
+/// is zero. A prediction with a stop engaged for good reads [`engaged_stop_row`] instead. A
+/// stop's force acts on the car as the actuator at its place does (tested).
+pub fn stop_force_rows() -> Vec<OutputRow> {
+    ACTUATORS
+        .iter()
+        .map(|place| OutputRow {
+            name: format!("stop_force_{place}"),
+            unit: "N",
+            description: format!(
+                "Force of the {} stops: positive while the bump stop pushes back, negative \
+                 while the rebound stop holds, 0 between them",
+                if *place == "seat" {
+                    "seat".to_string()
+                } else {
+                    place.to_uppercase()
+                }
+            ),
+            c: [0.0; N_STATES],
+            d_r: [0.0; N_ROAD],
+            d_u: [0.0; N_ACTUATORS],
+        })
+        .collect()
+}
+
+/// [`stop_force_rows`]' row at `place` (an index of [`ACTUATORS`]) on a car whose stop there is
+/// engaged for good with `stiffness` and `damping` (and whose spring and damper there are
+/// stiffened by as much): `−(k s + c ṡ)`, `s` the stroke (negative in compression), without the
+/// constant the free travel adds.
+pub fn engaged_stop_row(
+    p: &VehicleParams,
+    place: usize,
+    stiffness: f64,
+    damping: f64,
+) -> OutputRow {
+    let name = match ACTUATORS[place] {
+        "seat" => "stroke_seat".to_string(),
+        corner => format!("stroke_{corner}"),
+    };
+    let stroke = physical_outputs(p)
+        .into_iter()
+        .find(|r| r.name == name)
+        .expect("every place has a stroke");
+    assert!(
+        stroke.c[N_DOF..]
+            .iter()
+            .chain(&stroke.d_r)
+            .chain(&stroke.d_u)
+            .all(|v| *v == 0.0),
+        "a stroke is a function of the positions alone"
+    );
+    let mut row = stop_force_rows().swap_remove(place);
+    for j in 0..N_DOF {
+        row.c[j] = -stiffness * stroke.c[j];
+        row.c[N_DOF + j] = -damping * stroke.c[j];
+    }
+    row
+}
+
 /// Static values under gravity, for the calculated parameters of the plant.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StaticEquilibrium {

@@ -635,47 +635,70 @@ pub struct EngagedStop {
 /// [`EngagedStop`] for the seat's stops and each axle's bump stops.
 fn engaged_stops(law: &ControlLaw, params: &VehicleParams, d: &ComfortDesign) -> Vec<EngagedStop> {
     let stops = vehicle::contact::ContactParams::default();
-    // The car with a share `s` of the stop's stiffness and damping added to the element.
-    type Stiffen = fn(&VehicleParams, &vehicle::contact::ContactParams, f64) -> VehicleParams;
-    let elements: [(&str, f64, f64, Stiffen); 3] = [
-        (
-            "seat",
-            params.k_seat,
-            stops.seat_stop_stiffness,
-            |p, c, s| VehicleParams {
-                k_seat: p.k_seat + s * c.seat_stop_stiffness,
-                c_seat: p.c_seat + s * c.seat_stop_damping,
+    /// A stop: its places among `vehicle::model::ACTUATORS`, the element's spring, the stop's
+    /// stiffness and damping, and the car with a stiffness and a damping added to the element.
+    struct Element {
+        stop: &'static str,
+        places: &'static [usize],
+        spring: f64,
+        stop_kc: [f64; 2],
+        stiffen: fn(&VehicleParams, f64, f64) -> VehicleParams,
+    }
+    let elements = [
+        Element {
+            stop: "seat",
+            places: &[4],
+            spring: params.k_seat,
+            stop_kc: [stops.seat_stop_stiffness, stops.seat_stop_damping],
+            stiffen: |p, k, c| VehicleParams {
+                k_seat: p.k_seat + k,
+                c_seat: p.c_seat + c,
                 ..*p
             },
-        ),
-        ("front", params.k_s_f, stops.stop_stiffness, |p, c, s| {
-            VehicleParams {
-                k_s_f: p.k_s_f + s * c.stop_stiffness,
-                c_s_f: p.c_s_f + s * c.stop_damping,
+        },
+        Element {
+            stop: "front",
+            places: &[0, 1],
+            spring: params.k_s_f,
+            stop_kc: [stops.stop_stiffness, stops.stop_damping],
+            stiffen: |p, k, c| VehicleParams {
+                k_s_f: p.k_s_f + k,
+                c_s_f: p.c_s_f + c,
                 ..*p
-            }
-        }),
-        ("rear", params.k_s_r, stops.stop_stiffness, |p, c, s| {
-            VehicleParams {
-                k_s_r: p.k_s_r + s * c.stop_stiffness,
-                c_s_r: p.c_s_r + s * c.stop_damping,
+            },
+        },
+        Element {
+            stop: "rear",
+            places: &[2, 3],
+            spring: params.k_s_r,
+            stop_kc: [stops.stop_stiffness, stops.stop_damping],
+            stiffen: |p, k, c| VehicleParams {
+                k_s_r: p.k_s_r + k,
+                c_s_r: p.c_s_r + c,
                 ..*p
-            }
-        }),
+            },
+        },
     ];
     elements
         .iter()
-        .map(|&(stop, k, k_stop, stiffen)| {
+        .map(|e| {
+            let ([k_stop, c_stop], spring) = (e.stop_kc, e.spring);
+            // A share of the stop engaged: the car stiffened, its `stop_force_*` reading it.
             let at = |share: f64| {
-                Checked::of(law, Conditions::nominal(stiffen(params, &stops, share)), d)
+                let (k, c) = (share * k_stop, share * c_stop);
+                let mut conditions = Conditions::nominal((e.stiffen)(params, k, c));
+                for &place in e.places {
+                    conditions.engaged_stops[place] = (k, c);
+                }
+                Checked::of(law, conditions, d)
             };
             let check = at(1.0);
             let stable_up_to_n_m = (check.verdict == "unstable")
-                .then(|| stable_up_to(|s| at(s).stable()).map(|s| k + s * k_stop))
+                .then(|| stable_up_to(|s| at(s).stable()).map(|s| spring + s * k_stop))
                 .flatten();
             EngagedStop {
-                stop,
-                stiffness_n_m: [k, k + k_stop],
+                stop: e.stop,
+                stiffness_n_m: [spring, spring + k_stop],
                 check,
                 stable_up_to_n_m,
             }
@@ -942,7 +965,10 @@ fn worst_over_masses(ctx: &Context, law: &ControlLaw) -> f64 {
 /// ([`certify`]). The game Riccati equation fixes its multipliers, so its gain is not the best
 /// one over the range: with full state measured, comfort barely depends on the sprung mass, and
 /// the nominal gain is measured to win (0.00897 against 0.00925 m/s² worst); the certificate
-/// notes both figures.
+/// notes both figures. The chosen gain recovers from the seat's end stops
+/// ([`crate::comfort::stop_recovery`]) and carries `hinf_of_aw`'s anti-windup compensator
+/// ([`anti_windup_design`]), so its loop is certified stable with a seat stop engaged and in
+/// saturation; below both it is the gain's loop, whose certificate this is.
 pub fn robust_state_feedback_design(
     ctx: &Context,
     (robust, robust_note): (&(ComfortPlant, StateFeedback), String),
@@ -970,7 +996,19 @@ pub fn robust_state_feedback_design(
             selection_masses(ctx)
         ),
     ];
-    state_feedback_design(ctx, "robust_sf", Uncertainty::SprungMass, chosen, notes)
+    let variant = "robust_sf";
+    let law = crate::comfort::stop_recovery::stop_recovery(ctx.params, &state_feedback_law(chosen))
+        .map_err(|e| ctx.fail(variant, e))?;
+    let mut notes = notes;
+    notes.push(crate::comfort::stop_recovery::note());
+    let robust_to = Uncertainty::SprungMass;
+    let wiring = recovering_state_feedback_wiring;
+    let recovered = ComfortDesignResult {
+        certificate: certify(ctx, variant, robust_to, &law, &wiring, notes)?,
+        law,
+        extensions: Extensions::default(),
+    };
+    anti_windup_design(ctx, &recovered, variant, robust_to)
 }
 
 /// The sprung masses a mass-robust certificate predicts at: five, evenly over the range.
@@ -981,30 +1019,20 @@ pub fn check_masses(d: &ComfortDesign) -> Vec<f64> {
 }
 
 /// The rows `(C, D)` over the car's 16 states and its five forces (per N) of the plant outputs
-/// `inputs` names: a sensor as its physical output ([`vehicle::sensors::physical_name`]), a load
-/// cell as the force it measures.
-fn input_rows(
+/// `inputs` names on the linear car (its road feed-through left out): a state `x[k]` as itself,
+/// a sensor as its physical output ([`vehicle::sensors::physical_name`]), a load cell as the
+/// force it measures, a stop's force as zero.
+pub(crate) fn input_rows(
     p: &VehicleParams,
     inputs: &[String],
 ) -> Result<(DMatrix<f64>, DMatrix<f64>), String> {
-    let rows: Vec<_> = vehicle::model::physical_outputs(p)
-        .into_iter()
-        .chain(vehicle::model::applied_force_rows())
-        .collect();
-    let picked = inputs
-        .iter()
-        .map(|name| {
-            let physical = vehicle::sensors::physical_name(name);
-            rows.iter()
-                .find(|r| r.name == physical)
-                .ok_or_else(|| format!("'{name}' is not a plant output of the car"))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let c = DMatrix::from_fn(picked.len(), vehicle::model::N_STATES, |i, j| {
-        picked[i].c[j]
-    });
-    let d = DMatrix::from_fn(picked.len(), N_ACTUATORS, |i, j| picked[i].d_u[j]);
-    Ok((c, d))
+    let names: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let rows = crate::predict::continuous::sensor_rows(
+        &crate::predict::continuous::plant_outputs(p),
+        &names,
+    )
+    .map_err(|e| e.to_string())?;
+    Ok((rows.c, rows.d_u))
 }
 
 /// `variant`: the output feedback `of` (`hinf_of` for `hinf_of_aw`, `robust_of` for itself)
@@ -1028,10 +1056,16 @@ pub fn anti_windup_design(
     let ss = vehicle::StateSpace::new(ctx.params);
     let (c_y, d_y) = input_rows(ctx.params, &of.law.inputs).map_err(|e| ctx.fail(variant, e))?;
     let feeds_through = d_y.iter().any(|v| *v != 0.0);
-    if feeds_through && of.law.lti.d.iter().any(|v| *v != 0.0) {
+    // The runtime forms the command from `y − C η` and only the state sees `D (u − y_c)`: exact
+    // where the law's feed-through reads no input the forces feed through to (a state
+    // feedback's `D` on its states beside the accelerations only its filters read).
+    if (&of.law.lti.d * &d_y).iter().any(|v| *v != 0.0) {
         return Err(ctx.fail(
             variant,
-            format!("{nominal} has a direct feed-through and its inputs one of the forces"),
+            format!(
+                "{nominal}'s direct feed-through reads an input that one of the forces feeds \
+                 through to"
+            ),
         ));
     }
     let rows = vehicle::model::physical_outputs(ctx.params);
@@ -1174,6 +1208,14 @@ pub type Wiring<'a> = &'a dyn Fn(&ComfortPlant) -> (Plant, Sensors);
 /// The state-feedback designs' wiring.
 pub fn state_feedback_wiring(g: &ComfortPlant) -> (Plant, Sensors) {
     (plant_of(g), state_feedback_sensors(g))
+}
+
+/// [`state_feedback_wiring`] with the seat's stop force read too
+/// ([`crate::comfort::stop_recovery`]; zero on the design model, which has no stops).
+fn recovering_state_feedback_wiring(g: &ComfortPlant) -> (Plant, Sensors) {
+    let mut names = state_feedback_sensors(g).names;
+    names.push(crate::comfort::stop_recovery::STOP_FORCE.into());
+    crate::comfort::controllers::named_sensors(g, names)
 }
 
 /// The loop at `conditions` as a master runs it at the design file's communication step;

@@ -26,8 +26,8 @@ use nalgebra::DMatrix;
 use std::ops::Range;
 use vehicle::iso2631::{Weighting, PITCH_FACTOR, ROLL_FACTOR};
 use vehicle::model::{
-    coord, corner_positions, physical_outputs, OutputRow, StateSpace, StaticEquilibrium, ACTUATORS,
-    CORNERS, N_ACTUATORS, N_DOF, N_ROAD, N_STATES, N_WHEELS,
+    coord, corner_positions, OutputRow, StateSpace, StaticEquilibrium, ACTUATORS, CORNERS,
+    N_ACTUATORS, N_DOF, N_ROAD, N_STATES, N_WHEELS,
 };
 use vehicle::VehicleParams;
 
@@ -365,8 +365,7 @@ impl ComfortPlant {
         let static_load = StaticEquilibrium::new(p).tire_load;
         let car = VehicleParams { m_s, ..*p };
         let ss = StateSpace::new(&car);
-        let mut outputs = physical_outputs(&car);
-        outputs.extend(vehicle::model::applied_force_rows());
+        let outputs = vehicle::model::readable_outputs(&car);
         let road = RoadModel::new(&d.road, &car);
         let [ar, br, r_x, r_w] = road_system(&road);
         let nr = ar.nrows();
@@ -897,7 +896,7 @@ mod tests {
             DMatrix::zeros(3, g.b_w.ncols()),
         ];
         let ss = StateSpace::new(&p);
-        let car_rows = physical_outputs(&p);
+        let car_rows = vehicle::model::physical_outputs(&p);
         let order = match d.road.rear_wheels {
             RearWheels::Pade { order } => order,
             RearWheels::Independent => unreachable!("the checked-in design uses Padé"),

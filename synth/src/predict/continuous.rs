@@ -27,8 +27,7 @@ use std::f64::consts::PI;
 use std::sync::{Arc, Mutex, OnceLock};
 use vehicle::iso2631::{ComfortMeter, METER_OUTPUTS, PITCH_FACTOR, ROLL_FACTOR};
 use vehicle::model::{
-    physical_outputs, OutputRow, StateSpace, CORNERS, N_ACTUATORS, N_DOF, N_ROAD, N_STATES,
-    N_WHEELS,
+    OutputRow, StateSpace, CORNERS, N_ACTUATORS, N_DOF, N_ROAD, N_STATES, N_WHEELS,
 };
 use vehicle::VehicleParams;
 
@@ -132,6 +131,11 @@ pub struct Conditions {
     /// First-order actuators of this bandwidth \[Hz\], each applied force `ω_a / (s + ω_a)` times
     /// its command (the plant FMU's `actuator_bandwidth`); `None`: ideal actuators.
     pub actuator_bandwidth_hz: Option<f64>,
+    /// Stops engaged for good: at each place of [`vehicle::model::ACTUATORS`] (the corners, the
+    /// seat) the stiffness and damping of its engaged stop, zero where free. `params` carries
+    /// them too (the springs and dampers there stiffened); these make the plant's
+    /// `stop_force_*` outputs read them ([`vehicle::model::engaged_stop_row`]).
+    pub engaged_stops: [(f64, f64); N_ACTUATORS],
 }
 
 impl Conditions {
@@ -141,6 +145,7 @@ impl Conditions {
             delay: 0.0,
             effectiveness: [1.0; N_ACTUATORS],
             actuator_bandwidth_hz: None,
+            engaged_stops: [(0.0, 0.0); N_ACTUATORS],
         }
     }
 
@@ -269,7 +274,7 @@ pub fn abscissa_with_actuator_lag(
         ..conditions
     };
     let names: Vec<&str> = law.inputs.iter().map(|s| s.as_str()).collect();
-    let sensors = sensor_rows(&plant_outputs(&conditions.params), &names)?;
+    let sensors = sensor_rows(&plant_outputs_at(&conditions), &names)?;
     let cl = rational_loop(
         law,
         &conditions,
@@ -501,11 +506,26 @@ pub(crate) struct SensorRows {
     pub d_u: DMatrix<f64>,
 }
 
-/// The plant's outputs a controller may read: the physical outputs of the car `p` and the
-/// applied forces (load cells).
+/// The plant's outputs a controller may read on the car `p` ([`vehicle::model::readable_outputs`]).
 pub(crate) fn plant_outputs(p: &VehicleParams) -> Vec<OutputRow> {
-    let mut outputs = physical_outputs(p);
-    outputs.extend(vehicle::model::applied_force_rows());
+    vehicle::model::readable_outputs(p)
+}
+
+/// [`plant_outputs`] at `conditions`: the `stop_force_*` of each engaged stop reads it
+/// ([`vehicle::model::engaged_stop_row`]).
+pub(crate) fn plant_outputs_at(conditions: &Conditions) -> Vec<OutputRow> {
+    let mut outputs = plant_outputs(&conditions.params);
+    for (place, &(k, c)) in conditions.engaged_stops.iter().enumerate() {
+        if (k, c) == (0.0, 0.0) {
+            continue;
+        }
+        let row = vehicle::model::engaged_stop_row(&conditions.params, place, k, c);
+        let at = outputs
+            .iter()
+            .position(|r| r.name == row.name)
+            .expect("every stop has its force among the outputs");
+        outputs[at] = row;
+    }
     outputs
 }
 
@@ -878,7 +898,7 @@ impl Loop {
         let names: Vec<&str> = law.map_or(Vec::new(), |l| {
             l.inputs.iter().map(|s| s.as_str()).collect()
         });
-        let outputs = plant_outputs(p);
+        let outputs = plant_outputs_at(&conditions);
         let sensors = sensor_rows(&outputs, &names)?;
         let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
         let sensed = HessenbergResponse::new(&Lti::new(
@@ -1524,11 +1544,11 @@ mod tests {
         };
         let nominal = Conditions::nominal(VehicleParams::default());
         let at = |delay: f64, effectiveness: [f64; N_ACTUATORS]| {
-            let conditions = Conditions {
-                delay,
-                effectiveness,
-                ..nominal
-            };
+            // Set field by field: `Conditions { delay, effectiveness, ..nominal }` in this
+            // closure is an internal compiler error of rustc 1.95 ("broken MIR").
+            let mut conditions = nominal;
+            conditions.delay = delay;
+            conditions.effectiveness = effectiveness;
             Loop::new(Some(&law), conditions).unwrap()
         };
         let healthy = [1.0; N_ACTUATORS];

@@ -33,9 +33,9 @@
 
 use crate::numerics::hinf_norm::Lti;
 use crate::predict::continuous::{
-    plain_signals, plant_outputs, resonances, road_integral, sensor_rows, track_input, Conditions,
-    ControlLaw, Figures, HessenbergResponse, PredictionError, PredictorLaw, SensorRows, N_CHANNELS,
-    WEIGHTED_SIGNALS,
+    plain_signals, plant_outputs_at, resonances, road_integral, sensor_rows, track_input,
+    Conditions, ControlLaw, Figures, HessenbergResponse, PredictionError, PredictorLaw, SensorRows,
+    N_CHANNELS, WEIGHTED_SIGNALS,
 };
 use crate::shipping::design::ComfortRoad;
 use linsys::predictor::{predicted_delay, PredictionMatrices, PredictorBlocks};
@@ -496,7 +496,7 @@ impl Instants {
             }
         }
         let p = &conditions.params;
-        let outputs = plant_outputs(p);
+        let outputs = plant_outputs_at(&conditions);
         let car = WeightedCar::new(p, &outputs);
         let h = step;
         let theta = conditions.delay;
@@ -913,7 +913,7 @@ pub struct HeldFigures {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::predict::continuous::predict;
+    use crate::predict::continuous::{plant_outputs, predict};
     use crate::shipping::design::ComfortDesign;
 
     fn road() -> ComfortRoad {

@@ -39,9 +39,8 @@ pub fn plant_output_unit(name: &str) -> &'static str {
     {
         return vehicle::model::STATES[k - 1].1;
     }
-    vehicle::model::physical_outputs(&vehicle::VehicleParams::default())
+    vehicle::model::readable_outputs(&vehicle::VehicleParams::default())
         .into_iter()
-        .chain(vehicle::model::applied_force_rows())
         .find(|r| r.name == vehicle::sensors::physical_name(name))
         .map(|r| r.unit)
         .unwrap_or_else(|| panic!("the plant has no output {name}"))
