@@ -398,46 +398,41 @@ pub struct Controller {
     estimator: Option<accommodation::Estimator>,
 }
 
-/// `(A, B)` of the stepped system: the controller alone; with the anti-windup compensator
-/// `ẋc = A_K xc + B_K (y − C η − D (u − y_c))`, `η̇ = A_aw η + B_aw (u − y_c)` (input
-/// `[y; u − y_c]`); or with
-/// the fault detector `ξ̇ = A_d ξ + B_d y + B_du u` (input `[y; u]`, `u` the command sent).
+/// `(A, B)` of the stepped system, its state `[xc; η; ξ]` and its input `[y; u_a − y_c; d]`,
+/// each block present where its part of the file is: the controller `ẋc = A_K xc + B_K w`
+/// reading `w = y − C η − D (u_a − y_c)` with the anti-windup compensator
+/// `η̇ = A_aw η + B_aw (u_a − y_c)` (`u_a` the force it counts as applied:
+/// [`Controller::anti_windup_input`]), and the fault detector `ξ̇ = A_d ξ + B_d y + B_du d`
+/// (`d` the command sent, or the force the actuator model says is applied).
 fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>) {
-    if let Some(fd) = &spec.fault_detection {
-        let (n, m, ny, nu) = (
-            spec.order(),
-            fd.a.nrows(),
-            spec.inputs.len(),
-            spec.outputs.len(),
-        );
-        let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
-        a.view_mut((0, 0), (n, n)).copy_from(&spec.lti.a);
-        a.view_mut((n, n), (m, m)).copy_from(&fd.a);
-        let mut b = nalgebra::DMatrix::zeros(n + m, ny + nu);
-        b.view_mut((0, 0), (n, ny)).copy_from(&spec.lti.b);
-        b.view_mut((n, 0), (m, ny)).copy_from(&fd.b);
-        b.view_mut((n, ny), (m, nu)).copy_from(&fd.b_u);
-        return (a, b);
-    }
-    let Some(aw) = &spec.anti_windup else {
-        return (spec.lti.a.clone(), spec.lti.b.clone());
-    };
-    let (n, m, ny, nu) = (
-        spec.order(),
-        aw.a.nrows(),
-        spec.inputs.len(),
-        spec.outputs.len(),
+    let (n, ny, nu) = (spec.order(), spec.inputs.len(), spec.outputs.len());
+    let m = spec.anti_windup.as_ref().map_or(0, |aw| aw.a.nrows());
+    let q = spec.fault_detection.as_ref().map_or(0, |fd| fd.a.nrows());
+    let (na, nd) = (
+        if spec.anti_windup.is_some() { nu } else { 0 },
+        if spec.fault_detection.is_some() {
+            nu
+        } else {
+            0
+        },
     );
-    let mut a = nalgebra::DMatrix::zeros(n + m, n + m);
+    let mut a = nalgebra::DMatrix::zeros(n + m + q, n + m + q);
+    let mut b = nalgebra::DMatrix::zeros(n + m + q, ny + na + nd);
     a.view_mut((0, 0), (n, n)).copy_from(&spec.lti.a);
-    a.view_mut((0, n), (n, m))
-        .copy_from(&(-&spec.lti.b * &aw.c));
-    a.view_mut((n, n), (m, m)).copy_from(&aw.a);
-    let mut b = nalgebra::DMatrix::zeros(n + m, ny + nu);
     b.view_mut((0, 0), (n, ny)).copy_from(&spec.lti.b);
-    b.view_mut((0, ny), (n, nu))
-        .copy_from(&(-&spec.lti.b * &aw.d));
-    b.view_mut((n, ny), (m, nu)).copy_from(&aw.b);
+    if let Some(aw) = &spec.anti_windup {
+        a.view_mut((0, n), (n, m))
+            .copy_from(&(-&spec.lti.b * &aw.c));
+        a.view_mut((n, n), (m, m)).copy_from(&aw.a);
+        b.view_mut((0, ny), (n, nu))
+            .copy_from(&(-&spec.lti.b * &aw.d));
+        b.view_mut((n, ny), (m, nu)).copy_from(&aw.b);
+    }
+    if let Some(fd) = &spec.fault_detection {
+        a.view_mut((n + m, n + m), (q, q)).copy_from(&fd.a);
+        b.view_mut((n + m, 0), (q, ny)).copy_from(&fd.b);
+        b.view_mut((n + m, ny + na), (q, nu)).copy_from(&fd.b_u);
+    }
     (a, b)
 }
 
@@ -478,10 +473,23 @@ impl Controller {
                 let eta = self.x.rows(n, aw.a.nrows());
                 self.u.copy_from(&self.yc);
                 self.u.gemv(1.0, &aw.f, &eta, 1.0);
+                if let Some(e) = &self.estimator {
+                    e.compensate(self.u.as_mut_slice());
+                }
                 clamp(&mut self.u, &self.limits);
             }
         }
         self.valid = true;
+    }
+
+    /// The compensator's input for actuator `i`, `u_a − y_c`: the force counted as applied less
+    /// the linear command. That is the command sent, `sat(y_c + F η)`, or with fault
+    /// accommodation the design's force it makes, `ρ̂ sat((y_c + F η) / ρ̂)` (the actuator of
+    /// effectiveness `ρ̂` saturates at `ρ̂` times its limit in the design's units), which the load
+    /// cells measure once the estimate has settled.
+    fn anti_windup_input(&self, i: usize) -> f64 {
+        let rho = self.estimator.as_ref().map_or(1.0, |e| e.rho_hat(i));
+        rho * self.u[i] - self.yc[i]
     }
 
     /// The effectiveness estimator takes in the step that starts now (the inputs and the
@@ -495,7 +503,8 @@ impl Controller {
 
     /// `‖r‖` of the fault detector (0 without one).
     fn residual_norm(&mut self) -> f64 {
-        let n = self.spec.order();
+        let m = self.spec.anti_windup.as_ref().map_or(0, |aw| aw.a.nrows());
+        let n = self.spec.order() + m;
         let Some(fd) = &self.spec.fault_detection else {
             return 0.0;
         };
@@ -593,30 +602,26 @@ impl Controller {
         // The detector latches on the values at the start of the step (what a master read).
         let detected_before = self.detected;
         self.detected = self.fault_detected();
-        // Measurements held over the step; with anti-windup the saturation excess u − y_c too,
-        // with a detector the command sent (evaluated at the start of the step, as a
+        // Measurements held over the step; with anti-windup the saturation excess u_a − y_c
+        // too, with a detector the command sent (evaluated at the start of the step, as a
         // sampled-data implementation does and as the plant receives it) or the force the
         // actuator model says is applied now, which a load cell read now measures.
         self.update_commands();
         let ny = self.y.len();
         self.v.rows_mut(0, ny).copy_from(&self.y);
-        match (&self.spec.anti_windup, &self.spec.fault_detection) {
-            (Some(_), _) => {
-                for (v, (u, yc)) in self.v.as_mut_slice()[ny..]
-                    .iter_mut()
-                    .zip(self.u.iter().zip(&self.yc))
-                {
-                    *v = u - yc;
-                }
+        let mut at = ny;
+        if self.spec.anti_windup.is_some() {
+            for i in 0..self.u.len() {
+                self.v[at + i] = self.anti_windup_input(i);
             }
-            (None, Some(fd)) => {
-                let drive = match (fd.input, &self.estimator) {
-                    (spec::DetectorInput::ModelledForce, Some(e)) => e.modelled(),
-                    _ => self.u.as_slice(),
-                };
-                self.v.as_mut_slice()[ny..].copy_from_slice(drive);
-            }
-            (None, None) => {}
+            at += self.u.len();
+        }
+        if let Some(fd) = &self.spec.fault_detection {
+            let drive = match (fd.input, &self.estimator) {
+                (spec::DetectorInput::ModelledForce, Some(e)) => e.modelled(),
+                _ => self.u.as_slice(),
+            };
+            self.v.as_mut_slice()[at..].copy_from_slice(drive);
         }
         let d = self.cache.as_ref().unwrap();
         mat_vec_sum(

@@ -371,8 +371,9 @@ impl Spec {
             ));
         }
         let (n, ny, nu) = (raw.a.len(), raw.inputs.len(), raw.outputs.len());
-        // The runtime's blocks each replace how a command is formed, except the detector, which
-        // only watches it: one block, or accommodation with fault detection.
+        // A predictor forms the command alone; accommodation (dividing by the effectiveness
+        // estimate), anti-windup (the compensator) and the detector (which only watches) go
+        // together in any combination.
         let blocks: Vec<&str> = [
             ("accommodation", raw.accommodation.is_some()),
             ("anti_windup", raw.anti_windup.is_some()),
@@ -382,11 +383,20 @@ impl Spec {
         .into_iter()
         .filter_map(|(name, present)| present.then_some(name))
         .collect();
-        if blocks.len() > 1 && blocks != ["accommodation", "fault_detection"] {
+        if blocks.len() > 1 && blocks.contains(&"predictor") {
             return Err(SpecError::Invalid(format!(
-                "a controller has one of accommodation, anti_windup, fault_detection and \
-                 predictor, or accommodation with fault_detection; this one has {blocks:?}"
+                "a controller with a predictor has no other block (accommodation, anti_windup, \
+                 fault_detection); this one has {blocks:?}"
             )));
+        }
+        if let (Some(acc), Some(aw)) = (&raw.accommodation, &raw.anti_windup) {
+            if acc.u_max != aw.u_max {
+                return Err(SpecError::Invalid(format!(
+                    "accommodation.u_max {:?} and anti_windup.u_max {:?} differ: both are the \
+                     actuators' limits (the parameters u_max, u_max_seat)",
+                    acc.u_max, aw.u_max
+                )));
+            }
         }
         let anti_windup = match &raw.anti_windup {
             None => None,

@@ -414,11 +414,26 @@ fn fault_detector_integrates_the_command_sent_and_latches_its_flag() {
         Spec::from_json(&FD_SPEC.replace("\"threshold\": 1.0", "\"threshold\": 0.0")),
         Err(spec::SpecError::Invalid(_))
     ));
-    let with_aw = FD_SPEC.replace("\"fault_detection\"", "\"anti_windup\": {\"A\": [[-1.0]], \"B\": [[1.0]], \"C\": [[0.5]], \"F\": [[0.0]], \"u_max\": [4.0]}, \"fault_detection\"");
-    assert!(matches!(
-        Spec::from_json(&with_aw),
-        Err(spec::SpecError::Invalid(_))
-    ));
+    // Beside an anti-windup compensator (here one that changes no command) the detector reads
+    // its own state: the same residual.
+    let with_aw = FD_SPEC.replace("\"fault_detection\"", "\"anti_windup\": {\"A\": [[-1.0]], \"B\": [[1.0]], \"C\": [[0.0]], \"F\": [[0.0]], \"u_max\": [1000.0]}, \"fault_detection\"");
+    let aw_dir = dir_with("fd-aw", Some(&with_aw));
+    let (c, _cb) = instantiate(&log, &guid_of(&with_aw), Some(&aw_dir));
+    assert!(!c.is_null(), "{:?}", log.messages());
+    unsafe {
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        assert_eq!(fmi2ExitInitializationMode(c), 0);
+        fmi2SetReal(c, &vr::INPUT, 1, &1.0);
+        let mut r = 0.0;
+        for k in 0..10 {
+            assert_eq!(fmi2DoStep(c, k as f64 * 0.1, 0.1, 1), 0);
+            fmi2GetReal(c, &vr::RESIDUAL_NORM, 1, &mut r);
+            let t = (k + 1) as f64 * 0.1;
+            assert!((r - 2.0 * (1.0 - (-t).exp())).abs() < 1e-13, "t = {t}: {r}");
+        }
+        fmi2FreeInstance(c);
+    }
     let (c, _cb) = instantiate(&log, &guid_of(FD_SPEC), Some(&dir));
     unsafe {
         assert_ne!(fmi2SetReal(c, &vr::FAULT_THRESHOLD, 1, &-1.0), 0);
@@ -1161,15 +1176,67 @@ fn accommodation_estimates_the_effectiveness_and_compensates_it() {
         let e = Spec::from_json(&text).unwrap_err().to_string();
         assert!(e.contains(why), "{bad}: {e}");
     }
-    // With a detector it is one controller; with anti-windup it would be two ways of forming
-    // one command.
+    // With a detector or an anti-windup compensator it is one controller; an anti-windup
+    // compensator with other limits than the accommodation's is refused (both are the
+    // parameters u_max, u_max_seat).
     let with =
         |block: &str| ACC_SPEC.replace("\"accommodation\"", &format!("{block}, \"accommodation\""));
     assert!(Spec::from_json(&with(r#""fault_detection": {"A": [], "B": [], "B_u": [], "C": [[]], "D": [[0.0, 1.0]], "threshold": 1.0}"#)).is_ok());
-    let e = Spec::from_json(&with(
-        r#""anti_windup": {"A": [], "B": [], "C": [[], []], "F": [[]], "u_max": [4.0]}"#,
-    ))
-    .unwrap_err()
-    .to_string();
-    assert!(e.contains(r#"["accommodation", "anti_windup"]"#), "{e}");
+    let aw = |limit: &str| {
+        with(&format!(
+            r#""anti_windup": {{"A": [], "B": [], "C": [[], []], "F": [[]], "u_max": [{limit}]}}"#
+        ))
+    };
+    assert!(Spec::from_json(&aw("100.0")).is_ok());
+    let e = Spec::from_json(&aw("4.0")).unwrap_err().to_string();
+    assert!(e.contains("differ"), "{e}");
+}
+
+/// Anti-windup with fault accommodation: `u = y_c = 2 y` and a compensator `η̇ = −η + v`,
+/// `u = sat((y_c + η) / ρ̂)` (`F = 1`), whose input is the design's force the command makes,
+/// `v = ρ̂ u − y_c` (an actuator of effectiveness `ρ̂` saturates at `ρ̂` times its limit in the
+/// design's units). Against an actuator of effectiveness 0.6 saturating at 20 N, the commands
+/// through the C functions are the recurrence's, `η` stepped exactly over each held step with
+/// the `ρ̂` the FMU reports, to 1e-12.
+#[test]
+fn anti_windup_with_accommodation_counts_the_force_the_accommodated_command_makes() {
+    let spec = ACC_SPEC
+        .replace(r#""u_max": [100.0]"#, r#""u_max": [20.0]"#)
+        .replace(
+            "\"accommodation\"",
+            r#""anti_windup": {"A": [[-1.0]], "B": [[1.0]], "C": [[0.0], [0.0]], "F": [[1.0]], "u_max": [20.0]}, "accommodation""#,
+        );
+    let log = LogCapture::default();
+    let dir = dir_with("aw-acc", Some(&spec));
+    let (c, _cb) = instantiate(&log, &guid_of(&spec), Some(&dir));
+    assert!(!c.is_null(), "{:?}", log.messages());
+    let (h, limit): (f64, f64) = (1e-3, 20.0);
+    let decay = (-h).exp();
+    let (mut eta, mut sent, mut saturated) = (0.0f64, 0.0f64, 0);
+    unsafe {
+        fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+        fmi2EnterInitializationMode(c);
+        assert_eq!(fmi2ExitInitializationMode(c), 0);
+        for k in 0..3000 {
+            let y = 30.0 * (k as f64 * h * 7.0).sin();
+            let f = 0.6 * sent.clamp(-limit, limit);
+            let ins = [vr::INPUT, vr::INPUT + 1];
+            fmi2SetReal(c, ins.as_ptr(), 2, [y, f].as_ptr());
+            let (mut u, mut rho) = (0.0, 0.0);
+            fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+            fmi2GetReal(c, &vr::RHO_HAT, 1, &mut rho);
+            let yc = 2.0 * y;
+            let expected = ((yc + eta) / rho).clamp(-limit, limit);
+            assert!(
+                (u - expected).abs() <= 1e-12 * limit,
+                "step {k}: {u} against {expected} (ρ̂ {rho})"
+            );
+            saturated += (expected.abs() == limit) as usize;
+            assert_eq!(fmi2DoStep(c, k as f64 * h, h, 1), 0);
+            eta = decay * eta + (1.0 - decay) * (rho * u - yc);
+            sent = u;
+        }
+        fmi2FreeInstance(c);
+    }
+    assert!(saturated > 300, "the limit must bite: {saturated} steps");
 }

@@ -730,9 +730,10 @@ pub const CHECKED_ACTUATOR_BANDWIDTHS_HZ: [f64; 2] = [10.0, 5.0];
 
 /// The nominal loop with first-order actuators of `bandwidth_hz` (the plant FMU's
 /// `actuator_bandwidth`) instead of ideal ones: `"stable"` or `"unstable"` by its spectral
-/// abscissa ([`crate::predict::continuous::abscissa_with_actuator_lag`]), or `"not checked"`
-/// with why (a predictor's loop is not rational); where stable, its predicted figures
-/// (`master/tests/comfort_prediction.rs` co-simulates them). An accommodating controller is
+/// abscissa ([`crate::predict::continuous::abscissa_with_actuator_lag`]), a predictor's loop
+/// (not rational) by its spectral radius at the sampling instants of the design's step
+/// (`step_s`); where stable, its predicted figures (`master/tests/comfort_prediction.rs`
+/// co-simulates them). An accommodating controller is
 /// checked as its unaccommodated loop: with its `actuator_bandwidth` set as the plant's, its
 /// effectiveness estimate models the lag and stays at 1.
 #[derive(Debug, Clone, Serialize)]
@@ -741,8 +742,12 @@ pub struct ActuatorLag {
     pub verdict: &'static str,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spectral_abscissa: Option<f64>,
+    /// A predictor's loop is checked at the sampling instants of this communication step \[s\].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_s: Option<f64>,
     /// Where stable, the figures of that loop on the design road (continuous time: the
-    /// actuators' lag is exact in the frequency domain).
+    /// actuators' lag is exact in the frequency domain; a predictor's as a master runs it at
+    /// `step_s`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub predicted: Option<Figures>,
     #[serde(skip_serializing_if = "String::is_empty")]
@@ -752,51 +757,78 @@ pub struct ActuatorLag {
 fn actuator_lags(
     law: &ControlLaw,
     params: &VehicleParams,
-    road: &ComfortRoad,
+    d: &ComfortDesign,
 ) -> Result<Vec<ActuatorLag>, String> {
     CHECKED_ACTUATOR_BANDWIDTHS_HZ
         .iter()
         .map(|&bandwidth_hz| {
+            let mut lagging = Conditions::nominal(*params);
+            lagging.actuator_bandwidth_hz = Some(bandwidth_hz);
+            if law.predictor.is_some() {
+                return Ok(held_actuator_lag(law, lagging, d));
+            }
             let abscissa = crate::predict::continuous::abscissa_with_actuator_lag(
                 law,
                 Conditions::nominal(*params),
                 bandwidth_hz,
             )
-            .map_err(|e| e.to_string())?;
-            let lagging = Conditions {
-                actuator_bandwidth_hz: Some(bandwidth_hz),
-                ..Conditions::nominal(*params)
-            };
-            let predicted = match abscissa {
-                Some(a) if a < 0.0 => Some(
+            .map_err(|e| e.to_string())?
+            .ok_or("a rational loop has a spectral abscissa")?;
+            let predicted = if abscissa < 0.0 {
+                Some(
                     Loop::new(Some(law), lagging)
                         .map_err(|e| e.to_string())?
-                        .figures(road),
-                ),
-                _ => None,
+                        .figures(&d.road),
+                )
+            } else {
+                None
             };
             Ok(ActuatorLag {
                 bandwidth_hz,
-                verdict: match abscissa {
-                    None => "not checked",
-                    Some(a) if a < 0.0 => "stable",
-                    Some(_) => "unstable",
-                },
-                spectral_abscissa: abscissa,
+                verdict: if abscissa < 0.0 { "stable" } else { "unstable" },
+                spectral_abscissa: Some(abscissa),
+                step_s: None,
                 predicted,
-                why: match (abscissa, law.accommodation) {
-                    (None, _) => "a predictor's loop is not rational".into(),
-                    // The runtime's actuator model (`actuator_bandwidth`) is what the estimate
-                    // compares the load cells with.
-                    (Some(_), Some(_)) => "with the FMU's actuator_bandwidth set as the plant's, \
-                                          the effectiveness estimate models the lag and stays \
-                                          at 1: the loop is the unaccommodated one with it"
-                        .into(),
-                    (Some(_), None) => String::new(),
+                // The runtime's actuator model (`actuator_bandwidth`) is what the estimate
+                // compares the load cells with.
+                why: if law.accommodation.is_some() {
+                    "with the FMU's actuator_bandwidth set as the plant's, the effectiveness \
+                     estimate models the lag and stays at 1: the loop is the unaccommodated one \
+                     with it"
+                        .into()
+                } else {
+                    String::new()
                 },
             })
         })
         .collect()
+}
+
+/// [`ActuatorLag`] of a predictor's loop, which is not rational: at the sampling instants of
+/// the design's communication step (`synth::predict::sampled`, the lag's states in the car),
+/// with the figures a master records there.
+fn held_actuator_lag(law: &ControlLaw, lagging: Conditions, d: &ComfortDesign) -> ActuatorLag {
+    use crate::predict::continuous::PredictionError;
+    let step = d.communication_step;
+    let held = "a predictor's loop is not rational: checked at the sampling instants";
+    let (verdict, predicted, why) =
+        match crate::predict::sampled::SampledLoop::new(Some(law), lagging, step) {
+            Ok(lp) => (
+                "stable",
+                Some(lp.figures(&d.road).time_averaged),
+                held.into(),
+            ),
+            Err(PredictionError::Unstable(e)) => ("unstable", None, format!("{held}: {e}")),
+            Err(e) => ("not checked", None, e.to_string()),
+        };
+    ActuatorLag {
+        bandwidth_hz: lagging.actuator_bandwidth_hz.expect("a lag"),
+        verdict,
+        spectral_abscissa: None,
+        step_s: Some(step),
+        predicted,
+        why,
+    }
 }
 
 /// A comfort design's certificate (`dist/<variant>.certificate.json`).
@@ -1128,6 +1160,17 @@ pub fn anti_windup_design(
             aw.gamma, check.spectral_abscissa, check.frequencies, check.min_margin
         ),
     );
+    if of.extensions.accommodation.is_some() {
+        certificate.notes.insert(
+            1,
+            "With fault accommodation the compensator takes the design's force the accommodated \
+             command makes, u_a = rho_hat sat(u_lin / rho_hat) (an actuator of effectiveness \
+             rho_hat saturates at rho_hat times its limit in the design's units): once the \
+             estimate has settled the loop is the nominal one plus the same compensator loop, \
+             driven by the dead zones at the reduced limits, which the circle criterion covers."
+                .into(),
+        );
+    }
     let extensions = Extensions {
         anti_windup: Some(AntiWindup {
             a: matrix_rows(&ss.a),
@@ -1418,7 +1461,7 @@ pub fn certify(
         lost_actuators: lost_actuators(law, ctx.params, d),
         engaged_stops: engaged_stops(law, ctx.params, d),
         saturation,
-        actuator_lag: actuator_lags(law, ctx.params, &d.road).map_err(&fail)?,
+        actuator_lag: actuator_lags(law, ctx.params, d).map_err(&fail)?,
         hinf_comfort: HinfComfort {
             design: hd.upper,
             passive: hp.upper,

@@ -75,16 +75,22 @@ const N_HELD: usize = N_ROAD + N_ACTUATORS;
 
 /// The car with its ISO 2631-1 weighting filters as states, driven by held inputs.
 struct WeightedCar {
-    /// `[x (16); the vibration meter's states (W_k on the seat, W_e on roll and pitch)]`.
+    /// `[x (16); the vibration meter's states (W_k on the seat, W_e on roll and pitch)]`, and
+    /// with lagging actuators their applied forces `f` last.
     a: DMatrix<f64>,
-    /// Per held input `[r; f]`.
+    /// Per held input `[r; f]`, with lagging actuators `[r; u]` (the commands, which the lag
+    /// turns into `f`).
     b: DMatrix<f64>,
     /// The figures' rows over `[state; held inputs]`, in [`N_CHANNELS`]' order.
     m: DMatrix<f64>,
+    /// With lagging actuators, where their forces are among the states.
+    forces_at: Option<usize>,
 }
 
 impl WeightedCar {
-    fn new(p: &vehicle::VehicleParams, outputs: &[OutputRow]) -> Self {
+    /// The car `p` read through `outputs`; with `lag_hz`, behind first-order actuators of that
+    /// bandwidth, `ḟ = ω_a (u − f)` (the plant FMU's `actuator_bandwidth`).
+    fn new(p: &vehicle::VehicleParams, outputs: &[OutputRow], lag_hz: Option<f64>) -> Self {
         let ss = StateSpace::new(p);
         // The plain figures' signals `c x + [d_r d_u] [r; f]`, divided by their divisors.
         let static_load = vehicle::model::StaticEquilibrium::new(p).tire_load;
@@ -94,15 +100,33 @@ impl WeightedCar {
         // The weighted figures: the plant's vibration meter, driven by `[x; r; f]`.
         let meter = ComfortMeter::new(outputs);
         let nw = ComfortMeter::order();
-        let n = N_STATES + nw;
+        let forces_at = lag_hz.map(|_| N_STATES + nw);
+        let n = N_STATES + nw + forces_at.map_or(0, |_| N_ACTUATORS);
         let mut a = DMatrix::zeros(n, n);
         let mut b = DMatrix::zeros(n, N_HELD);
         let mut m = DMatrix::zeros(N_CHANNELS, n + N_HELD);
         a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
         b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&ss.b_r);
-        b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
-            .copy_from(&ss.b_u);
-        meter.place(&mut a, &mut b, N_STATES, Forces::Inputs(N_ROAD));
+        // Where the forces act from: the held inputs, or the lag's states.
+        let forces = match (forces_at, lag_hz) {
+            (Some(at), Some(hz)) => {
+                let w = 2.0 * std::f64::consts::PI * hz;
+                a.view_mut((0, at), (N_STATES, N_ACTUATORS))
+                    .copy_from(&ss.b_u);
+                for i in 0..N_ACTUATORS {
+                    a[(at + i, at + i)] = -w;
+                    b[(at + i, N_ROAD + i)] = w;
+                }
+                Forces::States(at)
+            }
+            _ => {
+                b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
+                    .copy_from(&ss.b_u);
+                Forces::Inputs(N_ROAD)
+            }
+        };
+        let force_column = forces_at.unwrap_or(n + N_ROAD);
+        meter.place(&mut a, &mut b, N_STATES, forces);
         m.view_mut((0, N_STATES), (WEIGHTED_SIGNALS.len(), nw))
             .copy_from(&meter.c);
         let first = WEIGHTED_SIGNALS.len();
@@ -112,13 +136,13 @@ impl WeightedCar {
                 .copy_from(&(rows.c.row(k) / *divisor));
             m.view_mut((row, n), (1, N_ROAD))
                 .copy_from(&(rows.d_r.row(k) / *divisor));
-            m.view_mut((row, n + N_ROAD), (1, N_ACTUATORS))
+            m.view_mut((row, force_column), (1, N_ACTUATORS))
                 .copy_from(&(rows.d_u.row(k) / *divisor));
         }
         for i in 0..N_ACTUATORS {
-            m[(first + plain.len() + i, n + N_ROAD + i)] = 1.0;
+            m[(first + plain.len() + i, force_column + i)] = 1.0;
         }
-        WeightedCar { a, b, m }
+        WeightedCar { a, b, m, forces_at }
     }
 
     fn order(&self) -> usize {
@@ -482,11 +506,6 @@ impl Instants {
                 "a communication step must be > 0, got {step}"
             )));
         }
-        if conditions.actuator_bandwidth_hz.is_some() {
-            return Err(PredictionError::NotModelled(
-                "the held loop with lagging actuators".into(),
-            ));
-        }
         let (told, conditions, order, read_before) = told_the_order(law, conditions, step, order);
         let law = told.as_ref().or(law);
         let mut conditions = conditions;
@@ -497,7 +516,7 @@ impl Instants {
         }
         let p = &conditions.params;
         let outputs = plant_outputs_at(&conditions);
-        let car = WeightedCar::new(p, &outputs);
+        let car = WeightedCar::new(p, &outputs, conditions.actuator_bandwidth_hz);
         let h = step;
         let theta = conditions.delay;
         let (d, eps) = whole_steps(theta, h);
@@ -534,12 +553,18 @@ impl Instants {
                 .fill_with_identity();
             f
         };
-        // What the plant outputs at `t_k`: `C x + D_r r + D_u ρ u_{k−lag_read}`.
+        // What the plant outputs at `t_k`: `C x + D_r r + D_u ρ u_{k−lag_read}`, or with
+        // lagging actuators `C x + D_r r + D_u f` (their forces, states).
         let read = |rows: &SensorRows| {
             let (mut on_s, _) = zero(rows.c.nrows());
             on_s.view_mut((0, 0), (rows.c.nrows(), N_STATES))
                 .copy_from(&rows.c);
-            on_s += &rows.d_u * &rho * past(lag_read).0;
+            match car.forces_at {
+                Some(at) => on_s
+                    .view_mut((0, at), (rows.c.nrows(), N_ACTUATORS))
+                    .copy_from(&rows.d_u),
+                None => on_s += &rows.d_u * &rho * past(lag_read).0,
+            }
             (on_s, rows.d_r.clone())
         };
         let mut a_cl = DMatrix::zeros(n, n);
@@ -593,7 +618,7 @@ impl Instants {
         let mut c_out = DMatrix::zeros(na + 2 * N_HELD + 3, n);
         let mut d_out = DMatrix::zeros(na + 2 * N_HELD + 3, N_ROAD);
         let (mut recorded_s, recorded_r) = read(&sensor_rows(&outputs, &WEIGHTED_SIGNALS)?);
-        if read_before {
+        if read_before && car.forces_at.is_none() {
             // Recorded with the force before the one the controller is corrected to.
             let d_u = sensor_rows(&outputs, &WEIGHTED_SIGNALS)?.d_u * &rho;
             recorded_s += &d_u * (past(lag_read + 1).0 - past(lag_read).0);
@@ -949,10 +974,19 @@ mod tests {
     /// As the step shrinks the sampled-data loop becomes the continuous one: the time-averaged
     /// figures converge to [`crate::predict::continuous`]'s (first order in `h`, a hold being a delay of
     /// half a step). At every step the samples of the plant's weighted outputs have the time
-    /// average's mean square (the meter integrates the jumps a held force makes).
+    /// average's mean square (the meter integrates the jumps a held force makes). With ideal
+    /// actuators and with 5 Hz first-order ones (the lag exact in the frequency domain there,
+    /// states of the car here: two computations).
     #[test]
     fn as_the_step_shrinks_the_sampled_prediction_tends_to_the_continuous_one() {
-        let c = Conditions::nominal(vehicle::VehicleParams::default());
+        for lag in [None, Some(5.0)] {
+            let mut c = Conditions::nominal(vehicle::VehicleParams::default());
+            c.actuator_bandwidth_hz = lag;
+            converges_to_the_continuous_loop(c);
+        }
+    }
+
+    fn converges_to_the_continuous_loop(c: Conditions) {
         let road = road();
         let law = skyhook();
         let continuous = predict(Some(&law), c, &road).unwrap();
@@ -978,7 +1012,11 @@ mod tests {
             )
         };
         let (coarse, fine) = (gap(1e-3), gap(1e-5));
-        println!("relative gaps (to the continuous loop, samples to time average) at 1 ms {coarse:?}, at 0.01 ms {fine:?}");
+        println!(
+            "lag {:?} Hz: relative gaps (to the continuous loop, samples to time average) at 1 ms \
+             {coarse:?}, at 0.01 ms {fine:?}",
+            c.actuator_bandwidth_hz
+        );
         assert!(fine.0 < 2e-3, "{fine:?}");
         assert!(coarse.0 > 10.0 * fine.0, "{coarse:?} against {fine:?}");
         assert!(coarse.1 < 1e-4 && fine.1 < 1e-4, "{coarse:?} {fine:?}");
@@ -988,7 +1026,7 @@ mod tests {
     #[test]
     fn power_forms_are_the_time_average_of_the_held_response() {
         let p = vehicle::VehicleParams::default();
-        let car = WeightedCar::new(&p, &plant_outputs(&p));
+        let car = WeightedCar::new(&p, &plant_outputs(&p), None);
         let (h, tau) = (1e-3, 0.7e-3);
         let forms = car.power_forms(tau, h, N_CHANNELS).unwrap();
         let n = car.order() + N_HELD;
@@ -1024,7 +1062,7 @@ mod tests {
     #[test]
     fn factored_power_forms_equal_the_dense_ones() {
         let p = vehicle::VehicleParams::default();
-        let car = WeightedCar::new(&p, &plant_outputs(&p));
+        let car = WeightedCar::new(&p, &plant_outputs(&p), None);
         let n = car.order() + N_HELD;
         for (tau, h) in [(0.7e-3, 1e-3), (1e-3, 1e-3), (0.2e-3, 1e-3), (5e-3, 5e-3)] {
             let forms = car.power_forms(tau, h, N_CHANNELS).unwrap();

@@ -191,8 +191,11 @@ pub const VARIANTS: [Variant; 9] = [
         nominal: Some("hinf_of"),
         robust_to: Uncertainty::ActuatorFaults,
         model: DesignModel::Car,
-        summary: "fault-tolerant output feedback on hinf_of's sensors with fault accommodation and a load-cell fault detector (thesis Th. 8.1)",
-        comfort: |ctx, s| crate::comfort::car::fault_tolerant_design(ctx, s.hinf_of(ctx)?),
+        summary: "fault-tolerant output feedback on hinf_of's sensors with fault accommodation, a load-cell fault detector (thesis Th. 8.1) and hinf_of_aw's anti-windup (Th. 5.3)",
+        comfort: |ctx, s| {
+            let ft = crate::comfort::car::fault_tolerant_design(ctx, s.hinf_of(ctx)?)?;
+            anti_windup_design(ctx, &ft, "ft_of", Uncertainty::ActuatorFaults)
+        },
         role: Role::Design,
     },
     Variant {
