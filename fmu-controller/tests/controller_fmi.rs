@@ -1058,6 +1058,17 @@ const ACC_SPEC: &str = r#"{
   "accommodation": {"forces": ["f_fl"], "rho_min": 0.5, "time_constant": 0.1, "u_max": [100.0]}
 }"#;
 
+/// [`ACC_SPEC`]'s exchange at a communication point: its input `y` and load cell `f` set, its
+/// command and `rho_hat_fl` read.
+unsafe fn exchange(c: Fmi2Component, y: f64, f: f64) -> (f64, f64) {
+    let ins = [vr::INPUT, vr::INPUT + 1];
+    fmi2SetReal(c, ins.as_ptr(), 2, [y, f].as_ptr());
+    let (mut u, mut rho) = (0.0, 0.0);
+    fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
+    fmi2GetReal(c, &vr::RHO_HAT, 1, &mut rho);
+    (u, rho)
+}
+
 /// Through the C functions, against an actuator of effectiveness 0.6 saturating at `u_max`
 /// (simulated here: the force measured at a point is 0.6 sat(u) of the command read at the
 /// point before): `rho_hat_fl` settles on 0.6 from above, the command is `2 y / ρ̂`, so the
@@ -1092,11 +1103,7 @@ fn accommodation_estimates_the_effectiveness_and_compensates_it() {
             for k in 0..steps {
                 let y = 30.0 * (k as f64 * h * 25.0).sin();
                 let f = 0.6 * sent.clamp(-limit, limit);
-                let ins = [vr::INPUT, vr::INPUT + 1];
-                fmi2SetReal(c, ins.as_ptr(), 2, [y, f].as_ptr());
-                let (mut u, mut rho) = (0.0, 0.0);
-                fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
-                fmi2GetReal(c, &vr::RHO_HAT, 1, &mut rho);
+                let (u, rho) = exchange(c, y, f);
                 out.push((2.0 * y, u, rho));
                 if k == steps / 2 {
                     state = serialized(c);
@@ -1220,11 +1227,7 @@ fn anti_windup_with_accommodation_counts_the_force_the_accommodated_command_make
         for k in 0..3000 {
             let y = 30.0 * (k as f64 * h * 7.0).sin();
             let f = 0.6 * sent.clamp(-limit, limit);
-            let ins = [vr::INPUT, vr::INPUT + 1];
-            fmi2SetReal(c, ins.as_ptr(), 2, [y, f].as_ptr());
-            let (mut u, mut rho) = (0.0, 0.0);
-            fmi2GetReal(c, &vr::OUTPUT, 1, &mut u);
-            fmi2GetReal(c, &vr::RHO_HAT, 1, &mut rho);
+            let (u, rho) = exchange(c, y, f);
             let yc = 2.0 * y;
             let expected = ((yc + eta) / rho).clamp(-limit, limit);
             assert!(
