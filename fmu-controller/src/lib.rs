@@ -210,7 +210,9 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
                 .map(|&i| spec.outputs[i].name.as_str())
                 .collect::<Vec<_>>()
                 .join(", ");
-            let role = if spec.anti_windup.is_some() {
+            let role = if spec.anti_windup.is_some() && spec.accommodation.is_some() {
+                format!("the anti-windup compensator saturates {what} at, and the effectiveness estimate reads their commands saturated at")
+            } else if spec.anti_windup.is_some() {
                 format!("the anti-windup compensator saturates {what} at")
             } else if spec.predictor.is_some() {
                 format!("{what} are clamped to, the forces the predictor integrates as in flight")
@@ -439,8 +441,9 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
 impl Controller {
     /// Bring `y_c` and `u` up to date. With anti-windup the controller reads `y − C η` (less
     /// `D_aw (u − y_c)`, which only its state sees: the controller's `D` reads no input `D_aw`
-    /// feeds, `D D_aw = 0`) and
-    /// `u = sat(y_c + F η)`; otherwise `u = y_c = C xc + D y`.
+    /// feeds, `D D_aw = 0`) and `u = sat(y_c + F η)`, with fault accommodation
+    /// `sat((y_c + F η) / ρ̂)`; otherwise `u = y_c = C xc + D y` (divided by `ρ̂` with
+    /// accommodation).
     fn update_commands(&mut self) {
         if self.valid {
             return;
