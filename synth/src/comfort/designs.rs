@@ -742,16 +742,25 @@ pub struct ActuatorLag {
     pub verdict: &'static str,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spectral_abscissa: Option<f64>,
-    /// A predictor's loop is checked at the sampling instants of this communication step \[s\].
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub step_s: Option<f64>,
-    /// Where stable, the figures of that loop on the design road (continuous time: the
-    /// actuators' lag is exact in the frequency domain; a predictor's as a master runs it at
-    /// `step_s`).
+    /// Where stable, the figures of that loop on the design road in continuous time (the
+    /// actuators' lag exact in the frequency domain); none for a predictor's loop.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub predicted: Option<Figures>,
+    /// Where stable there, the loop as a master runs it at the design's communication step
+    /// (`synth::predict::sampled`, the lag's forces states of the sampled car): what
+    /// `master/tests/comfort_prediction.rs` co-simulates, and a predictor's verdict.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held: Option<HeldLag>,
     #[serde(skip_serializing_if = "String::is_empty")]
     pub why: String,
+}
+
+/// [`ActuatorLag::held`].
+#[derive(Debug, Clone, Serialize)]
+pub struct HeldLag {
+    pub step_s: f64,
+    /// Time-averaged over the steps ([`crate::predict::sampled::HeldFigures`]).
+    pub predicted: Figures,
 }
 
 fn actuator_lags(
@@ -759,13 +768,39 @@ fn actuator_lags(
     params: &VehicleParams,
     d: &ComfortDesign,
 ) -> Result<Vec<ActuatorLag>, String> {
+    use crate::predict::continuous::PredictionError;
     CHECKED_ACTUATOR_BANDWIDTHS_HZ
         .iter()
         .map(|&bandwidth_hz| {
             let mut lagging = Conditions::nominal(*params);
             lagging.actuator_bandwidth_hz = Some(bandwidth_hz);
+            // As a master runs it: stable at the sampling instants, or why not.
+            let step = d.communication_step;
+            let held = match crate::predict::sampled::SampledLoop::new(Some(law), lagging, step) {
+                Ok(lp) => Ok(HeldLag {
+                    step_s: step,
+                    predicted: lp.figures(&d.road).time_averaged,
+                }),
+                Err(PredictionError::Unstable(e)) => Err(("unstable", format!(": {e}"))),
+                Err(e) => Err(("not checked", format!(": {e}"))),
+            };
             if law.predictor.is_some() {
-                return Ok(held_actuator_lag(law, lagging, d));
+                // Not rational: its verdict is the sampled loop's.
+                let (verdict, why) = match &held {
+                    Ok(_) => ("stable", String::new()),
+                    Err((verdict, why)) => (*verdict, why.clone()),
+                };
+                return Ok(ActuatorLag {
+                    bandwidth_hz,
+                    verdict,
+                    spectral_abscissa: None,
+                    predicted: None,
+                    held: held.ok(),
+                    why: format!(
+                        "a predictor's loop is not rational: checked at the sampling instants \
+                         of its {step} s step{why}"
+                    ),
+                });
             }
             let abscissa = crate::predict::continuous::abscissa_with_actuator_lag(
                 law,
@@ -787,8 +822,8 @@ fn actuator_lags(
                 bandwidth_hz,
                 verdict: if abscissa < 0.0 { "stable" } else { "unstable" },
                 spectral_abscissa: Some(abscissa),
-                step_s: None,
                 predicted,
+                held: held.ok(),
                 // The runtime's actuator model (`actuator_bandwidth`) is what the estimate
                 // compares the load cells with.
                 why: if law.accommodation.is_some() {
@@ -802,33 +837,6 @@ fn actuator_lags(
             })
         })
         .collect()
-}
-
-/// [`ActuatorLag`] of a predictor's loop, which is not rational: at the sampling instants of
-/// the design's communication step (`synth::predict::sampled`, the lag's states in the car),
-/// with the figures a master records there.
-fn held_actuator_lag(law: &ControlLaw, lagging: Conditions, d: &ComfortDesign) -> ActuatorLag {
-    use crate::predict::continuous::PredictionError;
-    let step = d.communication_step;
-    let held = "a predictor's loop is not rational: checked at the sampling instants";
-    let (verdict, predicted, why) =
-        match crate::predict::sampled::SampledLoop::new(Some(law), lagging, step) {
-            Ok(lp) => (
-                "stable",
-                Some(lp.figures(&d.road).time_averaged),
-                held.into(),
-            ),
-            Err(PredictionError::Unstable(e)) => ("unstable", None, format!("{held}: {e}")),
-            Err(e) => ("not checked", None, e.to_string()),
-        };
-    ActuatorLag {
-        bandwidth_hz: lagging.actuator_bandwidth_hz.expect("a lag"),
-        verdict,
-        spectral_abscissa: None,
-        step_s: Some(step),
-        predicted,
-        why,
-    }
 }
 
 /// A comfort design's certificate (`dist/<variant>.certificate.json`).
