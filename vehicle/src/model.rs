@@ -634,10 +634,7 @@ pub fn engaged_stop_row(
     stiffness: f64,
     damping: f64,
 ) -> OutputRow {
-    let name = match ACTUATORS[place] {
-        "seat" => "stroke_seat".to_string(),
-        corner => format!("stroke_{corner}"),
-    };
+    let name = format!("stroke_{}", ACTUATORS[place]);
     let stroke = physical_outputs(p)
         .into_iter()
         .find(|r| r.name == name)

@@ -731,9 +731,9 @@ pub const CHECKED_ACTUATOR_BANDWIDTHS_HZ: [f64; 2] = [10.0, 5.0];
 /// The nominal loop with first-order actuators of `bandwidth_hz` (the plant FMU's
 /// `actuator_bandwidth`) instead of ideal ones: `"stable"` or `"unstable"` by its spectral
 /// abscissa ([`crate::predict::continuous::abscissa_with_actuator_lag`]), a predictor's loop
-/// (not rational) by its spectral radius at the sampling instants of the design's step
-/// (`step_s`); where stable, its predicted figures (`master/tests/comfort_prediction.rs`
-/// co-simulates them). An accommodating controller is
+/// (not rational) by its spectral radius at the sampling instants of the design's step;
+/// where stable, its predicted figures (continuous, and `held` as a master runs it, which
+/// `master/tests/comfort_prediction.rs` co-simulates). An accommodating controller is
 /// checked as its unaccommodated loop: with its `actuator_bandwidth` set as the plant's, its
 /// effectiveness estimate models the lag and stays at 1.
 #[derive(Debug, Clone, Serialize)]

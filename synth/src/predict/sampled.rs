@@ -108,8 +108,8 @@ impl WeightedCar {
         a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
         b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&ss.b_r);
         // Where the forces act from: the held inputs, or the lag's states.
-        let forces = match (forces_at, lag_hz) {
-            (Some(at), Some(hz)) => {
+        let forces = match forces_at.zip(lag_hz) {
+            Some((at, hz)) => {
                 let w = 2.0 * std::f64::consts::PI * hz;
                 a.view_mut((0, at), (N_STATES, N_ACTUATORS))
                     .copy_from(&ss.b_u);
@@ -119,7 +119,7 @@ impl WeightedCar {
                 }
                 Forces::States(at)
             }
-            _ => {
+            None => {
                 b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
                     .copy_from(&ss.b_u);
                 Forces::Inputs(N_ROAD)
