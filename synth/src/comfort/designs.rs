@@ -958,20 +958,23 @@ fn state_feedback_law((g, sf): &(ComfortPlant, StateFeedback)) -> ControlLaw {
 }
 
 /// `hinf_sf`, `robust_sf`: the gain as a controller reading the car's states, tyre deflections
-/// and accelerations ([`realise_state_feedback`]).
+/// and accelerations ([`realise_state_feedback`]) and the seat's stop force, from which it
+/// recovers ([`crate::comfort::stop_recovery`]), certified.
 pub fn state_feedback_design(
     ctx: &Context,
     variant: &str,
     robust_to: Uncertainty,
     gain: &(ComfortPlant, StateFeedback),
-    notes: Vec<String>,
+    mut notes: Vec<String>,
 ) -> Result<ComfortDesignResult, ComfortError> {
-    let law = state_feedback_law(gain);
-    let certificate = certify(ctx, variant, robust_to, &law, &state_feedback_wiring, notes)?;
+    let law = crate::comfort::stop_recovery::stop_recovery(ctx.params, &state_feedback_law(gain))
+        .map_err(|e| ctx.fail(variant, e))?;
+    notes.push(crate::comfort::stop_recovery::note());
+    let wiring = recovering_state_feedback_wiring;
     Ok(ComfortDesignResult {
+        certificate: certify(ctx, variant, robust_to, &law, &wiring, notes)?,
         law,
         extensions: Extensions::default(),
-        certificate,
     })
 }
 
@@ -1036,18 +1039,8 @@ pub fn robust_state_feedback_design(
             selection_masses(ctx)
         ),
     ];
-    let variant = "robust_sf";
-    let law = crate::comfort::stop_recovery::stop_recovery(ctx.params, &state_feedback_law(chosen))
-        .map_err(|e| ctx.fail(variant, e))?;
-    let mut notes = notes;
-    notes.push(crate::comfort::stop_recovery::note());
-    let robust_to = Uncertainty::SprungMass;
-    let wiring = recovering_state_feedback_wiring;
-    let recovered = ComfortDesignResult {
-        certificate: certify(ctx, variant, robust_to, &law, &wiring, notes)?,
-        law,
-        extensions: Extensions::default(),
-    };
+    let (variant, robust_to) = ("robust_sf", Uncertainty::SprungMass);
+    let recovered = state_feedback_design(ctx, variant, robust_to, chosen, notes)?;
     anti_windup_design(ctx, &recovered, variant, robust_to)
 }
 

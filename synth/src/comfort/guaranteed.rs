@@ -21,7 +21,9 @@
 //! full-information H∞ control ([`crate::numerics::riccati::care`] with an indefinite `R`); its gain
 //! minimises the bound.
 
+use crate::comfort::controllers::{plant_of, realise_state_feedback, state_feedback_sensors};
 use crate::comfort::plant::{Channel, ComfortPlant};
+use crate::numerics::interconnect::close;
 use crate::numerics::riccati::{care, lyapunov, RiccatiError};
 use nalgebra::{DMatrix, DVector};
 
@@ -254,12 +256,28 @@ fn state_feedback_at(
     })
 }
 
-/// The limit signals' standard deviations of the closed loop `A + B_u K` on the design road,
-/// each over its limit.
+/// The limit signals' standard deviations on the design road, each over its limit: of the
+/// closed loop `A + B_u K`, or, on a plant with a frame ([`ComfortPlant::with_frame`]), of the
+/// controller that realises `K` in it ([`realise_state_feedback`]) closed on the sensors it
+/// reads. The two differ where the design road has long waves ([`ComfortPlant::new`]): the
+/// realised controller takes the road height it measures for the roughness state and has no
+/// estimate of the waves' own states, so the gain's feedforward of them is not realised. The
+/// weights must then answer for the loop that ships (on 1 m hills over 200 m the gain chosen on
+/// its own loop let the realised one ride the seat on its stops).
 pub fn limit_sigmas(g: &ComfortPlant, k: &DMatrix<f64>) -> Option<Vec<f64>> {
-    let a = &g.a + &g.b_u * k;
-    let p = lyapunov(&a, &(&g.b_w * g.b_w.transpose())).ok()?;
-    let c = &g.c_lim + &g.d_lim_u * k;
+    let (a, b_w, c) = if g.frame.is_some() {
+        let (framed, t) = g.with_frame();
+        let (plant, sensors) = (plant_of(g), state_feedback_sensors(g));
+        let cl = close(&plant, &sensors, &realise_state_feedback(&framed, &(k * t))).ok()?;
+        let n = plant.a.nrows();
+        let mut c = &g.d_lim_u * &cl.c_u;
+        let mut plant_part = c.columns_mut(0, n);
+        plant_part += g.c_lim.columns(0, n);
+        (cl.a, cl.b_w, c)
+    } else {
+        (&g.a + &g.b_u * k, g.b_w.clone(), &g.c_lim + &g.d_lim_u * k)
+    };
+    let p = lyapunov(&a, &(&b_w * b_w.transpose())).ok()?;
     Some(
         (0..c.nrows())
             .map(|i| {
@@ -331,6 +349,16 @@ pub fn state_feedback_weighted(
         let sf = state_feedback_at(g, channels, &eps, &weights)
             .map_err(|_| GuaranteedError::Infeasible)?;
         let sigmas = limit_sigmas(g, &sf.k).ok_or(GuaranteedError::Infeasible)?;
+        if std::env::var("SF_REAL").is_ok() {
+            eprintln!(
+                "round {_round} sigmas {:?} weights {:?}",
+                sigmas
+                    .iter()
+                    .map(|s| (s * limit_sigmas_required * 100.0).round() / 100.0)
+                    .collect::<Vec<_>>(),
+                weights
+            );
+        }
         let over: Vec<usize> = (0..nl)
             .filter(|&i| sigmas[i] * limit_sigmas_required > 1.0)
             .collect();

@@ -269,6 +269,11 @@ pub fn predictor_model(
             map[front_g + 1 + q] = at + t * p2 + q;
         }
     }
+    // The long waves, last in both road blocks: the same chain in both models.
+    let (waves, car_waves) = (g.long_wave_states(), car.long_wave_states());
+    for (j, m) in waves.zip(car_waves) {
+        map[j] = m;
+    }
     let filters_g = g.layout.filters[0].start;
     for (j, m) in map.iter_mut().enumerate().skip(filters_g) {
         *m = j - filters_g + car.layout.filters[0].start + extra;
@@ -304,7 +309,14 @@ pub fn predictor_model(
     };
     let (augmented, _) =
         augmented.with_delay_weight(d.unmodelled_delay, &crate::comfort::plant::force_limits(d));
-    debug_assert!(map.iter().all(|m| *m < augmented.n()));
+    // Each design state to its own state of the model (a state mapped twice would carry two
+    // gains, and one left on the identity map lands on another state).
+    let mut distinct = map.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    if distinct.len() != map.len() || map.iter().any(|m| *m >= augmented.n()) {
+        return Err("the design model's states do not map one to one onto the car model's".into());
+    }
     let mut k_ext = DMatrix::zeros(k.nrows(), augmented.n());
     for (j, m) in map.iter().enumerate() {
         k_ext.column_mut(*m).copy_from(&k.column(j));

@@ -381,8 +381,24 @@ impl ComfortDesign {
         Some(d)
     }
 
+    /// The design the state feedbacks (`hinf_sf`, `robust_sf`, `delay_sf`) are synthesised on:
+    /// this one with the car's long waves and seat stroke limit ([`CarDesign`]), their rear
+    /// wheels still on the front track's preview. A state feedback isolates the body and seat by
+    /// cancelling their springs; on the ISO road alone it chose loops so soft against the road's
+    /// pose that 1 m hills over 200 m put its seat on its stops. Itself without a `car` block.
+    pub fn for_state_feedback(&self) -> ComfortDesign {
+        let mut d = self.clone();
+        if let Some(car) = self.car {
+            d.road.long_waves = Some(car.long_waves);
+            d.seat_stroke_max = Some(car.seat_stroke_max);
+        }
+        d
+    }
+
+    /// (Without the state feedbacks' frame, `state_feedback_frame_hz`, which no observer reads.)
     pub fn for_output_feedback(&self) -> ComfortDesign {
         let mut d = self.clone();
+        d.state_feedback_frame_hz = None;
         if let Some(rear) = self.road.output_feedback_rear_wheels {
             d.road.rear_wheels = rear;
         }
@@ -686,6 +702,23 @@ impl Design {
 mod tests {
     use super::*;
 
+    /// The state feedbacks' design road has the car's long waves and their design its seat
+    /// stroke limit; the rear wheels stay on the front track's preview. Without a `car` block
+    /// it is the file's design.
+    #[test]
+    fn state_feedbacks_are_designed_with_the_long_waves_and_the_seat_stroke_limit() {
+        let text = include_str!("../../designs/comfort.json");
+        let d = ComfortDesign::from_json(text).unwrap();
+        let car = d.car.expect("the shipped file has a car block");
+        let sf = d.for_state_feedback();
+        assert_eq!(sf.road.long_waves, Some(car.long_waves));
+        assert_eq!(sf.seat_stroke_max, Some(car.seat_stroke_max));
+        assert_eq!(sf.road.rear_wheels, d.road.rear_wheels);
+        assert_eq!(sf.state_feedback_frame_hz, d.state_feedback_frame_hz);
+        let plain = ComfortDesign { car: None, ..d };
+        assert_eq!(plain.for_state_feedback(), plain);
+    }
+
     #[test]
     fn output_feedback_designs_get_their_own_rear_wheel_model() {
         let text = include_str!("../../designs/comfort.json");
@@ -693,20 +726,28 @@ mod tests {
         assert_eq!(d.road.rear_wheels, RearWheels::Pade { order: 2 });
         let of = d.for_output_feedback();
         assert_eq!(of.road.rear_wheels, RearWheels::Independent);
+        assert_eq!(of.state_feedback_frame_hz, None);
         assert_eq!(
             ComfortDesign {
                 road: d.road,
+                state_feedback_frame_hz: d.state_feedback_frame_hz,
                 ..of.clone()
             },
             d,
-            "only the rear-wheel model changes"
+            "only the rear-wheel model and the frame change"
         );
         // Absent: as the state-feedback designs.
         let same = text.replace(r#", "output_feedback_rear_wheels": "independent""#, "");
         assert_ne!(same, text);
         let d = ComfortDesign::from_json(&same).unwrap();
         assert_eq!(d.road.output_feedback_rear_wheels, None);
-        assert_eq!(d.for_output_feedback(), d);
+        assert_eq!(
+            d.for_output_feedback(),
+            ComfortDesign {
+                state_feedback_frame_hz: None,
+                ..d.clone()
+            }
+        );
         // A Padé order out of range is refused by its name.
         let bad = text.replace(
             r#""output_feedback_rear_wheels": "independent""#,

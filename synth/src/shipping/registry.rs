@@ -67,8 +67,9 @@ fn shared<'a, T>(
 
 type ComfortSynthesis = fn(&Context, &Shared) -> Result<ComfortDesignResult, ComfortError>;
 
-/// The design model a variant is synthesised on: the comfort file's (the state feedbacks', on
-/// the ideal road), or the car's ([`ComfortDesign::for_car`]: its sensors, long waves).
+/// The design model a variant is synthesised on: the state feedbacks'
+/// ([`ComfortDesign::for_state_feedback`]: every state measured, the car's long waves and seat
+/// stroke limit), or the car's ([`ComfortDesign::for_car`]: its sensors too).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DesignModel {
     StateFeedback = 0,
@@ -119,10 +120,11 @@ pub const VARIANTS: [Variant; 9] = [
         nominal: None,
         robust_to: Uncertainty::None,
         model: DesignModel::StateFeedback,
-        summary: "state feedback (thesis Th. 5.1)",
+        summary: "state feedback (thesis Th. 5.1), recovering from the seat's end stops, with hinf_of_aw's anti-windup (Th. 5.3)",
         comfort: |ctx, s| {
             let notes = vec![state_feedback_note(ctx.design, "the unmodelled delay")];
-            state_feedback_design(ctx, "hinf_sf", Uncertainty::None, s.nominal(ctx)?, notes)
+            let sf = state_feedback_design(ctx, "hinf_sf", Uncertainty::None, s.nominal(ctx)?, notes)?;
+            anti_windup_design(ctx, &sf, "hinf_sf", Uncertainty::None)
         },
         role: Role::Design,
     },
@@ -151,7 +153,7 @@ pub const VARIANTS: [Variant; 9] = [
         nominal: Some("hinf_sf"),
         robust_to: Uncertainty::SprungMass,
         model: DesignModel::StateFeedback,
-        summary: "state feedback robust to the sprung mass (thesis Th. 6.1), recovering from the seat's end stops, with hinf_of_aw's anti-windup (Th. 5.3)",
+        summary: "hinf_sf robust to the sprung mass (thesis Th. 6.1)",
         comfort: |ctx, s| {
             let robust = state_feedback_note(
                 ctx.design,
@@ -501,8 +503,12 @@ fn comfort_all(
     let car_design = design
         .for_car()
         .unwrap_or_else(|| design.for_output_feedback());
+    let sf_design = design.for_state_feedback();
     let contexts = [
-        Context { params, design },
+        Context {
+            params,
+            design: &sf_design,
+        },
         Context {
             params,
             design: &car_design,
