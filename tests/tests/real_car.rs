@@ -362,10 +362,12 @@ fn back_to_the_unsaturated_loop_after_saturation() {
 
 /// **A state feedback that recovers from its seat's end stops** (`synth::comfort::stop_recovery`).
 /// On ISO E at the default force limits (`scenarios/iso_e.json`, the physical car) the seat
-/// reaches its stops. `delay_sf`, whose loop grows with a seat stop engaged (its certificate's
-/// `engaged_stops`), ends far worse than the passive car; `hinf_sf` and `robust_sf`, reading the
-/// stops' force and recovering from it, with anti-windup, are certified stable with the stop
-/// engaged and in saturation, and measure better than the passive car.
+/// reaches its stops, with which the plain gain's loop grows (it measured 8.1 m/s² there, the
+/// passive car 2.81). The state feedbacks read the stops' force and recover from it, so each is
+/// certified stable with the stop engaged (`engaged_stops`); `hinf_sf` and `robust_sf`, with
+/// anti-windup, are proven in saturation too and measure better than the passive car.
+/// `delay_sf`'s predictor runs without a compensator (not certified in saturation): bounded, a
+/// little worse than the passive car (measured 2.99).
 #[test]
 fn recovering_from_its_seat_stops_keeps_a_state_feedback_stable_on_iso_e() {
     let text = std::fs::read_to_string(dist().join("../scenarios/iso_e.json")).expect("iso_e");
@@ -391,12 +393,12 @@ fn recovering_from_its_seat_stops_keeps_a_state_feedback_stable_on_iso_e() {
         format!("{} / {}", seat["verdict"], c["saturation"]["verdict"])
     };
     let passive = seat(None);
-    let plain = seat(Some("delay_sf"));
-    eprintln!("ISO E, W_k seat: passive {passive:.3}, delay_sf {plain:.3}");
-    assert_eq!(certified("delay_sf"), "\"unstable\" / \"not certified\"");
+    let predictor = seat(Some("delay_sf"));
+    eprintln!("ISO E, W_k seat: passive {passive:.3}, delay_sf {predictor:.3}");
+    assert_eq!(certified("delay_sf"), "\"stable\" / \"not certified\"");
     assert!(
-        plain > passive,
-        "delay_sf {plain} against the passive car's {passive}"
+        predictor < 1.2 * passive,
+        "delay_sf {predictor} against the passive car's {passive}"
     );
     for name in ["hinf_sf", "robust_sf"] {
         let recovered = seat(Some(name));

@@ -1256,7 +1256,7 @@ pub fn state_feedback_wiring(g: &ComfortPlant) -> (Plant, Sensors) {
 
 /// [`state_feedback_wiring`] with the seat's stop force read too
 /// ([`crate::comfort::stop_recovery`]; zero on the design model, which has no stops).
-fn recovering_state_feedback_wiring(g: &ComfortPlant) -> (Plant, Sensors) {
+pub(crate) fn recovering_state_feedback_wiring(g: &ComfortPlant) -> (Plant, Sensors) {
     let mut names = state_feedback_sensors(g).names;
     names.push(crate::comfort::stop_recovery::STOP_FORCE.into());
     crate::comfort::controllers::named_sensors(g, names)

@@ -38,11 +38,12 @@
 
 use crate::comfort::controllers::{reconstruction, state_feedback_sensors, Reconstruction};
 use crate::comfort::designs::{
-    bound_model, certify, state_feedback_wiring, ComfortDesignResult, ComfortError, Context,
-    OverDelays, OverUncertainty, Uncertainty,
+    bound_model, certify, recovering_state_feedback_wiring, ComfortDesignResult, ComfortError,
+    Context, OverDelays, OverUncertainty, Uncertainty,
 };
 use crate::comfort::guaranteed::StateFeedback;
 use crate::comfort::plant::ComfortPlant;
+use crate::comfort::stop_recovery::{recovering_reconstruction, STOP_FORCE};
 use crate::numerics::riccati::lyapunov;
 use crate::predict::continuous::{Conditions, ControlLaw, Loop, PredictorLaw};
 use crate::shipping::design::RearWheels;
@@ -342,8 +343,16 @@ pub fn predictor_design(
     // prediction is exact and the gain reads zero.
     let (framed, t) = g.with_frame();
     let k_framed = k * t;
-    let r = reconstruction(&framed);
-    let law_at = |theta: f64| predictor_law(&framed, &k_framed, r.clone(), theta);
+    // Recovering from the seat's stops (`crate::comfort::stop_recovery`): it reads their force
+    // and predicts the car without them.
+    let plain = state_feedback_sensors(&framed).names;
+    let r =
+        recovering_reconstruction(ctx.params, &reconstruction(&framed), &plain).map_err(&fail)?;
+    let law_at = |theta: f64| {
+        let mut law = predictor_law(&framed, &k_framed, r.clone(), theta);
+        law.inputs.push(STOP_FORCE.into());
+        law
+    };
     let law = law_at(0.0);
     let notes = vec![format!(
         "hinf_sf's guaranteed-cost gain behind a predictor over the actuators' known delay \
@@ -361,7 +370,7 @@ pub fn predictor_design(
         variant,
         Uncertainty::InputDelay,
         &law,
-        &state_feedback_wiring,
+        &recovering_state_feedback_wiring,
         notes,
     )?;
     // Delays across the interval, the predictor matched.

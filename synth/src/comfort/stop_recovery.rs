@@ -15,6 +15,7 @@
 //! passive car, and the controller does not fight it. Off the stops `f = 0`, `η` stays 0 and
 //! the law is the one it extends, so every prediction off the stops is that law's.
 
+use crate::comfort::controllers::Reconstruction;
 use crate::comfort::designs::input_rows;
 use crate::predict::continuous::ControlLaw;
 use linsys::Lti;
@@ -70,6 +71,55 @@ pub fn stop_recovery(p: &VehicleParams, law: &ControlLaw) -> Result<ControlLaw, 
     })
 }
 
+/// A predictor's [`Reconstruction`] (of a law reading `inputs`) recovering from the seat's stops
+/// as [`stop_recovery`] does a linear law's: it reads the stop's force `f` after `inputs`, runs
+/// `η̇ = A η + b f` among its own states and knows the design state from `y − C_y η − d f`, so
+/// it predicts the car without its stop. Its realisation at zero delay is [`stop_recovery`] of
+/// the plain one's.
+pub fn recovering_reconstruction(
+    p: &VehicleParams,
+    r: &Reconstruction,
+    inputs: &[String],
+) -> Result<Reconstruction, String> {
+    let seat = ACTUATORS
+        .iter()
+        .position(|a| *a == "seat")
+        .expect("a seat actuator");
+    let ss = StateSpace::new(p);
+    let (c_y, d_y) = input_rows(p, inputs)?;
+    let (b, d) = (ss.b_u.column(seat), d_y.column(seat));
+    let (n, ny, nxi, m) = (r.s_y.nrows(), r.s_y.ncols(), r.a_xi.nrows(), N_STATES);
+    if ny != inputs.len() {
+        return Err(format!(
+            "the reconstruction reads {ny} inputs, the law {}",
+            inputs.len()
+        ));
+    }
+    let mut s_y = DMatrix::zeros(n, ny + 1);
+    s_y.view_mut((0, 0), (n, ny)).copy_from(&r.s_y);
+    s_y.view_mut((0, ny), (n, 1)).copy_from(&(-&r.s_y * d));
+    let mut s_xi = DMatrix::zeros(n, nxi + m);
+    s_xi.view_mut((0, 0), (n, nxi)).copy_from(&r.s_xi);
+    s_xi.view_mut((0, nxi), (n, m)).copy_from(&(-&r.s_y * &c_y));
+    let mut a_xi = DMatrix::zeros(nxi + m, nxi + m);
+    a_xi.view_mut((0, 0), (nxi, nxi)).copy_from(&r.a_xi);
+    a_xi.view_mut((0, nxi), (nxi, m))
+        .copy_from(&(-&r.b_xi * &c_y));
+    a_xi.view_mut((nxi, nxi), (m, m)).copy_from(&ss.a);
+    let mut b_xi = DMatrix::zeros(nxi + m, ny + 1);
+    b_xi.view_mut((0, 0), (nxi, ny)).copy_from(&r.b_xi);
+    b_xi.view_mut((0, ny), (nxi, 1)).copy_from(&(-&r.b_xi * d));
+    b_xi.view_mut((nxi, ny), (m, 1)).copy_from(&b);
+    Ok(Reconstruction {
+        s_y,
+        s_xi,
+        a_xi,
+        b_xi,
+        b_xiu: r.b_xiu.clone().insert_rows(nxi, m, 0.0),
+        d_yu: r.d_yu.clone().insert_row(ny, 0.0),
+    })
+}
+
 /// The certificate's note of a recovering law.
 pub fn note() -> String {
     format!(
@@ -85,6 +135,55 @@ pub fn note() -> String {
 mod tests {
     use super::*;
     use crate::numerics::eig::spectral_abscissa;
+
+    /// A predictor's recovering reconstruction, realised at zero delay, is [`stop_recovery`] of
+    /// the plain realisation (`hinf_sf`'s gain in its frame, on the state feedbacks' design):
+    /// the same matrices, state for state.
+    #[test]
+    fn a_recovering_predictor_at_zero_delay_is_the_recovered_law() {
+        use crate::comfort::controllers::{reconstruction, state_feedback_sensors};
+        use crate::comfort::designs::{nominal_gain, Context};
+        use crate::shipping::design::ComfortDesign;
+        let d = ComfortDesign::from_json(include_str!("../../designs/comfort.json"))
+            .unwrap()
+            .for_state_feedback();
+        let p = VehicleParams::default();
+        let (g, sf) = nominal_gain(&Context {
+            params: &p,
+            design: &d,
+        })
+        .unwrap();
+        let (framed, t) = g.with_frame();
+        let k = &sf.k * t;
+        let r = reconstruction(&framed);
+        let names = state_feedback_sensors(&framed).names;
+        let plain = ControlLaw {
+            lti: r.realise(&k),
+            inputs: names.clone(),
+            predictor: None,
+            accommodation: None,
+        };
+        let expected = stop_recovery(&p, &plain).unwrap().lti;
+        let got = recovering_reconstruction(&p, &r, &names)
+            .unwrap()
+            .realise(&k);
+        for (name, a, b) in [
+            ("A", &got.a, &expected.a),
+            ("B", &got.b, &expected.b),
+            ("C", &got.c, &expected.c),
+            ("D", &got.d, &expected.d),
+        ] {
+            assert_eq!(a.shape(), b.shape(), "{name}");
+            let scale = b.amax().max(1.0);
+            assert!(
+                (a - b).amax() <= 1e-12 * scale,
+                "{name}: {}",
+                (a - b).amax()
+            );
+        }
+        // A reconstruction for other inputs is refused.
+        assert!(recovering_reconstruction(&p, &r, &names[1..]).is_err());
+    }
 
     /// A static gain on the seat stroke and acceleration, recovered: its closed loop with the seat
     /// stop engaged (a stiffer seat spring, the stop's force read by its row) has the eigenvalues
