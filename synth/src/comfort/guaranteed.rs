@@ -349,16 +349,6 @@ pub fn state_feedback_weighted(
         let sf = state_feedback_at(g, channels, &eps, &weights)
             .map_err(|_| GuaranteedError::Infeasible)?;
         let sigmas = limit_sigmas(g, &sf.k).ok_or(GuaranteedError::Infeasible)?;
-        if std::env::var("SF_REAL").is_ok() {
-            eprintln!(
-                "round {_round} sigmas {:?} weights {:?}",
-                sigmas
-                    .iter()
-                    .map(|s| (s * limit_sigmas_required * 100.0).round() / 100.0)
-                    .collect::<Vec<_>>(),
-                weights
-            );
-        }
         let over: Vec<usize> = (0..nl)
             .filter(|&i| sigmas[i] * limit_sigmas_required > 1.0)
             .collect();

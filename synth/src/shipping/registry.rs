@@ -153,7 +153,7 @@ pub const VARIANTS: [Variant; 9] = [
         nominal: Some("hinf_sf"),
         robust_to: Uncertainty::SprungMass,
         model: DesignModel::StateFeedback,
-        summary: "hinf_sf robust to the sprung mass (thesis Th. 6.1)",
+        summary: "state feedback robust to the sprung mass (thesis Th. 6.1), recovering from the seat's end stops, with hinf_of_aw's anti-windup (Th. 5.3)",
         comfort: |ctx, s| {
             let robust = state_feedback_note(
                 ctx.design,
@@ -184,7 +184,7 @@ pub const VARIANTS: [Variant; 9] = [
         nominal: Some("hinf_sf"),
         robust_to: Uncertainty::InputDelay,
         model: DesignModel::StateFeedback,
-        summary: "state feedback for a known actuator delay (thesis Prop. 7.1)",
+        summary: "state feedback for a known actuator delay (thesis Prop. 7.1), recovering from the seat's end stops",
         comfort: |ctx, s| crate::comfort::predictor::predictor_design(ctx, s.nominal(ctx)?),
         role: Role::Design,
     },
