@@ -576,7 +576,7 @@ impl Controller {
             }
         }
         predicted_command(p, &self.w, &self.x, &self.limits, &mut self.yc, &mut self.u);
-        let next = p.step(self.x.as_slice(), &self.w, &self.u, step)?;
+        let next = p.step(self.x.as_slice(), &self.w, &self.yc, &self.u, step)?;
         if let Some(q) = retargeted {
             self.predictor = Some(q);
         }

@@ -65,6 +65,11 @@ pub struct Runtime {
     history: VecDeque<(f64, DVector<f64>)>,
     /// `K̃ I` over the history now.
     in_flight: DVector<f64>,
+    /// `ζ`, what the commands' clamping has taken from the design state predicted `θ` ahead:
+    /// `ζ̇ = A ζ + B (u − sat u)` ([`Runtime::step`]).
+    zeta: DVector<f64>,
+    /// `(h, e^{Ah}, G(h))` for `ζ` over the last step length.
+    zeta_step: Option<(f64, DMatrix<f64>, DMatrix<f64>)>,
 }
 
 /// The prediction over a delay `θ`: its matrices, and the exponentials cached for it.
@@ -154,6 +159,8 @@ impl Runtime {
             at: Prediction::new(&spec, 0.0)?,
             history: VecDeque::new(),
             in_flight: DVector::zeros(nu),
+            zeta: DVector::zeros(spec.a.nrows()),
+            zeta_step: None,
             spec,
         })
     }
@@ -193,6 +200,7 @@ impl Runtime {
         self.tau = tau;
         self.history.clear();
         self.in_flight.fill(0.0);
+        self.zeta.fill(0.0);
         Ok(())
     }
 
@@ -212,9 +220,11 @@ impl Runtime {
         Ok(())
     }
 
-    /// The command for inputs `y` and own states `xi`.
+    /// The command for inputs `y` and own states `xi`: the design's for the state it would
+    /// have had, had no command been clamped (`z + ζ`).
     pub fn command(&self, y: &DVector<f64>, xi: &[f64], u: &mut DVector<f64>) {
         u.copy_from(&self.in_flight);
+        u.gemv(1.0, &self.at.m.k_tilde, &self.zeta, 1.0);
         u.gemv(1.0, &self.at.m.k_y, y, 1.0);
         u.gemv(
             1.0,
@@ -224,18 +234,32 @@ impl Runtime {
         );
     }
 
-    /// `ξ` after a step of `h` with `y` held and `u` sent (held over the step, predicted over
-    /// the delay it was computed with); the history and the in-flight sum move on, and the
-    /// next command is predicted over `max(tau, h)` ([`predicted_delay`]). Returns the new `ξ`
-    /// without changing anything when it is not finite (the caller discards the step).
+    /// `ξ` after a step of `h` with `y` held and `sent` sent (held over the step, predicted
+    /// over the delay it was computed with), `u` the command [`Runtime::command`] gave before
+    /// the clamp; the history and the in-flight sum move on, and the next command is predicted
+    /// over `max(tau, h)` ([`predicted_delay`]). Returns the new `ξ` without changing anything
+    /// when it is not finite (the caller discards the step).
+    ///
+    /// Model-recovery anti-windup (thesis Th. 5.3 with no gain on its state): the design state
+    /// predicted `θ` ahead is what the commands sent make it, and the commands are clamped to
+    /// the actuators' limits; what the clamp took, `u − sat u`, would have moved it by `ζ`,
+    /// `ζ̇ = A ζ + B (u − sat u)`, with no delay (a command's force and its prediction are both
+    /// `θ` late). The command is the design's for `z + ζ`, and the command's own filters see
+    /// `z + ζ` move with `u`: the design's loop runs as if nothing were clamped, and `ζ`, the
+    /// model's stable response to bounded inputs, stays bounded, whatever the limits.
     pub fn step(
         &mut self,
         xi: &[f64],
         y: &DVector<f64>,
         u: &DVector<f64>,
+        sent: &DVector<f64>,
         h: f64,
     ) -> Result<DVector<f64>, String> {
         let failed = |e: ExpError| crate::step_refused(h, e);
+        if self.zeta_step.as_ref().map(|z| z.0.to_bits()) != Some(h.to_bits()) {
+            let d = discretize(&self.spec.a, &self.spec.b, h).map_err(failed)?;
+            self.zeta_step = Some((h, d.phi, d.gamma_hold));
+        }
         let (nxi, ny, nu) = (xi.len(), y.len(), u.len());
         let (cy, cr, ca, cu) = PredictionMatrices::columns(ny, nu);
         let at = &mut self.at;
@@ -263,6 +287,7 @@ impl Runtime {
         let mut next = &own.phi * DVectorView::from_slice(xi, xi.len());
         next.gemv(1.0, &own.gamma_y, y, 1.0);
         next.gemv(1.0, &own.gamma_u, u, 1.0);
+        next.gemv(1.0, &own.phi_i, &self.zeta, 1.0);
         let theta = at.theta;
         if let Some(u_r) = read_command(&self.history, theta, h) {
             next.gemv(1.0, &own.gamma_r, u_r, 1.0);
@@ -289,7 +314,7 @@ impl Runtime {
         }
         // The history with this step's command, ages from the end of the step (taken back out
         // if the step fails).
-        self.history.push_front((h, u.clone()));
+        self.history.push_front((h, sent.clone()));
         // The delayed command acts during the step with ages (from its end) in [θ, θ + h].
         let mut age = 0.0f64;
         for (len, uj) in &self.history {
@@ -349,6 +374,8 @@ impl Runtime {
                 }
                 self.history.truncate(keep);
                 self.in_flight = v;
+                let (_, e, g) = self.zeta_step.as_ref().expect("set above");
+                self.zeta = e * &self.zeta + g * (u - sent);
                 Ok(next)
             }
             Err(e) => {
@@ -358,10 +385,11 @@ impl Runtime {
         }
     }
 
-    /// The state the runtime carries between steps: the delay predicted over, then per segment
-    /// its duration and command.
+    /// The state the runtime carries between steps: the delay predicted over, `ζ` (the
+    /// clamp's part of the predicted state), then per segment its duration and command.
     pub fn save(&self) -> Vec<f64> {
         let mut out = vec![self.at.theta];
+        out.extend(self.zeta.iter());
         for (len, u) in &self.history {
             out.push(*len);
             out.extend(u.iter());
@@ -377,6 +405,14 @@ impl Runtime {
         let (&theta, rest) = saved
             .split_first()
             .ok_or("predictor state: empty".to_string())?;
+        let n = self.zeta.len();
+        if rest.len() < n || !rest[..n].iter().all(|v| v.is_finite()) {
+            return Err(format!(
+                "predictor state: the clamp's {n} values of the predicted state (anti-windup) \
+                 are missing or not finite"
+            ));
+        }
+        let (zeta, rest) = (DVector::from_column_slice(&rest[..n]), &rest[n..]);
         // Over `tau`, or over a step longer than `tau` (`max(tau, h)`).
         if !(theta.is_finite() && theta >= tau) {
             return Err(format!(
@@ -411,7 +447,8 @@ impl Runtime {
         let in_flight = at
             .in_flight_of(&self.spec, &history, history.len())
             .map_err(|e| format!("predictor state: {e}"))?;
-        (self.tau, self.at, self.history, self.in_flight) = (tau, at, history, in_flight);
+        (self.tau, self.at, self.history, self.in_flight, self.zeta) =
+            (tau, at, history, in_flight, zeta);
         Ok(())
     }
 }
@@ -477,6 +514,38 @@ mod tests {
         .unwrap()
     }
 
+    /// What the clamp takes is counted as if it had been sent (model-recovery anti-windup): a
+    /// runtime whose command was sent as nothing carries the design's force in `ζ` where one
+    /// whose command was sent whole carries it in flight, and the next command of both is the
+    /// same (predicted over the step just taken, in which the whole command is in flight).
+    #[test]
+    fn a_clamped_command_counts_for_the_design_as_if_sent() {
+        let (y, h) = (DVector::from_element(1, 0.5), 0.05);
+        let xi = DVector::zeros(2);
+        let mut commands = Vec::new();
+        for clamped in [false, true] {
+            let mut r = runtime();
+            r.reset(0.0).unwrap();
+            let mut u = DVector::zeros(1);
+            r.command(&y, xi.as_slice(), &mut u);
+            let sent = if clamped {
+                DVector::zeros(1)
+            } else {
+                u.clone()
+            };
+            r.step(xi.as_slice(), &y, &u, &sent, h).unwrap();
+            assert_eq!(r.zeta.iter().any(|v| *v != 0.0), clamped);
+            let mut next = DVector::zeros(1);
+            r.command(&y, xi.as_slice(), &mut next);
+            commands.push(next[0]);
+        }
+        assert!(commands[0] != 0.0);
+        assert!(
+            (commands[0] - commands[1]).abs() <= 1e-12 * commands[0].abs(),
+            "{commands:?}"
+        );
+    }
+
     /// Told no delay, it predicts over `tau` until the first step and over each step's length
     /// after it; a saved state restores whole (the delay predicted over included), and a
     /// corrupt one is refused with its reason and changes nothing.
@@ -489,7 +558,7 @@ mod tests {
         let mut xi = DVector::zeros(2);
         for h in [0.1, 0.05] {
             r.command(&y, xi.as_slice(), &mut u);
-            xi = r.step(xi.as_slice(), &y, &u, h).unwrap();
+            xi = r.step(xi.as_slice(), &y, &u, &u, h).unwrap();
             assert_eq!(r.theta(), h);
         }
         let saved = r.save();
@@ -506,6 +575,12 @@ mod tests {
             (0.0, vec![], "empty"),
             (0.1, saved.clone(), "at least tau"),
             (0.0, [&[f64::NAN][..], &saved[1..]].concat(), "finite delay"),
+            (
+                0.0,
+                [&saved[..1], &[f64::NAN], &saved[2..]].concat(),
+                "anti-windup",
+            ),
+            (0.0, saved[..2].to_vec(), "anti-windup"),
             (0.31, saved.clone(), "[0, 0.3]"),
             (0.0, saved[..saved.len() - 1].to_vec(), "not segments"),
             (0.0, [&saved[..], &[0.0, 1.0]].concat(), "durations"),

@@ -477,7 +477,9 @@ const PRED_SPEC: &str = r#"{
 /// model says with the command sent, `ż = −2 z + 1.5 u`; the filter `φ` in controller time
 /// taking the command `−0.8 z − 2 φ` continuously. It predicts over `θ = max(τ, h)`, `h` the
 /// last step's length (`τ` before the first step), the commands and the force as applied all
-/// counted over that `θ` during the step.
+/// counted over that `θ` during the step. Clamped, what the clamp took moves the prediction by
+/// `ζ`, `ζ̇ = −2 ζ + 1.5 (u − sat u)`: the command is `−0.8 (z + ζ) − 2 φ`, and the filter sees
+/// `z + ζ` move with the command before the clamp.
 struct ScalarPredictor {
     tau: f64,
     theta: f64,
@@ -485,6 +487,7 @@ struct ScalarPredictor {
     limit: f64,
     xi: f64,
     phi: f64,
+    zeta: f64,
     /// `(start, end, command)`.
     sent: Vec<(f64, f64, f64)>,
 }
@@ -513,11 +516,12 @@ impl ScalarPredictor {
 
     fn command(&self, t: f64, y: f64) -> f64 {
         let ahead = (-2.0 * self.theta).exp();
-        -0.8 * (ahead * (y + 0.7 * self.xi) + self.in_flight(t)) - 2.0 * self.phi
+        -0.8 * (ahead * (y + 0.7 * self.xi) + self.in_flight(t) + self.zeta) - 2.0 * self.phi
     }
 
     fn step(&mut self, t: f64, h: f64, y: f64) -> f64 {
-        let u = self.command(t, y).clamp(-self.limit, self.limit);
+        let asked = self.command(t, y);
+        let u = asked.clamp(-self.limit, self.limit);
         let read = if self.theta == 0.0 {
             self.sent.last().map_or(0.0, |p| p.2)
         } else {
@@ -525,7 +529,7 @@ impl ScalarPredictor {
             self.sent_at(t - self.theta + 1e-12)
         };
         let ahead = (-2.0 * self.theta).exp();
-        let mut z = ahead * (y + 0.7 * self.xi) + self.in_flight(t);
+        let mut z = ahead * (y + 0.7 * self.xi) + self.in_flight(t) + self.zeta;
         self.sent.push((t, t + h, u));
         let mut cuts = vec![t, t + h];
         for &(s, e, _) in &self.sent {
@@ -541,13 +545,15 @@ impl ScalarPredictor {
             let applied = self.sent_at(0.5 * (w[0] + w[1]) - self.theta);
             // ξ₁ → c/3 at rate 3, z → q/2 at rate 2, φ̇ = −7 φ + g₀ + g₂ e^{−2s}.
             let c = 0.3 * (y + 0.4 * (applied - read));
-            let q = 1.5 * u;
+            let q = 1.5 * asked;
             let (g0, g2) = (-0.8 * q / 2.0, -0.8 * (z - q / 2.0));
             let e = |rate: f64| (-rate * d).exp();
             self.phi = self.phi * e(7.0) + g0 * (1.0 - e(7.0)) / 7.0 + g2 * (e(2.0) - e(7.0)) / 5.0;
             self.xi = c / 3.0 + (self.xi - c / 3.0) * e(3.0);
             z = q / 2.0 + (z - q / 2.0) * e(2.0);
         }
+        let e = (-2.0 * h).exp();
+        self.zeta = self.zeta * e + 1.5 * (asked - u) * (1.0 - e) / 2.0;
         self.theta = self.tau.max(h);
         u
     }
@@ -600,6 +606,7 @@ fn predictor_commands_are_the_closed_form_over_any_steps_and_restore_whole() {
             limit,
             xi: 0.0,
             phi: 0.0,
+            zeta: 0.0,
             sent: Vec::new(),
         };
         let (text, dir) = if limit.is_finite() {

@@ -364,10 +364,10 @@ fn back_to_the_unsaturated_loop_after_saturation() {
 /// On ISO E at the default force limits (`scenarios/iso_e.json`, the physical car) the seat
 /// reaches its stops, with which the plain gain's loop grows (it measured 8.1 m/s² there, the
 /// passive car 2.81). The state feedbacks read the stops' force and recover from it, so each is
-/// certified stable with the stop engaged (`engaged_stops`); `hinf_sf` and `robust_sf`, with
-/// anti-windup, are proven in saturation too and measure better than the passive car.
-/// `delay_sf`'s predictor runs without a compensator (not certified in saturation): bounded, a
-/// little worse than the passive car (measured 2.99).
+/// certified stable with the stop engaged (`engaged_stops`), and each has anti-windup:
+/// `hinf_sf` and `robust_sf` a compensator proven in saturation, `delay_sf` model recovery in
+/// its predictor (the clamp's part of the predicted state, not yet certified). Each measures
+/// better than the passive car (`delay_sf` measured 2.99 before its anti-windup).
 #[test]
 fn recovering_from_its_seat_stops_keeps_a_state_feedback_stable_on_iso_e() {
     let text = std::fs::read_to_string(dist().join("../scenarios/iso_e.json")).expect("iso_e");
@@ -393,17 +393,15 @@ fn recovering_from_its_seat_stops_keeps_a_state_feedback_stable_on_iso_e() {
         format!("{} / {}", seat["verdict"], c["saturation"]["verdict"])
     };
     let passive = seat(None);
-    let predictor = seat(Some("delay_sf"));
-    eprintln!("ISO E, W_k seat: passive {passive:.3}, delay_sf {predictor:.3}");
-    assert_eq!(certified("delay_sf"), "\"stable\" / \"not certified\"");
-    assert!(
-        predictor < 1.2 * passive,
-        "delay_sf {predictor} against the passive car's {passive}"
-    );
-    for name in ["hinf_sf", "robust_sf"] {
+    eprintln!("ISO E, W_k seat: passive {passive:.3}");
+    for (name, saturation) in [
+        ("hinf_sf", "circle criterion"),
+        ("robust_sf", "circle criterion"),
+        ("delay_sf", "not certified"),
+    ] {
         let recovered = seat(Some(name));
         eprintln!("ISO E, W_k seat: {name} {recovered:.3}");
-        assert_eq!(certified(name), "\"stable\" / \"circle criterion\"");
+        assert_eq!(certified(name), format!("\"stable\" / \"{saturation}\""));
         assert!(
             recovered < 0.9 * passive,
             "{name} {recovered} against the passive car's {passive}"
