@@ -29,7 +29,7 @@ use linsys::{discretize, mat_vec_sum, Discretization, ExpError};
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
 use vehicle::contact::{self, Contact, ContactParams, Contacts, Mode, Unilateral, N_UNILATERAL};
-use vehicle::iso2631::{ComfortMeter, Forces, METER_OUTPUTS};
+use vehicle::iso2631::{ComfortMeter, METER_OUTPUTS};
 use vehicle::model::{
     physical_outputs_with_accelerations, StateSpace, StaticEquilibrium, N_ACTUATORS, N_DOF, N_ROAD,
     N_STATES, N_WHEELS,
@@ -357,23 +357,8 @@ impl System {
         let (n, meter_at) = (state_count(act), car_states(act));
         let mut a = DMatrix::zeros(n, n);
         let mut b = DMatrix::zeros(n, N_INPUTS);
-        a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
-        b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&ss.b_r);
         // The forces: the lag states, or the actuator outputs themselves.
-        let forces = if lag {
-            let w = 2.0 * std::f64::consts::PI * act.bandwidth;
-            a.view_mut((0, N_STATES), (N_STATES, N_ACTUATORS))
-                .copy_from(&ss.b_u);
-            for i in 0..N_ACTUATORS {
-                a[(N_STATES + i, N_STATES + i)] = -w;
-                b[(N_STATES + i, N_ROAD + i)] = w;
-            }
-            Forces::States(N_STATES)
-        } else {
-            b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
-                .copy_from(&ss.b_u);
-            Forces::Inputs(N_ROAD)
-        };
+        let forces = ss.place(&mut a, &mut b, lag.then_some((N_STATES, act.bandwidth)));
         let weighted = physical_outputs_with_accelerations(p);
         let outputs: Vec<_> = weighted.iter().map(|(row, _)| row.clone()).collect();
         let meter = ComfortMeter::new(&outputs);

@@ -326,6 +326,40 @@ impl StateSpace {
         StateSpace { a, b_u, b_r }
     }
 
+    /// Writes the car into a system `ẋ = A x + B v` whose first 16 states are its own and whose
+    /// inputs start with the road's and the commands, `v = [r; u; …]`: driven by the road, and
+    /// by the commands as the applied forces or, with `lag = Some((at, hz))`, through
+    /// first-order actuators of that bandwidth, `ḟ = ω_a (u − f)`, their forces the states
+    /// from `at` on (the plant FMU's `actuator_bandwidth`). Returns where the applied forces
+    /// are, for [`crate::iso2631::ComfortMeter::place`].
+    pub fn place(
+        &self,
+        a: &mut DMatrix<f64>,
+        b: &mut DMatrix<f64>,
+        lag: Option<(usize, f64)>,
+    ) -> crate::iso2631::Forces {
+        use crate::iso2631::Forces;
+        a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&self.a);
+        b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&self.b_r);
+        match lag {
+            Some((at, hz)) => {
+                let w = 2.0 * std::f64::consts::PI * hz;
+                a.view_mut((0, at), (N_STATES, N_ACTUATORS))
+                    .copy_from(&self.b_u);
+                for i in 0..N_ACTUATORS {
+                    a[(at + i, at + i)] = -w;
+                    b[(at + i, N_ROAD + i)] = w;
+                }
+                Forces::States(at)
+            }
+            None => {
+                b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
+                    .copy_from(&self.b_u);
+                Forces::Inputs(N_ROAD)
+            }
+        }
+    }
+
     /// `Σ wᵢ Sᵢ`, the same linear combination of every matrix.
     pub fn combination(terms: &[(f64, &StateSpace)]) -> StateSpace {
         let mut out = StateSpace {

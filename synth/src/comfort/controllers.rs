@@ -128,11 +128,10 @@ pub fn reconstruction(g: &ComfortPlant) -> Reconstruction {
     // The long waves are not among its states: nothing it reads drives them, so their copy
     // would stay at zero (the gain's feedforward of them is not realised; the design's limits
     // answer for that, `guaranteed::limit_sigmas`).
-    let waves = g.long_wave_states();
     let preview: Vec<usize> = layout
         .road
         .clone()
-        .filter(|s| !height_states.contains(s) && !waves.contains(s))
+        .filter(|s| !height_states.contains(s) && !layout.waves.contains(s))
         .collect();
     let filters: Vec<usize> = layout.filters.iter().flat_map(|r| r.clone()).collect();
     let weight: Vec<usize> = layout

@@ -410,7 +410,7 @@ mod tests {
         let (g, delay) = ctx
             .plant()
             .with_delay_weight(d.unmodelled_delay, &crate::comfort::plant::force_limits(&d));
-        assert!(g.frame.is_some() && !g.long_wave_states().is_empty());
+        assert!(g.frame.is_some() && !g.layout.waves.is_empty());
         let holds = |sigmas: &[f64]| sigmas.iter().all(|s| s * d.limit_sigmas <= 1.0 + 1e-9);
         let unframed = ComfortPlant {
             frame: None,

@@ -103,7 +103,8 @@ pub struct Layout {
     pub car: Range<usize>,
     pub road: Range<usize>,
     /// The long waves' states, within `road` ([`LONG_WAVE_ORDER`] of them; empty without long
-    /// waves).
+    /// waves). No sensor reads them apart from the roughness: a state feedback's realisation
+    /// has no estimate of them ([`crate::comfort::controllers::reconstruction`]).
     pub waves: Range<usize>,
     /// One range per comfort output ([`COMFORT_OUTPUTS`]).
     pub filters: Vec<Range<usize>>,
@@ -512,13 +513,6 @@ impl ComfortPlant {
     /// The front road heights (left, right) in terms of the state (Padé rear model), or the four
     /// heights (independent rear wheels): what a state-feedback controller must know of the
     /// road, and which it reads as `z_u − tire_defl`.
-    /// The long waves' states ([`Layout::waves`]). No sensor reads them apart from the
-    /// roughness: a state feedback's realisation has no estimate of them
-    /// ([`crate::comfort::controllers::reconstruction`]).
-    pub fn long_wave_states(&self) -> Range<usize> {
-        self.layout.waves.clone()
-    }
-
     pub fn road_height_rows(&self) -> Vec<(usize, usize)> {
         // (state index, wheel) of each road height that is itself a state.
         match self.road.rear {

@@ -271,7 +271,7 @@ pub fn predictor_model(
         }
     }
     // The long waves, last in both road blocks: the same chain in both models.
-    let (waves, car_waves) = (g.long_wave_states(), car.long_wave_states());
+    let (waves, car_waves) = (g.layout.waves.clone(), car.layout.waves.clone());
     for (j, m) in waves.zip(car_waves) {
         map[j] = m;
     }

@@ -19,7 +19,7 @@ use crate::comfort::controllers::Reconstruction;
 use crate::comfort::designs::input_rows;
 use crate::predict::continuous::ControlLaw;
 use linsys::Lti;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use vehicle::model::{StateSpace, ACTUATORS, N_STATES};
 use vehicle::VehicleParams;
 
@@ -36,17 +36,11 @@ pub fn stop_recovery(p: &VehicleParams, law: &ControlLaw) -> Result<ControlLaw, 
     if law.inputs.iter().any(|i| i == STOP_FORCE) {
         return Err(format!("the law reads {STOP_FORCE} already"));
     }
-    let seat = ACTUATORS
-        .iter()
-        .position(|a| *a == "seat")
-        .expect("a seat actuator");
-    let ss = StateSpace::new(p);
-    let (c_y, d_y) = input_rows(p, &law.inputs)?;
-    let (b, d) = (ss.b_u.column(seat), d_y.column(seat));
+    let StopModel { ss, c_y, b, d } = StopModel::new(p, &law.inputs)?;
     let k = &law.lti;
     let (nk, n, ny) = (k.a.nrows(), N_STATES, law.inputs.len());
     let nu = k.c.nrows();
-    let (b_k_d, d_k_d) = (&k.b * d, &k.d * d);
+    let (b_k_d, d_k_d) = (&k.b * &d, &k.d * &d);
     let mut a = DMatrix::zeros(nk + n, nk + n);
     a.view_mut((0, 0), (nk, nk)).copy_from(&k.a);
     a.view_mut((0, nk), (nk, n)).copy_from(&(-&k.b * &c_y));
@@ -71,6 +65,32 @@ pub fn stop_recovery(p: &VehicleParams, law: &ControlLaw) -> Result<ControlLaw, 
     })
 }
 
+/// What a recovery runs and reads its inputs through: the nominal car, the seat actuator's
+/// column of `B_u` and of the inputs' feedthrough `D_y` (as which the stop's force acts), and
+/// the inputs' rows `C_y`.
+struct StopModel {
+    ss: StateSpace,
+    c_y: DMatrix<f64>,
+    b: DVector<f64>,
+    d: DVector<f64>,
+}
+
+impl StopModel {
+    fn new(p: &VehicleParams, inputs: &[String]) -> Result<Self, String> {
+        let seat = ACTUATORS
+            .iter()
+            .position(|a| *a == "seat")
+            .expect("a seat actuator");
+        let ss = StateSpace::new(p);
+        let (c_y, d_y) = input_rows(p, inputs)?;
+        let (b, d) = (
+            ss.b_u.column(seat).into_owned(),
+            d_y.column(seat).into_owned(),
+        );
+        Ok(StopModel { ss, c_y, b, d })
+    }
+}
+
 /// A predictor's [`Reconstruction`] (of a law reading `inputs`) recovering from the seat's stops
 /// as [`stop_recovery`] does a linear law's: it reads the stop's force `f` after `inputs`, runs
 /// `η̇ = A η + b f` among its own states and knows the design state from `y − C_y η − d f`, so
@@ -81,13 +101,7 @@ pub fn recovering_reconstruction(
     r: &Reconstruction,
     inputs: &[String],
 ) -> Result<Reconstruction, String> {
-    let seat = ACTUATORS
-        .iter()
-        .position(|a| *a == "seat")
-        .expect("a seat actuator");
-    let ss = StateSpace::new(p);
-    let (c_y, d_y) = input_rows(p, inputs)?;
-    let (b, d) = (ss.b_u.column(seat), d_y.column(seat));
+    let StopModel { ss, c_y, b, d } = StopModel::new(p, inputs)?;
     let (n, ny, nxi, m) = (r.s_y.nrows(), r.s_y.ncols(), r.a_xi.nrows(), N_STATES);
     if ny != inputs.len() {
         return Err(format!(
@@ -97,7 +111,7 @@ pub fn recovering_reconstruction(
     }
     let mut s_y = DMatrix::zeros(n, ny + 1);
     s_y.view_mut((0, 0), (n, ny)).copy_from(&r.s_y);
-    s_y.view_mut((0, ny), (n, 1)).copy_from(&(-&r.s_y * d));
+    s_y.view_mut((0, ny), (n, 1)).copy_from(&(-&r.s_y * &d));
     let mut s_xi = DMatrix::zeros(n, nxi + m);
     s_xi.view_mut((0, 0), (n, nxi)).copy_from(&r.s_xi);
     s_xi.view_mut((0, nxi), (n, m)).copy_from(&(-&r.s_y * &c_y));
@@ -108,7 +122,7 @@ pub fn recovering_reconstruction(
     a_xi.view_mut((nxi, nxi), (m, m)).copy_from(&ss.a);
     let mut b_xi = DMatrix::zeros(nxi + m, ny + 1);
     b_xi.view_mut((0, 0), (nxi, ny)).copy_from(&r.b_xi);
-    b_xi.view_mut((0, ny), (nxi, 1)).copy_from(&(-&r.b_xi * d));
+    b_xi.view_mut((0, ny), (nxi, 1)).copy_from(&(-&r.b_xi * &d));
     b_xi.view_mut((nxi, ny), (m, 1)).copy_from(&b);
     Ok(Reconstruction {
         s_y,

@@ -41,7 +41,7 @@ use crate::shipping::design::ComfortRoad;
 use linsys::predictor::{predicted_delay, PredictionMatrices, PredictorBlocks};
 use linsys::{discretize, expm};
 use nalgebra::{Complex, DMatrix, DVector};
-use vehicle::iso2631::{ComfortMeter, Forces, METER_OUTPUTS};
+use vehicle::iso2631::{ComfortMeter, METER_OUTPUTS};
 use vehicle::model::{OutputRow, StateSpace, N_ACTUATORS, N_ROAD, N_STATES};
 
 type C64 = Complex<f64>;
@@ -105,26 +105,8 @@ impl WeightedCar {
         let mut a = DMatrix::zeros(n, n);
         let mut b = DMatrix::zeros(n, N_HELD);
         let mut m = DMatrix::zeros(N_CHANNELS, n + N_HELD);
-        a.view_mut((0, 0), (N_STATES, N_STATES)).copy_from(&ss.a);
-        b.view_mut((0, 0), (N_STATES, N_ROAD)).copy_from(&ss.b_r);
         // Where the forces act from: the held inputs, or the lag's states.
-        let forces = match forces_at.zip(lag_hz) {
-            Some((at, hz)) => {
-                let w = 2.0 * std::f64::consts::PI * hz;
-                a.view_mut((0, at), (N_STATES, N_ACTUATORS))
-                    .copy_from(&ss.b_u);
-                for i in 0..N_ACTUATORS {
-                    a[(at + i, at + i)] = -w;
-                    b[(at + i, N_ROAD + i)] = w;
-                }
-                Forces::States(at)
-            }
-            None => {
-                b.view_mut((0, N_ROAD), (N_STATES, N_ACTUATORS))
-                    .copy_from(&ss.b_u);
-                Forces::Inputs(N_ROAD)
-            }
-        };
+        let forces = ss.place(&mut a, &mut b, forces_at.zip(lag_hz));
         let force_column = forces_at.unwrap_or(n + N_ROAD);
         meter.place(&mut a, &mut b, N_STATES, forces);
         m.view_mut((0, N_STATES), (WEIGHTED_SIGNALS.len(), nw))
