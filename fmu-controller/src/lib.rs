@@ -326,6 +326,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         description: spec.description.clone(),
         version: format!("{}+{:016x}", env!("CARGO_PKG_VERSION"), spec.content_hash),
         capabilities: Capabilities::exact_stepping(false),
+        model_exchange: None,
         default_experiment: DefaultExperiment {
             start_time: 0.0,
             stop_time: 10.0,

@@ -22,6 +22,7 @@ impl Model for Probe {
             description: "y = u; a step with u = 666 panics (the panic barrier's probe)".into(),
             version: "1".into(),
             capabilities: Capabilities::exact_stepping(false),
+            model_exchange: None,
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,

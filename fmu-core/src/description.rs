@@ -1,5 +1,6 @@
 //! The variable table of an FMU — the single source of truth — and the `modelDescription.xml`
-//! derived from it (FMI 2.0.4 §2.2, Co-Simulation only).
+//! derived from it (FMI 2.0.4 §2.2): Co-Simulation, and Model Exchange where a model declares
+//! continuous states.
 
 use crate::logger::Category;
 use std::collections::BTreeSet;
@@ -13,6 +14,8 @@ pub enum Causality {
     CalculatedParameter,
     Input,
     Output,
+    /// Model Exchange's continuous states that are not outputs, and the state derivatives.
+    Local,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -97,6 +100,9 @@ pub struct Variable {
     /// Initialization Mode. With the inputs of `depends_on` they are its `InitialUnknowns`
     /// dependencies (the knowns there are the inputs and the `initial="exact"` variables).
     pub initial_parameters: Vec<String>,
+    /// For a state derivative (Model Exchange): the continuous state (by name) it is the
+    /// derivative of.
+    pub derivative_of: Option<String>,
 }
 
 impl Variable {
@@ -109,7 +115,7 @@ impl Variable {
     ) -> Self {
         let variability = match causality {
             Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
-            Causality::Input | Causality::Output => Variability::Continuous,
+            Causality::Input | Causality::Output | Causality::Local => Variability::Continuous,
         };
         Variable {
             name: name.into(),
@@ -125,7 +131,26 @@ impl Variable {
             },
             depends_on: Vec::new(),
             initial_parameters: Vec::new(),
+            derivative_of: None,
         }
+    }
+
+    /// The derivative of the continuous state `state` (Model Exchange), a local Real.
+    pub fn derivative(
+        state: &Variable,
+        vr: ValueReference,
+        unit: &'static str,
+        description: impl Into<String>,
+    ) -> Self {
+        let mut v = Variable::real(
+            format!("der({})", state.name),
+            vr,
+            Causality::Local,
+            unit,
+            description,
+        );
+        v.derivative_of = Some(state.name.clone());
+        v
     }
 
     /// A Boolean variable (discrete: a Boolean cannot be continuous).
@@ -137,7 +162,7 @@ impl Variable {
     ) -> Self {
         let variability = match causality {
             Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
-            Causality::Input | Causality::Output => Variability::Discrete,
+            Causality::Input | Causality::Output | Causality::Local => Variability::Discrete,
         };
         Variable {
             name: name.into(),
@@ -148,6 +173,7 @@ impl Variable {
             kind: VarType::Boolean { start: None },
             depends_on: Vec::new(),
             initial_parameters: Vec::new(),
+            derivative_of: None,
         }
     }
 
@@ -161,7 +187,7 @@ impl Variable {
     ) -> Self {
         let variability = match causality {
             Causality::Parameter | Causality::CalculatedParameter => Variability::Fixed,
-            Causality::Input | Causality::Output => Variability::Discrete,
+            Causality::Input | Causality::Output | Causality::Local => Variability::Discrete,
         };
         Variable {
             name: name.into(),
@@ -172,6 +198,7 @@ impl Variable {
             kind: VarType::Integer { start: Some(start) },
             depends_on: Vec::new(),
             initial_parameters: Vec::new(),
+            derivative_of: None,
         }
     }
 
@@ -242,7 +269,7 @@ pub fn settable(causality: Causality, variability: Variability, initialising: bo
     match causality {
         Causality::Input => true,
         Causality::Parameter => initialising || variability == Variability::Tunable,
-        Causality::CalculatedParameter | Causality::Output => false,
+        Causality::CalculatedParameter | Causality::Output | Causality::Local => false,
     }
 }
 
@@ -254,6 +281,8 @@ pub struct Capabilities {
     pub max_output_derivative_order: u32,
     pub can_get_and_set_fmu_state: bool,
     pub can_serialize_fmu_state: bool,
+    /// `fmi2GetDirectionalDerivative` answers (the model's [`crate::Model::directional_derivative`]).
+    pub provides_directional_derivative: bool,
 }
 
 impl Capabilities {
@@ -266,7 +295,14 @@ impl Capabilities {
             max_output_derivative_order: 0,
             can_get_and_set_fmu_state: true,
             can_serialize_fmu_state: true,
+            provides_directional_derivative: false,
         }
+    }
+
+    /// The same, with directional derivatives.
+    pub fn with_directional_derivatives(mut self) -> Self {
+        self.provides_directional_derivative = true;
+        self
     }
 }
 
@@ -281,6 +317,16 @@ pub struct DefaultExperiment {
     pub tolerance: f64,
 }
 
+/// The `<ModelExchange>` interface: a model whose continuous states an integrator advances.
+/// The states are the variables the derivatives (`Variable::derivative_of`) name, in the order
+/// of the derivatives in the table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelExchange {
+    pub number_of_event_indicators: usize,
+    /// `completedIntegratorStepNotNeeded`.
+    pub completed_integrator_step_not_needed: bool,
+}
+
 /// Everything `modelDescription.xml` says.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModelDescription {
@@ -292,6 +338,8 @@ pub struct ModelDescription {
     pub capabilities: Capabilities,
     pub default_experiment: DefaultExperiment,
     pub variables: Vec<Variable>,
+    /// Model Exchange beside Co-Simulation, if the model has it.
+    pub model_exchange: Option<ModelExchange>,
 }
 
 /// Units declared by name alone: a noise density's `√Hz` has no integer base-unit exponents,
@@ -315,6 +363,7 @@ fn base_unit(unit: &str) -> Option<[i32; 8]> {
         "kg.m2" => [1, 2, 0, 0, 0, 0, 0, 0],
         "N" => [1, 1, -2, 0, 0, 0, 0, 0],
         "N/m" => [1, 0, -2, 0, 0, 0, 0, 0],
+        "N/s" => [1, 1, -3, 0, 0, 0, 0, 0],
         "N.s/m" => [1, 0, -1, 0, 0, 0, 0, 0],
         "s" => [0, 0, 1, 0, 0, 0, 0, 0],
         "Hz" => [0, 0, -1, 0, 0, 0, 0, 0],
@@ -361,6 +410,26 @@ impl ModelDescription {
         self.variables.iter().find(|v| v.name == name)
     }
 
+    /// Model Exchange's continuous states as (state, its derivative), in the derivatives'
+    /// order: the order of `fmi2GetContinuousStates` and `fmi2GetDerivatives`.
+    pub fn continuous_states(&self) -> Vec<(&Variable, &Variable)> {
+        self.variables
+            .iter()
+            .filter_map(|d| {
+                let state = self.variable(d.derivative_of.as_deref()?)?;
+                Some((state, d))
+            })
+            .collect()
+    }
+
+    /// Number of continuous states (0 without Model Exchange).
+    pub fn number_of_states(&self) -> usize {
+        self.variables
+            .iter()
+            .filter(|v| v.derivative_of.is_some())
+            .count()
+    }
+
     /// Rules of FMI 2.0.4 §2.2.7 that a table could break: unique names and value references
     /// per type, start values where required and forbidden, known units, dependencies on
     /// existing inputs.
@@ -389,6 +458,39 @@ impl ModelDescription {
                 VarType::Integer { start } => start.is_some(),
                 VarType::Boolean { start } => start.is_some(),
             };
+            if let Some(state) = &v.derivative_of {
+                let fine = v.causality == Causality::Local
+                    && self.variable(state).is_some_and(|s| {
+                        matches!(s.causality, Causality::Output | Causality::Local)
+                            && s.variability == Variability::Continuous
+                            && s.kind.base() == BaseType::Real
+                            && s.derivative_of.is_none()
+                    });
+                if !fine {
+                    return err(format!(
+                        "'{}' must be a local derivative of a continuous Real state, '{state}'",
+                        v.name
+                    ));
+                }
+                if self.model_exchange.is_none() {
+                    return err(format!(
+                        "'{}' is a state derivative, but there is no Model Exchange",
+                        v.name
+                    ));
+                }
+            }
+            if v.causality == Causality::Local
+                && v.derivative_of.is_none()
+                && !self
+                    .variables
+                    .iter()
+                    .any(|d| d.derivative_of.as_ref() == Some(&v.name))
+            {
+                return err(format!(
+                    "local '{}' is neither a continuous state nor a derivative",
+                    v.name
+                ));
+            }
             let needs_start = matches!(v.causality, Causality::Parameter | Causality::Input);
             if needs_start != has_start {
                 return err(format!(
@@ -398,24 +500,34 @@ impl ModelDescription {
                     if needs_start { "" } else { "not " }
                 ));
             }
-            if !v.depends_on.is_empty() && v.causality != Causality::Output {
+            let derivative = v.derivative_of.is_some();
+            if !v.depends_on.is_empty() && v.causality != Causality::Output && !derivative {
                 return err(format!(
-                    "'{}' has dependencies but is not an output",
+                    "'{}' has dependencies but is neither an output nor a state derivative",
                     v.name
                 ));
             }
             for (d, kind) in &v.depends_on {
-                let Some(known) = self.variable(d).filter(|k| k.causality == Causality::Input)
+                // An output's knowns are inputs; a derivative's, inputs and continuous states.
+                let state = derivative
+                    && self
+                        .variables
+                        .iter()
+                        .any(|x| x.derivative_of.as_ref() == Some(d));
+                let Some(known) = self
+                    .variable(d)
+                    .filter(|k| k.causality == Causality::Input || state)
                 else {
                     return err(format!(
-                        "output '{}' depends on '{d}', which is not an input",
-                        v.name
+                        "'{}' depends on '{d}', which is not an input{}",
+                        v.name,
+                        if derivative { " or a state" } else { "" }
                     ));
                 };
                 let linear = !matches!(kind, DependencyKind::Dependent);
                 if linear && known.kind.base() != BaseType::Real {
                     return err(format!(
-                        "output '{}' depends on '{d}' as {:?}, which only a Real can",
+                        "'{}' depends on '{d}' as {:?}, which only a Real can",
                         v.name, kind
                     ));
                 }
@@ -425,6 +537,7 @@ impl ModelDescription {
                     v.causality,
                     Causality::Output | Causality::CalculatedParameter
                 )
+                && !derivative
             {
                 return err(format!(
                     "'{}' has initial dependencies but is not an initial unknown",
@@ -454,19 +567,33 @@ impl ModelDescription {
         writeln!(x, "<!-- Generated from the variable table in Rust; do not edit. Regenerate with `make descriptions`. -->").unwrap();
         writeln!(
             x,
-            r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" version="{}" generationTool="suspension-fmus {} (fmu-core)" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
-            esc(&self.model_name), esc(&self.guid), esc(&self.description), esc(&self.version), env!("CARGO_PKG_VERSION")
+            r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" version="{}" generationTool="suspension-fmus {} (fmu-core)" variableNamingConvention="structured" numberOfEventIndicators="{}">"#,
+            esc(&self.model_name), esc(&self.guid), esc(&self.description), esc(&self.version), env!("CARGO_PKG_VERSION"),
+            self.model_exchange.as_ref().map_or(0, |me| me.number_of_event_indicators)
         )
         .unwrap();
+        if let Some(me) = &self.model_exchange {
+            writeln!(
+                x,
+                r#"  <ModelExchange modelIdentifier="{}" needsExecutionTool="false" completedIntegratorStepNotNeeded="{}" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
+                esc(&self.model_identifier),
+                b(me.completed_integrator_step_not_needed),
+                b(c.can_get_and_set_fmu_state),
+                b(c.can_serialize_fmu_state),
+                b(c.provides_directional_derivative)
+            )
+            .unwrap();
+        }
         writeln!(
             x,
-            r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="{}" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="false"/>"#,
+            r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="{}" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
             esc(&self.model_identifier),
             b(c.can_handle_variable_communication_step_size),
             b(c.can_interpolate_inputs),
             c.max_output_derivative_order,
             b(c.can_get_and_set_fmu_state),
-            b(c.can_serialize_fmu_state)
+            b(c.can_serialize_fmu_state),
+            b(c.provides_directional_derivative)
         )
         .unwrap();
         let units: BTreeSet<&str> = self.variables.iter().filter_map(|v| v.unit()).collect();
@@ -513,6 +640,13 @@ impl ModelDescription {
             num(e.step_size)
         )
         .unwrap();
+        let index_of = |name: &str| {
+            self.variables
+                .iter()
+                .position(|v| v.name == name)
+                .expect("checked")
+                + 1
+        };
         writeln!(x, "  <ModelVariables>").unwrap();
         for (i, v) in self.variables.iter().enumerate() {
             let causality = match v.causality {
@@ -520,6 +654,7 @@ impl ModelDescription {
                 Causality::CalculatedParameter => "calculatedParameter",
                 Causality::Input => "input",
                 Causality::Output => "output",
+                Causality::Local => "local",
             };
             let variability = match v.variability {
                 Variability::Fixed => "fixed",
@@ -529,7 +664,9 @@ impl ModelDescription {
             };
             let initial = match v.causality {
                 Causality::Parameter => r#" initial="exact""#,
-                Causality::CalculatedParameter | Causality::Output => r#" initial="calculated""#,
+                Causality::CalculatedParameter | Causality::Output | Causality::Local => {
+                    r#" initial="calculated""#
+                }
                 Causality::Input => "",
             };
             writeln!(x, "    <!-- index {} -->", i + 1).unwrap();
@@ -559,6 +696,9 @@ impl ModelDescription {
                     if let Some(s) = start {
                         write!(attrs, r#" start="{}""#, num(*s)).unwrap();
                     }
+                    if let Some(state) = &v.derivative_of {
+                        write!(attrs, r#" derivative="{}""#, index_of(state)).unwrap();
+                    }
                     writeln!(x, "      <Real{attrs}/>").unwrap();
                 }
                 VarType::Integer { start } => match start {
@@ -573,13 +713,7 @@ impl ModelDescription {
             writeln!(x, "    </ScalarVariable>").unwrap();
         }
         writeln!(x, "  </ModelVariables>").unwrap();
-        let index = |name: &str| {
-            self.variables
-                .iter()
-                .position(|v| v.name == name)
-                .expect("checked")
-                + 1
-        };
+        let index = index_of;
         writeln!(x, "  <ModelStructure>").unwrap();
         let outputs: Vec<(usize, &Variable)> = self
             .variables
@@ -609,6 +743,21 @@ impl ModelDescription {
             }
             writeln!(x, "    </Outputs>").unwrap();
         }
+        // A derivative depends on continuous states and inputs.
+        let derivatives: Vec<(usize, &Variable)> = self
+            .variables
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.derivative_of.is_some())
+            .collect();
+        if !derivatives.is_empty() {
+            writeln!(x, "    <Derivatives>").unwrap();
+            for (i, v) in &derivatives {
+                let deps = v.depends_on.iter().map(|(d, k)| (index(d), *k)).collect();
+                writeln!(x, "{}", unknown(i + 1, deps)).unwrap();
+            }
+            writeln!(x, "    </Derivatives>").unwrap();
+        }
         // Initial unknowns: outputs and calculated parameters, depending on their inputs and
         // parameters. Only `dependent` and `constant` are kinds there, and no factor is constant
         // once the parameters are knowns.
@@ -619,17 +768,20 @@ impl ModelDescription {
             .filter(|(_, v)| {
                 matches!(
                     v.causality,
-                    Causality::Output | Causality::CalculatedParameter
+                    Causality::Output | Causality::CalculatedParameter | Causality::Local
                 )
             })
             .collect();
         if !initial.is_empty() {
             writeln!(x, "    <InitialUnknowns>").unwrap();
             for (i, v) in initial {
+                // The knowns here are the inputs and the parameters: a derivative's states are
+                // unknowns themselves at initialisation (they start at the equilibrium).
                 let deps = v
                     .depends_on
                     .iter()
                     .map(|(d, _)| d)
+                    .filter(|d| self.variable(d).map(|k| k.causality) == Some(Causality::Input))
                     .chain(&v.initial_parameters)
                     .map(|d| (index(d), DependencyKind::Dependent))
                     .collect();
@@ -655,6 +807,7 @@ impl ModelDescription {
                 Causality::CalculatedParameter => "calculated parameter",
                 Causality::Input => "input",
                 Causality::Output => "output",
+                Causality::Local => "local",
             };
             let start = match &v.kind {
                 VarType::Real { start: Some(s), .. } => num(*s),
@@ -715,6 +868,7 @@ mod tests {
             description: "a <test> & \"quotes\"".into(),
             version: "1".into(),
             capabilities: Capabilities::exact_stepping(false),
+            model_exchange: None,
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,
@@ -758,6 +912,74 @@ mod tests {
         assert!(xml.contains("a &lt;test&gt; &amp; &quot;quotes&quot;"));
         assert!(xml.contains(r#"start="2.5""#));
         assert!(xml.contains(r#"stepSize="0.001""#));
+    }
+
+    /// The sample with Model Exchange: `y` a state, its derivative a local.
+    fn with_model_exchange() -> ModelDescription {
+        let mut d = sample();
+        d.model_exchange = Some(ModelExchange {
+            number_of_event_indicators: 2,
+            completed_integrator_step_not_needed: false,
+        });
+        let y = d.variables[2].clone();
+        d.variables.push(
+            Variable::derivative(&y, 4, "m/s", "velocity")
+                .depending_on(vec!["y".into(), "u".into()], DependencyKind::Dependent)
+                .initially_depending_on(vec!["k".into()]),
+        );
+        d
+    }
+
+    /// FMI 2.0.4 §2.2: the interface element, the event indicators' number, the derivative's
+    /// `derivative` attribute (the state's index), and the derivatives among the model
+    /// structure's `Derivatives` and `InitialUnknowns`.
+    #[test]
+    fn xml_declares_model_exchange_states_and_derivatives() {
+        let d = with_model_exchange();
+        assert!(d.check().is_ok(), "{:?}", d.check());
+        let xml = d.to_xml();
+        assert!(xml.contains(r#"numberOfEventIndicators="2""#), "{xml}");
+        assert!(
+            xml.contains(r#"<ModelExchange modelIdentifier="sample""#),
+            "{xml}"
+        );
+        assert!(xml.contains(r#"name="der(y)""#) && xml.contains(r#"causality="local""#));
+        assert!(xml.contains(r#"derivative="3""#), "{xml}");
+        // Along the state and the input; at initialisation the input and the parameter (the
+        // state is an unknown there).
+        let structure = xml.split_once("<Derivatives>").unwrap().1;
+        let along =
+            r#"<Unknown index="5" dependencies="2 3" dependenciesKind="dependent dependent"/>"#;
+        assert!(structure.trim_start().starts_with(along), "{xml}");
+        let initial = xml.split_once("<InitialUnknowns>").unwrap().1;
+        let at_start =
+            r#"<Unknown index="5" dependencies="1 2" dependenciesKind="dependent dependent"/>"#;
+        assert!(initial.contains(at_start), "{xml}");
+        assert_eq!(d.number_of_states(), 1);
+        assert_eq!(d.continuous_states()[0].0.name, "y");
+        assert!(sample().to_xml().contains(r#"numberOfEventIndicators="0""#));
+        assert!(!sample().to_xml().contains("<ModelExchange"));
+    }
+
+    #[test]
+    fn check_rejects_broken_model_exchange_tables() {
+        let mut d = with_model_exchange();
+        d.variables[4].derivative_of = Some("k".into());
+        assert!(d.check().unwrap_err().0.contains("continuous Real state"));
+        let mut d = with_model_exchange();
+        d.variables[4].depends_on[0].0 = "k".into();
+        assert!(d.check().unwrap_err().0.contains("not an input or a state"));
+        let mut d = with_model_exchange();
+        d.model_exchange = None;
+        assert!(d.check().unwrap_err().0.contains("no Model Exchange"));
+        let mut d = sample();
+        d.variables
+            .push(Variable::real("z", 9, Causality::Local, "m", "loose"));
+        assert!(d
+            .check()
+            .unwrap_err()
+            .0
+            .contains("neither a continuous state nor a derivative"));
     }
 
     #[test]

@@ -1,7 +1,9 @@
 //! The C ABI: one generic function per FMI 2.0 call. Each converts the C arguments, checks the
 //! state machine, calls the safe [`Instance`] method, turns an `Err` into `fmi2Error` plus a
 //! log line naming the function and the cause, and never lets a panic cross `extern "C"`.
-//! [`crate::export_fmi2!`] instantiates all 34 of them for one model type.
+//! [`crate::export_fmi2!`] instantiates all 44 of them for one model type: the 34 common and
+//! Co-Simulation functions and the 10 of Model Exchange (answered with `fmi2Error` on an
+//! instance of the other interface).
 //!
 //! # Safety
 //! Every `unsafe fn` here relies on the importer keeping the FMI 2.0 calling contract: the
@@ -113,6 +115,18 @@ unsafe fn call<M: Model, E: Into<ModelError>>(
     let Some(inst) = instance::<M>(c) else {
         return Status::Error as Fmi2Status;
     };
+    let wrong_interface = mask.only.filter(|i| *i != inst.interface);
+    if let Some(only) = wrong_interface {
+        inst.logger.error(&format!(
+            "{func}: a function of {} only, and this instance was instantiated for {}",
+            only.name(),
+            inst.interface.name()
+        ));
+        if inst.state != FmiState::Fatal {
+            inst.state = FmiState::Error;
+        }
+        return Status::Error as Fmi2Status;
+    }
     if !inst.state.is_in(mask) {
         let msg = format!("{func}: illegal call in state {}", inst.state.name());
         inst.logger.error(&msg);
@@ -351,7 +365,7 @@ pub unsafe fn set_real<M: Model>(
     n: usize,
     value: *const f64,
 ) -> Fmi2Status {
-    call::<M, String>(c, "fmi2SetReal", sm::SET_VALUES, |inst| {
+    call::<M, String>(c, "fmi2SetReal", sm::SET_REAL, |inst| {
         inst.set_real(slice(vr, n, "vr")?, slice(value, n, "value")?)
     })
 }
@@ -597,12 +611,27 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
 ///
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
-pub unsafe fn get_directional_derivative<M: Model>(c: Fmi2Component) -> Fmi2Status {
+pub unsafe fn get_directional_derivative<M: Model>(
+    c: Fmi2Component,
+    unknowns: *const Fmi2ValueReference,
+    n_unknown: usize,
+    knowns: *const Fmi2ValueReference,
+    n_known: usize,
+    seed: *const f64,
+    out: *mut f64,
+) -> Fmi2Status {
     call::<M, String>(
         c,
         "fmi2GetDirectionalDerivative",
         sm::DIRECTIONAL_DERIVATIVE,
-        |_| Err("not provided (providesDirectionalDerivative = false)".into()),
+        |inst| {
+            inst.get_directional_derivative(
+                slice(unknowns, n_unknown, "vUnknown_ref")?,
+                slice(knowns, n_known, "vKnown_ref")?,
+                slice(seed, n_known, "dvKnown")?,
+                slice_mut(out, n_unknown, "dvUnknown")?,
+            )
+        },
     )
 }
 
@@ -747,6 +776,165 @@ pub unsafe fn get_string_status<M: Model>(
         *out = c"".as_ptr();
         Ok(inst.status_unavailable("fmi2GetStringStatus", kind))
     })
+}
+
+/// `fmi2EnterEventMode`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn enter_event_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M, String>(c, "fmi2EnterEventMode", sm::ENTER_EVENT_MODE, |inst| {
+        inst.enter_event_mode()
+    })
+}
+
+/// `fmi2NewDiscreteStates`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn new_discrete_states<M: Model>(c: Fmi2Component, info: *mut EventInfo) -> Fmi2Status {
+    call::<M, ModelError>(
+        c,
+        "fmi2NewDiscreteStates",
+        sm::NEW_DISCRETE_STATES,
+        |inst| {
+            let out = out_ptr(info, "fmi2eventInfo")?;
+            let update = inst.new_discrete_states()?;
+            let flag = |b: bool| if b { FMI2_TRUE } else { FMI2_FALSE };
+            *out = EventInfo {
+                new_discrete_states_needed: FMI2_FALSE,
+                terminate_simulation: FMI2_FALSE,
+                nominals_of_continuous_states_changed: FMI2_FALSE,
+                values_of_continuous_states_changed: flag(update.states_changed),
+                next_event_time_defined: flag(update.next_event_time.is_some()),
+                next_event_time: update.next_event_time.unwrap_or(0.0),
+            };
+            Ok(Status::Ok)
+        },
+    )
+}
+
+/// `fmi2EnterContinuousTimeMode`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn enter_continuous_time_mode<M: Model>(c: Fmi2Component) -> Fmi2Status {
+    call::<M, String>(
+        c,
+        "fmi2EnterContinuousTimeMode",
+        sm::ENTER_CONTINUOUS_TIME_MODE,
+        |inst| inst.enter_continuous_time_mode(),
+    )
+}
+
+/// `fmi2CompletedIntegratorStep`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn completed_integrator_step<M: Model>(
+    c: Fmi2Component,
+    _no_prior: Fmi2Boolean,
+    enter_event_mode: *mut Fmi2Boolean,
+    terminate_simulation: *mut Fmi2Boolean,
+) -> Fmi2Status {
+    call::<M, String>(
+        c,
+        "fmi2CompletedIntegratorStep",
+        sm::COMPLETED_INTEGRATOR_STEP,
+        |inst| {
+            let event = out_ptr(enter_event_mode, "enterEventMode")?;
+            let terminate = out_ptr(terminate_simulation, "terminateSimulation")?;
+            let status = inst.completed_integrator_step()?;
+            (*event, *terminate) = (FMI2_FALSE, FMI2_FALSE);
+            Ok(status)
+        },
+    )
+}
+
+/// `fmi2SetTime`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn set_time<M: Model>(c: Fmi2Component, time: f64) -> Fmi2Status {
+    call::<M, String>(c, "fmi2SetTime", sm::SET_TIME, |inst| inst.set_time(time))
+}
+
+/// `fmi2SetContinuousStates`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn set_continuous_states<M: Model>(
+    c: Fmi2Component,
+    x: *const f64,
+    nx: usize,
+) -> Fmi2Status {
+    call::<M, String>(
+        c,
+        "fmi2SetContinuousStates",
+        sm::SET_CONTINUOUS_STATES,
+        |inst| inst.set_continuous_states(slice(x, nx, "x")?),
+    )
+}
+
+/// `fmi2GetDerivatives`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn get_derivatives<M: Model>(c: Fmi2Component, dx: *mut f64, nx: usize) -> Fmi2Status {
+    call::<M, String>(c, "fmi2GetDerivatives", sm::GET_DERIVATIVES, |inst| {
+        inst.get_derivatives(slice_mut(dx, nx, "derivatives")?)
+    })
+}
+
+/// `fmi2GetEventIndicators`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn get_event_indicators<M: Model>(
+    c: Fmi2Component,
+    z: *mut f64,
+    ni: usize,
+) -> Fmi2Status {
+    call::<M, String>(
+        c,
+        "fmi2GetEventIndicators",
+        sm::GET_EVENT_INDICATORS,
+        |inst| inst.get_event_indicators(slice_mut(z, ni, "eventIndicators")?),
+    )
+}
+
+/// `fmi2GetContinuousStates`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn get_continuous_states<M: Model>(
+    c: Fmi2Component,
+    x: *mut f64,
+    nx: usize,
+) -> Fmi2Status {
+    call::<M, String>(
+        c,
+        "fmi2GetContinuousStates",
+        sm::GET_CONTINUOUS_STATES,
+        |inst| inst.get_continuous_states(slice_mut(x, nx, "x")?),
+    )
+}
+
+/// `fmi2GetNominalsOfContinuousStates`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn get_nominals_of_continuous_states<M: Model>(
+    c: Fmi2Component,
+    x: *mut f64,
+    nx: usize,
+) -> Fmi2Status {
+    call::<M, String>(
+        c,
+        "fmi2GetNominalsOfContinuousStates",
+        sm::GET_NOMINALS_OF_CONTINUOUS_STATES,
+        |inst| inst.get_nominals(slice_mut(x, nx, "x_nominal")?),
+    )
 }
 
 /// The model's description document for a resource directory (NULL = none): `format` 0 gives
@@ -991,14 +1179,16 @@ macro_rules! export_fmi2 {
             #[no_mangle]
             pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
                 c: Fmi2Component,
-                _u: *const Fmi2ValueReference,
-                _nu: usize,
-                _z: *const Fmi2ValueReference,
-                _nz: usize,
-                _dv: *const f64,
-                _dz: *mut f64,
+                unknowns: *const Fmi2ValueReference,
+                n_unknown: usize,
+                knowns: *const Fmi2ValueReference,
+                n_known: usize,
+                seed: *const f64,
+                out: *mut f64,
             ) -> Fmi2Status {
-                ffi::get_directional_derivative::<M>(c)
+                ffi::get_directional_derivative::<M>(
+                    c, unknowns, n_unknown, knowns, n_known, seed, out,
+                )
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
@@ -1084,13 +1274,82 @@ macro_rules! export_fmi2 {
             ) -> Fmi2Status {
                 ffi::get_string_status::<M>(c, k, v)
             }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterEventMode(c: Fmi2Component) -> Fmi2Status {
+                ffi::enter_event_mode::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2NewDiscreteStates(
+                c: Fmi2Component,
+                info: *mut EventInfo,
+            ) -> Fmi2Status {
+                ffi::new_discrete_states::<M>(c, info)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: Fmi2Component) -> Fmi2Status {
+                ffi::enter_continuous_time_mode::<M>(c)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
+                c: Fmi2Component,
+                no_prior: Fmi2Boolean,
+                enter_event_mode: *mut Fmi2Boolean,
+                terminate: *mut Fmi2Boolean,
+            ) -> Fmi2Status {
+                ffi::completed_integrator_step::<M>(c, no_prior, enter_event_mode, terminate)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetTime(c: Fmi2Component, time: f64) -> Fmi2Status {
+                ffi::set_time::<M>(c, time)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2SetContinuousStates(
+                c: Fmi2Component,
+                x: *const f64,
+                nx: usize,
+            ) -> Fmi2Status {
+                ffi::set_continuous_states::<M>(c, x, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetDerivatives(
+                c: Fmi2Component,
+                dx: *mut f64,
+                nx: usize,
+            ) -> Fmi2Status {
+                ffi::get_derivatives::<M>(c, dx, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetEventIndicators(
+                c: Fmi2Component,
+                z: *mut f64,
+                ni: usize,
+            ) -> Fmi2Status {
+                ffi::get_event_indicators::<M>(c, z, ni)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetContinuousStates(
+                c: Fmi2Component,
+                x: *mut f64,
+                nx: usize,
+            ) -> Fmi2Status {
+                ffi::get_continuous_states::<M>(c, x, nx)
+            }
+            #[no_mangle]
+            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
+                c: Fmi2Component,
+                x: *mut f64,
+                nx: usize,
+            ) -> Fmi2Status {
+                ffi::get_nominals_of_continuous_states::<M>(c, x, nx)
+            }
         }
         pub use fmi2_exports::*;
     };
 }
 
-/// The 34 FMI 2.0 function names every FMU of ours exports (checked against the `.so`).
-pub const EXPORTED_FUNCTIONS: [&str; 34] = [
+/// The 44 FMI 2.0 function names every FMU of ours exports (checked against the `.so`): the
+/// 34 common and Co-Simulation ones, then Model Exchange's 10.
+pub const EXPORTED_FUNCTIONS: [&str; 44] = [
     "fmi2GetTypesPlatform",
     "fmi2GetVersion",
     "fmi2SetDebugLogging",
@@ -1125,4 +1384,14 @@ pub const EXPORTED_FUNCTIONS: [&str; 34] = [
     "fmi2GetIntegerStatus",
     "fmi2GetBooleanStatus",
     "fmi2GetStringStatus",
+    "fmi2EnterEventMode",
+    "fmi2NewDiscreteStates",
+    "fmi2EnterContinuousTimeMode",
+    "fmi2CompletedIntegratorStep",
+    "fmi2SetTime",
+    "fmi2SetContinuousStates",
+    "fmi2GetDerivatives",
+    "fmi2GetEventIndicators",
+    "fmi2GetContinuousStates",
+    "fmi2GetNominalsOfContinuousStates",
 ];

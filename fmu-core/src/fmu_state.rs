@@ -133,7 +133,7 @@ pub fn encode(guid: &str, snapshot: &Snapshot) -> Vec<u8> {
     let mut w = StateWriter::default();
     w.bytes.extend_from_slice(MAGIC);
     w.bytes(guid.as_bytes());
-    w.bytes.push(snapshot.state as u8);
+    w.bytes.push(snapshot.state.code());
     w.f64(snapshot.time);
     w.f64(snapshot.start_time);
     w.bool(snapshot.stop_time.is_some());
@@ -161,7 +161,7 @@ pub fn decode(guid: &str, bytes: &[u8]) -> Result<Snapshot, String> {
         ));
     }
     let state_byte = r.take(1)?[0];
-    let state = FmiState::from_u8(state_byte)
+    let state = FmiState::from_code(state_byte)
         .ok_or_else(|| format!("FMU state has invalid FMI state {state_byte}"))?;
     let time = r.f64()?;
     let start_time = r.f64()?;

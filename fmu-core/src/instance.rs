@@ -1,4 +1,5 @@
-//! One FMU instance and the FMI 2.0 Co-Simulation semantics of every call, in safe Rust.
+//! One FMU instance and the FMI 2.0 semantics of every call, Co-Simulation and Model Exchange,
+//! in safe Rust.
 //! The C ABI layer ([`crate::ffi`]) only converts pointers and catches panics.
 
 use crate::description::{
@@ -6,10 +7,11 @@ use crate::description::{
 };
 use crate::fmu_state::{self, Snapshot, StateReader, StateWriter};
 use crate::logger::{Category, Logger};
-use crate::model::{Model, ModelError};
-use crate::state_machine::FmiState;
+use crate::model::{DiscreteUpdate, Model, ModelError};
+use crate::state_machine::{FmiState, Interface};
 use crate::types::{
     status_kind, CallbackFunctions, Fmi2StatusKind, Fmi2Type, Status, FMI2_CO_SIMULATION,
+    FMI2_MODEL_EXCHANGE,
 };
 use crate::uri;
 use std::collections::HashSet;
@@ -32,7 +34,12 @@ pub struct Instance<M: Model> {
     index: [Vec<Option<Slot>>; 3],
     model: M,
     pub(crate) state: FmiState,
+    /// What the importer instantiated: Co-Simulation, or Model Exchange.
+    pub(crate) interface: Interface,
     time: f64,
+    /// Model Exchange: the last time the integrator accepted (an event, a completed step);
+    /// it may evaluate anywhere after it, never before.
+    accepted: f64,
     start_time: f64,
     stop_time: Option<f64>,
     resources: Option<PathBuf>,
@@ -100,14 +107,16 @@ impl<M: Model> Instance<M> {
         logging_on: bool,
     ) -> Result<Box<Self>, (Logger, String)> {
         let logger = Logger::new(callbacks, instance_name, logging_on);
-        if fmu_type != FMI2_CO_SIMULATION {
-            return Err((
-                logger,
-                format!(
-                    "fmuType {fmu_type} requested, but this FMU supports Co-Simulation (1) only"
-                ),
-            ));
-        }
+        let interface = match fmu_type {
+            FMI2_CO_SIMULATION => Interface::CoSimulation,
+            FMI2_MODEL_EXCHANGE => Interface::ModelExchange,
+            _ => {
+                let why = format!(
+                    "fmuType {fmu_type} is neither Model Exchange (0) nor Co-Simulation (1)"
+                );
+                return Err((logger, why));
+            }
+        };
         let resources = match resource_location {
             None => None,
             Some(loc) => match uri::resource_path(loc) {
@@ -132,6 +141,13 @@ impl<M: Model> Instance<M> {
             }
             None => return Err((logger, "fmuGUID is NULL".into())),
         }
+        if interface == Interface::ModelExchange && description.model_exchange.is_none() {
+            return Err((
+                logger,
+                "fmuType 0 (Model Exchange) requested, but this FMU supports Co-Simulation (1) only"
+                    .into(),
+            ));
+        }
         let model = match M::instantiate(resources.as_deref()) {
             Ok(m) => m,
             Err(e) => return Err((logger, e.message)),
@@ -146,8 +162,9 @@ impl<M: Model> Instance<M> {
             slots[vr] = Some(Slot::new(i, v));
         }
         logger.event(&format!(
-            "fmi2Instantiate: {} instantiated (resources: {})",
+            "fmi2Instantiate: {} instantiated for {} (resources: {})",
             description.model_identifier,
+            interface.name(),
             resources
                 .as_ref()
                 .map(|p| p.display().to_string())
@@ -159,7 +176,9 @@ impl<M: Model> Instance<M> {
             index,
             model,
             state: FmiState::Instantiated,
+            interface,
             time: 0.0,
+            accepted: 0.0,
             start_time: 0.0,
             stop_time: None,
             resources,
@@ -205,6 +224,7 @@ impl<M: Model> Instance<M> {
         }
         self.start_time = start_time;
         self.time = start_time;
+        self.accepted = start_time;
         self.stop_time = stop_time;
         Ok(Status::Ok)
     }
@@ -215,8 +235,16 @@ impl<M: Model> Instance<M> {
     }
 
     pub fn exit_initialization_mode(&mut self) -> Result<Status, ModelError> {
+        if self.interface == Interface::ModelExchange {
+            // Checked first: a refusal leaves the model as initialisation left it.
+            self.model.check_parameters()?;
+            self.model.check_model_exchange()?;
+        }
         self.model.exit_initialization(self.start_time)?;
-        self.state = FmiState::StepComplete;
+        self.state = match self.interface {
+            Interface::CoSimulation => FmiState::StepComplete,
+            Interface::ModelExchange => FmiState::EventMode,
+        };
         self.logger.event(&format!(
             "fmi2ExitInitializationMode: initialised at t = {}",
             self.time
@@ -234,6 +262,7 @@ impl<M: Model> Instance<M> {
         self.model = M::instantiate(self.resources.as_deref())?;
         self.state = FmiState::Instantiated;
         self.time = 0.0;
+        self.accepted = 0.0;
         self.start_time = 0.0;
         self.stop_time = None;
         Ok(Status::Ok)
@@ -330,6 +359,15 @@ impl<M: Model> Instance<M> {
         for (&vr, &value) in vrs.iter().zip(values) {
             // The common case from the packed slot; the variable's entry for a message.
             let slot = self.slot(BaseType::Real, vr)?;
+            if self.state == FmiState::ContinuousTimeMode
+                && !(slot.causality == Causality::Input
+                    && slot.variability == Variability::Continuous)
+            {
+                let name = &self.description.variables[slot.variable].name;
+                return Err(format!(
+                    "variable '{name}' cannot be set in ContinuousTimeMode (only continuous inputs can; enter Event Mode first)"
+                ));
+            }
             let fine = settable(slot.causality, slot.variability, initialising)
                 && value.is_finite()
                 && value >= slot.min
@@ -601,6 +639,14 @@ impl<M: Model> Instance<M> {
     /// a state whose checksum matches may still have been forged or written by a buggy tool.
     pub fn restore_state(&mut self, bytes: &[u8]) -> Result<Status, ModelError> {
         let snap = fmu_state::decode(&self.description.guid, bytes)?;
+        if !self.interface.reaches(snap.state) {
+            return Err(format!(
+                "FMU state refused: it was taken in {}, which a {} instance never reaches",
+                snap.state.name(),
+                self.interface.name()
+            )
+            .into());
+        }
         let mut backup = StateWriter::default();
         self.model.save(&mut backup);
         self.model.restore(&mut StateReader::new(&snap.payload))?;
@@ -612,6 +658,7 @@ impl<M: Model> Instance<M> {
         }
         self.state = snap.state;
         self.time = snap.time;
+        self.accepted = snap.time;
         self.start_time = snap.start_time;
         self.stop_time = snap.stop_time;
         self.logger.event(&format!(
@@ -638,6 +685,183 @@ impl<M: Model> Instance<M> {
             self.model.check_parameters()?;
         }
         Ok(())
+    }
+}
+
+/// Model Exchange (FMI 2.0.4 §3.2): the runtime checks lengths, finiteness and time; the model
+/// computes.
+impl<M: Model> Instance<M> {
+    /// `nx`, checked against the description's number of states.
+    fn check_states_len(&self, n: usize, what: &str) -> Result<(), String> {
+        let nx = self.description.number_of_states();
+        if n != nx {
+            return Err(format!("{what}: {n} values for the {nx} continuous states"));
+        }
+        Ok(())
+    }
+
+    pub fn set_time(&mut self, time: f64) -> Result<Status, String> {
+        if !time.is_finite() {
+            return Err(format!("time must be finite, got {time}"));
+        }
+        let accepted = self.accepted;
+        if time < accepted - TIME_TOLERANCE * accepted.abs().max(1.0) {
+            return Err(format!(
+                "time {time} is before {accepted}, the last time accepted (an event or a completed integrator step): an integrator goes back by restoring an FMU state",
+            ));
+        }
+        self.time = time;
+        self.model.set_time(time);
+        Ok(Status::Ok)
+    }
+
+    pub fn set_continuous_states(&mut self, x: &[f64]) -> Result<Status, String> {
+        self.check_states_len(x.len(), "nx")?;
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            let (state, _) = self.description.continuous_states()[i];
+            return Err(format!(
+                "state '{}' must be finite, got {}",
+                state.name, x[i]
+            ));
+        }
+        self.model.set_continuous_states(x);
+        Ok(Status::Ok)
+    }
+
+    pub fn get_continuous_states(&mut self, x: &mut [f64]) -> Result<Status, String> {
+        self.check_states_len(x.len(), "nx")?;
+        self.model.continuous_states(x);
+        Ok(Status::Ok)
+    }
+
+    pub fn get_derivatives(&mut self, dx: &mut [f64]) -> Result<Status, String> {
+        self.check_states_len(dx.len(), "nx")?;
+        self.model.derivatives(dx);
+        if let Some(i) = dx.iter().position(|v| !v.is_finite()) {
+            let (_, der) = self.description.continuous_states()[i];
+            return Err(format!("'{}' is not finite at t = {}", der.name, self.time));
+        }
+        Ok(Status::Ok)
+    }
+
+    pub fn get_nominals(&mut self, nominals: &mut [f64]) -> Result<Status, String> {
+        self.check_states_len(nominals.len(), "nx")?;
+        nominals.fill(1.0);
+        Ok(Status::Ok)
+    }
+
+    pub fn get_event_indicators(&mut self, z: &mut [f64]) -> Result<Status, String> {
+        let nz = self
+            .description
+            .model_exchange
+            .as_ref()
+            .map_or(0, |me| me.number_of_event_indicators);
+        if z.len() != nz {
+            return Err(format!(
+                "ni: {} values for the {nz} event indicators",
+                z.len()
+            ));
+        }
+        self.model.event_indicators(z);
+        Ok(Status::Ok)
+    }
+
+    pub fn enter_event_mode(&mut self) -> Result<Status, String> {
+        self.state = FmiState::EventMode;
+        Ok(Status::Ok)
+    }
+
+    pub fn enter_continuous_time_mode(&mut self) -> Result<Status, String> {
+        self.state = FmiState::ContinuousTimeMode;
+        Ok(Status::Ok)
+    }
+
+    /// `fmi2NewDiscreteStates`: one event iteration; ours converge in one.
+    pub fn new_discrete_states(&mut self) -> Result<DiscreteUpdate, ModelError> {
+        let update = self.model.update_discrete_states(self.time)?;
+        self.accepted = self.time;
+        if let Some(t) = update.next_event_time.filter(|t| !t.is_finite()) {
+            return Err(ModelError::error(format!(
+                "next event time {t} is not finite"
+            )));
+        }
+        Ok(update)
+    }
+
+    /// `fmi2CompletedIntegratorStep`: never asks for an event (ours are all state or time
+    /// events) nor to terminate.
+    pub fn completed_integrator_step(&mut self) -> Result<Status, String> {
+        self.model.completed_integrator_step(self.time);
+        self.accepted = self.time;
+        Ok(Status::Ok)
+    }
+}
+
+impl<M: Model> Instance<M> {
+    /// `fmi2GetDirectionalDerivative` (FMI 2.0.4 §2.1.9): the unknowns along the knowns'
+    /// seed. Unknowns are outputs or state derivatives (and, in Model Exchange, states); knowns
+    /// are inputs (and, in Model Exchange, continuous states).
+    pub fn get_directional_derivative(
+        &mut self,
+        unknowns: &[ValueReference],
+        knowns: &[ValueReference],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<Status, String> {
+        if !self
+            .description
+            .capabilities
+            .provides_directional_derivative
+        {
+            return Err("not provided (providesDirectionalDerivative = false)".into());
+        }
+        let exchange = self.interface == Interface::ModelExchange;
+        let states: Vec<&str> = self
+            .description
+            .continuous_states()
+            .iter()
+            .map(|(s, _)| s.name.as_str())
+            .collect();
+        for &vr in unknowns {
+            let v = self.variable(BaseType::Real, vr)?;
+            let state = exchange && states.contains(&v.name.as_str());
+            if !(v.causality == Causality::Output || v.derivative_of.is_some() || state) {
+                return Err(format!(
+                    "unknown '{}' is not an output{}",
+                    v.name,
+                    if exchange {
+                        ", a state or a state derivative"
+                    } else {
+                        ""
+                    }
+                ));
+            }
+        }
+        for (&vr, &s) in knowns.iter().zip(seed) {
+            let v = self.variable(BaseType::Real, vr)?;
+            let state = exchange && states.contains(&v.name.as_str());
+            if !(v.causality == Causality::Input || state) {
+                return Err(format!(
+                    "known '{}' is not an input{}",
+                    v.name,
+                    if exchange {
+                        " or a continuous state"
+                    } else {
+                        ""
+                    }
+                ));
+            }
+            if !s.is_finite() {
+                return Err(format!("the seed of '{}' must be finite, got {s}", v.name));
+            }
+        }
+        self.model
+            .directional_derivative(unknowns, knowns, seed, out);
+        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+            let name = self.variable(BaseType::Real, unknowns[i])?.name.clone();
+            return Err(format!("the derivative of '{name}' is not finite"));
+        }
+        Ok(Status::Ok)
     }
 }
 

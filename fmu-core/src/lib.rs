@@ -1,8 +1,10 @@
-//! The FMI 2.0 Co-Simulation slave runtime shared by every FMU of this project.
+//! The FMI 2.0 runtime shared by every FMU of this project: Co-Simulation for every model, and
+//! Model Exchange for a model that declares continuous states (the plant).
 //!
 //! It knows nothing about vehicles. A model implements [`Model`] (variable table, start values,
-//! get/set, step, save/restore) and calls [`export_fmi2!`]; the runtime provides the 34 C
-//! functions, the state machine of FMI 2.0.4 §4.2.4, value-reference and causality checks,
+//! get/set, step, save/restore; states, derivatives and event indicators for Model Exchange) and
+//! calls [`export_fmi2!`]; the runtime provides the 44 C functions, the state machines of FMI
+//! 2.0.4 §4.2.4 and §3.2.3, value-reference and causality checks,
 //! logging through the importer's callback, FMU state by value, and the `modelDescription.xml`
 //! derived from the variable table.
 //!
@@ -24,4 +26,4 @@ pub use description::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, ModelDescription, ValueReference,
     VarType, Variability, Variable,
 };
-pub use model::{Model, ModelError};
+pub use model::{DiscreteUpdate, Model, ModelError};

@@ -144,4 +144,60 @@ pub trait Model: Sized + Send + 'static {
 
     /// Restore what [`Model::save`] wrote. On error the model must be left unchanged.
     fn restore(&mut self, input: &mut StateReader) -> Result<(), ModelError>;
+
+    // Model Exchange. The runtime calls these only on an instance instantiated for Model
+    // Exchange, which only a description with [`crate::description::ModelExchange`] allows;
+    // slices have the lengths the description declares (its states, its event indicators).
+
+    /// Why the parameters set do not make a model an integrator can advance (a transport
+    /// delay, a sampled noise), if they do not: asked at the end of initialisation.
+    fn check_model_exchange(&self) -> Result<(), ModelError> {
+        Err("this model has no Model Exchange interface".into())
+    }
+
+    /// `fmi2SetTime`: the time of the next derivatives, indicators and outputs.
+    fn set_time(&mut self, _time: f64) {}
+
+    /// The continuous states, in the order of the description's derivatives.
+    fn continuous_states(&mut self, _x: &mut [f64]) {}
+
+    /// Set the continuous states (finite; checked by the runtime).
+    fn set_continuous_states(&mut self, _x: &[f64]) {}
+
+    /// Their time derivatives at the current time, states and inputs.
+    fn derivatives(&mut self, _dx: &mut [f64]) {}
+
+    /// The event indicators: an event is due where one changes sign.
+    fn event_indicators(&mut self, _z: &mut [f64]) {}
+
+    /// `fmi2NewDiscreteStates`, at `time`: let the discrete states (which contacts are closed,
+    /// say) take their new values, and say when the next time event is, if any.
+    fn update_discrete_states(&mut self, _time: f64) -> Result<DiscreteUpdate, ModelError> {
+        Ok(DiscreteUpdate::default())
+    }
+
+    /// `fmi2CompletedIntegratorStep` at `time`: the integrator accepted the step to here.
+    fn completed_integrator_step(&mut self, _time: f64) {}
+
+    /// `fmi2GetDirectionalDerivative` (only called if the description's capabilities say it
+    /// is provided): `out[i] = Σ_j ∂unknowns[i]/∂knowns[j] · seed[j]` at the current point. The
+    /// runtime has checked every reference: unknowns are outputs, state derivatives or (Model
+    /// Exchange) states; knowns are inputs or (Model Exchange) continuous states; seeds finite.
+    fn directional_derivative(
+        &mut self,
+        _unknowns: &[ValueReference],
+        _knowns: &[ValueReference],
+        _seed: &[f64],
+        _out: &mut [f64],
+    ) {
+    }
+}
+
+/// What `fmi2NewDiscreteStates` reports (its `fmi2EventInfo`, less what the runtime knows).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DiscreteUpdate {
+    /// The continuous states jumped: the integrator must read them again.
+    pub states_changed: bool,
+    /// The next time event, if there is one.
+    pub next_event_time: Option<f64>,
 }

@@ -1,9 +1,14 @@
-//! The FMI 2.0 Co-Simulation state machine (FMI 2.0.4 §4.2.4, fig. 10 and the calling-sequence
-//! table): which function may be called in which state.
+//! The FMI 2.0 state machines, Co-Simulation (FMI 2.0.4 §4.2.4, fig. 10) and Model Exchange
+//! (§3.2.3, fig. 6), with their calling-sequence tables: which function may be called in which
+//! state. The two share their first and last states; each mask is the union of the states in
+//! which either interface allows the call, which is exact because an instance only ever reaches
+//! its own interface's states (a Co-Simulation instance never enters `EventMode`, a Model
+//! Exchange instance never `StepComplete`). Functions of one interface only are refused on an
+//! instance of the other before their mask is read ([`crate::ffi`]).
 
-/// States of a Co-Simulation slave. `StepInProgress` never occurs: our steps are synchronous.
+/// States of an instance. `StepInProgress` never occurs: our steps are synchronous.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u8)]
+#[repr(u16)]
 pub enum FmiState {
     Instantiated = 1 << 0,
     InitializationMode = 1 << 1,
@@ -13,10 +18,14 @@ pub enum FmiState {
     Terminated = 1 << 5,
     Error = 1 << 6,
     Fatal = 1 << 7,
+    /// Model Exchange: discrete states may change (after initialisation, at an event).
+    EventMode = 1 << 8,
+    /// Model Exchange: the integrator sets time and continuous states and reads derivatives.
+    ContinuousTimeMode = 1 << 9,
 }
 
 impl FmiState {
-    pub const ALL: [FmiState; 8] = [
+    pub const ALL: [FmiState; 10] = [
         FmiState::Instantiated,
         FmiState::InitializationMode,
         FmiState::StepComplete,
@@ -25,6 +34,8 @@ impl FmiState {
         FmiState::Terminated,
         FmiState::Error,
         FmiState::Fatal,
+        FmiState::EventMode,
+        FmiState::ContinuousTimeMode,
     ];
 
     pub fn name(self) -> &'static str {
@@ -37,11 +48,24 @@ impl FmiState {
             FmiState::Terminated => "Terminated",
             FmiState::Error => "Error",
             FmiState::Fatal => "Fatal",
+            FmiState::EventMode => "EventMode",
+            FmiState::ContinuousTimeMode => "ContinuousTimeMode",
         }
     }
 
-    pub fn from_u8(v: u8) -> Option<FmiState> {
-        FmiState::ALL.into_iter().find(|s| *s as u8 == v)
+    /// The byte an FMU state stores: the bit of the first eight states (as every state saved
+    /// before Model Exchange existed has it), 3 and 5 (no bit) for the two Model Exchange
+    /// modes.
+    pub fn code(self) -> u8 {
+        match self {
+            FmiState::EventMode => 3,
+            FmiState::ContinuousTimeMode => 5,
+            s => s as u16 as u8,
+        }
+    }
+
+    pub fn from_code(v: u8) -> Option<FmiState> {
+        FmiState::ALL.into_iter().find(|s| s.code() == v)
     }
 
     /// Before initialisation has ended: `Instantiated` or `InitializationMode`.
@@ -50,24 +74,73 @@ impl FmiState {
     }
 
     pub fn is_in(self, mask: Mask) -> bool {
-        (self as u8) & mask.0 != 0
+        (self as u16) & mask.states != 0
     }
 }
 
-/// A set of states in which a function may be called.
+/// The interface an instance was instantiated for (`fmi2Type`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Mask(pub u8);
+pub enum Interface {
+    CoSimulation,
+    ModelExchange,
+}
+
+impl Interface {
+    pub fn name(self) -> &'static str {
+        match self {
+            Interface::CoSimulation => "Co-Simulation",
+            Interface::ModelExchange => "Model Exchange",
+        }
+    }
+
+    /// Whether an instance of this interface can be in `state` (an FMU state restored into it,
+    /// say): the shared states, and its own.
+    pub fn reaches(self, state: FmiState) -> bool {
+        let model_exchange = matches!(state, FmiState::EventMode | FmiState::ContinuousTimeMode);
+        let co_simulation = matches!(
+            state,
+            FmiState::StepComplete | FmiState::StepFailed | FmiState::StepCanceled
+        );
+        match self {
+            Interface::CoSimulation => !model_exchange,
+            Interface::ModelExchange => !co_simulation,
+        }
+    }
+}
+
+/// A set of states in which a function may be called, and the interface it belongs to if it
+/// belongs to one only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Mask {
+    pub states: u16,
+    pub only: Option<Interface>,
+}
+
+impl Mask {
+    /// The same states, for instances of `interface` only.
+    const fn only(self, interface: Interface) -> Mask {
+        Mask {
+            states: self.states,
+            only: Some(interface),
+        }
+    }
+}
+
+use Interface::{CoSimulation as CS, ModelExchange as ME};
 
 use FmiState as S;
 
 const fn m(states: &[FmiState]) -> Mask {
-    let mut bits = 0u8;
+    let mut bits = 0u16;
     let mut i = 0;
     while i < states.len() {
-        bits |= states[i] as u8;
+        bits |= states[i] as u16;
         i += 1;
     }
-    Mask(bits)
+    Mask {
+        states: bits,
+        only: None,
+    }
 }
 
 /// Every state except `Fatal`: free, reset and FMU-state functions.
@@ -79,6 +152,8 @@ pub const ANY_BUT_FATAL: Mask = m(&[
     S::StepCanceled,
     S::Terminated,
     S::Error,
+    S::EventMode,
+    S::ContinuousTimeMode,
 ]);
 pub const SET_DEBUG_LOGGING: Mask = ANY_BUT_FATAL;
 pub const FREE_INSTANCE: Mask = ANY_BUT_FATAL;
@@ -89,7 +164,12 @@ pub const ENTER_INITIALIZATION_MODE: Mask = m(&[S::Instantiated]);
 pub const EXIT_INITIALIZATION_MODE: Mask = m(&[S::InitializationMode]);
 /// The FMI 2.0.4 table: not after a canceled step (only `fmi2CancelStep` leads there, which
 /// this FMU never allows), as the Reference FMUs have it.
-pub const TERMINATE: Mask = m(&[S::StepComplete, S::StepFailed]);
+pub const TERMINATE: Mask = m(&[
+    S::StepComplete,
+    S::StepFailed,
+    S::EventMode,
+    S::ContinuousTimeMode,
+]);
 pub const GET_VALUES: Mask = m(&[
     S::InitializationMode,
     S::StepComplete,
@@ -97,22 +177,66 @@ pub const GET_VALUES: Mask = m(&[
     S::StepCanceled,
     S::Terminated,
     S::Error,
+    S::EventMode,
+    S::ContinuousTimeMode,
 ]);
-pub const SET_VALUES: Mask = m(&[S::Instantiated, S::InitializationMode, S::StepComplete]);
+/// `fmi2SetReal`; in `ContinuousTimeMode` only continuous inputs ([`crate::instance`]).
+pub const SET_REAL: Mask = m(&[
+    S::Instantiated,
+    S::InitializationMode,
+    S::StepComplete,
+    S::EventMode,
+    S::ContinuousTimeMode,
+]);
+/// `fmi2SetInteger`, `fmi2SetBoolean`, `fmi2SetString`: never in `ContinuousTimeMode`.
+pub const SET_VALUES: Mask = m(&[
+    S::Instantiated,
+    S::InitializationMode,
+    S::StepComplete,
+    S::EventMode,
+]);
 pub const DIRECTIONAL_DERIVATIVE: Mask = GET_VALUES;
 pub const SET_REAL_INPUT_DERIVATIVES: Mask =
-    m(&[S::Instantiated, S::InitializationMode, S::StepComplete]);
+    m(&[S::Instantiated, S::InitializationMode, S::StepComplete]).only(CS);
 pub const GET_REAL_OUTPUT_DERIVATIVES: Mask = m(&[
     S::StepComplete,
     S::StepFailed,
     S::StepCanceled,
     S::Terminated,
     S::Error,
-]);
-pub const DO_STEP: Mask = m(&[S::StepComplete]);
+])
+.only(CS);
+pub const DO_STEP: Mask = m(&[S::StepComplete]).only(CS);
 /// Only legal while an asynchronous step is in progress, which never happens here.
-pub const CANCEL_STEP: Mask = Mask(0);
-pub const GET_STATUS: Mask = m(&[S::StepComplete, S::StepFailed, S::Terminated]);
+pub const CANCEL_STEP: Mask = m(&[]).only(CS);
+pub const GET_STATUS: Mask = m(&[S::StepComplete, S::StepFailed, S::Terminated]).only(CS);
+
+// Model Exchange only (the Reference FMUs' masks, from the FMI 2.0.4 table of §3.2.3).
+pub const ENTER_EVENT_MODE: Mask = m(&[S::EventMode, S::ContinuousTimeMode]).only(ME);
+pub const NEW_DISCRETE_STATES: Mask = m(&[S::EventMode]).only(ME);
+pub const ENTER_CONTINUOUS_TIME_MODE: Mask = m(&[S::EventMode]).only(ME);
+pub const COMPLETED_INTEGRATOR_STEP: Mask = m(&[S::ContinuousTimeMode]).only(ME);
+pub const SET_TIME: Mask = m(&[S::EventMode, S::ContinuousTimeMode]).only(ME);
+pub const SET_CONTINUOUS_STATES: Mask = m(&[S::ContinuousTimeMode]).only(ME);
+pub const GET_EVENT_INDICATORS: Mask = m(&[
+    S::InitializationMode,
+    S::EventMode,
+    S::ContinuousTimeMode,
+    S::Terminated,
+    S::Error,
+])
+.only(ME);
+pub const GET_CONTINUOUS_STATES: Mask = GET_EVENT_INDICATORS;
+pub const GET_DERIVATIVES: Mask =
+    m(&[S::EventMode, S::ContinuousTimeMode, S::Terminated, S::Error]).only(ME);
+pub const GET_NOMINALS_OF_CONTINUOUS_STATES: Mask = m(&[
+    S::Instantiated,
+    S::EventMode,
+    S::ContinuousTimeMode,
+    S::Terminated,
+    S::Error,
+])
+.only(ME);
 
 #[cfg(test)]
 mod tests {
@@ -154,6 +278,40 @@ mod tests {
             .iter()
             .filter(|s| s.is_in(TERMINATE))
             .collect();
-        assert_eq!(terminate, [&S::StepComplete, &S::StepFailed]);
+        assert_eq!(
+            terminate,
+            [
+                &S::StepComplete,
+                &S::StepFailed,
+                &S::EventMode,
+                &S::ContinuousTimeMode
+            ]
+        );
+    }
+
+    /// FMI 2.0.4 §3.2.3: in Continuous-Time Mode only Reals may be set, the integrator's calls
+    /// are refused in Event Mode and the reverse, and a state's code is one byte both ways.
+    #[test]
+    fn model_exchange_masks_follow_the_standard_table() {
+        assert!(S::ContinuousTimeMode.is_in(SET_REAL));
+        assert!(!S::ContinuousTimeMode.is_in(SET_VALUES));
+        assert!(S::EventMode.is_in(SET_VALUES));
+        for mask in [SET_CONTINUOUS_STATES, COMPLETED_INTEGRATOR_STEP] {
+            assert!(S::ContinuousTimeMode.is_in(mask) && !S::EventMode.is_in(mask));
+        }
+        for mask in [NEW_DISCRETE_STATES, ENTER_CONTINUOUS_TIME_MODE] {
+            assert!(S::EventMode.is_in(mask) && !S::ContinuousTimeMode.is_in(mask));
+        }
+        assert!(!S::InitializationMode.is_in(GET_DERIVATIVES));
+        assert!(S::Instantiated.is_in(GET_NOMINALS_OF_CONTINUOUS_STATES));
+        assert_eq!(SET_TIME.only, Some(ME));
+        assert_eq!(DO_STEP.only, Some(CS));
+        assert_eq!(GET_VALUES.only, None);
+        for s in FmiState::ALL {
+            assert_eq!(FmiState::from_code(s.code()), Some(s));
+            // A Co-Simulation step is never legal in a Model Exchange mode.
+            let me = matches!(s, S::EventMode | S::ContinuousTimeMode);
+            assert!(!(me && s.is_in(DO_STEP)));
+        }
     }
 }

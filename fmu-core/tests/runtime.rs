@@ -34,6 +34,7 @@ impl Model for Lag {
             description: "first-order lag".into(),
             version: "1".into(),
             capabilities: Capabilities::exact_stepping(false),
+            model_exchange: None,
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,

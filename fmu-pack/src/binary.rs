@@ -59,7 +59,7 @@ impl Inspected {
         })
     }
 
-    /// Refuse the library at `path` (this one) unless it exports all 34 FMI 2.0 functions.
+    /// Refuse the library at `path` (this one) unless it exports all 44 FMI 2.0 functions (Co-Simulation and Model Exchange).
     pub fn require_fmi2(&self, path: &Path) -> Result<(), String> {
         if self.missing_exports.is_empty() {
             Ok(())

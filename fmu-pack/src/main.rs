@@ -1,7 +1,7 @@
 //! `fmu-pack`: package the project's FMUs. It links no model: it loads this machine's build of
 //! each library and asks it (`fmuCoreDescription`) for its `modelDescription.xml`, so the
 //! description comes from the code packaged beside it, and checks that every library it packs,
-//! for any platform, exports all 34 FMI 2.0 functions (`fmpy validate` never loads the binary).
+//! for any platform, exports all 44 FMI 2.0 functions (`fmpy validate` never loads the binary).
 //!
 //! ```text
 //! fmu-pack fmu --lib target/release/libfmu_plant.so --out dist/plant.fmu
@@ -38,7 +38,7 @@ enum Command {
         lib: PathBuf,
         /// The same library built for another platform, as FOLDER=FILE (win64=fmu_plant.dll,
         /// linux64=an AArch64 libfmu_plant.so for an ARM FMU). Checked without loading it: the
-        /// folder's format and architecture, and the 34 fmi2 exports.
+        /// folder's format and architecture, and the 44 fmi2 exports.
         #[arg(long = "binary", value_name = "FOLDER=FILE")]
         binaries: Vec<String>,
         /// Directory whose files become resources/ (e.g. dist/hinf_sf with controller.json).

@@ -65,7 +65,7 @@ pub struct Binary {
 
 impl Binary {
     /// Read `path` for `folder`: it must be a library of that folder's format and architecture
-    /// that exports the 34 FMI 2.0 functions.
+    /// that exports the 44 FMI 2.0 functions.
     pub fn read(folder: &str, path: &Path) -> Result<Self, String> {
         let platform = platform(folder)?;
         let (bytes, found) = read_library(path)?;

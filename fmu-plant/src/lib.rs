@@ -10,17 +10,20 @@ pub mod simulator;
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
-    Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
-    ModelError, ValueReference, Variable,
+    Capabilities, Causality, DefaultExperiment, DependencyKind, DiscreteUpdate, Model,
+    ModelDescription, ModelError, ValueReference, Variable,
 };
 use sensors::{SensorParams, Sensors, N_SENSORS, SENSORS};
-use simulator::{ActuatorParams, ContactState, Simulator, N_METER};
+use simulator::{
+    derivative_dependencies, model_exchange_states, ActuatorParams, ContactState, Simulator,
+    N_METER,
+};
 use std::path::Path;
-use vehicle::contact::ContactParams;
+use vehicle::contact::{ContactParams, N_UNILATERAL};
 use vehicle::iso2631::METER_OUTPUTS;
 use vehicle::model::{
     physical_outputs, StaticEquilibrium, ACTUATORS, CORNERS, FORCE_PORTS, N_ACTUATORS,
-    N_PHYSICAL_OUTPUTS, N_ROAD, ROAD_PORTS, STATES,
+    N_PHYSICAL_OUTPUTS, N_ROAD, N_STATES, ROAD_PORTS, STATES,
 };
 use vehicle::params::PARAMETERS;
 use vehicle::VehicleParams;
@@ -59,12 +62,25 @@ pub mod vr {
     pub const CONTACT_OUTPUT: u32 = 600;
     /// The Booleans `on_road_*`.
     pub const ON_ROAD: u32 = 630;
+    /// Model Exchange: `der(x[1])`…`der(x[16])`.
+    pub const STATE_DERIVATIVE: u32 = 700;
+    /// Model Exchange: the actuator-lag states `f_lag_*`, then their derivatives.
+    pub const LAG_STATE: u32 = 730;
+    pub const LAG_DERIVATIVE: u32 = 740;
+    /// Model Exchange: the vibration meter's filter states `meter_state[*]`, then their
+    /// derivatives.
+    pub const METER_STATE: u32 = 750;
+    pub const METER_DERIVATIVE: u32 = 800;
 }
+
+/// Number of the vibration meter's filter states (`ComfortMeter::order()`, checked by a test):
+/// the value-reference blocks are sized at compile time.
+const N_METER_STATES: usize = 20;
 
 /// Every block of value references with the number of variables it holds. A block that
 /// outgrows the room before the next (a 21st vehicle parameter, say) fails the build
 /// ([`blocks_are_disjoint`], evaluated at compile time) instead of colliding at run time.
-const VR_BLOCKS: [(&str, u32, usize); 16] = [
+const VR_BLOCKS: [(&str, u32, usize); 21] = [
     ("contact parameters", vr::CONTACT, CONTACT_PARAMETERS.len()),
     ("contact_model", vr::CONTACT_SWITCH, 1),
     ("contact outputs", vr::CONTACT_OUTPUT, N_CONTACT_OUTPUTS),
@@ -85,6 +101,19 @@ const VR_BLOCKS: [(&str, u32, usize); 16] = [
     ("applied forces", vr::FORCE, N_ACTUATORS),
     ("meter outputs", vr::METER, N_METER),
     ("sensor outputs", vr::SENSOR_OUTPUT, N_SENSORS),
+    (
+        "state derivatives",
+        vr::STATE_DERIVATIVE,
+        vehicle::model::N_STATES,
+    ),
+    ("actuator-lag states", vr::LAG_STATE, N_ACTUATORS),
+    ("actuator-lag derivatives", vr::LAG_DERIVATIVE, N_ACTUATORS),
+    ("meter states", vr::METER_STATE, N_METER_STATES),
+    (
+        "meter state derivatives",
+        vr::METER_DERIVATIVE,
+        N_METER_STATES,
+    ),
 ];
 
 /// No two blocks of [`VR_BLOCKS`] share a value reference.
@@ -587,6 +616,92 @@ fn contact_variables() -> Vec<Variable> {
     vars
 }
 
+/// Model Exchange's continuous states beyond the outputs `x[*]` (the actuator lags, the
+/// vibration meter's filters) and every state's derivative, in the order of
+/// [`Simulator::exchange_states`]. `vars` holds the `x[*]` already.
+fn model_exchange_variables(vars: &[Variable]) -> Vec<Variable> {
+    let dependencies = derivative_dependencies();
+    let inputs = input_names();
+    // At initialisation a derivative reads the inputs through the car's matrices, the actuator
+    // model and the contacts: every parameter of them may move it.
+    let parameters: Vec<String> = PARAMETERS
+        .iter()
+        .map(|s| s.name.to_string())
+        .chain(ACTUATOR_PARAMETERS.iter().map(|s| s.name.to_string()))
+        .chain(CONTACT_PARAMETERS.iter().map(|s| s.name.to_string()))
+        .collect();
+    let per_second = |unit: &str| match unit {
+        "m" => "m/s",
+        "m/s" => "m/s2",
+        "rad" => "rad/s",
+        "rad/s" => "rad/s2",
+        "N" => "N/s",
+        _ => "",
+    };
+    let mut states: Vec<Variable> = (0..STATES.len())
+        .map(|k| {
+            let vr = vr::STATE + k as u32;
+            vars.iter()
+                .find(|v| v.value_reference == vr)
+                .expect("x[k] is in the table")
+                .clone()
+        })
+        .collect();
+    let mut locals = Vec::new();
+    for (i, a) in ACTUATORS.iter().enumerate() {
+        let v = Variable::real(
+            format!("f_lag_{a}"),
+            vr::LAG_STATE + i as u32,
+            Causality::Local,
+            "N",
+            format!(
+                "Model Exchange state: the {} actuator's force behind its first-order lag (unused, and constant, with actuator_bandwidth = 0)",
+                a.to_uppercase()
+            ),
+        );
+        states.push(v.clone());
+        locals.push(v);
+    }
+    for k in 0..N_METER_STATES {
+        let v = Variable::real(
+            format!("meter_state[{}]", k + 1),
+            vr::METER_STATE + k as u32,
+            Causality::Local,
+            "",
+            "Model Exchange state: a state of the vibration meter's ISO 2631-1 weighting filters (W_k seat heave, then W_e roll and pitch)",
+        );
+        states.push(v.clone());
+        locals.push(v);
+    }
+    for (k, state) in states.iter().enumerate() {
+        let vr = if k < STATES.len() {
+            vr::STATE_DERIVATIVE + k as u32
+        } else if k < STATES.len() + N_ACTUATORS {
+            vr::LAG_DERIVATIVE + (k - STATES.len()) as u32
+        } else {
+            vr::METER_DERIVATIVE + (k - STATES.len() - N_ACTUATORS) as u32
+        };
+        let unit = state.unit().map_or("", per_second);
+        let (on_states, on_inputs) = &dependencies[k];
+        let knowns = on_states
+            .iter()
+            .map(|&j| states[j].name.clone())
+            .chain(on_inputs.iter().map(|&j| inputs[j].clone()))
+            .collect();
+        locals.push(
+            Variable::derivative(
+                state,
+                vr,
+                unit,
+                format!("Time derivative of {}", state.name),
+            )
+            .depending_on(knowns, DependencyKind::Dependent)
+            .initially_depending_on(parameters.clone()),
+        );
+    }
+    locals
+}
+
 /// The plant as an FMI model.
 pub struct Plant {
     sim: Simulator,
@@ -603,6 +718,13 @@ pub struct Plant {
     /// The tyres and stops now, with the outputs.
     contact: ContactState,
     outputs_valid: bool,
+    /// Model Exchange: the time up to which the time off the road and at a stop is counted
+    /// (the last accepted integrator step or event).
+    accounted: f64,
+    /// Model Exchange: whether the actuator fault has started (changed at its time event),
+    /// and whether an event has been handled (only a Model Exchange instance has events).
+    faulted: bool,
+    exchanging: bool,
 }
 
 impl Plant {
@@ -698,6 +820,7 @@ impl Plant {
                 format!("State {name}: {desc}, from static equilibrium"),
             ));
         }
+        vars.extend(model_exchange_variables(&vars));
         // Direct feed-through, for the worst case of the actuator model (no delay, no lag): the
         // road enters through the car's matrices (fixed parameters), a command through the
         // actuator's saturation, fault and delay. The states start at the equilibrium whatever
@@ -808,11 +931,42 @@ impl Plant {
             guid: String::new(),
             description: "8-DOF full car with driver seat and active suspension actuators (saturation, delay, bandwidth, faults), stepped exactly".into(),
             version: env!("CARGO_PKG_VERSION").into(),
-            capabilities: Capabilities::exact_stepping(true),
+            capabilities: Capabilities::exact_stepping(true).with_directional_derivatives(),
             default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3, tolerance: 1e-6 },
             variables: vars,
+            model_exchange: Some(fmu_core::description::ModelExchange {
+                number_of_event_indicators: N_UNILATERAL,
+                completed_integrator_step_not_needed: false,
+            }),
         }
         .with_derived_guid()
+    }
+}
+
+impl Plant {
+    /// Whether the fault acts on the derivatives: Model Exchange's discrete state, and in
+    /// Co-Simulation (which reads the derivatives as outputs only) the time.
+    /// Before the first event the two agree: the first event finds the fault started exactly
+    /// when the start time is past its onset.
+    fn faulted_now(&self) -> bool {
+        if self.exchanging {
+            self.faulted
+        } else {
+            self.sim.time() >= self.sim.actuator.fault_time
+        }
+    }
+
+    /// A Model Exchange state or derivative beyond `x[*]`, by value reference.
+    fn exchange_value(&mut self, vr: ValueReference) -> f64 {
+        let mut values = vec![0.0; model_exchange_states()];
+        if let Some(k) = derivative_index(vr) {
+            let faulted = self.faulted_now();
+            self.sim.exchange_derivatives(&mut values, faulted);
+            values[k]
+        } else {
+            self.sim.exchange_states(&mut values);
+            values[state_index(vr).expect("a Model Exchange state")]
+        }
     }
 }
 
@@ -832,6 +986,9 @@ impl Model for Plant {
             readings: [0.0; N_SENSORS],
             contact: ContactState::default(),
             outputs_valid: false,
+            accounted: 0.0,
+            faulted: false,
+            exchanging: false,
         })
     }
 
@@ -912,6 +1069,8 @@ impl Model for Plant {
             } else {
                 self.sim.command[k - N_ROAD]
             }
+        } else if vr >= vr::STATE_DERIVATIVE {
+            self.exchange_value(vr)
         } else {
             // Instance::get_real only passes value references of the variable table.
             self.sim.state()[(vr - vr::STATE) as usize]
@@ -969,6 +1128,7 @@ impl Model for Plant {
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
         self.check_parameters()?;
         self.sim.start(start_time);
+        (self.accounted, self.faulted, self.exchanging) = (start_time, false, false);
         self.sensors.start();
         self.invalidate_outputs();
         Ok(())
@@ -986,6 +1146,105 @@ impl Model for Plant {
         })?;
         self.sensors.advance(step);
         Ok(())
+    }
+
+    fn check_model_exchange(&self) -> Result<(), ModelError> {
+        if let Some(why) = self.sim.model_exchange_refusal() {
+            return Err(why.into());
+        }
+        if self.sensors.params.on {
+            return Err("sensor_model = true: the sensor model samples its noise at the communication steps, which Model Exchange does not have (switch it off, or use Co-Simulation)".into());
+        }
+        Ok(())
+    }
+
+    fn set_time(&mut self, time: f64) {
+        self.sim.set_exchange_time(time);
+        self.invalidate_outputs();
+    }
+
+    fn continuous_states(&mut self, x: &mut [f64]) {
+        self.sim.exchange_states(x);
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) {
+        self.sim.set_exchange_states(x);
+        self.invalidate_outputs();
+    }
+
+    fn derivatives(&mut self, dx: &mut [f64]) {
+        let faulted = self.faulted_now();
+        self.sim.exchange_derivatives(dx, faulted);
+    }
+
+    fn event_indicators(&mut self, z: &mut [f64]) {
+        self.sim.exchange_event_indicators(z);
+    }
+
+    fn update_discrete_states(&mut self, time: f64) -> Result<DiscreteUpdate, ModelError> {
+        self.sim.set_exchange_time(time);
+        self.sim.account_exchange_time(self.accounted);
+        self.accounted = time;
+        let (faulted, next) = self.sim.exchange_event();
+        (self.faulted, self.exchanging) = (faulted, true);
+        self.invalidate_outputs();
+        Ok(DiscreteUpdate {
+            states_changed: false,
+            next_event_time: next,
+        })
+    }
+
+    fn completed_integrator_step(&mut self, time: f64) {
+        self.sim.set_exchange_time(time);
+        self.sim.account_exchange_time(self.accounted);
+        self.accounted = time;
+        self.exchanging = true;
+        self.invalidate_outputs();
+    }
+
+    fn directional_derivative(
+        &mut self,
+        unknowns: &[ValueReference],
+        knowns: &[ValueReference],
+        seed: &[f64],
+        out: &mut [f64],
+    ) {
+        let mut seed_states = vec![0.0; model_exchange_states()];
+        let mut seed_inputs = [0.0; N_ROAD + N_ACTUATORS];
+        for (&vr, &s) in knowns.iter().zip(seed) {
+            match input_index(vr) {
+                Some(k) => seed_inputs[k] += s,
+                None => seed_states[state_index(vr).expect("a known is an input or a state")] += s,
+            }
+        }
+        let faulted = self.faulted_now();
+        let linear = self
+            .sim
+            .linear_response(&seed_states, &seed_inputs, faulted);
+        let contact = contact_values(&linear.contact);
+        let within = |vr: ValueReference, base: u32, n: usize| {
+            (base..base + n as u32)
+                .contains(&vr)
+                .then(|| (vr - base) as usize)
+        };
+        for (o, &vr) in out.iter_mut().zip(unknowns) {
+            *o = if let Some(k) = within(vr, vr::OUTPUT, N_PHYSICAL_OUTPUTS) {
+                linear.outputs[k]
+            } else if let Some(k) = within(vr, vr::FORCE, N_ACTUATORS) {
+                linear.forces[k]
+            } else if let Some(k) = within(vr, vr::METER, N_METER) {
+                linear.meter[k]
+            } else if let Some(k) = within(vr, vr::SENSOR_OUTPUT, N_SENSORS) {
+                // Noise and bias do not move with the state or the inputs.
+                linear.outputs[self.sensor_rows[k]]
+            } else if let Some(k) = within(vr, vr::CONTACT_OUTPUT, N_CONTACT_OUTPUTS) {
+                contact[k]
+            } else if let Some(k) = derivative_index(vr) {
+                linear.derivatives[k]
+            } else {
+                seed_states[state_index(vr).expect("an unknown is an output or a state")]
+            };
+        }
     }
 
     fn save(&self, out: &mut StateWriter) {
@@ -1014,6 +1273,9 @@ impl Model for Plant {
         out.bool(self.sensors.params.on);
         out.u64(self.sensors.params.seed);
         self.sensors.save(out);
+        out.f64(self.accounted);
+        out.bool(self.faulted);
+        out.bool(self.exchanging);
     }
 
     fn restore(&mut self, input: &mut StateReader) -> Result<(), ModelError> {
@@ -1037,7 +1299,12 @@ impl Model for Plant {
         sensor_params.on = input.bool()?;
         sensor_params.seed = input.u64()?;
         let sensors = Sensors::restored(sensor_params, input)?;
+        let accounted = input.f64()?;
+        let (faulted, exchanging) = (input.bool()?, input.bool()?);
         input.finish()?;
+        if !accounted.is_finite() {
+            return Err("FMU state: a non-finite accounted time".into());
+        }
         let mut p = VehicleParams::default();
         for (s, v) in PARAMETERS.iter().zip(&params) {
             p.set(s.name, *v).map_err(|e| format!("FMU state: {e}"))?;
@@ -1059,6 +1326,7 @@ impl Model for Plant {
             self.sim = sim;
         }
         self.sensors = sensors;
+        (self.accounted, self.faulted, self.exchanging) = (accounted, faulted, exchanging);
         self.invalidate_outputs();
         Ok(())
     }
@@ -1073,6 +1341,37 @@ fn vehicle_param(vr: ValueReference) -> Option<&'static vehicle::params::ParamSp
 fn actuator_param(vr: ValueReference) -> Option<&'static ActuatorSpec> {
     vr.checked_sub(vr::ACTUATOR)
         .and_then(|i| ACTUATOR_PARAMETERS.get(i as usize))
+}
+
+/// The index in Model Exchange's order of the variable at `vr` among the blocks `bases` (the
+/// car's 16, the actuators' lag, the meter's filters: their states, or their derivatives).
+fn exchange_index(vr: ValueReference, bases: [u32; 3]) -> Option<usize> {
+    let sizes = [N_STATES, N_ACTUATORS, N_METER_STATES];
+    let mut before = 0;
+    for (base, size) in bases.into_iter().zip(sizes) {
+        if (base..base + size as u32).contains(&vr) {
+            return Some(before + (vr - base) as usize);
+        }
+        before += size;
+    }
+    None
+}
+
+/// A continuous state's index in Model Exchange's order, by value reference.
+fn state_index(vr: ValueReference) -> Option<usize> {
+    exchange_index(vr, [vr::STATE, vr::LAG_STATE, vr::METER_STATE])
+}
+
+/// The index of a state derivative in Model Exchange's order, by value reference.
+fn derivative_index(vr: ValueReference) -> Option<usize> {
+    exchange_index(
+        vr,
+        [
+            vr::STATE_DERIVATIVE,
+            vr::LAG_DERIVATIVE,
+            vr::METER_DERIVATIVE,
+        ],
+    )
 }
 
 fn input_index(vr: ValueReference) -> Option<usize> {

@@ -25,6 +25,9 @@
 //! The seat's vibration meter ([`vehicle::iso2631::ComfortMeter`]) is part of the linear
 //! system: the ISO 2631-1 weighted accelerations are states, stepped exactly with the car.
 
+mod exchange;
+pub use exchange::{derivative_dependencies, model_exchange_states, LinearResponse, HYSTERESIS};
+
 use linsys::{discretize, mat_vec_sum, Discretization, ExpError};
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
@@ -348,6 +351,36 @@ pub struct ContactState {
     /// rebound, 0 between the stops \[N\].
     pub stop_force: [f64; N_WHEELS + 1],
     pub dwell: Dwell,
+}
+
+impl ContactState {
+    /// The contacts in `mode`, each engaged element pushing with `force(k)` (`k` its index in
+    /// [`Unilateral::ALL`]), with the times `dwell`.
+    fn in_mode(mode: Mode, dwell: Dwell, force: impl Fn(usize) -> f64) -> Self {
+        let mut state = ContactState {
+            on_road: [true; N_WHEELS],
+            tyre_force: [0.0; N_WHEELS],
+            stop_force: [0.0; N_WHEELS + 1],
+            dwell,
+        };
+        for (k, element) in Unilateral::ALL.iter().enumerate() {
+            if !mode.engaged(k) {
+                if let Unilateral::Tyre(i) = *element {
+                    state.on_road[i] = false;
+                }
+                continue;
+            }
+            let force = force(k);
+            match *element {
+                Unilateral::Tyre(i) => state.tyre_force[i] = force,
+                Unilateral::Bump(i) => state.stop_force[i] += force,
+                Unilateral::Rebound(i) => state.stop_force[i] -= force,
+                Unilateral::SeatBump => state.stop_force[N_WHEELS] += force,
+                Unilateral::SeatRebound => state.stop_force[N_WHEELS] -= force,
+            }
+        }
+        state
+    }
 }
 
 impl System {
@@ -843,8 +876,15 @@ impl Simulator {
             return std::array::from_fn(|i| self.xi[N_STATES + i]);
         }
         let now = self.time;
+        let seg = self.segment_now();
+        std::array::from_fn(|i| self.actuator_output(&seg, i, now, now))
+    }
+
+    /// The command segment the actuators act on now.
+    fn segment_now(&self) -> Segment {
+        let now = self.time;
         // With no delay the current (just set) command acts at once.
-        let seg = if self.actuator.tau == 0.0 {
+        if self.actuator.tau == 0.0 {
             Segment {
                 start: now,
                 value: self.command,
@@ -858,8 +898,7 @@ impl Simulator {
             // the new one at some and the previous one at others.
             let tau = self.actuator.tau;
             self.segment_at(now - tau + rounding(now, tau))
-        };
-        std::array::from_fn(|i| self.actuator_output(&seg, i, now, now))
+        }
     }
 
     /// The vibration meter's weighted accelerations now, in the order of
@@ -941,29 +980,7 @@ impl Simulator {
     /// [`Self::contact_state`] in `mode` at the point `z` ([`contact::point`]).
     fn contact_state_at(&self, mode: Mode, z: &contact::Point) -> ContactState {
         let sys = self.system.as_ref().expect("mode_now built the system");
-        let mut state = ContactState {
-            on_road: [true; N_WHEELS],
-            tyre_force: [0.0; N_WHEELS],
-            stop_force: [0.0; N_WHEELS + 1],
-            dwell: self.dwell,
-        };
-        for (k, element) in Unilateral::ALL.iter().enumerate() {
-            if !mode.engaged(k) {
-                if let Unilateral::Tyre(i) = *element {
-                    state.on_road[i] = false;
-                }
-                continue;
-            }
-            let force = sys.contacts.force(k, z);
-            match *element {
-                Unilateral::Tyre(i) => state.tyre_force[i] = force,
-                Unilateral::Bump(i) => state.stop_force[i] += force,
-                Unilateral::Rebound(i) => state.stop_force[i] -= force,
-                Unilateral::SeatBump => state.stop_force[N_WHEELS] += force,
-                Unilateral::SeatRebound => state.stop_force[N_WHEELS] -= force,
-            }
-        }
-        state
+        ContactState::in_mode(mode, self.dwell, |k| sys.contacts.force(k, z))
     }
 
     /// Advance from `t` by `h` with the current inputs and slopes. Afterwards the inputs hold

@@ -2,10 +2,11 @@
 //! is checked against an independent construction of the same trajectory (a delayed copy, a
 //! step split at the breakpoint, a closed form), so the sub-stepping logic cannot hide.
 
+mod common;
+
 use fmi_test_logger::LogCapture;
 use fmu_core::types::*;
 use fmu_plant::*;
-use std::ffi::CString;
 use std::ptr::{null, null_mut};
 
 const OK: i32 = 0;
@@ -21,22 +22,7 @@ struct Plant<'a> {
 
 impl<'a> Plant<'a> {
     fn new(log: &'a LogCapture) -> Self {
-        let desc = fmu_plant::Plant::model_description();
-        let cb = Box::new(log.callbacks());
-        let name = CString::new("plant").unwrap();
-        let guid = CString::new(desc.guid.clone()).unwrap();
-        let c = unsafe {
-            fmi2Instantiate(
-                name.as_ptr(),
-                FMI2_CO_SIMULATION,
-                guid.as_ptr(),
-                null(),
-                &*cb as *const _ as *const CallbackFunctions,
-                0,
-                0,
-            )
-        };
-        assert!(!c.is_null(), "{:?}", log.messages());
+        let (c, desc, cb) = common::instantiate(log, FMI2_CO_SIMULATION);
         Plant {
             c,
             desc,

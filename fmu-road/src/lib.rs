@@ -144,6 +144,7 @@ pub fn model_description() -> ModelDescription {
         description: "Road heights and vertical velocities under the four wheels: 1 - cos bump, ISO 8608 random road, sine sweep, pothole / step, on a terrain of grade, hills and crossfall; rear wheels on the front track one wheelbase later".into(),
         version: env!("CARGO_PKG_VERSION").into(),
         capabilities: Capabilities::exact_stepping(false),
+        model_exchange: None,
         default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3, tolerance: 1e-6 },
         variables: vars,
     }

@@ -4,7 +4,7 @@
  * Built with each target's C compiler (gcc, x86_64-w64-mingw32-gcc, aarch64-linux-gnu-gcc) and
  * run natively, under wine and under qemu-aarch64 by tests/python/test_platforms.py, which
  * compares the platforms' results. It loads each library with LoadLibrary/dlopen, resolves all
- * 34 fmi2 functions, hands the FMU its resource URI in the platform's form, and checks the
+ * 44 fmi2 functions (Model Exchange's too), hands the FMU its resource URI in the platform's form, and checks the
  * calls an importer relies on: a wrong GUID is refused, every call of the run returns fmi2OK,
  * and a panic inside the FMU comes back as fmi2Error with a log message.
  *
@@ -75,8 +75,9 @@ typedef fmi2Status (*RealIO)(fmi2Component, const fmi2ValueReference *, size_t, 
 typedef fmi2Status (*IntegerIO)(fmi2Component, const fmi2ValueReference *, size_t, fmi2Integer *);
 typedef fmi2Status (*DoStep)(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean);
 
-/* The 34 functions of FMI 2.0 common + Co-Simulation: every one must resolve. */
-static const char *const FUNCTIONS[34] = {
+/* The 44 functions of FMI 2.0, common, Co-Simulation and Model Exchange: every one must
+ * resolve (an importer may resolve them all whichever interface it uses). */
+static const char *const FUNCTIONS[44] = {
     "fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate",
     "fmi2FreeInstance", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
     "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset", "fmi2GetReal", "fmi2GetInteger",
@@ -86,6 +87,9 @@ static const char *const FUNCTIONS[34] = {
     "fmi2GetDirectionalDerivative", "fmi2SetRealInputDerivatives",
     "fmi2GetRealOutputDerivatives", "fmi2DoStep", "fmi2CancelStep", "fmi2GetStatus",
     "fmi2GetRealStatus", "fmi2GetIntegerStatus", "fmi2GetBooleanStatus", "fmi2GetStringStatus",
+    "fmi2EnterEventMode", "fmi2NewDiscreteStates", "fmi2EnterContinuousTimeMode",
+    "fmi2CompletedIntegratorStep", "fmi2SetTime", "fmi2SetContinuousStates", "fmi2GetDerivatives",
+    "fmi2GetEventIndicators", "fmi2GetContinuousStates", "fmi2GetNominalsOfContinuousStates",
 };
 
 typedef struct {
@@ -133,7 +137,7 @@ static void load(Fmu *f, const char *name, const char *path) {
     f->name = strdup(name);
     f->lib = open_library(path);
     if (!f->lib) die(path, load_error());
-    for (i = 0; i < 34; i++)
+    for (i = 0; i < 44; i++)
         if (!symbol(f->lib, FUNCTIONS[i])) die(FUNCTIONS[i], "not exported");
     f->instantiate = (Instantiate)symbol(f->lib, "fmi2Instantiate");
     f->free_instance = (FreeInstance)symbol(f->lib, "fmi2FreeInstance");
