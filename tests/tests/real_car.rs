@@ -129,7 +129,8 @@ fn no_steady_force_on_a_long_grade() {
 /// Each certificate's `saturation` (`synth::predict::saturation`): the baselines' loops
 /// (`skyhook`, `lqg`) and the anti-windup loops of `hinf_sf`, `hinf_of_aw`, `robust_of`,
 /// `robust_sf` and `ft_of` are absolutely stable at any force limits by the circle criterion
-/// with a diagonal multiplier, its margin positive on every frequency checked. `hinf_of`'s seat
+/// with a diagonal multiplier, its margin positive on every frequency checked; `delay_sf`'s
+/// predictor by its model recovery (`SaturationCheck::model_recovery`). `hinf_of`'s seat
 /// actuator has a loop whose real part exceeds 1 (near 1.9 Hz): no diagonal multiplier exists,
 /// and its certificate says so and where. Every constant gain of the sector keeps its loop
 /// stable (checked here), and it is held to
@@ -165,6 +166,16 @@ fn the_certificates_say_which_saturated_loops_are_proven_stable() {
             "{name}: {m:?}"
         );
     }
+    // delay_sf's model recovery: the prediction model stable on the states its clamped
+    // commands reach (the car's, its abscissa its slowest body mode's).
+    let s = &read("delay_sf")["saturation"];
+    assert_eq!(s["verdict"], "model recovery", "{s}");
+    let abscissa = s["recovery_abscissa"].as_f64().expect("an abscissa");
+    assert!(abscissa < -0.5, "{s}");
+    assert!(
+        s["recovery_states"].as_u64().is_some_and(|n| n >= 16),
+        "{s}"
+    );
     for name in ["hinf_of"] {
         let s = &read(name)["saturation"];
         assert_eq!(s["verdict"], "not certified", "{name}: {s}");
@@ -397,7 +408,7 @@ fn recovering_from_its_seat_stops_keeps_a_state_feedback_stable_on_iso_e() {
     for (name, saturation) in [
         ("hinf_sf", "circle criterion"),
         ("robust_sf", "circle criterion"),
-        ("delay_sf", "not certified"),
+        ("delay_sf", "model recovery"),
     ] {
         let recovered = seat(Some(name));
         eprintln!("ISO E, W_k seat: {name} {recovered:.3}");

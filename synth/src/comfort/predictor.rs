@@ -463,6 +463,19 @@ pub fn predictor_design(
     if !(facts.closed_loop_abscissa < 0.0 && facts.open_loop_abscissa < 0.0) {
         return Err(fail(format!("not stable for every delay: {facts:?}")));
     }
+    // Its anti-windup, model recovery in the runtime, on the prediction model it carries.
+    let p = law
+        .predictor
+        .as_ref()
+        .expect("predictor_law sets the predictor");
+    certificate.saturation =
+        crate::predict::saturation::SaturationCheck::model_recovery(&p.a, &p.b);
+    if !certificate.saturation.holds() {
+        return Err(fail(format!(
+            "its model-recovery anti-windup is not proven: {}",
+            certificate.saturation.why
+        )));
+    }
     if facts.own_states_abscissa.is_nan() || facts.own_states_abscissa >= 0.0 {
         return Err(fail(format!(
             "the controller's own states are not stable (spectral abscissa {}): clamped \

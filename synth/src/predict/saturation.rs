@@ -52,15 +52,78 @@ pub struct SaturationCheck {
     /// Where the margin is least (or the diagonal condition fails worst) \[Hz\], where known.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub worst_frequency_hz: Option<f64>,
-    /// The frequencies checked.
+    /// The frequencies checked (none for model recovery).
     pub frequencies: usize,
+    /// Model recovery: the spectral abscissa \[rad/s\] of the prediction model on the states
+    /// the clamped commands reach, and how many they are.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recovery_abscissa: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recovery_states: Option<usize>,
     #[serde(skip_serializing_if = "String::is_empty")]
     pub why: String,
 }
 
 impl SaturationCheck {
+    /// Proven stable at any force limits: by the circle criterion, or by model recovery.
     pub fn holds(&self) -> bool {
-        self.verdict == "circle criterion"
+        matches!(self.verdict, "circle criterion" | "model recovery")
+    }
+
+    /// A predictor's model-recovery anti-windup with no gain on its state
+    /// (`fmu-controller/src/predictor.rs`): what the clamp takes from the commands, `dz(u)`,
+    /// drives `ζ̇ = A ζ + B dz(u)` in the prediction model `(A, B)`, and the command is the
+    /// design's for the predicted state plus `ζ`. On the model `x + ζ` obeys
+    /// `ẋ + ζ̇ = A (x + ζ) + B u`: the unconstrained car, so the design's loop on it is the
+    /// linear loop (stable, and bounded for a bounded road), and the saturated loop is that loop
+    /// plus `ζ` driven by a bounded `dz`. `ζ` starts at zero and stays in the states `B`
+    /// reaches through `A` (a coordinate block no other state or input outside it moves, so
+    /// its spectrum is part of `A`'s): if `A` is Hurwitz there, `ζ` is bounded whatever the
+    /// limits and decays at that rate once the commands are back within them (Teel & Kapoor's
+    /// L2 anti-windup for exponentially stable plants; Zaccarian & Teel, *Modern Anti-windup
+    /// Synthesis*, 2011, §3.3, with no gain on the anti-windup state). This is a proof on the
+    /// prediction model, the delay matched; off it, the co-simulations say what happens.
+    pub fn model_recovery(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Self {
+        let n = a.nrows();
+        let mut reached: Vec<bool> = (0..n).map(|i| b.row(i).iter().any(|v| *v != 0.0)).collect();
+        let mut grown = true;
+        while grown {
+            grown = false;
+            for j in 0..n {
+                if !reached[j] && (0..n).any(|i| reached[i] && a[(j, i)] != 0.0) {
+                    (reached[j], grown) = (true, true);
+                }
+            }
+        }
+        let states: Vec<usize> = (0..n).filter(|&i| reached[i]).collect();
+        let block = DMatrix::from_fn(states.len(), states.len(), |i, j| a[(states[i], states[j])]);
+        let abscissa = crate::numerics::eig::spectral_abscissa(&block);
+        let holds = abscissa < 0.0;
+        SaturationCheck {
+            verdict: if holds {
+                "model recovery"
+            } else {
+                "not certified"
+            },
+            multiplier: Vec::new(),
+            margin: None,
+            worst_frequency_hz: None,
+            frequencies: 0,
+            recovery_abscissa: Some(abscissa),
+            recovery_states: Some(states.len()),
+            why: format!(
+                "the predictor's model-recovery anti-windup: the saturated loop is the linear one \
+                 on the unconstrained prediction plus zeta' = A zeta + B dz(u), whose {} states \
+                 reached by the commands have the spectral abscissa {abscissa:.4} rad/s{}",
+                states.len(),
+                if holds {
+                    ": bounded at any force limits, and back to the linear loop once the \
+                     commands are within them"
+                } else {
+                    ", not below 0: no bound"
+                }
+            ),
+        }
     }
 
     /// An anti-windup design's: its decoupled loop's own circle criterion (thesis Th. 5.3, the
@@ -77,6 +140,8 @@ impl SaturationCheck {
             margin: Some(check.min_margin),
             worst_frequency_hz: None,
             frequencies: check.frequencies,
+            recovery_abscissa: None,
+            recovery_states: None,
             why: "of the anti-windup compensator's loop (thesis Th. 5.3): the saturated loop is \
                   the linear one plus that loop driven by the dead zones"
                 .into(),
@@ -166,6 +231,8 @@ pub fn saturation_check(lp: &Loop) -> SaturationCheck {
         margin: None,
         worst_frequency_hz: Some(hz(at)),
         frequencies: fine.len(),
+        recovery_abscissa: None,
+        recovery_states: None,
         why,
     };
     if worst >= 1.0 {
@@ -203,6 +270,8 @@ pub fn saturation_check(lp: &Loop) -> SaturationCheck {
         margin: Some(margin),
         worst_frequency_hz: Some(hz(at)),
         frequencies: fine.len(),
+        recovery_abscissa: None,
+        recovery_states: None,
         why: if holds {
             String::new()
         } else {
@@ -259,6 +328,28 @@ mod tests {
                 assert!((e - r).abs() < 1e-12, "{twice:?} vs {reference:?}");
             }
         }
+    }
+
+    /// Model recovery reads `A` only where the commands reach: a stable car block driven by
+    /// `B`, beside an integrator (a road state) that drives the car but that no command
+    /// reaches, holds; an unstable mode among the reached ones does not.
+    #[test]
+    fn model_recovery_reads_the_states_the_commands_reach() {
+        // x1' = -x1 + x3 + u, x2' = x1 - 2 x2, x3' = 0 (driven by nothing, drives x1).
+        let a = DMatrix::from_row_slice(3, 3, &[-1.0, 0.0, 1.0, 1.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
+        let b = DMatrix::from_row_slice(3, 1, &[1.0, 0.0, 0.0]);
+        let c = SaturationCheck::model_recovery(&a, &b);
+        assert!(c.holds(), "{c:?}");
+        assert_eq!(c.recovery_states, Some(2));
+        assert!((c.recovery_abscissa.unwrap() + 1.0).abs() < 1e-12);
+        // The reached x2 unstable: refused.
+        let mut unstable = a.clone();
+        unstable[(1, 1)] = 0.5;
+        let c = SaturationCheck::model_recovery(&unstable, &b);
+        assert!(!c.holds() && c.why.contains("no bound"), "{c:?}");
+        // The integrator reached (a command drives it): refused, abscissa 0.
+        let b3 = DMatrix::from_row_slice(3, 1, &[1.0, 0.0, 1.0]);
+        assert!(!SaturationCheck::model_recovery(&a, &b3).holds());
     }
 
     /// `L = [[1/2, 10], [0, 1/2]]`: `2M − He(M L) = [[m₁, −10 m₁], [−10 m₁, m₂]]`, positive
