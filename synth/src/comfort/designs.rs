@@ -861,6 +861,9 @@ pub struct ComfortCertificate {
     pub saturation: crate::predict::saturation::SaturationCheck,
     /// First-order actuators instead of ideal ones ([`ActuatorLag`]).
     pub actuator_lag: Vec<ActuatorLag>,
+    /// The slowest first-order actuators the loop tolerates, a common bandwidth scanned down
+    /// from 1 kHz ([`crate::predict::lag`]).
+    pub actuator_lag_bound: crate::predict::lag::ActuatorLagBound,
     pub hinf_comfort: HinfComfort,
     pub spectral_abscissa: f64,
     /// The controller on its own (its `A`), open loop: the largest real part of its poles
@@ -1352,6 +1355,7 @@ pub fn certify(
         )));
     }
     let saturation = crate::predict::saturation::saturation_check(&lp);
+    let actuator_lag_bound = crate::predict::lag::lag_bound(law, ctx.params);
     // Predictions, design and passive.
     let predicted = lp.figures(&d.road);
     let held = held_prediction(law, nominal, d).map_err(&fail)?;
@@ -1463,6 +1467,7 @@ pub fn certify(
         engaged_stops: engaged_stops(law, ctx.params, d),
         saturation,
         actuator_lag: actuator_lags(law, ctx.params, d).map_err(&fail)?,
+        actuator_lag_bound,
         hinf_comfort: HinfComfort {
             design: hd.upper,
             passive: hp.upper,

@@ -5,5 +5,6 @@
 //! stays stable at its force limits ([`saturation`]).
 
 pub mod continuous;
+pub mod lag;
 pub mod sampled;
 pub mod saturation;
