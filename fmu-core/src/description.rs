@@ -560,9 +560,6 @@ impl ModelDescription {
     /// `modelDescription/` can be compared byte for byte.
     pub fn to_xml(&self) -> String {
         let mut x = String::new();
-        let c = &self.capabilities;
-        let e = &self.default_experiment;
-        let b = |v: bool| if v { "true" } else { "false" };
         writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#).unwrap();
         writeln!(x, "<!-- Generated from the variable table in Rust; do not edit. Regenerate with `make descriptions`. -->").unwrap();
         writeln!(
@@ -572,54 +569,8 @@ impl ModelDescription {
             self.model_exchange.as_ref().map_or(0, |me| me.number_of_event_indicators)
         )
         .unwrap();
-        if let Some(me) = &self.model_exchange {
-            writeln!(
-                x,
-                r#"  <ModelExchange modelIdentifier="{}" needsExecutionTool="false" completedIntegratorStepNotNeeded="{}" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
-                esc(&self.model_identifier),
-                b(me.completed_integrator_step_not_needed),
-                b(c.can_get_and_set_fmu_state),
-                b(c.can_serialize_fmu_state),
-                b(c.provides_directional_derivative)
-            )
-            .unwrap();
-        }
-        writeln!(
-            x,
-            r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="{}" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
-            esc(&self.model_identifier),
-            b(c.can_handle_variable_communication_step_size),
-            b(c.can_interpolate_inputs),
-            c.max_output_derivative_order,
-            b(c.can_get_and_set_fmu_state),
-            b(c.can_serialize_fmu_state),
-            b(c.provides_directional_derivative)
-        )
-        .unwrap();
-        let units: BTreeSet<&str> = self.variables.iter().filter_map(|v| v.unit()).collect();
-        if !units.is_empty() {
-            writeln!(x, "  <UnitDefinitions>").unwrap();
-            for u in units {
-                let exps = base_unit(u).expect("units are checked");
-                let attrs: String = ["kg", "m", "s", "A", "K", "mol", "cd", "rad"]
-                    .iter()
-                    .zip(exps)
-                    .filter(|(_, e)| *e != 0)
-                    .map(|(n, e)| format!(r#" {n}="{e}""#))
-                    .collect();
-                if NAMED_UNITS.contains(&u) {
-                    writeln!(x, r#"    <Unit name="{}"/>"#, esc(u)).unwrap();
-                } else {
-                    writeln!(
-                        x,
-                        r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#,
-                        esc(u)
-                    )
-                    .unwrap();
-                }
-            }
-            writeln!(x, "  </UnitDefinitions>").unwrap();
-        }
+        self.write_interfaces(&mut x);
+        self.write_units(&mut x);
         writeln!(x, "  <LogCategories>").unwrap();
         for cat in Category::ALL {
             writeln!(
@@ -631,6 +582,7 @@ impl ModelDescription {
             .unwrap();
         }
         writeln!(x, "  </LogCategories>").unwrap();
+        let e = &self.default_experiment;
         writeln!(
             x,
             r#"  <DefaultExperiment startTime="{}" stopTime="{}" tolerance="{}" stepSize="{}"/>"#,
@@ -640,90 +592,153 @@ impl ModelDescription {
             num(e.step_size)
         )
         .unwrap();
-        let index_of = |name: &str| {
-            self.variables
-                .iter()
-                .position(|v| v.name == name)
-                .expect("checked")
-                + 1
-        };
         writeln!(x, "  <ModelVariables>").unwrap();
         for (i, v) in self.variables.iter().enumerate() {
-            let causality = match v.causality {
-                Causality::Parameter => "parameter",
-                Causality::CalculatedParameter => "calculatedParameter",
-                Causality::Input => "input",
-                Causality::Output => "output",
-                Causality::Local => "local",
-            };
-            let variability = match v.variability {
-                Variability::Fixed => "fixed",
-                Variability::Tunable => "tunable",
-                Variability::Continuous => "continuous",
-                Variability::Discrete => "discrete",
-            };
-            let initial = match v.causality {
-                Causality::Parameter => r#" initial="exact""#,
-                Causality::CalculatedParameter | Causality::Output | Causality::Local => {
-                    r#" initial="calculated""#
-                }
-                Causality::Input => "",
-            };
-            writeln!(x, "    <!-- index {} -->", i + 1).unwrap();
-            writeln!(
-                x,
-                r#"    <ScalarVariable name="{}" valueReference="{}" description="{}" causality="{causality}" variability="{variability}"{initial}>"#,
-                esc(&v.name), v.value_reference, esc(&v.description)
-            )
-            .unwrap();
-            match &v.kind {
-                VarType::Real {
-                    unit,
-                    start,
-                    min,
-                    max,
-                } => {
-                    let mut attrs = String::new();
-                    if !unit.is_empty() {
-                        write!(attrs, r#" unit="{}""#, esc(unit)).unwrap();
-                    }
-                    if let Some(m) = min {
-                        write!(attrs, r#" min="{}""#, num(*m)).unwrap();
-                    }
-                    if let Some(m) = max {
-                        write!(attrs, r#" max="{}""#, num(*m)).unwrap();
-                    }
-                    if let Some(s) = start {
-                        write!(attrs, r#" start="{}""#, num(*s)).unwrap();
-                    }
-                    if let Some(state) = &v.derivative_of {
-                        write!(attrs, r#" derivative="{}""#, index_of(state)).unwrap();
-                    }
-                    writeln!(x, "      <Real{attrs}/>").unwrap();
-                }
-                VarType::Integer { start } => match start {
-                    Some(s) => writeln!(x, r#"      <Integer start="{s}"/>"#).unwrap(),
-                    None => writeln!(x, "      <Integer/>").unwrap(),
-                },
-                VarType::Boolean { start } => match start {
-                    Some(s) => writeln!(x, r#"      <Boolean start="{}"/>"#, b(*s)).unwrap(),
-                    None => writeln!(x, "      <Boolean/>").unwrap(),
-                },
-            }
-            writeln!(x, "    </ScalarVariable>").unwrap();
+            self.write_variable(&mut x, i, v);
         }
         writeln!(x, "  </ModelVariables>").unwrap();
-        let index = index_of;
-        writeln!(x, "  <ModelStructure>").unwrap();
-        let outputs: Vec<(usize, &Variable)> = self
-            .variables
+        self.write_structure(&mut x);
+        writeln!(x, "</fmiModelDescription>").unwrap();
+        x
+    }
+
+    /// The variable named `name`'s index in `<ModelVariables>` (1-based).
+    fn index_of(&self, name: &str) -> usize {
+        self.variables
             .iter()
-            .enumerate()
-            .filter(|(_, v)| v.causality == Causality::Output)
-            .collect();
-        // Dependencies by index, sorted as the standard requires, with their kinds.
-        let unknown = |i: usize, deps: Vec<(usize, DependencyKind)>| {
-            let mut deps = deps;
+            .position(|v| v.name == name)
+            .expect("checked")
+            + 1
+    }
+
+    /// `<ModelExchange>` where the model has it, and `<CoSimulation>`.
+    fn write_interfaces(&self, x: &mut String) {
+        let c = &self.capabilities;
+        if let Some(me) = &self.model_exchange {
+            writeln!(
+                x,
+                r#"  <ModelExchange modelIdentifier="{}" needsExecutionTool="false" completedIntegratorStepNotNeeded="{}" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
+                esc(&self.model_identifier),
+                flag(me.completed_integrator_step_not_needed),
+                flag(c.can_get_and_set_fmu_state),
+                flag(c.can_serialize_fmu_state),
+                flag(c.provides_directional_derivative)
+            )
+            .unwrap();
+        }
+        writeln!(
+            x,
+            r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="{}" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
+            esc(&self.model_identifier),
+            flag(c.can_handle_variable_communication_step_size),
+            flag(c.can_interpolate_inputs),
+            c.max_output_derivative_order,
+            flag(c.can_get_and_set_fmu_state),
+            flag(c.can_serialize_fmu_state),
+            flag(c.provides_directional_derivative)
+        )
+        .unwrap();
+    }
+
+    /// `<UnitDefinitions>`: every unit a variable uses, with its base-unit exponents.
+    fn write_units(&self, x: &mut String) {
+        let units: BTreeSet<&str> = self.variables.iter().filter_map(|v| v.unit()).collect();
+        if units.is_empty() {
+            return;
+        }
+        writeln!(x, "  <UnitDefinitions>").unwrap();
+        for u in units {
+            let exps = base_unit(u).expect("units are checked");
+            let attrs: String = ["kg", "m", "s", "A", "K", "mol", "cd", "rad"]
+                .iter()
+                .zip(exps)
+                .filter(|(_, e)| *e != 0)
+                .map(|(n, e)| format!(r#" {n}="{e}""#))
+                .collect();
+            if NAMED_UNITS.contains(&u) {
+                writeln!(x, r#"    <Unit name="{}"/>"#, esc(u)).unwrap();
+            } else {
+                writeln!(
+                    x,
+                    r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#,
+                    esc(u)
+                )
+                .unwrap();
+            }
+        }
+        writeln!(x, "  </UnitDefinitions>").unwrap();
+    }
+
+    /// One `<ScalarVariable>`, the `i`-th.
+    fn write_variable(&self, x: &mut String, i: usize, v: &Variable) {
+        let causality = match v.causality {
+            Causality::Parameter => "parameter",
+            Causality::CalculatedParameter => "calculatedParameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+            Causality::Local => "local",
+        };
+        let variability = match v.variability {
+            Variability::Fixed => "fixed",
+            Variability::Tunable => "tunable",
+            Variability::Continuous => "continuous",
+            Variability::Discrete => "discrete",
+        };
+        let initial = match v.causality {
+            Causality::Parameter => r#" initial="exact""#,
+            Causality::CalculatedParameter | Causality::Output | Causality::Local => {
+                r#" initial="calculated""#
+            }
+            Causality::Input => "",
+        };
+        writeln!(x, "    <!-- index {} -->", i + 1).unwrap();
+        writeln!(
+            x,
+            r#"    <ScalarVariable name="{}" valueReference="{}" description="{}" causality="{causality}" variability="{variability}"{initial}>"#,
+            esc(&v.name), v.value_reference, esc(&v.description)
+        )
+        .unwrap();
+        match &v.kind {
+            VarType::Real {
+                unit,
+                start,
+                min,
+                max,
+            } => {
+                let mut attrs = String::new();
+                if !unit.is_empty() {
+                    write!(attrs, r#" unit="{}""#, esc(unit)).unwrap();
+                }
+                if let Some(m) = min {
+                    write!(attrs, r#" min="{}""#, num(*m)).unwrap();
+                }
+                if let Some(m) = max {
+                    write!(attrs, r#" max="{}""#, num(*m)).unwrap();
+                }
+                if let Some(s) = start {
+                    write!(attrs, r#" start="{}""#, num(*s)).unwrap();
+                }
+                if let Some(state) = &v.derivative_of {
+                    write!(attrs, r#" derivative="{}""#, self.index_of(state)).unwrap();
+                }
+                writeln!(x, "      <Real{attrs}/>").unwrap();
+            }
+            VarType::Integer { start } => match start {
+                Some(s) => writeln!(x, r#"      <Integer start="{s}"/>"#).unwrap(),
+                None => writeln!(x, "      <Integer/>").unwrap(),
+            },
+            VarType::Boolean { start } => match start {
+                Some(s) => writeln!(x, r#"      <Boolean start="{}"/>"#, flag(*s)).unwrap(),
+                None => writeln!(x, "      <Boolean/>").unwrap(),
+            },
+        }
+        writeln!(x, "    </ScalarVariable>").unwrap();
+    }
+
+    /// `<ModelStructure>`: the outputs, the derivatives and the initial unknowns, each with
+    /// its dependencies by index, sorted as the standard requires, and their kinds.
+    fn write_structure(&self, x: &mut String) {
+        let unknown = |i: usize, mut deps: Vec<(usize, DependencyKind)>| {
             deps.sort_unstable_by_key(|(d, _)| *d);
             deps.dedup_by_key(|(d, _)| *d);
             let list = |f: &dyn Fn(&(usize, DependencyKind)) -> String| {
@@ -735,63 +750,70 @@ impl ModelDescription {
                 list(&|(_, k)| k.name().to_string())
             )
         };
-        if !outputs.is_empty() {
-            writeln!(x, "    <Outputs>").unwrap();
-            for (i, v) in &outputs {
-                let deps = v.depends_on.iter().map(|(d, k)| (index(d), *k)).collect();
-                writeln!(x, "{}", unknown(i + 1, deps)).unwrap();
-            }
-            writeln!(x, "    </Outputs>").unwrap();
-        }
+        // A section of the unknowns `which` picks, each depending on what `deps` names.
+        let section =
+            |x: &mut String,
+             tag: &str,
+             which: &dyn Fn(&Variable) -> bool,
+             deps: &dyn Fn(&Variable) -> Vec<(usize, DependencyKind)>| {
+                let picked: Vec<(usize, &Variable)> = self
+                    .variables
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| which(v))
+                    .collect();
+                if picked.is_empty() {
+                    return;
+                }
+                writeln!(x, "    <{tag}>").unwrap();
+                for (i, v) in picked {
+                    writeln!(x, "{}", unknown(i + 1, deps(v))).unwrap();
+                }
+                writeln!(x, "    </{tag}>").unwrap();
+            };
+        let own = |v: &Variable| -> Vec<(usize, DependencyKind)> {
+            v.depends_on
+                .iter()
+                .map(|(d, k)| (self.index_of(d), *k))
+                .collect()
+        };
+        writeln!(x, "  <ModelStructure>").unwrap();
+        section(x, "Outputs", &|v| v.causality == Causality::Output, &own);
         // A derivative depends on continuous states and inputs.
-        let derivatives: Vec<(usize, &Variable)> = self
-            .variables
-            .iter()
-            .enumerate()
-            .filter(|(_, v)| v.derivative_of.is_some())
-            .collect();
-        if !derivatives.is_empty() {
-            writeln!(x, "    <Derivatives>").unwrap();
-            for (i, v) in &derivatives {
-                let deps = v.depends_on.iter().map(|(d, k)| (index(d), *k)).collect();
-                writeln!(x, "{}", unknown(i + 1, deps)).unwrap();
-            }
-            writeln!(x, "    </Derivatives>").unwrap();
-        }
-        // Initial unknowns: outputs and calculated parameters, depending on their inputs and
-        // parameters. Only `dependent` and `constant` are kinds there, and no factor is constant
-        // once the parameters are knowns.
-        let initial: Vec<(usize, &Variable)> = self
-            .variables
-            .iter()
-            .enumerate()
-            .filter(|(_, v)| {
+        section(x, "Derivatives", &|v| v.derivative_of.is_some(), &own);
+        // Initial unknowns: outputs, calculated parameters, states and derivatives, depending
+        // on their inputs and parameters (a derivative's states are unknowns themselves at
+        // initialisation: they start at the equilibrium). Only `dependent` and `constant` are
+        // kinds there, and no factor is constant once the parameters are knowns.
+        section(
+            x,
+            "InitialUnknowns",
+            &|v| {
                 matches!(
                     v.causality,
                     Causality::Output | Causality::CalculatedParameter | Causality::Local
                 )
-            })
-            .collect();
-        if !initial.is_empty() {
-            writeln!(x, "    <InitialUnknowns>").unwrap();
-            for (i, v) in initial {
-                // The knowns here are the inputs and the parameters: a derivative's states are
-                // unknowns themselves at initialisation (they start at the equilibrium).
-                let deps = v
-                    .depends_on
+            },
+            &|v| {
+                v.depends_on
                     .iter()
                     .map(|(d, _)| d)
                     .filter(|d| self.variable(d).map(|k| k.causality) == Some(Causality::Input))
                     .chain(&v.initial_parameters)
-                    .map(|d| (index(d), DependencyKind::Dependent))
-                    .collect();
-                writeln!(x, "{}", unknown(i + 1, deps)).unwrap();
-            }
-            writeln!(x, "    </InitialUnknowns>").unwrap();
-        }
+                    .map(|d| (self.index_of(d), DependencyKind::Dependent))
+                    .collect()
+            },
+        );
         writeln!(x, "  </ModelStructure>").unwrap();
-        writeln!(x, "</fmiModelDescription>").unwrap();
-        x
+    }
+}
+
+/// An XML Boolean.
+fn flag(v: bool) -> &'static str {
+    if v {
+        "true"
+    } else {
+        "false"
     }
 }
 
