@@ -38,8 +38,8 @@
 
 use crate::comfort::controllers::{reconstruction, state_feedback_sensors, Reconstruction};
 use crate::comfort::designs::{
-    bound_model, certify, recovering_state_feedback_wiring, ComfortDesignResult, ComfortError,
-    Context, OverDelays, OverUncertainty, Uncertainty,
+    bound_model, certify, recovering_state_feedback_wiring, ComfortCertificate,
+    ComfortDesignResult, ComfortError, Context, OverDelays, OverUncertainty, Uncertainty,
 };
 use crate::comfort::guaranteed::StateFeedback;
 use crate::comfort::plant::ComfortPlant;
@@ -378,84 +378,24 @@ pub fn predictor_design(
     let delays: Vec<f64> = (0..=count)
         .map(|i| d.delay_max * i as f64 / count as f64)
         .collect();
-    // Each delay's loop on its own thread (the rest of the synthesis is done by then): the
-    // delay-margin scans, and then the held loops (up to 330 states at 50 ms), are delay_sf's
-    // synthesis time. Collected in order.
-    use rayon::prelude::*;
-    let at_delay = |delay: f64| Conditions {
-        delay,
-        ..Conditions::nominal(*ctx.params)
-    };
-    let evaluated = delays
-        .par_iter()
-        .map(|&theta| {
-            let c = at_delay(theta);
-            let lp = Loop::new(Some(&law_at(theta)), c).map_err(|e| fail(e.to_string()))?;
-            let label = format!("delay {:.1} ms", 1e3 * theta);
-            Ok((lp.delay_margins(), (label, lp.figures(&d.road)), c))
-        })
-        .collect::<Result<Vec<_>, ComfortError>>()?;
-    let (mut lag, mut lead) = (f64::INFINITY, f64::INFINITY);
-    let mut predictions = Vec::new();
-    let mut conditions = Vec::new();
-    for ((l, r), prediction, c) in evaluated {
-        lag = lag.min(l);
-        lead = lead.min(r);
-        predictions.push(prediction);
-        conditions.push(c);
-    }
-    // The loops as a master runs them, each with the predictor matched to its delay.
-    let held = conditions
-        .par_iter()
-        .map(|c| crate::comfort::designs::held_at(&law_at(c.delay), *c, d))
-        .collect();
-    // Between the whole steps: stable, or refused.
-    let fractional_at = fractional_delays(d.delay_max, d.communication_step);
-    let fractional = fractional_at
-        .par_iter()
-        .map(|&theta| {
-            crate::predict::sampled::SampledLoop::new(
-                Some(&law_at(theta)),
-                at_delay(theta),
-                d.communication_step,
-            )
-            .map(|l| l.radius())
-            .map_err(|e| fail(format!("at a delay of {theta} s, between whole steps: {e}")))
-        })
-        .collect::<Result<Vec<f64>, ComfortError>>()?;
-    // The communication steps at delays across the interval (the held loop's history, and so
-    // what the hold does to it, grows with the delay).
-    // Every other delay of the grid: at 0.25 ms a held loop at 50 ms has 1080 states, and the
-    // whole grid took the synthesis from 22.6 to 26–30 s.
-    let step_delays: Vec<f64> = delays.iter().step_by(2).copied().collect();
-    let loops: Vec<(ControlLaw, Conditions)> = step_delays
-        .iter()
-        .map(|&theta| (law_at(theta), at_delay(theta)))
-        .collect();
-    certificate.comfort.communication_steps = crate::comfort::designs::StepStability::check(
-        &loops,
-        &format!(
-            "the nominal car at each delay of {} s, the predictor matched",
-            list_delays(&step_delays)
-        ),
-        &d.road,
-        d.communication_step,
-    );
+    let sweep = sweep_delays(ctx, &law_at, &delays).map_err(&fail)?;
+    let (fractional_at, fractional) = between_whole_steps(ctx, &law_at).map_err(&fail)?;
+    certificate.comfort.communication_steps = steps_across_delays(ctx, &law_at, &delays);
     let seat = g.c_z.rows(0, 1).into_owned();
     let over = over_delays(g, k, &seat, d.delay_max, DELAY_INTERVALS)
         .ok_or_else(|| fail("the car model's comfort over the delays".into()))?;
     let a_cl = &g.a + &g.b_u * k;
+    let predictor = law
+        .predictor
+        .as_ref()
+        .expect("predictor_law sets the predictor");
     let facts = PredictorFacts {
         delay_max_s: d.delay_max,
         closed_loop_abscissa: crate::numerics::eig::spectral_abscissa(&a_cl),
         open_loop_abscissa: crate::numerics::eig::spectral_abscissa(&g.a),
-        mismatch_margin_lag_s: lag,
-        mismatch_margin_lead_s: lead,
-        own_states_abscissa: crate::numerics::eig::spectral_abscissa(&own_loop(
-            law.predictor
-                .as_ref()
-                .expect("predictor_law sets the predictor"),
-        )),
+        mismatch_margin_lag_s: sweep.lag,
+        mismatch_margin_lead_s: sweep.lead,
+        own_states_abscissa: crate::numerics::eig::spectral_abscissa(&own_loop(predictor)),
         step_s: d.communication_step,
         fractional_worst_radius: crate::numerics::eig::max_or_nan(0.0, fractional.iter().copied()),
         fractional_delays: fractional_at,
@@ -464,12 +404,8 @@ pub fn predictor_design(
         return Err(fail(format!("not stable for every delay: {facts:?}")));
     }
     // Its anti-windup, model recovery in the runtime, on the prediction model it carries.
-    let p = law
-        .predictor
-        .as_ref()
-        .expect("predictor_law sets the predictor");
     certificate.saturation =
-        crate::predict::saturation::SaturationCheck::model_recovery(&p.a, &p.b);
+        crate::predict::saturation::SaturationCheck::model_recovery(&predictor.a, &predictor.b);
     if !certificate.saturation.holds() {
         return Err(fail(format!(
             "its model-recovery anti-windup is not proven: {}",
@@ -483,18 +419,166 @@ pub fn predictor_design(
             facts.own_states_abscissa
         )));
     }
-    let mut uncertainty =
-        OverUncertainty::predicted(Uncertainty::InputDelay, predictions, conditions, ctx.params);
-    uncertainty.set_held(held);
+    certificate.comfort.uncertainty = Some(over_the_delays(ctx, g, sweep, &over, &mut certificate));
+    certificate.notes.push(format!(
+        "Over delays: the car model's W_k seat comfort with the predictor matched is at most \
+         {:.5} at every delay of [0, {} s] (worst {:.5} on {} delays, the bound between them by \
+         the Gramian of the state's rate); mismatch between the actual and the predicted delay \
+         tolerated: +{:.2} ms / -{:.2} ms (least over the checked delays). As a master runs \
+         it at {} s: stable at {} delays between whole steps (largest spectral radius {:.6}); \
+         commands clamped to the force limits u_max, u_max_seat (set them as the plant's).",
+        over.bound,
+        d.delay_max,
+        over.grid_worst,
+        over.intervals + 1,
+        1e3 * facts.mismatch_margin_lag_s,
+        1e3 * facts.mismatch_margin_lead_s,
+        facts.step_s,
+        facts.fractional_delays.len(),
+        facts.fractional_worst_radius,
+    ));
+    let extensions = controller_extensions(predictor, &facts, d);
+    Ok(ComfortDesignResult {
+        law,
+        extensions,
+        certificate,
+    })
+}
+
+/// What the loops at delays across the interval show, the predictor matched to each.
+struct DelaySweep {
+    /// The least extra delay and advance over the predicted one the loops tolerate \[s\].
+    lag: f64,
+    lead: f64,
+    predictions: Vec<(String, crate::predict::continuous::Figures)>,
+    conditions: Vec<Conditions>,
+    held: Vec<Option<crate::comfort::designs::Held>>,
+}
+
+/// The nominal car at `delay`.
+fn at_delay(ctx: &Context, delay: f64) -> Conditions {
+    Conditions {
+        delay,
+        ..Conditions::nominal(*ctx.params)
+    }
+}
+
+/// The loop at each of `delays` with the predictor matched: its mismatch margins, its
+/// predicted figures, and the loop as a master runs it. Each delay's loop on its own thread
+/// (the rest of the synthesis is done by then): the delay-margin scans, and then the held loops
+/// (up to 330 states at 50 ms), are delay_sf's synthesis time. Collected in order.
+fn sweep_delays(
+    ctx: &Context,
+    law_at: &(dyn Fn(f64) -> ControlLaw + Sync),
+    delays: &[f64],
+) -> Result<DelaySweep, String> {
+    use rayon::prelude::*;
+    let d = ctx.design;
+    let evaluated = delays
+        .par_iter()
+        .map(|&theta| {
+            let c = at_delay(ctx, theta);
+            let lp = Loop::new(Some(&law_at(theta)), c).map_err(|e| e.to_string())?;
+            let label = format!("delay {:.1} ms", 1e3 * theta);
+            Ok((lp.delay_margins(), (label, lp.figures(&d.road)), c))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let (mut lag, mut lead) = (f64::INFINITY, f64::INFINITY);
+    let mut predictions = Vec::new();
+    let mut conditions = Vec::new();
+    for ((l, r), prediction, c) in evaluated {
+        lag = lag.min(l);
+        lead = lead.min(r);
+        predictions.push(prediction);
+        conditions.push(c);
+    }
+    let held = conditions
+        .par_iter()
+        .map(|c| crate::comfort::designs::held_at(&law_at(c.delay), *c, d))
+        .collect();
+    Ok(DelaySweep {
+        lag,
+        lead,
+        predictions,
+        conditions,
+        held,
+    })
+}
+
+/// The loop as a master runs it at delays that are not a whole number of steps (the delayed
+/// command changes mid-step): the delays and each one's spectral radius, stable or refused.
+fn between_whole_steps(
+    ctx: &Context,
+    law_at: &(dyn Fn(f64) -> ControlLaw + Sync),
+) -> Result<(Vec<f64>, Vec<f64>), String> {
+    use rayon::prelude::*;
+    let d = ctx.design;
+    let at = fractional_delays(d.delay_max, d.communication_step);
+    let radii = at
+        .par_iter()
+        .map(|&theta| {
+            crate::predict::sampled::SampledLoop::new(
+                Some(&law_at(theta)),
+                at_delay(ctx, theta),
+                d.communication_step,
+            )
+            .map(|l| l.radius())
+            .map_err(|e| format!("at a delay of {theta} s, between whole steps: {e}"))
+        })
+        .collect::<Result<Vec<f64>, String>>()?;
+    Ok((at, radii))
+}
+
+/// The communication steps at delays across the interval (the held loop's history, and so
+/// what the hold does to it, grows with the delay). Every other delay of the grid: at 0.25 ms a
+/// held loop at 50 ms has 1080 states, and the whole grid took the synthesis from 22.6 to
+/// 26–30 s.
+fn steps_across_delays(
+    ctx: &Context,
+    law_at: &dyn Fn(f64) -> ControlLaw,
+    delays: &[f64],
+) -> crate::comfort::designs::StepStability {
+    let d = ctx.design;
+    let step_delays: Vec<f64> = delays.iter().step_by(2).copied().collect();
+    let loops: Vec<(ControlLaw, Conditions)> = step_delays
+        .iter()
+        .map(|&theta| (law_at(theta), at_delay(ctx, theta)))
+        .collect();
+    crate::comfort::designs::StepStability::check(
+        &loops,
+        &format!(
+            "the nominal car at each delay of {} s, the predictor matched",
+            list_delays(&step_delays)
+        ),
+        &d.road,
+        d.communication_step,
+    )
+}
+
+/// The certificate's figures over the delays, and its guarantee where it is one. Claimed for
+/// the car only where the car model's bound covers every prediction on it (exact wheelbase
+/// delay, the road FMU's band), as for the other robust designs, and only for the predictor the
+/// bound is about: one that predicts the model's road. In a frame the predictor lets the road
+/// climb at the frame's rate instead, and the closed form says nothing of that.
+fn over_the_delays(
+    ctx: &Context,
+    g: &ComfortPlant,
+    sweep: DelaySweep,
+    over: &OverDelays,
+    certificate: &mut ComfortCertificate,
+) -> OverUncertainty {
+    let d = ctx.design;
+    let mut uncertainty = OverUncertainty::predicted(
+        Uncertainty::InputDelay,
+        sweep.predictions,
+        sweep.conditions,
+        ctx.params,
+    );
+    uncertainty.set_held(sweep.held);
     uncertainty.bound_model = format!(
         "{} with the gain's own preview beside it, the predictor matched to the delay",
         bound_model(d, ctx.params).1
     );
-    // Claimed for the car only where the car model's bound covers every prediction on it (exact
-    // wheelbase delay, the road FMU's band), as for the other robust designs, and only for the
-    // predictor the bound is about: one that predicts the model's road. In a frame the
-    // predictor lets the road climb at the frame's rate instead, and the closed form says
-    // nothing of that.
     certificate.comfort.guaranteed_wk_rms_seat_m_s2 = if g.frame.is_some() {
         uncertainty.bound_failure = Some(format!(
             "the bound {:.5} is the car model's with the predictor matched to it; this \
@@ -510,33 +594,19 @@ pub fn predictor_design(
     };
     uncertainty.bound_model_grid_worst_wk_rms_seat = Some(over.grid_worst);
     uncertainty.bound_model_grid_points = over.intervals + 1;
-    uncertainty.over_delays = Some(over);
-    certificate.comfort.uncertainty = Some(uncertainty);
-    certificate.notes.push(format!(
-        "Over delays: the car model's W_k seat comfort with the predictor matched is at most \
-         {:.5} at every delay of [0, {} s] (worst {:.5} on {} delays, the bound between them by \
-         the Gramian of the state's rate); mismatch between the actual and the predicted delay \
-         tolerated: +{:.2} ms / -{:.2} ms (least over the checked delays). As a master runs \
-         it at {} s: stable at {} delays between whole steps (largest spectral radius {:.6}); \
-         commands clamped to the force limits u_max, u_max_seat (set them as the plant's).",
-        over.bound,
-        d.delay_max,
-        over.grid_worst,
-        over.intervals + 1,
-        1e3 * lag,
-        1e3 * lead,
-        facts.step_s,
-        facts.fractional_delays.len(),
-        facts.fractional_worst_radius,
-    ));
+    uncertainty.over_delays = Some(*over);
+    uncertainty
+}
+
+/// The controller file's predictor: what the certificate checked.
+fn controller_extensions(
+    p: &PredictorLaw,
+    facts: &PredictorFacts,
+    d: &crate::shipping::design::ComfortDesign,
+) -> crate::shipping::controller_file::Extensions {
     let m = crate::shipping::controller_file::matrix_rows;
-    // The controller file carries the predictor the certificate checked.
-    let p = law
-        .predictor
-        .as_ref()
-        .expect("predictor_law sets the predictor");
     let r = &p.reconstruction;
-    let extensions = crate::shipping::controller_file::Extensions {
+    crate::shipping::controller_file::Extensions {
         predictor: Some(crate::shipping::controller_file::Predictor {
             a: m(&p.a),
             b: m(&p.b),
@@ -549,15 +619,10 @@ pub fn predictor_design(
             d_yu: Some(m(&r.d_yu)),
             u_max: Some(crate::comfort::plant::force_limits(d).to_vec()),
             delay_max: d.delay_max,
-            facts: serde_json::to_value(&facts).expect("serialisable"),
+            facts: serde_json::to_value(facts).expect("serialisable"),
         }),
         ..Default::default()
-    };
-    Ok(ComfortDesignResult {
-        law,
-        extensions,
-        certificate,
-    })
+    }
 }
 
 #[cfg(test)]
