@@ -1312,39 +1312,7 @@ pub fn certify(
         reason,
     };
     let d = ctx.design;
-    let g0 = ctx.plant();
-    let (plant, sensors) = wiring(&g0);
-    let (plant, sensors) = (&plant, &sensors);
-    // The design model's closed loop: stable, its exact comfort H2 norms.
-    let cl = design_loop(plant, sensors, law).map_err(&fail)?;
-    let abscissa = spectral_abscissa(&cl.a);
-    if abscissa.is_nan() || abscissa >= 0.0 {
-        return Err(fail(format!(
-            "closed loop unstable (spectral abscissa {abscissa:e})"
-        )));
-    }
-    let nw = plant.b_w.ncols();
-    let cz = DMatrix::from_fn(g0.c_z.nrows(), plant.a.nrows(), |i, j| g0.c_z[(i, j)]);
-    let comfort_sys = cl.from_w(
-        &cz,
-        &DMatrix::zeros(cz.nrows(), nw),
-        &DMatrix::zeros(cz.nrows(), N_ACTUATORS),
-    );
-    let h2 = |rows: &[usize]| {
-        comfort_sys
-            .select_outputs(rows)
-            .h2_norm()
-            .map_err(|e| fail(e.to_string()))
-    };
-    let (dm_seat, dm_total) = (h2(&[0])?, h2(&[0, 1, 2])?);
-    // Robust stability to the unmodelled delay.
-    let limits = force_limits(d);
-    let small_gain = unmodelled_delay_norm(&cl, d.unmodelled_delay, &limits).map_err(&fail)?;
-    if small_gain.is_nan() || small_gain >= 1.0 {
-        return Err(fail(format!(
-            "the unmodelled-delay channel's norm {small_gain:.4} is not below 1"
-        )));
-    }
+    let model = design_model_facts(ctx, law, wiring).map_err(&fail)?;
     let nominal = Conditions::nominal(*ctx.params);
     let lp = Loop::new(Some(law), nominal).map_err(|e| fail(e.to_string()))?;
     let delay_margin = lp.delay_margin();
@@ -1370,87 +1338,26 @@ pub fn certify(
         )));
     }
     let lim = limits_at(&predicted, d, law.accommodation).map_err(&fail)?;
-    // The comfort channel's worst-case gain, design and passive (design model).
-    let passive_sys = Lti::new(
-        plant.a.clone(),
-        plant.b_w.clone(),
-        cz.clone(),
-        DMatrix::zeros(cz.nrows(), nw),
-    );
-    let (hd, hp) = (
-        comfort_sys
-            .hinf_norm(1e-6)
-            .map_err(|e| fail(e.to_string()))?,
-        passive_sys
-            .hinf_norm(1e-6)
-            .map_err(|e| fail(e.to_string()))?,
-    );
-    let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
-    let mut poles: Vec<[f64; 2]> = crate::numerics::eig::eigenvalues(&cl.a)
-        .iter()
-        .map(|l| [l.re, l.im])
-        .collect();
-    poles.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     let mut uncertainty = over_uncertainty(ctx, robust_to, law, wiring).map_err(&fail)?;
     if let Some(u) = uncertainty.as_mut() {
         u.predict_held(law, d);
     }
     let communication_steps = communication_steps(law, nominal, uncertainty.as_ref(), d);
-    // The prediction for a nominal design; for a robust one the car model's bound, claimed
-    // only where it covers every prediction on the exact car (the car model's Padé rear track
-    // and band-unlimited weightings differ from the car; a bound that does not cover is no
-    // guarantee of the car, and is reported as such).
-    let guaranteed = match uncertainty.as_mut() {
-        // Accommodated: every stationary loop of the box is the nominal one, checked here on
-        // the predictions (computed with the estimate settled, not assumed equal).
-        Some(u) if u.accommodated_down_to.is_some() => {
-            let seat = predicted.wk_rms_seat_m_s2;
-            if let Some((label, f)) = u
-                .predictions
-                .iter()
-                .find(|(_, f)| (f.wk_rms_seat_m_s2 - seat).abs() > 1e-12 * seat)
-            {
-                return Err(fail(format!(
-                    "accommodated, yet the prediction at {label} ({:.6}) differs from the \
-                     nominal one ({seat:.6})",
-                    f.wk_rms_seat_m_s2
-                )));
-            }
-            Some(u.worst_predicted_wk_rms_seat_m_s2.max(seat))
-        }
-        Some(u) => u
-            .bound_wk_rms_seat
-            .as_ref()
-            .map(|b| b.value)
-            .and_then(|b| u.claim(b, "")),
-        None => Some(predicted.wk_rms_seat_m_s2),
-    };
-    let road = &d.road;
-    let band = road.band_hz();
+    let guaranteed = guarantee(uncertainty.as_mut(), &predicted).map_err(&fail)?;
     Ok(ComfortCertificate {
         variant: variant.into(),
         role: Role::Design,
         objective: "comfort",
         robust_to,
         comfort: Comfort {
-            road: RoadDescription {
-                iso_class: String::from(road.iso_class),
-                speed_m_s: road.speed,
-                tracks: "independent",
-                rear_wheels: format!(
-                    "the front track {:.4} s later (exact; the design model: {})",
-                    (ctx.params.l1 + ctx.params.l2) / road.speed,
-                    road.rear_wheels
-                ),
-                band_hz: [band.0, band.1],
-            },
+            road: road_description(ctx),
             predicted_wk_rms_seat_m_s2: predicted.wk_rms_seat_m_s2,
             passive_wk_rms_seat_m_s2: passive.wk_rms_seat_m_s2,
             guaranteed_wk_rms_seat_m_s2: guaranteed,
             predicted,
             passive,
-            design_model_wk_rms_seat_m_s2: dm_seat,
-            design_model_vibration_total_m_s2: dm_total,
+            design_model_wk_rms_seat_m_s2: model.seat,
+            design_model_vibration_total_m_s2: model.total,
             uncertainty,
             master_orders: master_orders(law, nominal, d),
             held,
@@ -1458,7 +1365,7 @@ pub fn certify(
         },
         unmodelled_delay: UnmodelledDelay {
             tolerated_delay_s: d.unmodelled_delay,
-            small_gain_norm: small_gain,
+            small_gain_norm: model.small_gain,
             delay_margin_s: delay_margin,
         },
         limits: lim,
@@ -1468,15 +1375,10 @@ pub fn certify(
         saturation,
         actuator_lag: actuator_lags(law, ctx.params, d).map_err(&fail)?,
         actuator_lag_bound,
-        hinf_comfort: HinfComfort {
-            design: hd.upper,
-            passive: hp.upper,
-            design_peak_hz: hz(hd.peak_frequency),
-            passive_peak_hz: hz(hp.peak_frequency),
-        },
-        spectral_abscissa: abscissa,
+        hinf_comfort: model.hinf,
+        spectral_abscissa: model.abscissa,
         controller_spectral_abscissa: crate::numerics::eig::spectral_abscissa(&law.lti.a),
-        closed_loop_poles: poles,
+        closed_loop_poles: model.poles,
         measurements: law.inputs.clone(),
         controller: serde_json::json!({
             "A": crate::thesis::certificate::matrix_json(&law.lti.a),
@@ -1486,6 +1388,138 @@ pub fn certify(
         }),
         notes,
     })
+}
+
+/// What the design model says of a law's closed loop ([`design_model_facts`]).
+struct DesignModelFacts {
+    /// Its spectral abscissa (< 0, checked) and poles, sorted.
+    abscissa: f64,
+    poles: Vec<[f64; 2]>,
+    /// Its exact comfort H2 norms: W_k seat, and the vibration total.
+    seat: f64,
+    total: f64,
+    /// The comfort channel's worst-case gain, the design's and the passive car's.
+    hinf: HinfComfort,
+    /// The unmodelled-delay channel's norm (< 1, checked).
+    small_gain: f64,
+}
+
+/// The design model's closed loop of `law` wired by `wiring`: stable, its exact comfort norms,
+/// its worst-case gain beside the passive car's, and robust stability to the unmodelled delay.
+fn design_model_facts(
+    ctx: &Context,
+    law: &ControlLaw,
+    wiring: Wiring,
+) -> Result<DesignModelFacts, String> {
+    let d = ctx.design;
+    let g0 = ctx.plant();
+    let (plant, sensors) = wiring(&g0);
+    let cl = design_loop(&plant, &sensors, law)?;
+    let abscissa = spectral_abscissa(&cl.a);
+    if abscissa.is_nan() || abscissa >= 0.0 {
+        return Err(format!(
+            "closed loop unstable (spectral abscissa {abscissa:e})"
+        ));
+    }
+    let nw = plant.b_w.ncols();
+    let cz = DMatrix::from_fn(g0.c_z.nrows(), plant.a.nrows(), |i, j| g0.c_z[(i, j)]);
+    let comfort_sys = cl.from_w(
+        &cz,
+        &DMatrix::zeros(cz.nrows(), nw),
+        &DMatrix::zeros(cz.nrows(), N_ACTUATORS),
+    );
+    let h2 = |rows: &[usize]| {
+        comfort_sys
+            .select_outputs(rows)
+            .h2_norm()
+            .map_err(|e| e.to_string())
+    };
+    let (seat, total) = (h2(&[0])?, h2(&[0, 1, 2])?);
+    let small_gain = unmodelled_delay_norm(&cl, d.unmodelled_delay, &force_limits(d))?;
+    if small_gain.is_nan() || small_gain >= 1.0 {
+        return Err(format!(
+            "the unmodelled-delay channel's norm {small_gain:.4} is not below 1"
+        ));
+    }
+    let passive_sys = Lti::new(
+        plant.a.clone(),
+        plant.b_w.clone(),
+        cz.clone(),
+        DMatrix::zeros(cz.nrows(), nw),
+    );
+    let hd = comfort_sys.hinf_norm(1e-6).map_err(|e| e.to_string())?;
+    let hp = passive_sys.hinf_norm(1e-6).map_err(|e| e.to_string())?;
+    let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
+    let mut poles: Vec<[f64; 2]> = crate::numerics::eig::eigenvalues(&cl.a)
+        .iter()
+        .map(|l| [l.re, l.im])
+        .collect();
+    poles.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    Ok(DesignModelFacts {
+        abscissa,
+        poles,
+        seat,
+        total,
+        hinf: HinfComfort {
+            design: hd.upper,
+            passive: hp.upper,
+            design_peak_hz: hz(hd.peak_frequency),
+            passive_peak_hz: hz(hp.peak_frequency),
+        },
+        small_gain,
+    })
+}
+
+/// The figure a certificate guarantees: the prediction for a nominal design; for a robust one
+/// the car model's bound, claimed only where it covers every prediction on the exact car (the
+/// car model's Padé rear track and band-unlimited weightings differ from the car; a bound that
+/// does not cover is no guarantee of the car, and is reported as such).
+fn guarantee(
+    uncertainty: Option<&mut OverUncertainty>,
+    predicted: &Figures,
+) -> Result<Option<f64>, String> {
+    Ok(match uncertainty {
+        // Accommodated: every stationary loop of the box is the nominal one, checked here on
+        // the predictions (computed with the estimate settled, not assumed equal).
+        Some(u) if u.accommodated_down_to.is_some() => {
+            let seat = predicted.wk_rms_seat_m_s2;
+            if let Some((label, f)) = u
+                .predictions
+                .iter()
+                .find(|(_, f)| (f.wk_rms_seat_m_s2 - seat).abs() > 1e-12 * seat)
+            {
+                return Err(format!(
+                    "accommodated, yet the prediction at {label} ({:.6}) differs from the \
+                     nominal one ({seat:.6})",
+                    f.wk_rms_seat_m_s2
+                ));
+            }
+            Some(u.worst_predicted_wk_rms_seat_m_s2.max(seat))
+        }
+        Some(u) => u
+            .bound_wk_rms_seat
+            .as_ref()
+            .map(|b| b.value)
+            .and_then(|b| u.claim(b, "")),
+        None => Some(predicted.wk_rms_seat_m_s2),
+    })
+}
+
+/// The design road as a certificate describes it.
+fn road_description(ctx: &Context) -> RoadDescription {
+    let road = &ctx.design.road;
+    let band = road.band_hz();
+    RoadDescription {
+        iso_class: String::from(road.iso_class),
+        speed_m_s: road.speed,
+        tracks: "independent",
+        rear_wheels: format!(
+            "the front track {:.4} s later (exact; the design model: {})",
+            (ctx.params.l1 + ctx.params.l2) / road.speed,
+            road.rear_wheels
+        ),
+        band_hz: [band.0, band.1],
+    }
 }
 
 /// The limits at `limit_sigmas` standard deviations of `predicted` over their bounds, each
