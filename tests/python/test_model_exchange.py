@@ -20,6 +20,10 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCENARIOS = {
     "linear": {"road_z_fl": 0.05, "u_seat": 300.0},
     "stops": {"road_z_fl": 0.15, "u_seat": 1000.0, "u_fr": 2500.0},
+    # 10 Hz actuators, the seat's losing half its force at 0.5 s: the lag's states and the
+    # fault's time event.
+    "lag and fault": {"road_z_rr": 0.03, "u_seat": 400.0, "u_rl": -800.0,
+                      "actuator_bandwidth": 10.0, "fault_time": 0.5, "fault_loss_seat": 0.5},
 }
 OUTPUTS = ["x[1]", "x[4]", "x[13]", "stroke_fl", "stroke_fr", "stroke_seat", "tire_force_fl",
            "tire_force_fr", "stop_force_fl", "stop_force_fr", "stop_force_seat", "a_seat",
@@ -55,6 +59,11 @@ def test_cvode_on_model_exchange_matches_the_exact_co_simulation(plant_fmu, scen
         # The run switches contacts: the comparison covers the events.
         for name in ["stop_force_fl", "stop_force_fr", "stop_force_seat"]:
             assert np.ptp(cs[name]) > 100.0, name
+    if scenario == "lag and fault":
+        # The seat's force rises behind its lag, then halves at the fault.
+        t = cs["time"]
+        assert 390.0 < cs["f_seat"][t == 0.5 - 1e-3][0] < 400.0
+        assert abs(cs["f_seat"][-1] - 200.0) < 1.0 and abs(me["f_seat"][-1] - 200.0) < 1.0
 
 
 def readme_modes():
