@@ -1639,61 +1639,13 @@ fn over_uncertainty(
     let (model, bound_model) = bound_model(ctx.design, ctx.params);
     let g0 = &ComfortPlant::new(ctx.params, &model);
     let d = &model;
-    let (labels, conditions, channel, grid): (Vec<String>, Vec<Conditions>, _, Vec<ComfortPlant>) =
-        match kind {
-            Uncertainty::None | Uncertainty::Saturation | Uncertainty::InputDelay => {
-                return Ok(None)
-            }
-            Uncertainty::SprungMass => {
-                let masses = check_masses(d);
-                let (centre, _, mass) = mass_channel(ctx.params, d);
-                // The dense check grid: the car model at every mass of the file's grid.
-                let grid = (0..d.mass_grid_points)
-                    .map(|i| {
-                        let m = d.mass_min
-                            + (d.mass_max - d.mass_min) * i as f64
-                                / (d.mass_grid_points - 1) as f64;
-                        ComfortPlant::at_mass(ctx.params, d, m)
-                    })
-                    .collect();
-                (
-                    masses.iter().map(|m| format!("m_s = {m} kg")).collect(),
-                    masses
-                        .iter()
-                        .map(|m| {
-                            Conditions::nominal(VehicleParams {
-                                m_s: *m,
-                                ..*ctx.params
-                            })
-                        })
-                        .collect(),
-                    (centre, vec![mass]),
-                    grid,
-                )
-            }
-            Uncertainty::ActuatorFaults => {
-                let (mut labels, mut conditions): (Vec<_>, Vec<_>) =
-                    single_faults(ctx).into_iter().unzip();
-                labels.push(format!("all at {}", d.fault_rho_min));
-                conditions.push(Conditions {
-                    effectiveness: [d.fault_rho_min; N_ACTUATORS],
-                    ..Conditions::nominal(*ctx.params)
-                });
-                let (centre, _, faults) = fault_channel(g0, d);
-                // The dense check: every vertex of the effectiveness box.
-                let grid = FaultBox {
-                    rho_min: d.fault_rho_min,
-                }
-                .vertices()
-                .iter()
-                .map(|rho| g0.with_effectiveness(rho))
-                .collect();
-                (labels, conditions, (centre, faults.split()), grid)
-            }
-        };
-    let predictions = labels
+    let Some(cases) = uncertainty_cases(ctx, kind, g0, d) else {
+        return Ok(None);
+    };
+    let predictions = cases
+        .labels
         .into_iter()
-        .zip(conditions.iter().copied())
+        .zip(cases.conditions.iter().copied())
         .map(|(label, c)| {
             predict(Some(law), c, &ctx.design.road)
                 .map(|f| (label.clone(), f))
@@ -1711,7 +1663,7 @@ fn over_uncertainty(
     let (seat, bound_failure, total) = if accommodated.is_some() {
         (None, None, None)
     } else {
-        let (centre, channel) = channel;
+        let (centre, channel) = cases.channel;
         let (plant, sensors) = wiring(&centre);
         let cl = design_loop(&plant, &sensors, law)?;
         let uncertain = uncertain_loop(&cl, &channel, plant.a.nrows())?;
@@ -1737,24 +1689,7 @@ fn over_uncertainty(
         };
         (seat, bound_failure, uncertain.bound(&all_rows))
     };
-    let mut grid_worst: f64 = 0.0;
-    for g in &grid {
-        let (plant, sensors) = wiring(g);
-        let cl = design_loop(&plant, &sensors, law)?;
-        if !crate::numerics::eig::is_hurwitz(&cl.a) {
-            return Err("the car model is unstable at a point of the check grid".into());
-        }
-        let rows = comfort_rows(g0, &cl, &[0]);
-        let h2 = Lti::new(
-            cl.a.clone(),
-            cl.b_w.clone(),
-            rows,
-            DMatrix::zeros(1, cl.b_w.ncols()),
-        )
-        .h2_norm()
-        .map_err(|e| format!("car model on the check grid: {e}"))?;
-        grid_worst = grid_worst.max(h2);
-    }
+    let grid_worst = grid_worst(g0, &cases.grid, law, wiring)?;
     if let Some(seat) = &seat {
         if grid_worst > seat.value * (1.0 + 1e-6) {
             return Err(format!(
@@ -1771,9 +1706,111 @@ fn over_uncertainty(
         bound_vibration_total: total,
         bound_model_grid_worst_wk_rms_seat: Some(grid_worst),
         accommodated_down_to: accommodated,
-        bound_model_grid_points: grid.len(),
-        ..OverUncertainty::predicted(kind, predictions, conditions, ctx.params)
+        bound_model_grid_points: cases.grid.len(),
+        ..OverUncertainty::predicted(kind, predictions, cases.conditions, ctx.params)
     }))
+}
+
+/// What a design's uncertainty is checked on ([`uncertainty_cases`]).
+struct UncertaintyCases {
+    /// The conditions its predictions are made at, labelled.
+    labels: Vec<String>,
+    conditions: Vec<Conditions>,
+    /// The car model at the uncertainty's centre, and its channel (the multiplier bound's).
+    channel: (ComfortPlant, Vec<Channel>),
+    /// The car model at every point of the dense check grid.
+    grid: Vec<ComfortPlant>,
+}
+
+/// The cases of `kind` on the car model `g0` of the design `d`; none for a design robust to
+/// nothing the car model carries (none, saturation, a known delay: their own checks).
+fn uncertainty_cases(
+    ctx: &Context,
+    kind: Uncertainty,
+    g0: &ComfortPlant,
+    d: &ComfortDesign,
+) -> Option<UncertaintyCases> {
+    match kind {
+        Uncertainty::None | Uncertainty::Saturation | Uncertainty::InputDelay => None,
+        Uncertainty::SprungMass => {
+            let masses = check_masses(d);
+            let (centre, _, mass) = mass_channel(ctx.params, d);
+            // The dense check grid: the car model at every mass of the file's grid.
+            let grid = (0..d.mass_grid_points)
+                .map(|i| {
+                    let m = d.mass_min
+                        + (d.mass_max - d.mass_min) * i as f64 / (d.mass_grid_points - 1) as f64;
+                    ComfortPlant::at_mass(ctx.params, d, m)
+                })
+                .collect();
+            Some(UncertaintyCases {
+                labels: masses.iter().map(|m| format!("m_s = {m} kg")).collect(),
+                conditions: masses
+                    .iter()
+                    .map(|m| {
+                        Conditions::nominal(VehicleParams {
+                            m_s: *m,
+                            ..*ctx.params
+                        })
+                    })
+                    .collect(),
+                channel: (centre, vec![mass]),
+                grid,
+            })
+        }
+        Uncertainty::ActuatorFaults => {
+            let (mut labels, mut conditions): (Vec<_>, Vec<_>) =
+                single_faults(ctx).into_iter().unzip();
+            labels.push(format!("all at {}", d.fault_rho_min));
+            conditions.push(Conditions {
+                effectiveness: [d.fault_rho_min; N_ACTUATORS],
+                ..Conditions::nominal(*ctx.params)
+            });
+            let (centre, _, faults) = fault_channel(g0, d);
+            // The dense check: every vertex of the effectiveness box.
+            let grid = FaultBox {
+                rho_min: d.fault_rho_min,
+            }
+            .vertices()
+            .iter()
+            .map(|rho| g0.with_effectiveness(rho))
+            .collect();
+            Some(UncertaintyCases {
+                labels,
+                conditions,
+                channel: (centre, faults.split()),
+                grid,
+            })
+        }
+    }
+}
+
+/// The car model's exact W_k seat H2 norm, worst over `grid`, each loop checked stable.
+fn grid_worst(
+    g0: &ComfortPlant,
+    grid: &[ComfortPlant],
+    law: &ControlLaw,
+    wiring: Wiring,
+) -> Result<f64, String> {
+    let mut worst: f64 = 0.0;
+    for g in grid {
+        let (plant, sensors) = wiring(g);
+        let cl = design_loop(&plant, &sensors, law)?;
+        if !crate::numerics::eig::is_hurwitz(&cl.a) {
+            return Err("the car model is unstable at a point of the check grid".into());
+        }
+        let rows = comfort_rows(g0, &cl, &[0]);
+        let h2 = Lti::new(
+            cl.a.clone(),
+            cl.b_w.clone(),
+            rows,
+            DMatrix::zeros(1, cl.b_w.ncols()),
+        )
+        .h2_norm()
+        .map_err(|e| format!("car model on the check grid: {e}"))?;
+        worst = worst.max(h2);
+    }
+    Ok(worst)
 }
 
 /// Each actuator alone at `fault_rho_min`, labelled by the actuator.
