@@ -8,8 +8,8 @@
 
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
-    Capabilities, Causality, DefaultExperiment, Model, ModelDescription, ModelError,
-    ValueReference, Variable,
+    Capabilities, Causality, DefaultExperiment, DiscreteUpdate, Model, ModelDescription,
+    ModelError, ValueReference, Variable,
 };
 use std::path::Path;
 use vehicle::model::CORNERS;
@@ -144,7 +144,12 @@ pub fn model_description() -> ModelDescription {
         description: "Road heights and vertical velocities under the four wheels: 1 - cos bump, ISO 8608 random road, sine sweep, pothole / step, on a terrain of grade, hills and crossfall; rear wheels on the front track one wheelbase later".into(),
         version: env!("CARGO_PKG_VERSION").into(),
         capabilities: Capabilities::exact_stepping(false),
-        model_exchange: None,
+        // Model Exchange too: no continuous state, the outputs functions of time, and the
+        // times where one kinks time events (`Road::breakpoints`).
+        model_exchange: Some(fmu_core::description::ModelExchange {
+            number_of_event_indicators: 0,
+            completed_integrator_step_not_needed: true,
+        }),
         default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3, tolerance: 1e-6 },
         variables: vars,
     }
@@ -307,6 +312,34 @@ impl Model for RoadFmu {
         self.time = time + step;
         self.outputs = None;
         Ok(())
+    }
+
+    fn check_model_exchange(&self) -> Result<(), ModelError> {
+        Ok(())
+    }
+
+    fn set_time(&mut self, time: f64) {
+        if self.time.to_bits() != time.to_bits() {
+            self.time = time;
+            self.outputs = None;
+        }
+    }
+
+    /// The next breakpoint of the road after `time`: where a height or a velocity kinks.
+    fn update_discrete_states(&mut self, time: f64) -> Result<DiscreteUpdate, ModelError> {
+        self.set_time(time);
+        let road = self
+            .road
+            .as_ref()
+            .ok_or("the road is built at initialisation")?;
+        Ok(DiscreteUpdate {
+            states_changed: false,
+            // Past the one just handled, which an integrator may have reached a rounding short.
+            next_event_time: road
+                .breakpoints()
+                .into_iter()
+                .find(|t| *t > time + 1e-12 * time.abs().max(1.0)),
+        })
     }
 
     fn save(&self, out: &mut StateWriter) {

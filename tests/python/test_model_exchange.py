@@ -163,3 +163,33 @@ def test_fmpys_directional_derivatives_are_the_finite_differences(plant_fmu):
         assert np.max(np.abs(column - reference)) <= 1e-9 * np.max(np.abs(reference)), known
     fmu.terminate()
     fmu.freeInstance()
+
+
+def test_the_road_as_model_exchange_announces_its_kinks():
+    """The road FMU is Model Exchange too (no state: its outputs are functions of time), so an
+    importer that takes Model Exchange only can drive the Model Exchange plant with it. Where a
+    height or a velocity kinks (a terrain ramp's ends, a pothole's ramps), under the front and
+    then the rear wheels, it asks for a time event; its outputs equal the Co-Simulation's."""
+    road = str(ROOT / "dist" / "road.fmu")
+    speed, wheelbase = 10.0, 2.4
+    values = {"profile": 4, "pothole_depth": -0.05, "pothole_length": 3.0, "pothole_ramp": 0.5,
+              "speed": speed, "ramp_rise": 0.5, "ramp_length": 30.0}
+    outputs = ["road_z_fl", "road_z_rr", "road_v_fl", "road_v_rr"]
+    common = dict(stop_time=5.0, output_interval=1e-3, start_values=values, output=outputs)
+    me = simulate_fmu(road, fmi_type="ModelExchange", record_events=True, **common)
+    t = me["time"]
+    events = sorted({t[i] for i in range(1, len(t)) if t[i] == t[i - 1]})
+    start = read_model_description(road)
+    start_distance = next(float(v.start) for v in start.modelVariables if v.name == "start_distance")
+    # The pothole's ramps (0, 0.5, 2.5, 3 m past start_distance) and the terrain ramp's ends
+    # (0 and 30 m), under the front wheels and a wheelbase later under the rear ones; the one
+    # at t = 0 is the start's.
+    expected = sorted({round((d + w) / speed, 12)
+                       for d in [start_distance + s for s in (0.0, 0.5, 2.5, 3.0)] + [0.0, 30.0]
+                       for w in (0.0, wheelbase)} - {0.0})
+    expected = [e for e in expected if e < 5.0]
+    assert np.allclose(events, expected, atol=1e-9), (events, expected)
+    me = simulate_fmu(road, fmi_type="ModelExchange", record_events=False, **common)
+    cs = simulate_fmu(road, fmi_type="CoSimulation", **common)
+    for name in outputs:
+        assert np.array_equal(me[name], cs[name]), name

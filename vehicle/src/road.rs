@@ -201,6 +201,47 @@ impl Road {
         Ok(Road { terrain, ..self })
     }
 
+    /// The times at which a height or a velocity under a wheel may jump or kink, sorted: the
+    /// ends of a bump, of a pothole's ramps (a step where they have no length), of a sweep, of
+    /// a terrain ramp or crossfall, at the front and then the rear wheels, and the end of an ISO
+    /// road's fade-in. Between them every output is smooth: an integrator (the road as Model
+    /// Exchange) takes each as a time event.
+    pub fn breakpoints(&self) -> Vec<f64> {
+        let along_profile: Vec<f64> = match self.profile {
+            Profile::Bump { length, .. } => vec![0.0, length],
+            Profile::Pothole { length, ramp, .. } if length.is_finite() => {
+                vec![0.0, ramp, length - ramp, length]
+            }
+            Profile::Pothole { ramp, .. } => vec![0.0, ramp],
+            Profile::SineSweep { duration, .. } => vec![0.0, self.speed * duration],
+            Profile::Iso { .. } => Vec::new(),
+        };
+        let t = &self.terrain;
+        let mut along_terrain = Vec::new();
+        if t.ramp_rise != 0.0 {
+            along_terrain.extend([0.0, t.ramp_length]);
+        }
+        if t.crossfall != 0.0 {
+            along_terrain.extend([0.0, t.crossfall_length]);
+        }
+        if t.hill_height != 0.0 {
+            along_terrain.push(0.0);
+        }
+        let mut times: Vec<f64> = along_profile
+            .iter()
+            .map(|s| s + self.start_distance)
+            .chain(along_terrain)
+            .flat_map(|d| [d / self.speed, (d + self.wheelbase) / self.speed])
+            .collect();
+        if let Profile::Iso { fade_in, .. } = self.profile {
+            times.push(fade_in);
+        }
+        times.retain(|t| t.is_finite() && *t >= 0.0);
+        times.sort_by(f64::total_cmp);
+        times.dedup();
+        times
+    }
+
     /// `[z_fl, z_fr, z_rl, z_rr, v_fl, v_fr, v_rl, v_rr]` at time `t` [m, m/s].
     pub fn at(&self, t: f64) -> [f64; 8] {
         let s_front = self.speed * t - self.start_distance;
@@ -621,6 +662,64 @@ fn iso_track(g_d_n0: f64, rand: &mut impl FnMut() -> f64) -> Vec<(f64, f64, f64)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every kink of a road (a jump of a velocity) lies on one of its breakpoints, and the
+    /// heights never jump: on a pothole, a bump, a terrain ramp (a kink at each end) and a
+    /// crossfall, sampled every 0.1 ms, a velocity that moves by more than the smooth parts'
+    /// accelerations allow (under 0.01 m/s a sample here) does so within a sample of a
+    /// breakpoint. The ramp's kinks are 0.17 m/s.
+    #[test]
+    fn every_kink_is_a_breakpoint() {
+        let terrain = Terrain {
+            ramp_rise: 0.5,
+            ramp_length: 30.0,
+            crossfall: 0.06,
+            crossfall_length: 10.0,
+            ..Terrain::default()
+        };
+        let profiles = [
+            Profile::Pothole {
+                depth: -0.05,
+                length: 3.0,
+                ramp: 0.5,
+                side: Side::Left,
+            },
+            Profile::Bump {
+                height: 0.05,
+                length: 5.0,
+                side: Side::Both,
+            },
+        ];
+        for profile in profiles {
+            let road = Road::new(profile, 10.0, 2.4, 5.0)
+                .unwrap()
+                .with_terrain(terrain)
+                .unwrap();
+            let breaks = road.breakpoints();
+            assert!(breaks.windows(2).all(|w| w[0] < w[1]), "{breaks:?}");
+            let dt = 1e-4;
+            let mut kinks = 0;
+            for k in 1..60_000 {
+                let t = k as f64 * dt;
+                let (a, b) = (road.at(t - dt), road.at(t));
+                assert!(
+                    (0..4).all(|j| (b[j] - a[j]).abs() < 0.01),
+                    "a height jumps at {t}"
+                );
+                if (4..8).any(|j| (b[j] - a[j]).abs() > 0.05) {
+                    kinks += 1;
+                    assert!(
+                        breaks
+                            .iter()
+                            .any(|s| *s >= t - dt * 1.000001 && *s <= t * 1.000001),
+                        "a kink at {t} s with no breakpoint in its sample ({breaks:?})"
+                    );
+                }
+            }
+            // The ramp's two ends under the front wheels, then under the rear ones.
+            assert!(kinks >= 4, "{kinks} kinks seen");
+        }
+    }
 
     fn roads() -> Vec<Road> {
         let profiles = [
