@@ -496,7 +496,6 @@ fn comfort_all(
     params: &VehicleParams,
     design: &ComfortDesign,
 ) -> Result<Outcome, SynthError> {
-    use rayon::prelude::*;
     // The state-feedback designs and those on the car's sensors, each on its design model and
     // with the designs they share. Without a `car` block the car's design is the
     // output-feedback road model's, which the designs on the car's sensors refuse.
@@ -514,13 +513,40 @@ fn comfort_all(
             design: &car_design,
         },
     ];
-    let shared = [Shared::default(), Shared::default()];
     let names: Vec<&str> = if names.is_empty() {
         self::names()
     } else {
         names.to_vec()
     };
-    // The designs others build on first, then the rest, each on its own task.
+    let (mut by_name, refused) = synthesise_each(&names, &contexts);
+    let names: Vec<&str> = names
+        .into_iter()
+        .filter(|n| by_name.contains_key(*n))
+        .collect();
+    beside_their_nominal_designs(&mut by_name, &contexts);
+    let designs = names
+        .iter()
+        .map(|name| {
+            let (r, seconds) = by_name.remove(*name).expect("synthesised above");
+            (name.to_string(), shipped(name, r, seconds, design))
+        })
+        .collect();
+    Ok(Outcome { designs, refused })
+}
+
+/// Each of `names` on its design model's context, each on its own task (the designs others
+/// build on first, through their contexts' shared results), with its time; the refused ones
+/// with why.
+#[allow(clippy::type_complexity)]
+fn synthesise_each(
+    names: &[&str],
+    contexts: &[Context; 2],
+) -> (
+    BTreeMap<String, (ComfortDesignResult, f64)>,
+    Vec<(String, String)>,
+) {
+    use rayon::prelude::*;
+    let shared = [Shared::default(), Shared::default()];
     let done: Vec<(String, Result<ComfortDesignResult, ComfortError>, f64)> = names
         .par_iter()
         .with_max_len(1)
@@ -533,7 +559,7 @@ fn comfort_all(
         })
         .collect();
     let mut refused = Vec::new();
-    let mut by_name: BTreeMap<String, (ComfortDesignResult, f64)> = BTreeMap::new();
+    let mut by_name = BTreeMap::new();
     for (n, r, t) in done {
         match r {
             Ok(r) => {
@@ -542,11 +568,18 @@ fn comfort_all(
             Err(e) => refused.push((n, e.to_string())),
         }
     }
-    let names: Vec<&str> = names
-        .into_iter()
-        .filter(|n| by_name.contains_key(*n))
-        .collect();
-    // Each robust design's nominal counterpart at the same conditions, when both were made.
+    (by_name, refused)
+}
+
+/// Each robust design's nominal counterpart at the same conditions, when both were made,
+/// into the robust design's certificate. Every pair's every condition in one parallel pass
+/// (after every design is made this is all that runs; pair by pair, the two threads idled
+/// between the pairs' few conditions), each on the robust design's own design model.
+fn beside_their_nominal_designs(
+    by_name: &mut BTreeMap<String, (ComfortDesignResult, f64)>,
+    contexts: &[Context; 2],
+) {
+    use rayon::prelude::*;
     let pairs: Vec<(String, String)> = by_name
         .keys()
         .filter_map(|n| {
@@ -556,9 +589,6 @@ fn comfort_all(
                 .map(|nom| (n.clone(), nom.to_string()))
         })
         .collect();
-    // Every pair's every condition in one parallel pass (after every design is made this is
-    // all that runs; pair by pair, the two threads idled between the pairs' few conditions).
-    // Each on the robust design's own design model.
     let jobs: Vec<(&ControlLaw, Conditions, &ComfortDesign)> = pairs
         .iter()
         .filter_map(|(robust, nominal)| {
@@ -569,17 +599,15 @@ fn comfort_all(
         })
         .flatten()
         .collect();
-    let done: Vec<(Option<Figures>, Option<Held>)> = {
-        use rayon::prelude::*;
-        jobs.par_iter()
-            .map(|(law, c, on)| {
-                rayon::join(
-                    || predict(Some(law), *c, &on.road).ok(),
-                    || held_at(law, *c, on),
-                )
-            })
-            .collect()
-    };
+    let done: Vec<(Option<Figures>, Option<Held>)> = jobs
+        .par_iter()
+        .map(|(law, c, on)| {
+            rayon::join(
+                || predict(Some(law), *c, &on.road).ok(),
+                || held_at(law, *c, on),
+            )
+        })
+        .collect();
     let mut done = done.into_iter();
     for (robust, nominal) in &pairs {
         let entry = &mut by_name.get_mut(robust).expect("present").0;
@@ -596,55 +624,55 @@ fn comfort_all(
         u.nominal_held = held;
         u.nominal_name = Some(nominal.clone());
     }
-    let designs = names
-        .iter()
-        .map(|name| {
-            let (r, seconds) = by_name.remove(*name).expect("synthesised above");
-            let v = variant(name).expect("checked");
-            let c = &r.certificate;
-            let comfort = &c.comfort;
-            let guarantee = comfort_guarantee(design, comfort, c.robust_to);
-            let mut json = controller_json(
-                name,
-                &format!("{} — comfort design: {}", name, v.summary),
-                &guarantee,
-                &r.law.inputs,
-                &r.law.lti,
-            )
-            .with(r.extensions.clone());
-            json.communication_steps = comfort.communication_steps.for_the_fmu();
-            let (certified, nominal_figure) = headline(c);
-            let row = SummaryRow {
-                variant: name.to_string(),
-                objective: "comfort",
-                robust_to: c.robust_to.label().to_string(),
-                predicted_wk_rms_seat: Some(comfort.predicted_wk_rms_seat_m_s2),
-                passive_wk_rms_seat: Some(comfort.passive_wk_rms_seat_m_s2),
-                guaranteed_wk_rms_seat: comfort.guaranteed_wk_rms_seat_m_s2,
-                held: Some(held(comfort)),
-                steps: step_cells(&comfort.communication_steps),
-                master_orders: comfort.master_orders.clone(),
-                gamma: None,
-                norm: None,
-                passive_norm: None,
-                certified,
-                nominal_design: v.nominal.map(String::from),
-                nominal_figure,
-                seconds,
-            };
-            (
-                name.to_string(),
-                Synthesised {
-                    certificate: serde_json::to_value(c).expect("serialisable"),
-                    law: r.law,
-                    controller_json: json,
-                    row,
-                    seconds,
-                },
-            )
-        })
-        .collect();
-    Ok(Outcome { designs, refused })
+}
+
+/// What ships of a design made in `seconds`: its controller file, its certificate and its row
+/// of the summary.
+fn shipped(
+    name: &str,
+    r: ComfortDesignResult,
+    seconds: f64,
+    design: &ComfortDesign,
+) -> Synthesised {
+    let v = variant(name).expect("checked");
+    let c = &r.certificate;
+    let comfort = &c.comfort;
+    let guarantee = comfort_guarantee(design, comfort, c.robust_to);
+    let mut json = controller_json(
+        name,
+        &format!("{} — comfort design: {}", name, v.summary),
+        &guarantee,
+        &r.law.inputs,
+        &r.law.lti,
+    )
+    .with(r.extensions.clone());
+    json.communication_steps = comfort.communication_steps.for_the_fmu();
+    let (certified, nominal_figure) = headline(c);
+    let row = SummaryRow {
+        variant: name.to_string(),
+        objective: "comfort",
+        robust_to: c.robust_to.label().to_string(),
+        predicted_wk_rms_seat: Some(comfort.predicted_wk_rms_seat_m_s2),
+        passive_wk_rms_seat: Some(comfort.passive_wk_rms_seat_m_s2),
+        guaranteed_wk_rms_seat: comfort.guaranteed_wk_rms_seat_m_s2,
+        held: Some(held(comfort)),
+        steps: step_cells(&comfort.communication_steps),
+        master_orders: comfort.master_orders.clone(),
+        gamma: None,
+        norm: None,
+        passive_norm: None,
+        certified,
+        nominal_design: v.nominal.map(String::from),
+        nominal_figure,
+        seconds,
+    };
+    Synthesised {
+        certificate: serde_json::to_value(c).expect("serialisable"),
+        law: r.law,
+        controller_json: json,
+        row,
+        seconds,
+    }
 }
 
 /// The certified figure over the design's uncertainty and the nominal design's over the same.
