@@ -237,7 +237,6 @@ impl<M: Model> Instance<M> {
     pub fn exit_initialization_mode(&mut self) -> Result<Status, ModelError> {
         if self.interface == Interface::ModelExchange {
             // Checked first: a refusal leaves the model as initialisation left it.
-            self.model.check_parameters()?;
             self.model.check_model_exchange()?;
         }
         self.model.exit_initialization(self.start_time)?;

@@ -956,6 +956,15 @@ impl Plant {
         }
     }
 
+    /// Model Exchange: the integrator has accepted the run up to `time` (a completed step, or
+    /// an event): the time since the last is counted in the current contact mode.
+    fn accept(&mut self, time: f64) {
+        self.sim.set_exchange_time(time);
+        self.sim.account_exchange_time(self.accounted);
+        (self.accounted, self.exchanging) = (time, true);
+        self.invalidate_outputs();
+    }
+
     /// A Model Exchange state or derivative beyond `x[*]`, by value reference.
     fn exchange_value(&mut self, vr: ValueReference) -> f64 {
         let mut values = vec![0.0; model_exchange_states()];
@@ -1037,22 +1046,21 @@ impl Model for Plant {
 
     fn get_real(&mut self, vr: ValueReference) -> f64 {
         // Outputs first: a master reads them at every communication point.
-        if (vr::OUTPUT..vr::OUTPUT + N_PHYSICAL_OUTPUTS as u32).contains(&vr) {
+        if let Some(k) = block(vr, vr::OUTPUT, N_PHYSICAL_OUTPUTS) {
             self.update_outputs();
-            self.outputs[(vr - vr::OUTPUT) as usize]
-        } else if (vr::FORCE..vr::FORCE + N_ACTUATORS as u32).contains(&vr) {
+            self.outputs[k]
+        } else if let Some(k) = block(vr, vr::FORCE, N_ACTUATORS) {
             self.update_outputs();
-            self.forces[(vr - vr::FORCE) as usize]
-        } else if (vr::METER..vr::METER + N_METER as u32).contains(&vr) {
+            self.forces[k]
+        } else if let Some(k) = block(vr, vr::METER, N_METER) {
             self.update_outputs();
-            self.meter[(vr - vr::METER) as usize]
-        } else if (vr::SENSOR_OUTPUT..vr::SENSOR_OUTPUT + N_SENSORS as u32).contains(&vr) {
+            self.meter[k]
+        } else if let Some(k) = block(vr, vr::SENSOR_OUTPUT, N_SENSORS) {
             self.update_outputs();
-            self.readings[(vr - vr::SENSOR_OUTPUT) as usize]
-        } else if (vr::CONTACT_OUTPUT..vr::CONTACT_OUTPUT + N_CONTACT_OUTPUTS as u32).contains(&vr)
-        {
+            self.readings[k]
+        } else if let Some(k) = block(vr, vr::CONTACT_OUTPUT, N_CONTACT_OUTPUTS) {
             self.update_outputs();
-            contact_values(&self.contact)[(vr - vr::CONTACT_OUTPUT) as usize]
+            contact_values(&self.contact)[k]
         } else if let Some(spec) = contact_param(vr) {
             (spec.get)(&self.sim.contact)
         } else if let Some(spec) = sensor_param(vr) {
@@ -1182,12 +1190,9 @@ impl Model for Plant {
     }
 
     fn update_discrete_states(&mut self, time: f64) -> Result<DiscreteUpdate, ModelError> {
-        self.sim.set_exchange_time(time);
-        self.sim.account_exchange_time(self.accounted);
-        self.accounted = time;
+        self.accept(time);
         let (faulted, next) = self.sim.exchange_event();
-        (self.faulted, self.exchanging) = (faulted, true);
-        self.invalidate_outputs();
+        self.faulted = faulted;
         Ok(DiscreteUpdate {
             states_changed: false,
             next_event_time: next,
@@ -1195,11 +1200,7 @@ impl Model for Plant {
     }
 
     fn completed_integrator_step(&mut self, time: f64) {
-        self.sim.set_exchange_time(time);
-        self.sim.account_exchange_time(self.accounted);
-        self.accounted = time;
-        self.exchanging = true;
-        self.invalidate_outputs();
+        self.accept(time);
     }
 
     fn directional_derivative(
@@ -1222,22 +1223,17 @@ impl Model for Plant {
             .sim
             .linear_response(&seed_states, &seed_inputs, faulted);
         let contact = contact_values(&linear.contact);
-        let within = |vr: ValueReference, base: u32, n: usize| {
-            (base..base + n as u32)
-                .contains(&vr)
-                .then(|| (vr - base) as usize)
-        };
         for (o, &vr) in out.iter_mut().zip(unknowns) {
-            *o = if let Some(k) = within(vr, vr::OUTPUT, N_PHYSICAL_OUTPUTS) {
+            *o = if let Some(k) = block(vr, vr::OUTPUT, N_PHYSICAL_OUTPUTS) {
                 linear.outputs[k]
-            } else if let Some(k) = within(vr, vr::FORCE, N_ACTUATORS) {
+            } else if let Some(k) = block(vr, vr::FORCE, N_ACTUATORS) {
                 linear.forces[k]
-            } else if let Some(k) = within(vr, vr::METER, N_METER) {
+            } else if let Some(k) = block(vr, vr::METER, N_METER) {
                 linear.meter[k]
-            } else if let Some(k) = within(vr, vr::SENSOR_OUTPUT, N_SENSORS) {
+            } else if let Some(k) = block(vr, vr::SENSOR_OUTPUT, N_SENSORS) {
                 // Noise and bias do not move with the state or the inputs.
                 linear.outputs[self.sensor_rows[k]]
-            } else if let Some(k) = within(vr, vr::CONTACT_OUTPUT, N_CONTACT_OUTPUTS) {
+            } else if let Some(k) = block(vr, vr::CONTACT_OUTPUT, N_CONTACT_OUTPUTS) {
                 contact[k]
             } else if let Some(k) = derivative_index(vr) {
                 linear.derivatives[k]
@@ -1343,14 +1339,22 @@ fn actuator_param(vr: ValueReference) -> Option<&'static ActuatorSpec> {
         .and_then(|i| ACTUATOR_PARAMETERS.get(i as usize))
 }
 
+/// `vr`'s index in the block of `n` value references from `base`, if it is in it.
+#[inline]
+fn block(vr: ValueReference, base: u32, n: usize) -> Option<usize> {
+    (base..base + n as u32)
+        .contains(&vr)
+        .then(|| (vr - base) as usize)
+}
+
 /// The index in Model Exchange's order of the variable at `vr` among the blocks `bases` (the
 /// car's 16, the actuators' lag, the meter's filters: their states, or their derivatives).
 fn exchange_index(vr: ValueReference, bases: [u32; 3]) -> Option<usize> {
     let sizes = [N_STATES, N_ACTUATORS, N_METER_STATES];
     let mut before = 0;
     for (base, size) in bases.into_iter().zip(sizes) {
-        if (base..base + size as u32).contains(&vr) {
-            return Some(before + (vr - base) as usize);
+        if let Some(k) = block(vr, base, size) {
+            return Some(before + k);
         }
         before += size;
     }

@@ -575,7 +575,7 @@ impl System {
         let phi = |contacts: &Contacts, z: &contact::Point| -> f64 {
             switching
                 .iter()
-                .map(|&(k, sign)| sign * contacts.penetration(k, z).min(contacts.force(k, z)))
+                .map(|&(k, sign)| sign * contacts.guard(k, z))
                 .fold(f64::INFINITY, f64::min)
         };
         let z0 = contact::point(x, &road(0.0));

@@ -293,6 +293,13 @@ impl Contacts {
         self.force_at(k, self.penetration(k, z), z)
     }
 
+    /// Element `k`'s guard `min(p, F)` ([`Contact::guard`]): positive exactly while it is in
+    /// contact and pressing.
+    pub fn guard(&self, k: usize, z: &Point) -> f64 {
+        let p = self.penetration(k, z);
+        p.min(self.force_at(k, p, z))
+    }
+
     /// The mode the car is in at `z = [x; r]`, coming from `mode`: each element whose guard is
     /// strictly past zero on the other side switches; one exactly at zero keeps its mode.
     pub fn reconcile(&self, mode: Mode, z: &Point) -> Mode {

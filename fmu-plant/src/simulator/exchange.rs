@@ -45,23 +45,36 @@ impl Simulator {
         }
     }
 
+    /// `from`, in the simulator's order, into `out` in Model Exchange's (the lag slots zero
+    /// with an ideal actuator).
+    fn scatter_exchange(&mut self, from: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        for (k, v) in from.iter().enumerate() {
+            out[self.exchange_index(k)] = *v;
+        }
+    }
+
+    /// `x`, in Model Exchange's order, in the simulator's (the lag slots dropped with an
+    /// ideal actuator).
+    fn gather_exchange(&mut self, x: &[f64]) -> DVector<f64> {
+        self.system();
+        let n = self.xi.len();
+        DVector::from_fn(n, |k, _| x[self.exchange_index(k)])
+    }
+
     /// The continuous states now, in Model Exchange's order.
     pub fn exchange_states(&mut self, out: &mut [f64]) {
-        out.fill(0.0);
-        for k in 0..self.xi.len() {
-            let j = self.exchange_index(k);
-            out[j] = self.xi[k];
-        }
+        // Built first: building sizes the state, which is taken out meanwhile.
+        self.system();
+        let xi = std::mem::take(&mut self.xi);
+        self.scatter_exchange(xi.as_slice(), out);
+        self.xi = xi;
     }
 
     /// Set the continuous states from Model Exchange's order (the lag slots are ignored with
     /// an ideal actuator).
     pub fn set_exchange_states(&mut self, x: &[f64]) {
-        self.system();
-        for k in 0..self.xi.len() {
-            let j = self.exchange_index(k);
-            self.xi[k] = x[j];
-        }
+        self.xi = self.gather_exchange(x);
     }
 
     /// The integrator's time: what the actuators' effectiveness and the outputs read.
@@ -82,26 +95,43 @@ impl Simulator {
     /// whether the fault has started, a discrete state that changes at its time event only,
     /// so that an integrator reaching the onset still integrates the car before it.
     pub fn exchange_derivatives(&mut self, out: &mut [f64], faulted: bool) {
-        let v = self.applied_inputs(faulted);
-        let mode = self.exchange_mode();
-        let n = self.xi.len();
-        let mut dx = DVector::zeros(n);
+        let inputs = self.applied_inputs(faulted);
         self.system();
-        {
-            let sys = self.system.as_mut().expect("built above");
-            let (a, b) = sys.matrices(mode);
-            dx.gemv(1.0, a, &self.xi, 0.0);
-            for (j, column) in b.column_iter().enumerate() {
-                let input = if j < N_INPUTS { v[j] } else { 1.0 };
-                if input != 0.0 {
-                    dx.axpy(input, &column, 1.0);
-                }
+        let xi = std::mem::take(&mut self.xi);
+        let dx = self.in_mode(&xi, &inputs, true);
+        self.xi = xi;
+        self.scatter_exchange(dx.as_slice(), out);
+    }
+
+    /// `A x + B [r; v]` (and the mode's constant, if `constant`) in the derivatives' mode.
+    fn in_mode(
+        &mut self,
+        x: &DVector<f64>,
+        inputs: &[f64; N_INPUTS],
+        constant: bool,
+    ) -> DVector<f64> {
+        let mode = self.exchange_mode();
+        let (a, b) = self.system().matrices(mode);
+        let mut dx = a * x;
+        for (j, column) in b.column_iter().enumerate() {
+            let input = match j {
+                j if j < N_INPUTS => inputs[j],
+                _ if constant => 1.0,
+                _ => 0.0,
+            };
+            if input != 0.0 {
+                dx.axpy(input, &column, 1.0);
             }
         }
-        out.fill(0.0);
-        for k in 0..n {
-            let j = self.exchange_index(k);
-            out[j] = dx[k];
+        dx
+    }
+
+    /// The time the actuators' effectiveness is read at: after the fault's onset, or before.
+    fn fault_time_of(faulted: bool) -> f64 {
+        if faulted {
+            f64::INFINITY
+        } else {
+            f64::NEG_INFINITY
         }
     }
 
@@ -110,11 +140,7 @@ impl Simulator {
     fn applied_inputs(&self, faulted: bool) -> [f64; N_INPUTS] {
         let now = self.time;
         let seg = self.segment_now();
-        let rho_time = if faulted {
-            f64::INFINITY
-        } else {
-            f64::NEG_INFINITY
-        };
+        let rho_time = Self::fault_time_of(faulted);
         std::array::from_fn(|j| {
             if j < N_ROAD {
                 self.road[j]
@@ -142,10 +168,7 @@ impl Simulator {
         let mode = self.mode;
         let sys = self.system();
         for (k, o) in out.iter_mut().enumerate() {
-            let guard = sys
-                .contacts
-                .penetration(k, &z)
-                .min(sys.contacts.force(k, &z));
+            let guard = sys.contacts.guard(k, &z);
             *o = if mode.engaged(k) {
                 guard + HYSTERESIS
             } else {
@@ -210,17 +233,8 @@ impl Simulator {
         seed_inputs: &[f64; N_INPUTS],
         faulted: bool,
     ) -> LinearResponse {
-        self.system();
-        let n = self.xi.len();
-        let mut seed = DVector::zeros(n);
-        for k in 0..n {
-            seed[k] = seed_states[self.exchange_index(k)];
-        }
-        let rho_time = if faulted {
-            f64::INFINITY
-        } else {
-            f64::NEG_INFINITY
-        };
+        let seed = self.gather_exchange(seed_states);
+        let rho_time = Self::fault_time_of(faulted);
         let mut inputs = *seed_inputs;
         for i in 0..N_ACTUATORS {
             let limit = self.actuator.limit(i);
@@ -231,19 +245,9 @@ impl Simulator {
                 0.0
             };
         }
-        let mode = self.exchange_mode();
-        let sys = self.system.as_mut().expect("built above");
-        let (a, b) = sys.matrices(mode);
-        let mut dx = a * &seed;
-        for (j, column) in b.column_iter().take(N_INPUTS).enumerate() {
-            if inputs[j] != 0.0 {
-                dx.axpy(inputs[j], &column, 1.0);
-            }
-        }
+        let dx = self.in_mode(&seed, &inputs, false);
         let mut derivatives = vec![0.0; model_exchange_states()];
-        for k in 0..n {
-            derivatives[self.exchange_index(k)] = dx[k];
-        }
+        self.scatter_exchange(dx.as_slice(), &mut derivatives);
         let forces: [f64; N_ACTUATORS] = if self.system().lag {
             std::array::from_fn(|i| seed[N_STATES + i])
         } else {
