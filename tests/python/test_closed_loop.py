@@ -221,21 +221,22 @@ def test_robust_controller_on_the_lightest_and_heaviest_car(controller, floor, m
     assert a["stroke"] < 0.08 and a["corner_force"] < 2500 and a["seat_force"] < 1000
 
 
-def test_anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedback():
-    """Thesis Th. 5.3 in FMPy: 300 N / 100 N limits on the plant and the controller, ISO class D."""
+def test_anti_windup_keeps_the_commands_within_the_limits_and_its_designed_gain_buys_comfort():
+    """Thesis Th. 5.3 in FMPy: 300 N / 100 N limits on the plant and the controller, ISO class D.
+    `hinf_of` carries the plain model recovery (no gain), `hinf_of_aw` the designed gain."""
     road, limits = iso_road(1024e-6, 20.0, 7), {"u_max": 300.0, "u_max_seat": 100.0}
     record = RECORD + FORCES  # the plant's inputs u_* read back: the commands it received
     p = figures(run(None, road, 20.0, plant_parameters=limits))
-    # Its nominal design hinf_of: the same linear controller without the compensator.
+    # Its nominal design hinf_of: the same linear controller with the compensator's gain zero.
     plain_log = run("hinf_of", road, 20.0, plant_parameters=limits, record=record)
     aw_log = run("hinf_of_aw", road, 20.0, plant_parameters=limits, record=record)
     plain, aw = figures(plain_log), figures(aw_log)
     plain_cmd, aw_cmd = np.abs(plain_log[:, 17:]).max(), np.abs(aw_log[:, 17:]).max()
     print("seat RMS passive", p["seat"], "hinf_of", plain["seat"], "hinf_of_aw", aw["seat"], "peak command", plain_cmd, aw_cmd)
-    # hinf_of commands far beyond the limits; the anti-windup loop commands within them and is
-    # no less comfortable.
-    assert plain_cmd > 1000.0 and aw_cmd <= 300.0 + 1e-9
-    assert aw["seat"] < plain["seat"] and aw["seat"] < 0.7 * p["seat"]
+    # Both command within the limits; the designed gain buys comfort (measured 1.127 against
+    # 1.166, passive 1.758 m/s²; 0.736 against 0.811 on the Rust test's road).
+    assert plain_cmd <= 300.0 + 1e-9 and aw_cmd <= 300.0 + 1e-9
+    assert aw["seat"] < plain["seat"] and plain["seat"] < 0.7 * p["seat"]
 
 
 @pytest.mark.parametrize("tau", [0.02, 0.05])

@@ -384,8 +384,8 @@ fn robust_of_keeps_comfort_and_limits_from_1200_to_1800_kg() {
 /// (corners) and 100 N (seat): `hinf_of_aw` against its nominal design `hinf_of`, the same linear
 /// controller without the compensator; and `robust_of`, which carries the same compensator.
 #[test]
-fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedback_in_saturation()
-{
+fn anti_windup_keeps_the_commands_within_the_limits_and_its_designed_gain_buys_comfort_in_saturation(
+) {
     let plant = load("plant");
     let params = [("u_max", 300.0), ("u_max_seat", 100.0)];
     let commands = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
@@ -435,24 +435,30 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_beats_plain_output_feedb
         "ISO D 20 m/s, 300/100 N: seat RMS passive {:.4}, hinf_of {:.4}, hinf_of_aw {:.4} m/s²; roll {:.3} / {:.3} / {:.3} rad/s²; max stroke {:.4} / {:.4} / {:.4} m; FL saturated {:.0} % / {:.0} %; peak command {plain_command:.3e} / {aw_command:.0} N",
         passive.seat, plain.seat, aw.seat, passive.roll, plain.roll, aw.roll, passive.stroke, plain.stroke, aw.stroke, 100.0 * plain_saturated, 100.0 * aw_saturated
     );
-    // The plain controller (stable, its observer driven by the load cells, so it knows what
-    // was applied) commands far beyond the limits (measured 2.0 kN); the anti-windup loop
-    // commands within them, saturates less and is more comfortable (measured 0.735 against
-    // 0.927 and passive 1.312 m/s²). (Against the thesis-sensor hinf_of, unstable itself, whose
-    // commands wound up to 4.2 kN, the thesis-sensor compensator measured 0.804 against 0.837.)
+    // Both carry anti-windup and command within the limits: `hinf_of` the plain model
+    // recovery (no gain), `hinf_of_aw` Th. 5.3's designed gain, which buys comfort (measured
+    // 0.811 and 0.736 against the passive car's 1.322 m/s²; before it had a compensator,
+    // `hinf_of` commanded up to 2.0 kN and measured 0.927).
+    for (name, command, seat) in [
+        ("hinf_of", plain_command, plain.seat),
+        ("hinf_of_aw", aw_command, aw.seat),
+    ] {
+        assert!(
+            command <= 300.0 + 1e-9,
+            "{name} commands {command} N beyond its 300 N limit"
+        );
+        assert!(
+            seat < 0.7 * passive.seat,
+            "{name}: seat {seat} (passive {})",
+            passive.seat
+        );
+    }
     assert!(
-        plain_command > 1000.0,
-        "hinf_of's command {plain_command} N should exceed the 300 N limit well"
+        aw.seat < 0.95 * plain.seat,
+        "the designed compensator should buy comfort: {} against {}",
+        aw.seat,
+        plain.seat
     );
-    assert!(
-        aw_command <= 300.0 + 1e-9,
-        "the anti-windup controller commands within its limits"
-    );
-    assert!(
-        aw.seat < plain.seat && aw.seat < 0.7 * passive.seat,
-        "anti-windup should not lose comfort"
-    );
-    assert!(aw_saturated < plain_saturated);
     // robust_of's compensator holds its commands within the limits too, and its comfort.
     let (robust, robust_command, robust_saturated, _) = run(Some("robust_of"), &road, 20.0);
     eprintln!(

@@ -1087,23 +1087,7 @@ pub fn anti_windup_design(
     variant: &str,
     robust_to: Uncertainty,
 ) -> Result<ComfortDesignResult, ComfortError> {
-    let nominal = of.certificate.variant.clone();
-    let d = ctx.design;
     let ss = vehicle::StateSpace::new(ctx.params);
-    let (c_y, d_y) = input_rows(ctx.params, &of.law.inputs).map_err(|e| ctx.fail(variant, e))?;
-    let feeds_through = d_y.iter().any(|v| *v != 0.0);
-    // The runtime forms the command from `y − C η` and only the state sees `D (u − y_c)`: exact
-    // where the law's feed-through reads no input the forces feed through to (a state
-    // feedback's `D` on its states beside the accelerations only its filters read).
-    if (&of.law.lti.d * &d_y).iter().any(|v| *v != 0.0) {
-        return Err(ctx.fail(
-            variant,
-            format!(
-                "{nominal}'s direct feed-through reads an input that one of the forces feeds \
-                 through to"
-            ),
-        ));
-    }
     let rows = vehicle::model::physical_outputs(ctx.params);
     let perf: Vec<(&str, f64)> = crate::comfort::plant::COMFORT_OUTPUTS.to_vec();
     let row = |name: &str| {
@@ -1133,11 +1117,99 @@ pub fn anti_windup_design(
             ),
         });
     }
+    let compensator = Compensator {
+        f: &aw.f * ku,
+        saturation: crate::predict::saturation::SaturationCheck::anti_windup(
+            aw.w.as_slice(),
+            &check,
+        ),
+        what: format!(
+            "the decoupled model-recovery anti-windup of thesis Th. 5.3 (corrected): eta' = (A + \
+             B_u F) eta - B_u dz(u_lin), u = sat(u_lin), the controller reads y - C_y eta - D_y \
+             (u - u_lin) (D_y: its inputs' feed-through of the forces, the accelerometers' and the \
+             load cells'); F from the generalised-sector LMI on the car with the comfort \
+             accelerations as performance (L2 gain {:.4}); re-checked: A + B_u F spectral \
+             abscissa {:.3}, circle criterion with the LMI's multiplier on {} frequencies (min \
+             margin {:.3e})",
+            aw.gamma, check.spectral_abscissa, check.frequencies, check.min_margin
+        ),
+    };
+    with_compensator(ctx, of, variant, robust_to, compensator)
+}
+
+/// The output feedback `of` with the plain model-recovery anti-windup: [`anti_windup_design`]'s
+/// compensator with no gain, `F = 0` (the internal-model anti-windup; Zaccarian & Teel,
+/// *Modern Anti-windup Synthesis*, 2011, §3.3). The compensator is then the nominal car itself,
+/// driven by what the clamp takes from the commands; the controller sees the unconstrained car,
+/// so the saturated loop is the linear loop plus `η̇ = A η − B dz(u)`, bounded at any force
+/// limits because the passive car is stable, and back to the linear loop at the car's own rate
+/// once the commands are within them ([`SaturationCheck::model_recovery`]). No LMI: what
+/// Th. 5.3's gain adds (`hinf_of_aw`) is a faster way back, not stability.
+///
+/// [`SaturationCheck::model_recovery`]: crate::predict::saturation::SaturationCheck::model_recovery
+pub fn model_recovery_design(
+    ctx: &Context,
+    of: &ComfortDesignResult,
+    variant: &str,
+) -> Result<ComfortDesignResult, ComfortError> {
+    let ss = vehicle::StateSpace::new(ctx.params);
+    let saturation =
+        crate::predict::saturation::SaturationCheck::model_recovery(&ss.a, &ss.b_u, "its");
+    if !saturation.holds() {
+        return Err(ctx.fail(variant, saturation.why));
+    }
+    let compensator = Compensator {
+        f: DMatrix::zeros(N_ACTUATORS, ss.a.nrows()),
+        what: format!(
+            "the plain model-recovery anti-windup (thesis Th. 5.3's compensator with F = 0, the \
+             internal-model anti-windup): eta' = A eta - B_u dz(u_lin), u = sat(u_lin), the \
+             controller reads y - C_y eta - D_y (u - u_lin), so it sees the unconstrained car; \
+             eta is the passive car driven by the dead zones, whose spectral abscissa is {:.3} \
+             rad/s",
+            saturation.recovery_abscissa.unwrap_or(f64::NAN)
+        ),
+        saturation,
+    };
+    with_compensator(ctx, of, variant, of.certificate.robust_to, compensator)
+}
+
+/// An anti-windup compensator on the nominal car: its gain `F` (N per state), its saturation
+/// check, and what it is, for the certificate's notes.
+struct Compensator {
+    f: DMatrix<f64>,
+    saturation: crate::predict::saturation::SaturationCheck,
+    what: String,
+}
+
+/// `of` with the anti-windup `compensator` as `variant` robust to `robust_to`.
+fn with_compensator(
+    ctx: &Context,
+    of: &ComfortDesignResult,
+    variant: &str,
+    robust_to: Uncertainty,
+    compensator: Compensator,
+) -> Result<ComfortDesignResult, ComfortError> {
+    let nominal = of.certificate.variant.clone();
+    let d = ctx.design;
+    let ss = vehicle::StateSpace::new(ctx.params);
+    let (c_y, d_y) = input_rows(ctx.params, &of.law.inputs).map_err(|e| ctx.fail(variant, e))?;
+    let feeds_through = d_y.iter().any(|v| *v != 0.0);
+    // The runtime forms the command from `y − C η` and only the state sees `D (u − y_c)`: exact
+    // where the law's feed-through reads no input the forces feed through to (a state
+    // feedback's `D` on its states beside the accelerations only its filters read).
+    if (&of.law.lti.d * &d_y).iter().any(|v| *v != 0.0) {
+        return Err(ctx.fail(
+            variant,
+            format!(
+                "{nominal}'s direct feed-through reads an input that one of the forces feeds \
+                 through to"
+            ),
+        ));
+    }
     let mut certificate = of.certificate.clone();
     certificate.variant = variant.into();
     certificate.robust_to = robust_to;
-    certificate.saturation =
-        crate::predict::saturation::SaturationCheck::anti_windup(aw.w.as_slice(), &check);
+    certificate.saturation = compensator.saturation;
     let (with, below) = if nominal == variant {
         (
             "With".to_string(),
@@ -1151,19 +1223,9 @@ pub fn anti_windup_design(
             format!("Below saturation it is {nominal}: the predictions are {nominal}'s"),
         )
     };
-    certificate.notes.insert(
-        0,
-        format!(
-            "{with} the decoupled model-recovery anti-windup of thesis Th. 5.3 \
-             (corrected): eta' = (A + B_u F) eta - B_u dz(u_lin), u = sat(u_lin), the controller \
-             reads y - C_y eta - D_y (u - u_lin) (D_y: its inputs' feed-through of the forces, \
-             the accelerometers' and the load cells'); F from the generalised-sector LMI on the \
-             car with the comfort accelerations as performance (L2 gain {:.4}); re-checked: A + \
-             B_u F spectral abscissa {:.3}, circle criterion with the LMI's multiplier on {} \
-             frequencies (min margin {:.3e}). {below}.",
-            aw.gamma, check.spectral_abscissa, check.frequencies, check.min_margin
-        ),
-    );
+    certificate
+        .notes
+        .insert(0, format!("{with} {}. {below}.", compensator.what));
     if of.extensions.accommodation.is_some() {
         certificate.notes.insert(
             1,
@@ -1185,7 +1247,7 @@ pub fn anti_windup_design(
             } else {
                 Vec::new()
             },
-            f: matrix_rows(&(&aw.f * ku)),
+            f: matrix_rows(&compensator.f),
             u_max: force_limits(d).to_vec(),
         }),
         ..of.extensions.clone()

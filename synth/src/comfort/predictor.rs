@@ -404,8 +404,11 @@ pub fn predictor_design(
         return Err(fail(format!("not stable for every delay: {facts:?}")));
     }
     // Its anti-windup, model recovery in the runtime, on the prediction model it carries.
-    certificate.saturation =
-        crate::predict::saturation::SaturationCheck::model_recovery(&predictor.a, &predictor.b);
+    certificate.saturation = crate::predict::saturation::SaturationCheck::model_recovery(
+        &predictor.a,
+        &predictor.b,
+        "the predictor's",
+    );
     if !certificate.saturation.holds() {
         return Err(fail(format!(
             "its model-recovery anti-windup is not proven: {}",

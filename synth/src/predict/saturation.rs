@@ -83,7 +83,9 @@ impl SaturationCheck {
     /// L2 anti-windup for exponentially stable plants; Zaccarian & Teel, *Modern Anti-windup
     /// Synthesis*, 2011, §3.3, with no gain on the anti-windup state). This is a proof on the
     /// prediction model, the delay matched; off it, the co-simulations say what happens.
-    pub fn model_recovery(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Self {
+    ///
+    /// `whose` names the compensator in the certificate's `why` (e.g. "the predictor's").
+    pub fn model_recovery(a: &DMatrix<f64>, b: &DMatrix<f64>, whose: &str) -> Self {
         let n = a.nrows();
         let mut reached: Vec<bool> = (0..n).map(|i| b.row(i).iter().any(|v| *v != 0.0)).collect();
         let mut grown = true;
@@ -112,9 +114,9 @@ impl SaturationCheck {
             recovery_abscissa: Some(abscissa),
             recovery_states: Some(states.len()),
             why: format!(
-                "the predictor's model-recovery anti-windup: the saturated loop is the linear one \
-                 on the unconstrained prediction plus zeta' = A zeta + B dz(u), whose {} states \
-                 reached by the commands have the spectral abscissa {abscissa:.4} rad/s{}",
+                "{whose} model-recovery anti-windup: the saturated loop is the linear one on the \
+                 unconstrained model plus zeta' = A zeta + B dz(u), whose {} states reached by the \
+                 commands have the spectral abscissa {abscissa:.4} rad/s{}",
                 states.len(),
                 if holds {
                     ": bounded at any force limits, and back to the linear loop once the \
@@ -338,18 +340,18 @@ mod tests {
         // x1' = -x1 + x3 + u, x2' = x1 - 2 x2, x3' = 0 (driven by nothing, drives x1).
         let a = DMatrix::from_row_slice(3, 3, &[-1.0, 0.0, 1.0, 1.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
         let b = DMatrix::from_row_slice(3, 1, &[1.0, 0.0, 0.0]);
-        let c = SaturationCheck::model_recovery(&a, &b);
+        let c = SaturationCheck::model_recovery(&a, &b, "the");
         assert!(c.holds(), "{c:?}");
         assert_eq!(c.recovery_states, Some(2));
         assert!((c.recovery_abscissa.unwrap() + 1.0).abs() < 1e-12);
         // The reached x2 unstable: refused.
         let mut unstable = a.clone();
         unstable[(1, 1)] = 0.5;
-        let c = SaturationCheck::model_recovery(&unstable, &b);
+        let c = SaturationCheck::model_recovery(&unstable, &b, "the");
         assert!(!c.holds() && c.why.contains("no bound"), "{c:?}");
         // The integrator reached (a command drives it): refused, abscissa 0.
         let b3 = DMatrix::from_row_slice(3, 1, &[1.0, 0.0, 1.0]);
-        assert!(!SaturationCheck::model_recovery(&a, &b3).holds());
+        assert!(!SaturationCheck::model_recovery(&a, &b3, "the").holds());
     }
 
     /// `L = [[1/2, 10], [0, 1/2]]`: `2M − He(M L) = [[m₁, −10 m₁], [−10 m₁, m₂]]`, positive

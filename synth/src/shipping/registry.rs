@@ -13,9 +13,9 @@
 //! the tables and the comparisons follow.
 
 use crate::comfort::designs::{
-    anti_windup_design, held_at, nominal_gain, robust_gain, robust_state_feedback_design,
-    state_feedback_design, Comfort, ComfortDesignResult, ComfortError, Context, Held, InOrder,
-    Role, Uncertainty,
+    anti_windup_design, held_at, model_recovery_design, nominal_gain, robust_gain,
+    robust_state_feedback_design, state_feedback_design, Comfort, ComfortDesignResult,
+    ComfortError, Context, Held, InOrder, Role, Uncertainty,
 };
 use crate::comfort::guaranteed::StateFeedback;
 use crate::comfort::skyhook::skyhook_design;
@@ -133,8 +133,8 @@ pub const VARIANTS: [Variant; 9] = [
         nominal: None,
         robust_to: Uncertainty::None,
         model: DesignModel::Car,
-        summary: "output feedback on the sensors a car has and load cells, designed for long waves (the guaranteed-cost gain on a Kalman filter)",
-        comfort: |ctx, s| s.hinf_of(ctx).cloned(),
+        summary: "output feedback on the sensors a car has and load cells, designed for long waves (the guaranteed-cost gain on a Kalman filter), with the plain model-recovery anti-windup (Th. 5.3's compensator, F = 0)",
+        comfort: |ctx, s| model_recovery_design(ctx, s.hinf_of(ctx)?, "hinf_of"),
         role: Role::Design,
     },
     Variant {
