@@ -55,10 +55,14 @@ CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of sky
 THESIS_CONTROLLERS := hinf_sf hinf_of hinf_of_aw robust_sf robust_of delay_sf ft_of
 FMUS := road plant $(CONTROLLERS)
 FMU_FILES := $(FMUS:%=dist/%.fmu)
+# The same FMUs as FMI 3.0 (README "Platforms"): one archive per FMU with every platform's
+# library, from the same build (each library exports FMI 2.0's and FMI 3.0's functions).
+FMI3_FMU_FILES := $(FMUS:%=dist/fmi3/%.fmu)
 ifeq ($(CROSS),1)
 # The linux64 library of each FMU, and the options that add the other platforms' libraries.
 linux64_lib = $(CROSS_DIR)/x86_64-unknown-linux-gnu/release/libfmu_$(1).so
 other_libs = --binary win64=$(CROSS_DIR)/x86_64-pc-windows-gnu/release/fmu_$(1).dll
+fmi3_libs = --binary x86_64-windows=$(CROSS_DIR)/x86_64-pc-windows-gnu/release/fmu_$(1).dll --binary aarch64-linux=$(CROSS_DIR)/aarch64-unknown-linux-gnu/release/libfmu_$(1).so
 LIBS := $(STAMP)/cross
 ARM_FMU_FILES := $(FMUS:%=dist/linux-aarch64/%.fmu)
 HARNESSES := target/harness/linux64/fmu_harness target/harness/win64/fmu_harness.exe target/harness/win64/bcryptprimitives.dll target/harness/linux-aarch64/fmu_harness
@@ -67,6 +71,7 @@ PLATFORM_FMUS := dist/plant.fmu dist/linux-aarch64/plant.fmu
 else
 linux64_lib = target/release/libfmu_$(1).so
 other_libs =
+fmi3_libs =
 LIBS := $(STAMP)/release
 ARM_FMU_FILES :=
 HARNESSES :=
@@ -144,7 +149,7 @@ $(STAMP)/venv: tests/python/requirements.txt python/pyproject.toml | $(STAMP)/ap
 	$(PY) -m pip install -q -e python
 	@touch $@
 
-fmus: $(FMU_FILES) $(ARM_FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp
+fmus: $(FMU_FILES) $(ARM_FMU_FILES) $(FMI3_FMU_FILES) dist/OspSystemStructure.xml dist/car.ssp
 
 # One cargo build for all FMU libraries and the packager; then one fmu-pack call per FMU.
 $(STAMP)/release: $(RUST_SOURCES) | $(STAMP)/apt
@@ -163,6 +168,12 @@ $(STAMP)/cross: $(RUST_SOURCES) | $(STAMP)/apt-cross $(STAMP)/zig
 
 dist/plant.fmu dist/road.fmu: dist/%.fmu: $(STAMP)/release $(LIBS)
 	./target/release/fmu-pack fmu --lib $(call linux64_lib,$*) $(call other_libs,$*) --out $@
+
+dist/fmi3/plant.fmu dist/fmi3/road.fmu: dist/fmi3/%.fmu: $(STAMP)/release $(LIBS)
+	./target/release/fmu-pack fmu --fmi 3 --lib $(call linux64_lib,$*) $(call fmi3_libs,$*) --out $@
+
+$(CONTROLLERS:%=dist/fmi3/%.fmu): dist/fmi3/%.fmu: $(STAMP)/synth $(LIBS)
+	./target/release/fmu-pack fmu --fmi 3 --lib $(call linux64_lib,controller) $(call fmi3_libs,controller) --resources dist/$* --out $@
 
 # The same FMUs for ARM: the AArch64 library in binaries/linux64 (README "Platforms").
 dist/linux-aarch64/plant.fmu dist/linux-aarch64/road.fmu: dist/linux-aarch64/%.fmu: $(STAMP)/release $(LIBS)
@@ -204,15 +215,15 @@ dist/OspSystemStructure.xml: $(FMU_FILES) $(STAMP)/release scenarios/bump.json
 dist/car.ssp: $(FMU_FILES) $(STAMP)/release scenarios/bump.json
 	./target/release/master ssp --scenario scenarios/bump.json --controller hinf_of --out $@
 
-validate: $(FMU_FILES) $(ARM_FMU_FILES) $(STAMP)/venv
-	@for f in $(FMU_FILES) $(ARM_FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
+validate: $(FMU_FILES) $(ARM_FMU_FILES) $(FMI3_FMU_FILES) $(STAMP)/venv
+	@for f in $(FMU_FILES) $(ARM_FMU_FILES) $(FMI3_FMU_FILES); do echo "fmpy validate $$f"; $(VENV)/bin/fmpy validate $$f || exit 1; done
 
 # Regenerate the checked-in modelDescription/*.xml and the README's variable and platform tables
 # after a change of a variable table or a platform (a test fails until you do and commit them;
 # the platform table is the shipped one only from a CROSS=1 build).
 descriptions: $(STAMP)/release $(PLATFORM_FMUS)
-	./target/release/fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --readme README.md --tag plant-variables
-	./target/release/fmu-pack description --lib target/release/libfmu_road.so --xml modelDescription/road.xml --readme README.md --tag road-variables
+	./target/release/fmu-pack description --lib target/release/libfmu_plant.so --xml modelDescription/plant.xml --xml3 modelDescription/fmi3/plant.xml --readme README.md --tag plant-variables
+	./target/release/fmu-pack description --lib target/release/libfmu_road.so --xml modelDescription/road.xml --xml3 modelDescription/fmi3/road.xml --readme README.md --tag road-variables
 ifeq ($(CROSS),1)
 	./target/release/fmu-pack platforms $(PLATFORM_FMUS:%=--fmu %) --readme README.md --tag platform
 else
@@ -259,10 +270,10 @@ lint: | $(STAMP)/apt
 # In the release profile: the tests reuse `make`'s build of every dependency instead of a
 # second full build in the test profile (5.6 GB of target/debug and several minutes on 2 cores;
 # a CI run once ran out of disk in the pytest that followed it).
-test-rust: $(FMU_FILES) $(STAMP)/thesis-fmus | $(STAMP)/apt
+test-rust: $(FMU_FILES) $(FMI3_FMU_FILES) $(STAMP)/thesis-fmus | $(STAMP)/apt
 	$(CARGO) test --workspace --release
 
-test-python: $(FMU_FILES) $(ARM_FMU_FILES) $(HARNESSES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/thesis-fmus $(STAMP)/venv $(STAMP)/release compare
+test-python: $(FMU_FILES) $(ARM_FMU_FILES) $(FMI3_FMU_FILES) $(HARNESSES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/thesis-fmus $(STAMP)/venv $(STAMP)/release compare
 	FMU_CROSS=$(CROSS) $(PY) -m pytest tests/python -q
 
 $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv

@@ -949,3 +949,4 @@ fn step_refused(step: f64, e: linsys::ExpError) -> String {
 }
 
 fmu_core::export_fmi2!(Controller);
+fmu_core::export_fmi3!(Controller);

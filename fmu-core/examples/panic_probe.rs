@@ -71,3 +71,4 @@ impl Model for Probe {
 }
 
 fmu_core::export_fmi2!(Probe);
+fmu_core::export_fmi3!(Probe);

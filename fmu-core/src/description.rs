@@ -2,6 +2,8 @@
 //! derived from it (FMI 2.0.4 §2.2): Co-Simulation, and Model Exchange where a model declares
 //! continuous states.
 
+mod fmi3;
+
 use crate::logger::Category;
 use std::collections::BTreeSet;
 use std::fmt::Write;
@@ -258,6 +260,32 @@ impl Variable {
 
     /// May this variable be set in state `initialising` (Instantiated / InitializationMode)
     /// or, if false, in StepComplete? (FMI 2.0.4 §4.2.4 and the variability rules of §2.2.7.)
+    /// Its `causality`, `variability` and `initial` attributes as the XML writes them (the
+    /// last with its leading space and name, or empty).
+    fn attributes(&self) -> (&'static str, &'static str, &'static str) {
+        let causality = match self.causality {
+            Causality::Parameter => "parameter",
+            Causality::CalculatedParameter => "calculatedParameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+            Causality::Local => "local",
+        };
+        let variability = match self.variability {
+            Variability::Fixed => "fixed",
+            Variability::Tunable => "tunable",
+            Variability::Continuous => "continuous",
+            Variability::Discrete => "discrete",
+        };
+        let initial = match self.causality {
+            Causality::Parameter => r#" initial="exact""#,
+            Causality::CalculatedParameter | Causality::Output | Causality::Local => {
+                r#" initial="calculated""#
+            }
+            Causality::Input => "",
+        };
+        (causality, variability, initial)
+    }
+
     pub fn settable(&self, initialising: bool) -> bool {
         settable(self.causality, self.variability, initialising)
     }
@@ -272,6 +300,14 @@ pub fn settable(causality: Causality, variability: Variability, initialising: bo
         Causality::CalculatedParameter | Causality::Output | Causality::Local => false,
     }
 }
+
+/// FMI 3.0 declares variables FMI 2.0 has no place for: the independent variable `time`, and
+/// (Model Exchange) one variable per event indicator. They get value references above every
+/// model variable's ([`ModelDescription::check`] holds the models below it); the runtime
+/// answers them ([`crate::instance::Instance::get_float64`]).
+pub const FMI3_TIME_VR: ValueReference = 1_000_000_000;
+/// The first event indicator's value reference in FMI 3.0 (the `i`-th is this plus `i`).
+pub const FMI3_EVENT_INDICATOR_VR: ValueReference = FMI3_TIME_VR + 1;
 
 /// Capability flags of `<CoSimulation>`. They must tell the truth.
 #[derive(Debug, Clone, PartialEq)]
@@ -441,11 +477,26 @@ impl ModelDescription {
             if !names.insert(v.name.as_str()) {
                 return err(format!("duplicate variable name '{}'", v.name));
             }
-            if !refs.insert((v.kind.base(), v.value_reference)) {
+            // Unique across the types, as FMI 3.0 requires (FMI 2.0 only within a type), and
+            // below the references FMI 3.0's own variables take.
+            if !refs.insert(v.value_reference) {
                 return err(format!(
                     "duplicate value reference {} ({:?})",
                     v.value_reference,
                     v.kind.base()
+                ));
+            }
+            if v.value_reference >= FMI3_TIME_VR {
+                return err(format!(
+                    "value reference {} of '{}' is not below {FMI3_TIME_VR}, where FMI 3.0's \
+                     time and event indicators are",
+                    v.value_reference, v.name
+                ));
+            }
+            if v.name == "time" || v.name.starts_with("event_indicator[") {
+                return err(format!(
+                    "variable name '{}' is FMI 3.0's time or an event indicator",
+                    v.name
                 ));
             }
             let has_start = match &v.kind {
@@ -570,7 +621,20 @@ impl ModelDescription {
         )
         .unwrap();
         self.write_interfaces(&mut x);
-        self.write_units(&mut x);
+        self.write_units(&mut x, &[]);
+        self.write_categories_and_experiment(&mut x);
+        writeln!(x, "  <ModelVariables>").unwrap();
+        for (i, v) in self.variables.iter().enumerate() {
+            self.write_variable(&mut x, i, v);
+        }
+        writeln!(x, "  </ModelVariables>").unwrap();
+        self.write_structure(&mut x);
+        writeln!(x, "</fmiModelDescription>").unwrap();
+        x
+    }
+
+    /// `<LogCategories>` and `<DefaultExperiment>`, alike in both versions.
+    fn write_categories_and_experiment(&self, x: &mut String) {
         writeln!(x, "  <LogCategories>").unwrap();
         for cat in Category::ALL {
             writeln!(
@@ -592,14 +656,6 @@ impl ModelDescription {
             num(e.step_size)
         )
         .unwrap();
-        writeln!(x, "  <ModelVariables>").unwrap();
-        for (i, v) in self.variables.iter().enumerate() {
-            self.write_variable(&mut x, i, v);
-        }
-        writeln!(x, "  </ModelVariables>").unwrap();
-        self.write_structure(&mut x);
-        writeln!(x, "</fmiModelDescription>").unwrap();
-        x
     }
 
     /// The variable named `name`'s index in `<ModelVariables>` (1-based).
@@ -640,9 +696,15 @@ impl ModelDescription {
         .unwrap();
     }
 
-    /// `<UnitDefinitions>`: every unit a variable uses, with its base-unit exponents.
-    fn write_units(&self, x: &mut String) {
-        let units: BTreeSet<&str> = self.variables.iter().filter_map(|v| v.unit()).collect();
+    /// `<UnitDefinitions>`: every unit a variable uses, and `extra`, with its base-unit
+    /// exponents.
+    fn write_units(&self, x: &mut String, extra: &[&'static str]) {
+        let units: BTreeSet<&str> = self
+            .variables
+            .iter()
+            .filter_map(|v| v.unit())
+            .chain(extra.iter().copied())
+            .collect();
         if units.is_empty() {
             return;
         }
@@ -671,26 +733,7 @@ impl ModelDescription {
 
     /// One `<ScalarVariable>`, the `i`-th.
     fn write_variable(&self, x: &mut String, i: usize, v: &Variable) {
-        let causality = match v.causality {
-            Causality::Parameter => "parameter",
-            Causality::CalculatedParameter => "calculatedParameter",
-            Causality::Input => "input",
-            Causality::Output => "output",
-            Causality::Local => "local",
-        };
-        let variability = match v.variability {
-            Variability::Fixed => "fixed",
-            Variability::Tunable => "tunable",
-            Variability::Continuous => "continuous",
-            Variability::Discrete => "discrete",
-        };
-        let initial = match v.causality {
-            Causality::Parameter => r#" initial="exact""#,
-            Causality::CalculatedParameter | Causality::Output | Causality::Local => {
-                r#" initial="calculated""#
-            }
-            Causality::Input => "",
-        };
+        let (causality, variability, initial) = v.attributes();
         writeln!(x, "    <!-- index {} -->", i + 1).unwrap();
         writeln!(
             x,
@@ -934,6 +977,81 @@ mod tests {
         assert!(xml.contains("a &lt;test&gt; &amp; &quot;quotes&quot;"));
         assert!(xml.contains(r#"start="2.5""#));
         assert!(xml.contains(r#"stepSize="0.001""#));
+    }
+
+    /// FMI 3.0.2 §2.4: typed variables, the independent `time`, dependencies by value
+    /// reference, the GUID as `instantiationToken`; with Model Exchange, the derivative's
+    /// `derivative` names the state's value reference and each event indicator is a variable
+    /// the model structure lists.
+    #[test]
+    fn fmi3_xml_types_its_variables_and_lists_dependencies_by_value_reference() {
+        let xml = sample().to_xml3();
+        assert!(xml.contains(r#"fmiVersion="3.0""#) && xml.contains(r#"instantiationToken="{x}""#));
+        assert!(
+            xml.contains(r#"<Float64 name="time" valueReference="1000000000" description="Simulation time" causality="independent" variability="continuous" unit="s"/>"#),
+            "{xml}"
+        );
+        assert!(
+            xml.contains(r#"<Unit name="s"><BaseUnit s="1"/></Unit>"#),
+            "{xml}"
+        );
+        assert!(
+            xml.contains(r#"<Float64 name="k" valueReference="0" description="gain" causality="parameter" variability="fixed" initial="exact" unit="N/m" start="2.5"/>"#),
+            "{xml}"
+        );
+        assert!(
+            xml.contains(
+                r#"<Output valueReference="3" dependencies="1" dependenciesKind="fixed"/>"#
+            ),
+            "{xml}"
+        );
+        assert!(
+            xml.contains(r#"<InitialUnknown valueReference="3" dependencies="0 1" dependenciesKind="dependent dependent"/>"#),
+            "{xml}"
+        );
+        assert!(!xml.contains("<ModelExchange") && !xml.contains("EventIndicator"));
+        let xml = with_model_exchange().to_xml3();
+        assert!(
+            xml.contains(r#"<ModelExchange modelIdentifier="sample""#),
+            "{xml}"
+        );
+        assert!(
+            xml.contains(r#"needsCompletedIntegratorStep="true""#),
+            "{xml}"
+        );
+        assert!(xml.contains(r#"unit="m/s" derivative="2"/>"#), "{xml}");
+        assert!(
+            xml.contains(r#"<ContinuousStateDerivative valueReference="4" dependencies="1 2" dependenciesKind="dependent dependent"/>"#),
+            "{xml}"
+        );
+        for i in 0..2 {
+            let vr = FMI3_EVENT_INDICATOR_VR + i;
+            assert!(xml.contains(&format!(r#"<EventIndicator valueReference="{vr}"/>"#)));
+            assert!(xml.contains(&format!(
+                r#"name="event_indicator[{}]" valueReference="{vr}""#,
+                i + 1
+            )));
+        }
+    }
+
+    /// FMI 3.0's value references are unique across the types and below its own variables'.
+    #[test]
+    fn check_holds_value_references_unique_across_types_and_below_fmi3_time() {
+        let mut d = sample();
+        d.variables.push(
+            Variable::boolean("on", 2, Causality::Parameter, "a switch").with_boolean_start(true),
+        );
+        assert!(d
+            .check()
+            .unwrap_err()
+            .0
+            .contains("duplicate value reference 2"));
+        let mut d = sample();
+        d.variables[0].value_reference = FMI3_TIME_VR;
+        assert!(d.check().unwrap_err().0.contains("not below 1000000000"));
+        let mut d = sample();
+        d.variables[0].name = "time".into();
+        assert!(d.check().unwrap_err().0.contains("FMI 3.0's time"));
     }
 
     /// The sample with Model Exchange: `y` a state, its derivative a local.

@@ -36,7 +36,7 @@ static QUIET_HOOK: Once = Once::new();
 /// to the Rust runtime, one per FMU library (each links its own `std`), so it is installed once;
 /// it is silent only for panics inside our FMI calls on the panicking thread and passes any
 /// other panic (a Rust importer linking this crate, its tests) to the hook it replaced.
-fn catch_quietly<R>(f: impl FnOnce() -> R) -> Result<R, String> {
+pub(crate) fn catch_quietly<R>(f: impl FnOnce() -> R) -> Result<R, String> {
     QUIET_HOOK.call_once(|| {
         let previous = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
@@ -67,7 +67,7 @@ fn catch_quietly<R>(f: impl FnOnce() -> R) -> Result<R, String> {
 }
 
 /// `n` elements at `ptr`, or an error naming the argument if it is NULL while `n > 0`.
-unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
+pub(crate) unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
     if n == 0 {
         Ok(&[])
     } else if ptr.is_null() {
@@ -79,7 +79,11 @@ unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], S
     }
 }
 
-unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
+pub(crate) unsafe fn slice_mut<'a, T>(
+    ptr: *mut T,
+    n: usize,
+    what: &str,
+) -> Result<&'a mut [T], String> {
     if n == 0 {
         Ok(&mut [])
     } else if ptr.is_null() {
@@ -91,13 +95,13 @@ unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut 
     }
 }
 
-unsafe fn out_ptr<'a, T>(ptr: *mut T, what: &str) -> Result<&'a mut T, String> {
+pub(crate) unsafe fn out_ptr<'a, T>(ptr: *mut T, what: &str) -> Result<&'a mut T, String> {
     ptr.as_mut()
         .ok_or_else(|| format!("argument '{what}' is NULL"))
 }
 
 /// The instance behind `c`, if `c` points at a live instance of this model.
-unsafe fn instance<'a, M: Model>(c: Fmi2Component) -> Option<&'a mut Instance<M>> {
+pub(crate) unsafe fn instance<'a, M: Model>(c: Fmi2Component) -> Option<&'a mut Instance<M>> {
     let inst = (c as *mut Instance<M>).as_mut()?;
     (inst.magic == INSTANCE_MAGIC).then_some(inst)
 }
@@ -106,7 +110,7 @@ unsafe fn instance<'a, M: Model>(c: Fmi2Component) -> Option<&'a mut Instance<M>
 /// otherwise. A panic becomes `fmi2Error` (the instance can still be reset or freed). The
 /// runtime's own refusals are messages (`E = String`, `fmi2Error`); a call that forwards a
 /// model's failure (`E = ModelError`) answers with the status the model chose.
-unsafe fn call<M: Model, E: Into<ModelError>>(
+pub(crate) unsafe fn call<M: Model, E: Into<ModelError>>(
     c: Fmi2Component,
     func: &str,
     mask: Mask,
@@ -128,7 +132,10 @@ unsafe fn call<M: Model, E: Into<ModelError>>(
         return Status::Error as Fmi2Status;
     }
     if !inst.state.is_in(mask) {
-        let msg = format!("{func}: illegal call in state {}", inst.state.name());
+        let msg = format!(
+            "{func}: illegal call in state {}",
+            inst.state.name_in(inst.api)
+        );
         inst.logger.error(&msg);
         if inst.state != FmiState::Fatal {
             inst.state = FmiState::Error;
@@ -166,7 +173,7 @@ unsafe fn call<M: Model, E: Into<ModelError>>(
     }
 }
 
-unsafe fn c_str<'a>(p: Fmi2String) -> Option<Result<&'a str, String>> {
+pub(crate) unsafe fn c_str<'a>(p: Fmi2String) -> Option<Result<&'a str, String>> {
     (!p.is_null()).then(|| {
         CStr::from_ptr(p)
             .to_str()
@@ -474,7 +481,7 @@ pub unsafe fn set_string<M: Model>(
 }
 
 /// Is `state` an FMU state this instance handed out and has not freed?
-fn owned_state<M: Model>(
+pub(crate) fn owned_state<M: Model>(
     inst: &Instance<M>,
     state: Fmi2FmuState,
 ) -> Result<&'static mut FmuStateBox, String> {
@@ -488,7 +495,7 @@ fn owned_state<M: Model>(
     Ok(unsafe { &mut *(state as *mut FmuStateBox) })
 }
 
-fn new_state<M: Model>(inst: &mut Instance<M>, bytes: Vec<u8>) -> Fmi2FmuState {
+pub(crate) fn new_state<M: Model>(inst: &mut Instance<M>, bytes: Vec<u8>) -> Fmi2FmuState {
     let ptr = Box::into_raw(Box::new(FmuStateBox { bytes })) as Fmi2FmuState;
     inst.fmu_states.insert(ptr as usize);
     ptr
@@ -938,7 +945,8 @@ pub unsafe fn get_nominals_of_continuous_states<M: Model>(
 }
 
 /// The model's description document for a resource directory (NULL = none): `format` 0 gives
-/// `modelDescription.xml`, 1 the Markdown variable table. The packager loads the built library
+/// FMI 2.0's `modelDescription.xml`, 1 the Markdown variable table, 2 FMI 3.0's
+/// `modelDescription.xml`. The packager loads the built library
 /// and calls this, so the XML in an FMU always comes from the binary beside it. The string is
 /// freed with [`free_string`]; NULL on error (message on stderr: this is a build-time tool call).
 ///
@@ -956,10 +964,10 @@ pub unsafe fn description_document<M: Model>(
         };
         let d = M::description(dir.as_deref())?;
         d.check().map_err(|e| e.to_string())?;
-        Ok(if format == 1 {
-            d.to_markdown_table()
-        } else {
-            d.to_xml()
+        Ok(match format {
+            1 => d.to_markdown_table(),
+            2 => d.to_xml3(),
+            _ => d.to_xml(),
         })
     });
     match result {

@@ -3,7 +3,8 @@
 //! The C ABI layer ([`crate::ffi`]) only converts pointers and catches panics.
 
 use crate::description::{
-    settable, BaseType, Causality, ModelDescription, ValueReference, VarType, Variability, Variable,
+    settable, BaseType, Causality, ModelDescription, ValueReference, VarType, Variability,
+    Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
 };
 use crate::fmu_state::{self, Snapshot, StateReader, StateWriter};
 use crate::logger::{Category, Logger};
@@ -36,6 +37,8 @@ pub struct Instance<M: Model> {
     pub(crate) state: FmiState,
     /// What the importer instantiated: Co-Simulation, or Model Exchange.
     pub(crate) interface: Interface,
+    /// Through which FMI version: the names of its functions in messages.
+    pub(crate) api: Api,
     time: f64,
     /// Model Exchange: the last time the integrator accepted (an event, a completed step);
     /// it may evaluate anywhere after it, never before.
@@ -83,6 +86,23 @@ impl Slot {
     }
 }
 
+/// The FMI version an instance was created through.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Api {
+    Fmi2,
+    Fmi3,
+}
+
+impl Api {
+    /// The C name of the function `name` (`"DoStep"`) in this version (`fmi2DoStep`).
+    pub fn name(self, name: &str) -> String {
+        match self {
+            Api::Fmi2 => format!("fmi2{name}"),
+            Api::Fmi3 => format!("fmi3{name}"),
+        }
+    }
+}
+
 /// An FMU state as handed to the importer: the serialised instance.
 pub struct FmuStateBox {
     pub(crate) bytes: Vec<u8>,
@@ -124,29 +144,63 @@ impl<M: Model> Instance<M> {
                 Err(e) => return Err((logger, e.to_string())),
             },
         };
+        Self::create(Api::Fmi2, logger, interface, guid, resources)
+    }
+
+    /// `fmi3InstantiateCoSimulation` and `fmi3InstantiateModelExchange`: `resource_path` is a
+    /// native path (FMI 3.0.2 §2.3.1), not a URI; `logger` the FMI 3.0 one.
+    pub fn instantiate3(
+        logger: Logger,
+        interface: Interface,
+        token: Option<&str>,
+        resource_path: Option<&str>,
+    ) -> Result<Box<Self>, (Logger, String)> {
+        let resources = resource_path.map(PathBuf::from);
+        if let Some(dir) = resources.as_ref().filter(|d| !d.is_dir()) {
+            let why = format!("resourcePath '{}' is not a directory", dir.display());
+            return Err((logger, why));
+        }
+        Self::create(Api::Fmi3, logger, interface, token, resources)
+    }
+
+    /// The instance of either version: the description for `resources`, the token checked
+    /// against it, the model instantiated.
+    fn create(
+        api: Api,
+        logger: Logger,
+        interface: Interface,
+        token: Option<&str>,
+        resources: Option<PathBuf>,
+    ) -> Result<Box<Self>, (Logger, String)> {
         let description = match M::description(resources.as_deref()) {
             Ok(d) => d,
             Err(e) => return Err((logger, e.message)),
         };
-        match guid {
+        let (what, argument) = match api {
+            Api::Fmi2 => ("GUID", "fmuGUID"),
+            Api::Fmi3 => ("instantiation token", "instantiationToken"),
+        };
+        match token {
             Some(g) if g == description.guid => {}
             Some(g) => {
                 return Err((
                     logger,
                     format!(
-                        "GUID mismatch: this binary is {}, the importer passed {g}",
+                        "{what} mismatch: this binary is {}, the importer passed {g}",
                         description.guid
                     ),
                 ))
             }
-            None => return Err((logger, "fmuGUID is NULL".into())),
+            None => return Err((logger, format!("{argument} is NULL"))),
         }
         if interface == Interface::ModelExchange && description.model_exchange.is_none() {
-            return Err((
-                logger,
-                "fmuType 0 (Model Exchange) requested, but this FMU supports Co-Simulation (1) only"
-                    .into(),
-            ));
+            let why = match api {
+                Api::Fmi2 => {
+                    "fmuType 0 (Model Exchange) requested, but this FMU supports Co-Simulation (1) only"
+                }
+                Api::Fmi3 => "Model Exchange requested, but this FMU supports Co-Simulation only",
+            };
+            return Err((logger, why.into()));
         }
         let model = match M::instantiate(resources.as_deref()) {
             Ok(m) => m,
@@ -162,7 +216,8 @@ impl<M: Model> Instance<M> {
             slots[vr] = Some(Slot::new(i, v));
         }
         logger.event(&format!(
-            "fmi2Instantiate: {} instantiated for {} (resources: {})",
+            "{}: {} instantiated for {} (resources: {})",
+            api.name("Instantiate"),
             description.model_identifier,
             interface.name(),
             resources
@@ -177,6 +232,7 @@ impl<M: Model> Instance<M> {
             model,
             state: FmiState::Instantiated,
             interface,
+            api,
             time: 0.0,
             accepted: 0.0,
             start_time: 0.0,
@@ -245,7 +301,8 @@ impl<M: Model> Instance<M> {
             Interface::ModelExchange => FmiState::EventMode,
         };
         self.logger.event(&format!(
-            "fmi2ExitInitializationMode: initialised at t = {}",
+            "{}: initialised at t = {}",
+            self.api.name("ExitInitializationMode"),
             self.time
         ));
         Ok(Status::Ok)
@@ -350,6 +407,70 @@ impl<M: Model> Instance<M> {
             *out = self.model.get_real(*vr);
         }
         Ok(Status::Ok)
+    }
+
+    /// `fmi3GetFloat64`: the model's Real variables, and the variables only FMI 3.0's
+    /// description declares, the independent `time` and the event indicators
+    /// ([`crate::description::FMI3_TIME_VR`]).
+    pub fn get_float64(
+        &mut self,
+        vrs: &[ValueReference],
+        values: &mut [f64],
+    ) -> Result<Status, String> {
+        if vrs.iter().all(|vr| *vr < FMI3_TIME_VR) {
+            return self.get_real(vrs, values);
+        }
+        let mut indicators = Vec::new();
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            if *vr == FMI3_TIME_VR {
+                *out = self.time;
+            } else if *vr > FMI3_TIME_VR {
+                let i = (*vr - FMI3_EVENT_INDICATOR_VR) as usize;
+                let n = self.number_of_event_indicators();
+                if i >= n {
+                    return Err(format!("unknown value reference {vr} for type Float64"));
+                }
+                if indicators.is_empty() {
+                    indicators = vec![0.0; n];
+                    self.get_event_indicators(&mut indicators)?;
+                }
+                *out = indicators[i];
+            } else {
+                self.get_real(std::slice::from_ref(vr), std::slice::from_mut(out))?;
+            }
+        }
+        Ok(Status::Ok)
+    }
+
+    /// `fmi3SetFloat64`: the model's Real variables; FMI 3.0's own are computed.
+    pub fn set_float64(
+        &mut self,
+        vrs: &[ValueReference],
+        values: &[f64],
+    ) -> Result<Status, String> {
+        if let Some(vr) = vrs.iter().find(|vr| **vr >= FMI3_TIME_VR) {
+            return Err(if *vr == FMI3_TIME_VR {
+                "'time' is the independent variable: it cannot be set (fmi3SetTime in Model \
+                 Exchange, fmi3DoStep in Co-Simulation)"
+                    .into()
+            } else {
+                format!("value reference {vr} is an event indicator: it cannot be set")
+            });
+        }
+        self.set_real(vrs, values)
+    }
+
+    /// The number of event indicators (0 without Model Exchange).
+    pub fn number_of_event_indicators(&self) -> usize {
+        self.description
+            .model_exchange
+            .as_ref()
+            .map_or(0, |me| me.number_of_event_indicators)
+    }
+
+    /// The number of continuous states (0 without Model Exchange).
+    pub fn number_of_continuous_states(&self) -> usize {
+        self.description.number_of_states()
     }
 
     pub fn set_real(&mut self, vrs: &[ValueReference], values: &[f64]) -> Result<Status, String> {
@@ -567,7 +688,7 @@ impl<M: Model> Instance<M> {
             self.logger.log(
                 Status::Warning,
                 Category::StatusWarning,
-                &format!("fmi2DoStep: {why}"),
+                &format!("{}: {why}", self.api.name("DoStep")),
             );
             return Ok(Status::Warning);
         }
@@ -661,7 +782,11 @@ impl<M: Model> Instance<M> {
         self.start_time = snap.start_time;
         self.stop_time = snap.stop_time;
         self.logger.event(&format!(
-            "fmi2SetFMUstate: restored state at t = {}",
+            "{}: restored state at t = {}",
+            match self.api {
+                Api::Fmi2 => "fmi2SetFMUstate",
+                Api::Fmi3 => "fmi3SetFMUState",
+            },
             self.time
         ));
         Ok(Status::Ok)
@@ -750,11 +875,7 @@ impl<M: Model> Instance<M> {
     }
 
     pub fn get_event_indicators(&mut self, z: &mut [f64]) -> Result<Status, String> {
-        let nz = self
-            .description
-            .model_exchange
-            .as_ref()
-            .map_or(0, |me| me.number_of_event_indicators);
+        let nz = self.number_of_event_indicators();
         if z.len() != nz {
             return Err(format!(
                 "ni: {} values for the {nz} event indicators",

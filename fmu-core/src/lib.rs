@@ -14,6 +14,7 @@
 pub mod dependencies;
 pub mod description;
 pub mod ffi;
+pub mod ffi3;
 pub mod fmu_state;
 pub mod instance;
 pub mod logger;

@@ -1,8 +1,9 @@
-//! Logging through the importer's `fmi2CallbackLogger`, honouring `loggingOn` and the log
-//! categories (FMI 2.0.4 §2.1.5). The message is always passed as the argument of a `"%s"`
-//! format, so a `%` in a message can never be interpreted by the importer's `printf`.
+//! Logging through the importer's `fmi2CallbackLogger` or `fmi3LogMessageCallback`, honouring
+//! `loggingOn` and the log categories (FMI 2.0.4 §2.1.5, FMI 3.0.2 §2.3.1). FMI 2.0's message is
+//! always passed as the argument of a `"%s"` format, so a `%` in a message can never be
+//! interpreted by the importer's `printf`; FMI 3.0's callback takes the text itself.
 
-use crate::types::{CallbackFunctions, Fmi2ComponentEnvironment, LoggerFn, Status};
+use crate::types::{fmi3, CallbackFunctions, LoggerFn, Status};
 use std::ffi::CString;
 
 /// The log categories every FMU of this project declares in its `modelDescription.xml`.
@@ -67,10 +68,18 @@ impl Category {
     }
 }
 
+/// Where an instance's messages go: the importer's callback of its FMI version, with the
+/// environment pointer it gave us.
+#[derive(Clone, Copy)]
+enum Sink {
+    None,
+    Fmi2(LoggerFn, *mut std::os::raw::c_void),
+    Fmi3(fmi3::LogMessage, fmi3::InstanceEnvironment),
+}
+
 /// One instance's logger. Owns a copy of the instance name.
 pub struct Logger {
-    callback: Option<LoggerFn>,
-    environment: Fmi2ComponentEnvironment,
+    sink: Sink,
     instance_name: CString,
     logging_on: bool,
     enabled: [bool; Category::ALL.len()],
@@ -83,8 +92,28 @@ unsafe impl Send for Logger {}
 impl Logger {
     pub fn new(callbacks: &CallbackFunctions, instance_name: &str, logging_on: bool) -> Self {
         Logger {
-            callback: callbacks.logger,
-            environment: callbacks.component_environment,
+            sink: match callbacks.logger {
+                Some(f) => Sink::Fmi2(f, callbacks.component_environment),
+                None => Sink::None,
+            },
+            instance_name: to_cstring(instance_name),
+            logging_on,
+            enabled: [true; Category::ALL.len()],
+        }
+    }
+
+    /// An FMI 3.0 instance's logger (`logMessage` may be NULL: nothing is logged).
+    pub fn fmi3(
+        callback: Option<fmi3::LogMessage>,
+        environment: fmi3::InstanceEnvironment,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Self {
+        Logger {
+            sink: match callback {
+                Some(f) => Sink::Fmi3(f, environment),
+                None => Sink::None,
+            },
             instance_name: to_cstring(instance_name),
             logging_on,
             enabled: [true; Category::ALL.len()],
@@ -94,8 +123,7 @@ impl Logger {
     /// A logger that drops everything (for models used outside an FMU, e.g. in tests).
     pub fn silent() -> Self {
         Logger {
-            callback: None,
-            environment: std::ptr::null_mut(),
+            sink: Sink::None,
             instance_name: CString::default(),
             logging_on: false,
             enabled: [false; Category::ALL.len()],
@@ -134,23 +162,40 @@ impl Logger {
         if !self.is_enabled(category) {
             return;
         }
-        if let Some(callback) = self.callback {
-            let category_c = to_cstring(category.name());
-            // FMI 2.0.4 §2.1.5: in a logged message `#` starts a value-reference escape
-            // (`#r12#`), and `##` is a literal `#`. Our messages name variables, never escape
-            // them, so every `#` (a URI's fragment, a user's instance name) is literal.
-            let message_c = to_cstring(&message.replace('#', "##"));
-            // SAFETY: the importer gave us this callback for exactly this signature; every
-            // pointer is a valid NUL-terminated string for the duration of the call.
-            unsafe {
-                callback(
-                    self.environment,
-                    self.instance_name.as_ptr(),
-                    status as i32,
-                    category_c.as_ptr(),
-                    c"%s".as_ptr(),
-                    message_c.as_ptr(),
-                );
+        let category_c = to_cstring(category.name());
+        match self.sink {
+            Sink::None => {}
+            Sink::Fmi2(callback, environment) => {
+                // FMI 2.0.4 §2.1.5: in a logged message `#` starts a value-reference escape
+                // (`#r12#`), and `##` is a literal `#`. Our messages name variables, never
+                // escape them, so every `#` (a URI's fragment, a user's instance name) is
+                // literal.
+                let message_c = to_cstring(&message.replace('#', "##"));
+                // SAFETY: the importer gave us this callback for exactly this signature; every
+                // pointer is a valid NUL-terminated string for the duration of the call.
+                unsafe {
+                    callback(
+                        environment,
+                        self.instance_name.as_ptr(),
+                        status as i32,
+                        category_c.as_ptr(),
+                        c"%s".as_ptr(),
+                        message_c.as_ptr(),
+                    );
+                }
+            }
+            Sink::Fmi3(callback, environment) => {
+                // FMI 3.0 has no escapes in a message: the text goes as it is.
+                let message_c = to_cstring(message);
+                // SAFETY: as above, for `fmi3LogMessageCallback`.
+                unsafe {
+                    callback(
+                        environment,
+                        status as i32,
+                        category_c.as_ptr(),
+                        message_c.as_ptr(),
+                    );
+                }
             }
         }
     }

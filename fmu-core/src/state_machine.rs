@@ -56,6 +56,18 @@ impl FmiState {
     /// The byte an FMU state stores: the bit of the first eight states (as every state saved
     /// before Model Exchange existed has it), 3 and 5 (no bit) for the two Model Exchange
     /// modes.
+    /// The state's name in the FMI version `api` speaks: FMI 3.0's Step Mode is FMI 2.0's
+    /// stepComplete (and, after a discarded step, its stepFailed).
+    pub fn name_in(self, api: crate::instance::Api) -> &'static str {
+        match (api, self) {
+            (crate::instance::Api::Fmi3, FmiState::StepComplete) => "StepMode",
+            (crate::instance::Api::Fmi3, FmiState::StepFailed) => {
+                "StepMode (after a discarded step)"
+            }
+            _ => self.name(),
+        }
+    }
+
     pub fn code(self) -> u8 {
         match self {
             FmiState::EventMode => 3,
@@ -212,6 +224,9 @@ pub const CANCEL_STEP: Mask = m(&[]).only(CS);
 pub const GET_STATUS: Mask = m(&[S::StepComplete, S::StepFailed, S::Terminated]).only(CS);
 
 // Model Exchange only (the Reference FMUs' masks, from the FMI 2.0.4 table of §3.2.3).
+/// FMI 3.0's `fmi3GetNumberOfContinuousStates` and `fmi3GetNumberOfEventIndicators`: any
+/// state of a Model Exchange instance.
+pub const NUMBER_OF: Mask = ANY_BUT_FATAL.only(ME);
 pub const ENTER_EVENT_MODE: Mask = m(&[S::EventMode, S::ContinuousTimeMode]).only(ME);
 pub const NEW_DISCRETE_STATES: Mask = m(&[S::EventMode]).only(ME);
 pub const ENTER_CONTINUOUS_TIME_MODE: Mask = m(&[S::EventMode]).only(ME);

@@ -73,3 +73,41 @@ pub struct EventInfo {
     pub next_event_time_defined: Fmi2Boolean,
     pub next_event_time: Fmi2Real,
 }
+
+/// The C types of `fmi3PlatformTypes.h` and `fmi3FunctionTypes.h` (FMI 3.0.2, §2.2) that
+/// differ from FMI 2.0's: `fmi3Boolean` is C99 `bool`, the instance and its environment are
+/// opaque pointers, and `fmi3Status` has the same values as `fmi2Status` without `Pending`.
+pub mod fmi3 {
+    use std::os::raw::{c_char, c_int, c_void};
+
+    pub type Instance = *mut c_void;
+    pub type InstanceEnvironment = *mut c_void;
+    pub type FmuState = *mut c_void;
+    pub type ValueReference = u32;
+    pub type Status = c_int;
+    pub type Boolean = bool;
+    pub type FmiString = *const c_char;
+    pub type Byte = u8;
+
+    /// `fmi3LogMessageCallback`: not variadic; the message is plain text.
+    pub type LogMessage = unsafe extern "C" fn(InstanceEnvironment, Status, FmiString, FmiString);
+
+    /// `fmi3IntermediateUpdateCallback`: never called (no intermediate update, no early
+    /// return), accepted at instantiation.
+    pub type IntermediateUpdate = unsafe extern "C" fn(
+        InstanceEnvironment,
+        f64,
+        Boolean,
+        Boolean,
+        Boolean,
+        Boolean,
+        *mut Boolean,
+        *mut f64,
+    );
+
+    /// `fmi3ClockUpdateCallback` (Scheduled Execution): never called.
+    pub type ClockUpdate = unsafe extern "C" fn(InstanceEnvironment);
+
+    /// `fmi3LockPreemptionCallback` and `fmi3UnlockPreemptionCallback`: never called.
+    pub type Preemption = unsafe extern "C" fn();
+}

@@ -103,6 +103,7 @@ impl Model for Lag {
 }
 
 fmu_core::export_fmi2!(Lag);
+fmu_core::export_fmi3!(Lag);
 
 const OK: i32 = 0;
 const DISCARD: i32 = 2;
@@ -783,4 +784,276 @@ fn measured_dependencies_match_the_lag_and_expose_a_missing_one() {
     // A point to probe at that names no variable is refused.
     let err = fmu_core::dependencies::measure::<Lag>(Some(uri), callbacks, &[("nope", 1.0)]);
     assert!(err.unwrap_err().contains("no variable 'nope'"));
+}
+
+/// FMI 3.0 through the same library's `fmi3*` exports: messages land in a `Vec` through a Rust
+/// `fmi3LogMessageCallback` (not variadic), the environment pointing at it.
+mod fmi3 {
+    use super::*;
+    use fmu_core::description::FMI3_TIME_VR;
+    use std::os::raw::{c_char, c_int, c_void};
+    use std::sync::Mutex;
+
+    type Messages = Mutex<Vec<(c_int, String, String)>>;
+
+    unsafe extern "C" fn log(
+        env: *mut c_void,
+        status: c_int,
+        category: *const c_char,
+        message: *const c_char,
+    ) {
+        let messages = &*(env as *const Messages);
+        let text = |p: *const c_char| CStr::from_ptr(p).to_string_lossy().into_owned();
+        messages
+            .lock()
+            .unwrap()
+            .push((status, text(category), text(message)));
+    }
+
+    fn last(messages: &Messages) -> (c_int, String) {
+        let m = messages.lock().unwrap();
+        let (s, _, text) = m.last().expect("a message").clone();
+        (s, text)
+    }
+
+    fn instantiate(
+        messages: &Messages,
+        token: &str,
+        resources: Option<&Path>,
+        event_mode: bool,
+    ) -> *mut c_void {
+        let name = CString::new("lag3").unwrap();
+        let token = CString::new(token).unwrap();
+        let path = resources.map(|p| CString::new(p.to_str().unwrap()).unwrap());
+        unsafe {
+            fmi3InstantiateCoSimulation(
+                name.as_ptr(),
+                token.as_ptr(),
+                path.as_ref().map_or(null(), |p| p.as_ptr()),
+                false,
+                true,
+                event_mode,
+                false,
+                null(),
+                0,
+                messages as *const Messages as *mut c_void,
+                Some(log),
+                None,
+            )
+        }
+    }
+
+    /// A whole Co-Simulation run: the exact lag, `lastSuccessfulTime`, the independent variable,
+    /// and the resource path taken as a native path.
+    #[test]
+    fn a_co_simulation_run_steps_the_model_exactly() {
+        let messages = Messages::default();
+        let dir = std::env::temp_dir();
+        let c = instantiate(&messages, GUID, Some(&dir), false);
+        assert!(!c.is_null(), "{:?}", messages.lock().unwrap());
+        let inst = unsafe { &*(c as *mut fmu_core::instance::Instance<Lag>) };
+        assert_eq!(inst.model().resources_seen.as_deref(), dir.to_str());
+        unsafe {
+            assert_eq!(
+                fmi3EnterInitializationMode(c, false, 0.0, 0.5, true, 2.0),
+                OK
+            );
+            assert_eq!(fmi3SetFloat64(c, &VR_U, 1, &1.0, 1), OK);
+            assert_eq!(fmi3ExitInitializationMode(c), OK);
+            let (mut event, mut terminate, mut early, mut last) = (true, true, true, 0.0);
+            for k in 0..10 {
+                let t = 0.5 + 0.1 * k as f64;
+                let status = fmi3DoStep(
+                    c,
+                    t,
+                    0.1,
+                    true,
+                    &mut event,
+                    &mut terminate,
+                    &mut early,
+                    &mut last,
+                );
+                assert_eq!(status, OK);
+                assert!(!event && !terminate && !early);
+                assert!((last - (t + 0.1)).abs() < 1e-12);
+            }
+            let (mut y, mut t) = (f64::NAN, f64::NAN);
+            assert_eq!(fmi3GetFloat64(c, &VR_Y, 1, &mut y, 1), OK);
+            assert_eq!(fmi3GetFloat64(c, &FMI3_TIME_VR, 1, &mut t, 1), OK);
+            assert!((y - (1.0 - (-1.0f64 / 0.5).exp())).abs() < 1e-14, "{y}");
+            assert!((t - 1.5).abs() < 1e-12);
+            assert_eq!(fmi3Terminate(c), OK);
+            fmi3FreeInstance(c);
+        }
+    }
+
+    /// The FMI 3.0 calling rules, each refusal with its reason in the log.
+    #[test]
+    fn illegal_calls_and_absent_capabilities_are_errors_with_a_message() {
+        let messages = Messages::default();
+        assert!(instantiate(&messages, "{not-lag}", None, false).is_null());
+        assert!(last(&messages).1.contains("instantiation token mismatch"));
+        assert!(instantiate(&messages, GUID, None, true).is_null());
+        assert!(last(&messages).1.contains("hasEventMode = false"));
+        assert!(instantiate(
+            &messages,
+            GUID,
+            Some(Path::new("/nonexistent/resources")),
+            false
+        )
+        .is_null());
+        assert!(last(&messages).1.contains("is not a directory"));
+        let name = CString::new("me").unwrap();
+        let token = CString::new(GUID).unwrap();
+        let env = &messages as *const Messages as *mut c_void;
+        let me = unsafe {
+            fmi3InstantiateModelExchange(
+                name.as_ptr(),
+                token.as_ptr(),
+                null(),
+                false,
+                false,
+                env,
+                Some(log),
+            )
+        };
+        assert!(me.is_null());
+        assert!(last(&messages).1.contains("supports Co-Simulation only"));
+        let se = unsafe {
+            fmi3InstantiateScheduledExecution(
+                name.as_ptr(),
+                token.as_ptr(),
+                null(),
+                false,
+                false,
+                env,
+                Some(log),
+                None,
+                None,
+                None,
+            )
+        };
+        assert!(se.is_null());
+        assert!(last(&messages)
+            .1
+            .contains("does not support Scheduled Execution"));
+
+        let c = instantiate(&messages, GUID, None, false);
+        let (mut event, mut terminate, mut early, mut last_time) = (false, false, false, 0.0);
+        unsafe {
+            assert_eq!(
+                fmi3DoStep(
+                    c,
+                    0.0,
+                    0.1,
+                    true,
+                    &mut event,
+                    &mut terminate,
+                    &mut early,
+                    &mut last_time
+                ),
+                ERROR
+            );
+            assert_eq!(
+                last(&messages),
+                (
+                    ERROR,
+                    "fmi3DoStep: illegal call in state Instantiated".into()
+                )
+            );
+            assert_eq!(fmi3Reset(c), OK);
+            assert_eq!(
+                fmi3EnterInitializationMode(c, false, 0.0, 0.0, false, 0.0),
+                OK
+            );
+            let mut two = [0.0; 2];
+            assert_eq!(fmi3GetFloat64(c, &VR_Y, 1, two.as_mut_ptr(), 2), ERROR);
+            assert!(last(&messages)
+                .1
+                .contains("nValues = 2 for nValueReferences = 1"));
+            assert_eq!(fmi3Reset(c), OK);
+            assert_eq!(
+                fmi3EnterInitializationMode(c, false, 0.0, 0.0, false, 0.0),
+                OK
+            );
+            let mut x = 0i64;
+            assert_eq!(fmi3GetInt64(c, null(), 0, &mut x, 0), OK);
+            assert_eq!(fmi3GetInt64(c, &VR_Y, 1, &mut x, 1), ERROR);
+            assert!(last(&messages).1.contains("this FMU has no Int64 variable"));
+            let refused: [(unsafe extern "C" fn(*mut c_void) -> c_int, &str); 3] = [
+                (fmi3EnterConfigurationMode, "no structural parameters"),
+                (
+                    fmi3EvaluateDiscreteStates,
+                    "providesEvaluateDiscreteStates = false",
+                ),
+                (fmi3EnterStepMode, "only from Co-Simulation's Event Mode"),
+            ];
+            for (call, why) in refused {
+                assert_eq!(call(c), ERROR);
+                assert!(last(&messages).1.contains(why), "{:?}", last(&messages));
+                assert_eq!(fmi3Reset(c), OK);
+            }
+            // A Model Exchange function on a Co-Simulation instance.
+            let mut n = 0usize;
+            assert_eq!(fmi3GetNumberOfContinuousStates(c, &mut n), ERROR);
+            assert!(last(&messages)
+                .1
+                .contains("a function of Model Exchange only"));
+            fmi3FreeInstance(c);
+        }
+    }
+
+    /// A panic in the model is `fmi3Error`, and an FMU state serialises and restores by value.
+    #[test]
+    fn a_panic_is_an_error_and_a_state_restores_by_value() {
+        let messages = Messages::default();
+        let c = instantiate(&messages, GUID, None, false);
+        let (mut e, mut t, mut r, mut last_time) = (false, false, false, 0.0);
+        unsafe {
+            assert_eq!(
+                fmi3EnterInitializationMode(c, false, 0.0, 0.0, false, 0.0),
+                OK
+            );
+            assert_eq!(fmi3SetFloat64(c, &VR_U, 1, &1.0, 1), OK);
+            assert_eq!(fmi3ExitInitializationMode(c), OK);
+            assert_eq!(
+                fmi3DoStep(c, 0.0, 0.1, true, &mut e, &mut t, &mut r, &mut last_time),
+                OK
+            );
+            let mut state: *mut c_void = null_mut();
+            assert_eq!(fmi3GetFMUState(c, &mut state), OK);
+            let mut size = 0usize;
+            assert_eq!(fmi3SerializedFMUStateSize(c, state, &mut size), OK);
+            let mut bytes = vec![0u8; size];
+            assert_eq!(
+                fmi3SerializeFMUState(c, state, bytes.as_mut_ptr(), size),
+                OK
+            );
+            assert_eq!(fmi3FreeFMUState(c, &mut state), OK);
+            let mut y0 = 0.0;
+            assert_eq!(fmi3GetFloat64(c, &VR_Y, 1, &mut y0, 1), OK);
+            assert_eq!(fmi3SetFloat64(c, &VR_U, 1, &666.0, 1), OK);
+            assert_eq!(
+                fmi3DoStep(c, 0.1, 0.1, true, &mut e, &mut t, &mut r, &mut last_time),
+                ERROR
+            );
+            assert!(last(&messages).1.contains("the number of the beast"));
+            let mut restored: *mut c_void = null_mut();
+            assert_eq!(
+                fmi3DeserializeFMUState(c, bytes.as_ptr(), size, &mut restored),
+                OK
+            );
+            assert_eq!(fmi3SetFMUState(c, restored), OK);
+            let (mut y, mut time) = (f64::NAN, f64::NAN);
+            assert_eq!(fmi3GetFloat64(c, &VR_Y, 1, &mut y, 1), OK);
+            assert_eq!(fmi3GetFloat64(c, &FMI3_TIME_VR, 1, &mut time, 1), OK);
+            assert_eq!((y, time), (y0, 0.1));
+            assert_eq!(
+                fmi3DoStep(c, 0.1, 0.1, true, &mut e, &mut t, &mut r, &mut last_time),
+                OK
+            );
+            assert_eq!(fmi3FreeFMUState(c, &mut restored), OK);
+            fmi3FreeInstance(c);
+        }
+    }
 }

@@ -1,8 +1,8 @@
 //! What a built FMU library is and needs, read from its bytes without loading it (so for every
-//! platform on any machine): format, architecture, the fmi2 functions it fails to export, the
+//! platform on any machine): format, architecture, the fmi2 and fmi3 functions it fails to export, the
 //! newest glibc symbol version it imports (ELF) and the DLLs it imports (PE).
 
-use fmu_core::ffi::EXPORTED_FUNCTIONS;
+use fmu_core::{ffi, ffi3};
 use object::elf::{FileHeader64, SHT_GNU_VERNEED};
 use object::read::elf::{FileHeader, SectionHeader};
 use object::{Architecture, BinaryFormat, Endianness, Object};
@@ -27,8 +27,9 @@ impl Inspected {
             .iter()
             .map(|e| e.name().to_vec())
             .collect();
-        let missing_exports = EXPORTED_FUNCTIONS
+        let missing_exports = ffi::EXPORTED_FUNCTIONS
             .iter()
+            .chain(ffi3::EXPORTED_FUNCTIONS.iter())
             .copied()
             .filter(|f| !exports.iter().any(|e| e == f.as_bytes()))
             .collect();
@@ -59,8 +60,10 @@ impl Inspected {
         })
     }
 
-    /// Refuse the library at `path` (this one) unless it exports all 44 FMI 2.0 functions (Co-Simulation and Model Exchange).
-    pub fn require_fmi2(&self, path: &Path) -> Result<(), String> {
+    /// Refuse the library at `path` (this one) unless it exports all 44 FMI 2.0 functions
+    /// (Co-Simulation and Model Exchange) and all 75 of FMI 3.0: every library of this project
+    /// carries both, so one build serves an FMU of either version.
+    pub fn require_exports(&self, path: &Path) -> Result<(), String> {
         if self.missing_exports.is_empty() {
             Ok(())
         } else {
@@ -147,7 +150,10 @@ mod tests {
         let me = std::fs::read(std::env::current_exe().unwrap()).unwrap();
         let found = Inspected::parse(&me).unwrap();
         assert_eq!(found.format, BinaryFormat::Elf);
-        assert_eq!(found.missing_exports.len(), EXPORTED_FUNCTIONS.len());
+        assert_eq!(
+            found.missing_exports.len(),
+            ffi::EXPORTED_FUNCTIONS.len() + ffi3::EXPORTED_FUNCTIONS.len()
+        );
         let v = found.glibc.expect("a Linux test binary imports glibc");
         assert!(v >= (2, 2), "{v:?}");
         assert!(Inspected::parse(b"not a library").is_err());

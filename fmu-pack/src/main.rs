@@ -1,7 +1,8 @@
 //! `fmu-pack`: package the project's FMUs. It links no model: it loads this machine's build of
 //! each library and asks it (`fmuCoreDescription`) for its `modelDescription.xml`, so the
 //! description comes from the code packaged beside it, and checks that every library it packs,
-//! for any platform, exports all 44 FMI 2.0 functions (`fmpy validate` never loads the binary).
+//! for any platform, exports all 44 FMI 2.0 and 75 FMI 3.0 functions (`fmpy validate` never
+//! loads the binary). `--fmi 3` packs an FMI 3.0 archive from the same library.
 //!
 //! ```text
 //! fmu-pack fmu --lib target/release/libfmu_plant.so --out dist/plant.fmu
@@ -44,6 +45,11 @@ enum Command {
         /// Directory whose files become resources/ (e.g. dist/hinf_sf with controller.json).
         #[arg(long)]
         resources: Option<PathBuf>,
+        /// The FMI version of the archive: 2 (binaries/linux64, win64) or 3 (binaries/
+        /// x86_64-linux, aarch64-linux, x86_64-windows; FMI 3.0's modelDescription.xml). The
+        /// same library serves both.
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
+        fmi: u8,
         #[arg(long)]
         out: PathBuf,
     },
@@ -55,6 +61,9 @@ enum Command {
         resources: Option<PathBuf>,
         #[arg(long)]
         xml: Option<PathBuf>,
+        /// Also write FMI 3.0's modelDescription.xml here.
+        #[arg(long)]
+        xml3: Option<PathBuf>,
         #[arg(long)]
         readme: Option<PathBuf>,
         /// Marker name in the README: `<!-- TAG:begin -->` … `<!-- TAG:end -->`.
@@ -101,7 +110,8 @@ impl Library {
         Ok(Library(lib))
     }
 
-    /// `format` 0: modelDescription.xml, 1: Markdown variable table.
+    /// `format` 0: FMI 2.0's modelDescription.xml, 1: Markdown variable table, 2: FMI 3.0's
+    /// modelDescription.xml.
     fn document(&self, resources: Option<&Path>, format: c_int) -> Result<String, String> {
         type Describe = unsafe extern "C" fn(*const c_char, c_int) -> *mut c_char;
         type Free = unsafe extern "C" fn(*mut c_char);
@@ -164,10 +174,11 @@ fn run(cli: Cli) -> Result<(), String> {
             lib,
             binaries,
             resources,
+            fmi,
             out,
         } => {
             let library = Library::load(&lib)?;
-            let xml = library.document(resources.as_deref(), 0)?;
+            let xml = library.document(resources.as_deref(), if fmi == 3 { 2 } else { 0 })?;
             let id = model_identifier(&xml)?;
             let files = match &resources {
                 Some(dir) => read_dir_files(dir)?,
@@ -180,7 +191,21 @@ fn run(cli: Cli) -> Result<(), String> {
                     .ok_or_else(|| format!("--binary {spec}: expected FOLDER=FILE"))?;
                 libs.push(Binary::read(folder, Path::new(path))?);
             }
-            let host = package::host_platform()?;
+            let host = package::host_platform(fmi)?;
+            let folders = if fmi == 3 {
+                &package::PLATFORMS3[..]
+            } else {
+                &package::PLATFORMS[..]
+            };
+            if let Some(b) = libs
+                .iter()
+                .find(|b| !folders.iter().any(|p| p.folder == b.platform.folder))
+            {
+                return Err(format!(
+                    "binaries/{} is not a platform folder of FMI {fmi}.0",
+                    b.platform.folder
+                ));
+            }
             if !libs.iter().any(|b| b.platform.folder == host.folder) {
                 libs.insert(0, Binary::read(host.folder, &lib)?);
             }
@@ -198,13 +223,19 @@ fn run(cli: Cli) -> Result<(), String> {
             lib,
             resources,
             xml,
+            xml3,
             readme,
             tag,
         } => {
-            binary::read_library(&lib)?.1.require_fmi2(&lib)?;
+            binary::read_library(&lib)?.1.require_exports(&lib)?;
             let library = Library::load(&lib)?;
             if let Some(path) = xml {
                 std::fs::write(&path, library.document(resources.as_deref(), 0)?)
+                    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                println!("wrote {}", path.display());
+            }
+            if let Some(path) = xml3 {
+                std::fs::write(&path, library.document(resources.as_deref(), 2)?)
                     .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
                 println!("wrote {}", path.display());
             }

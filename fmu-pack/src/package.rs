@@ -1,5 +1,7 @@
-//! Writing a `.fmu` archive (FMI 2.0.4 §2.3): `modelDescription.xml`, one shared library per
-//! platform as `binaries/<platform>/<modelIdentifier>.<so|dll>`, and `resources/`.
+//! Writing a `.fmu` archive (FMI 2.0.4 §2.3, FMI 3.0.2 §2.5): `modelDescription.xml`, one
+//! shared library per platform as `binaries/<platform>/<modelIdentifier>.<so|dll>`, and
+//! `resources/`. FMI 2.0 and FMI 3.0 name the platform folders differently
+//! ([`PLATFORMS`], [`PLATFORMS3`]).
 
 use crate::binary::{read_library, Inspected};
 use object::{Architecture, BinaryFormat};
@@ -34,13 +36,41 @@ pub const PLATFORMS: [Platform; 2] = [
     },
 ];
 
-/// The platform of a `binaries/` folder name.
+/// FMI 3.0's platform folders (`<arch>-<sys>`, FMI 3.0.2 §2.5.1.4): one architecture each,
+/// so an x86-64 and an AArch64 Linux library share one FMU.
+pub const PLATFORMS3: [Platform; 3] = [
+    Platform {
+        folder: "x86_64-linux",
+        extension: "so",
+        format: BinaryFormat::Elf,
+        architectures: &[Architecture::X86_64],
+    },
+    Platform {
+        folder: "aarch64-linux",
+        extension: "so",
+        format: BinaryFormat::Elf,
+        architectures: &[Architecture::Aarch64],
+    },
+    Platform {
+        folder: "x86_64-windows",
+        extension: "dll",
+        format: BinaryFormat::Pe,
+        architectures: &[Architecture::X86_64],
+    },
+];
+
+/// The platform of a `binaries/` folder name, of either FMI version.
 pub fn platform(folder: &str) -> Result<&'static Platform, String> {
     PLATFORMS
         .iter()
+        .chain(PLATFORMS3.iter())
         .find(|p| p.folder == folder)
         .ok_or_else(|| {
-            let known: Vec<&str> = PLATFORMS.iter().map(|p| p.folder).collect();
+            let known: Vec<&str> = PLATFORMS
+                .iter()
+                .chain(PLATFORMS3.iter())
+                .map(|p| p.folder)
+                .collect();
             format!(
                 "no platform folder '{folder}' (known: {})",
                 known.join(", ")
@@ -48,12 +78,16 @@ pub fn platform(folder: &str) -> Result<&'static Platform, String> {
         })
 }
 
-/// The FMI platform folder of the machine we run on (where a library loaded here belongs).
-pub fn host_platform() -> Result<&'static Platform, String> {
-    match (std::env::consts::OS, std::env::consts::ARCH) {
-        ("linux", "x86_64" | "aarch64") => platform("linux64"),
-        ("windows", "x86_64") => platform("win64"),
-        (os, arch) => Err(format!("no FMI 2.0 platform folder for {os}/{arch}")),
+/// The FMI platform folder of the machine we run on (where a library loaded here belongs), in
+/// FMI version `fmi` (2 or 3).
+pub fn host_platform(fmi: u8) -> Result<&'static Platform, String> {
+    match (fmi, std::env::consts::OS, std::env::consts::ARCH) {
+        (2, "linux", "x86_64" | "aarch64") => platform("linux64"),
+        (2, "windows", "x86_64") => platform("win64"),
+        (3, "linux", "x86_64") => platform("x86_64-linux"),
+        (3, "linux", "aarch64") => platform("aarch64-linux"),
+        (3, "windows", "x86_64") => platform("x86_64-windows"),
+        (fmi, os, arch) => Err(format!("no FMI {fmi}.0 platform folder for {os}/{arch}")),
     }
 }
 
@@ -65,7 +99,7 @@ pub struct Binary {
 
 impl Binary {
     /// Read `path` for `folder`: it must be a library of that folder's format and architecture
-    /// that exports the 44 FMI 2.0 functions.
+    /// that exports the 44 FMI 2.0 and the 75 FMI 3.0 functions.
     pub fn read(folder: &str, path: &Path) -> Result<Self, String> {
         let platform = platform(folder)?;
         let (bytes, found) = read_library(path)?;
@@ -77,7 +111,7 @@ impl Binary {
                 found.kind()
             ));
         }
-        found.require_fmi2(path)?;
+        found.require_exports(path)?;
         Ok(Binary { platform, bytes })
     }
 }
@@ -172,14 +206,25 @@ mod tests {
     use super::*;
 
     #[test]
-    fn platform_folders_are_the_fmi2_names() {
+    fn platform_folders_are_the_fmi2_and_fmi3_names() {
         assert_eq!(platform("win64").unwrap().extension, "dll");
         assert!(platform("linux64")
             .unwrap()
             .architectures
             .contains(&Architecture::Aarch64));
-        let e = platform("aarch64-linux").unwrap_err();
-        assert!(e.contains("known: linux64, win64"), "{e}");
+        // FMI 3.0 gives ARM a folder of its own.
+        assert_eq!(
+            platform("aarch64-linux").unwrap().architectures,
+            &[Architecture::Aarch64]
+        );
+        assert_eq!(platform("x86_64-windows").unwrap().format, BinaryFormat::Pe);
+        let e = platform("linux32").unwrap_err();
+        assert!(
+            e.contains("known: linux64, win64, x86_64-linux, aarch64-linux, x86_64-windows"),
+            "{e}"
+        );
+        assert_eq!(host_platform(2).unwrap().folder, "linux64");
+        assert!(host_platform(3).unwrap().folder.ends_with("-linux"));
     }
 
     #[test]

@@ -1385,6 +1385,7 @@ fn input_index(vr: ValueReference) -> Option<usize> {
 }
 
 fmu_core::export_fmi2!(Plant);
+fmu_core::export_fmi3!(Plant);
 
 #[cfg(test)]
 mod value_reference_blocks {

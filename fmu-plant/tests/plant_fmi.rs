@@ -95,6 +95,15 @@ fn checked_in_model_description_is_not_stale() {
         on_disk == fmu_plant::Plant::model_description().to_xml(),
         "modelDescription/plant.xml is stale: run `make descriptions` and commit it"
     );
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../modelDescription/fmi3/plant.xml"
+    );
+    let on_disk = std::fs::read_to_string(path).expect("modelDescription/fmi3/plant.xml exists");
+    assert!(
+        on_disk == fmu_plant::Plant::model_description().to_xml3(),
+        "modelDescription/fmi3/plant.xml is stale: run `make descriptions` and commit it"
+    );
 }
 
 #[test]

@@ -374,3 +374,4 @@ impl Model for RoadFmu {
 }
 
 fmu_core::export_fmi2!(RoadFmu);
+fmu_core::export_fmi3!(RoadFmu);

@@ -184,6 +184,15 @@ fn checked_in_description_and_readme_table_are_current() {
         xml == model_description().to_xml(),
         "modelDescription/road.xml is stale: run `make descriptions` and commit it"
     );
+    let xml3 = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../modelDescription/fmi3/road.xml"
+    ))
+    .expect("modelDescription/fmi3/road.xml exists");
+    assert!(
+        xml3 == model_description().to_xml3(),
+        "modelDescription/fmi3/road.xml is stale: run `make descriptions` and commit it"
+    );
     let readme =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
     let expected = fmu_core::ModelDescription::splice_into(

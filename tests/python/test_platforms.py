@@ -233,6 +233,24 @@ def test_every_fmu_carries_its_platforms():
             assert z.read("modelDescription.xml") == a.read("modelDescription.xml")
 
 
+def test_every_fmi3_fmu_carries_every_platform_in_one_archive():
+    """FMI 3.0 names a folder per architecture: each archive of dist/fmi3 holds the x86-64 Linux,
+    x86-64 Windows and AArch64 Linux libraries, byte for byte those of the FMI 2.0 archives (one
+    library serves both versions)."""
+    fmi3 = sorted((DIST / "fmi3").glob("*.fmu"))
+    assert [f.name for f in fmi3] == [f.name for f in sorted(DIST.glob("*.fmu"))]
+    for fmu in fmi3:
+        stem = fmu.stem
+        with zipfile.ZipFile(fmu) as z, zipfile.ZipFile(DIST / fmu.name) as two, \
+                zipfile.ZipFile(DIST / "linux-aarch64" / fmu.name) as arm:
+            folders = sorted({n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") == 2})
+            assert folders == ["aarch64-linux", "x86_64-linux", "x86_64-windows"], (stem, folders)
+            identifier = read_model_description(str(fmu)).coSimulation.modelIdentifier
+            assert z.read(f"binaries/x86_64-linux/{identifier}.so") == two.read(f"binaries/linux64/{identifier}.so"), stem
+            assert z.read(f"binaries/x86_64-windows/{identifier}.dll") == two.read(f"binaries/win64/{identifier}.dll"), stem
+            assert z.read(f"binaries/aarch64-linux/{identifier}.so") == arm.read(f"binaries/linux64/{identifier}.so"), stem
+
+
 def test_readme_states_the_platforms_the_fmus_carry():
     table = subprocess.run([str(ROOT / "target" / "release" / "fmu-pack"), "platforms", "--fmu", "dist/plant.fmu",
                             "--fmu", "dist/linux-aarch64/plant.fmu"], cwd=ROOT, check=True, capture_output=True, text=True).stdout

@@ -1,0 +1,211 @@
+//! The FMI 3.0 `modelDescription.xml` (FMI 3.0.2 §2.4) of the same variable table: typed
+//! variables (`Float64`, `Int32`, `Boolean`), dependencies by value reference, the independent
+//! variable `time`, `instantiationToken` for the GUID, and, for Model Exchange, one variable per
+//! event indicator ([`FMI3_TIME_VR`], [`FMI3_EVENT_INDICATOR_VR`]).
+
+use super::{
+    esc, flag, num, BaseType, Causality, DependencyKind, ModelDescription, VarType, Variable,
+    FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
+};
+use std::fmt::Write;
+
+impl ModelDescription {
+    /// The FMI 3.0 `modelDescription.xml` text. Deterministic, like [`Self::to_xml`].
+    pub fn to_xml3(&self) -> String {
+        let mut x = String::new();
+        writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#).unwrap();
+        writeln!(x, "<!-- Generated from the variable table in Rust; do not edit. Regenerate with `make descriptions`. -->").unwrap();
+        writeln!(
+            x,
+            r#"<fmiModelDescription fmiVersion="3.0" modelName="{}" instantiationToken="{}" description="{}" version="{}" generationTool="suspension-fmus {} (fmu-core)" variableNamingConvention="structured">"#,
+            esc(&self.model_name),
+            esc(&self.guid),
+            esc(&self.description),
+            esc(&self.version),
+            env!("CARGO_PKG_VERSION"),
+        )
+        .unwrap();
+        self.write_interfaces3(&mut x);
+        self.write_units(&mut x, &["s"]);
+        self.write_categories_and_experiment(&mut x);
+        writeln!(x, "  <ModelVariables>").unwrap();
+        writeln!(
+            x,
+            r#"    <Float64 name="time" valueReference="{FMI3_TIME_VR}" description="Simulation time" causality="independent" variability="continuous" unit="s"/>"#
+        )
+        .unwrap();
+        for v in &self.variables {
+            self.write_variable3(&mut x, v);
+        }
+        for i in 0..self.event_indicators() {
+            writeln!(
+                x,
+                r#"    <Float64 name="event_indicator[{}]" valueReference="{}" description="Event indicator {}: an event where it changes sign" causality="local" variability="continuous" initial="calculated"/>"#,
+                i + 1,
+                FMI3_EVENT_INDICATOR_VR + i as u32,
+                i + 1
+            )
+            .unwrap();
+        }
+        writeln!(x, "  </ModelVariables>").unwrap();
+        self.write_structure3(&mut x);
+        writeln!(x, "</fmiModelDescription>").unwrap();
+        x
+    }
+
+    fn event_indicators(&self) -> usize {
+        self.model_exchange
+            .as_ref()
+            .map_or(0, |me| me.number_of_event_indicators)
+    }
+
+    /// The value reference of the variable named `name` (checked to exist).
+    fn vr_of(&self, name: &str) -> u32 {
+        self.variable(name).expect("checked").value_reference
+    }
+
+    /// `<ModelExchange>` where the model has it, and `<CoSimulation>`: exact steps to any
+    /// communication point, no Event Mode, no early return, no intermediate update.
+    fn write_interfaces3(&self, x: &mut String) {
+        let c = &self.capabilities;
+        let common = format!(
+            r#"modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="{}" canSerializeFMUState="{}" providesDirectionalDerivatives="{}" providesAdjointDerivatives="false" providesPerElementDependencies="false""#,
+            esc(&self.model_identifier),
+            flag(c.can_get_and_set_fmu_state),
+            flag(c.can_serialize_fmu_state),
+            flag(c.provides_directional_derivative)
+        );
+        if let Some(me) = &self.model_exchange {
+            writeln!(
+                x,
+                r#"  <ModelExchange {common} needsCompletedIntegratorStep="{}" providesEvaluateDiscreteStates="false"/>"#,
+                flag(!me.completed_integrator_step_not_needed)
+            )
+            .unwrap();
+        }
+        writeln!(
+            x,
+            r#"  <CoSimulation {common} canHandleVariableCommunicationStepSize="{}" maxOutputDerivativeOrder="{}" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
+            flag(c.can_handle_variable_communication_step_size),
+            c.max_output_derivative_order
+        )
+        .unwrap();
+    }
+
+    /// One typed variable.
+    fn write_variable3(&self, x: &mut String, v: &Variable) {
+        let (causality, variability, initial) = v.attributes();
+        let tag = match v.kind.base() {
+            BaseType::Real => "Float64",
+            BaseType::Integer => "Int32",
+            BaseType::Boolean => "Boolean",
+        };
+        let mut attrs = String::new();
+        match &v.kind {
+            VarType::Real {
+                unit,
+                start,
+                min,
+                max,
+            } => {
+                if !unit.is_empty() {
+                    write!(attrs, r#" unit="{}""#, esc(unit)).unwrap();
+                }
+                if let Some(m) = min {
+                    write!(attrs, r#" min="{}""#, num(*m)).unwrap();
+                }
+                if let Some(m) = max {
+                    write!(attrs, r#" max="{}""#, num(*m)).unwrap();
+                }
+                if let Some(s) = start {
+                    write!(attrs, r#" start="{}""#, num(*s)).unwrap();
+                }
+                if let Some(state) = &v.derivative_of {
+                    write!(attrs, r#" derivative="{}""#, self.vr_of(state)).unwrap();
+                }
+            }
+            VarType::Integer { start } => {
+                if let Some(s) = start {
+                    write!(attrs, r#" start="{s}""#).unwrap();
+                }
+            }
+            VarType::Boolean { start } => {
+                if let Some(s) = start {
+                    write!(attrs, r#" start="{}""#, flag(*s)).unwrap();
+                }
+            }
+        }
+        writeln!(
+            x,
+            r#"    <{tag} name="{}" valueReference="{}" description="{}" causality="{causality}" variability="{variability}"{initial}{attrs}/>"#,
+            esc(&v.name),
+            v.value_reference,
+            esc(&v.description)
+        )
+        .unwrap();
+    }
+
+    /// `<ModelStructure>` as FMI 2.0's, by value reference: the outputs, the continuous-state
+    /// derivatives and the initial unknowns with their dependencies, then the event indicators
+    /// (no dependencies given: on every known).
+    fn write_structure3(&self, x: &mut String) {
+        let element =
+            |x: &mut String, tag: &str, v: &Variable, mut deps: Vec<(u32, DependencyKind)>| {
+                deps.sort_unstable_by_key(|(d, _)| *d);
+                deps.dedup_by_key(|(d, _)| *d);
+                let refs: Vec<String> = deps.iter().map(|(d, _)| d.to_string()).collect();
+                let kinds: Vec<&str> = deps.iter().map(|(_, k)| k.name()).collect();
+                writeln!(
+                    x,
+                    r#"    <{tag} valueReference="{}" dependencies="{}" dependenciesKind="{}"/>"#,
+                    v.value_reference,
+                    refs.join(" "),
+                    kinds.join(" ")
+                )
+                .unwrap();
+            };
+        let own = |v: &Variable| -> Vec<(u32, DependencyKind)> {
+            v.depends_on
+                .iter()
+                .map(|(d, k)| (self.vr_of(d), *k))
+                .collect()
+        };
+        writeln!(x, "  <ModelStructure>").unwrap();
+        for v in self
+            .variables
+            .iter()
+            .filter(|v| v.causality == Causality::Output)
+        {
+            element(x, "Output", v, own(v));
+        }
+        for v in self.variables.iter().filter(|v| v.derivative_of.is_some()) {
+            element(x, "ContinuousStateDerivative", v, own(v));
+        }
+        let initial = |v: &Variable| -> Vec<(u32, DependencyKind)> {
+            v.depends_on
+                .iter()
+                .map(|(d, _)| d)
+                .filter(|d| self.variable(d).map(|k| k.causality) == Some(Causality::Input))
+                .chain(&v.initial_parameters)
+                .map(|d| (self.vr_of(d), DependencyKind::Dependent))
+                .collect()
+        };
+        for v in self.variables.iter().filter(|v| {
+            matches!(
+                v.causality,
+                Causality::Output | Causality::CalculatedParameter | Causality::Local
+            )
+        }) {
+            element(x, "InitialUnknown", v, initial(v));
+        }
+        for i in 0..self.event_indicators() {
+            writeln!(
+                x,
+                r#"    <EventIndicator valueReference="{}"/>"#,
+                FMI3_EVENT_INDICATOR_VR + i as u32
+            )
+            .unwrap();
+        }
+        writeln!(x, "  </ModelStructure>").unwrap();
+    }
+}

@@ -1,0 +1,251 @@
+"""FMI 3.0 (`dist/fmi3/`): every FMU validates in FMPy and carries the FMI 2.0 FMU's variables
+with the same value references; the closed loop over FMI 3.0 (road FMU, plant, controller in a
+Gauss-Seidel master written here) is the FMI 2.0 loop bit for bit; the plant's Model Exchange
+through FMI 3.0 in FMPy's CVode lands on its FMI 2.0 twin and on its own Co-Simulation; the
+FMI 3.0 calling rules hold, and what the FMUs do not have is refused with a message."""
+
+import ctypes
+import pathlib
+import shutil
+
+import numpy as np
+import pytest
+from fmpy import extract, read_model_description, simulate_fmu
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi3 import FMU3Slave, fmi3ValueReference
+from fmpy.validation import validate_fmu
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+CONTROLLERS = ["hinf_sf", "hinf_of", "hinf_of_aw", "robust_sf", "robust_of", "delay_sf", "ft_of", "skyhook", "lqg"]
+FMUS = ["road", "plant"] + CONTROLLERS
+ROAD = [f"road_{q}_{c}" for q in "zv" for c in ("fl", "fr", "rl", "rr")]
+FORCES = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"]
+TIME_VR = 1_000_000_000
+
+
+def path(name, fmi):
+    p = ROOT / "dist" / ("fmi3" if fmi == 3 else "") / f"{name}.fmu"
+    if not p.exists():
+        pytest.fail(f"{p} not found: run `make` first")
+    return str(p)
+
+
+@pytest.mark.parametrize("name", FMUS)
+def test_every_fmi3_fmu_validates_and_carries_the_fmi2_variables(name):
+    fmu3 = path(name, 3)
+    assert validate_fmu(fmu3) == []
+    md2, md3 = read_model_description(path(name, 2)), read_model_description(fmu3)
+    assert md3.fmiVersion == "3.0" and md3.instantiationToken == md2.guid
+    assert md3.coSimulation is not None and md3.coSimulation.hasEventMode is False
+    two = {v.name: (v.valueReference, v.causality, v.variability) for v in md2.modelVariables}
+    three = {v.name: (v.valueReference, v.causality, v.variability) for v in md3.modelVariables}
+    # Every FMI 2.0 variable, and FMI 3.0's own: the independent time and (Model Exchange) the
+    # event indicators, above every model variable's reference.
+    extra = {k: v for k, v in three.items() if k not in two}
+    assert {k: three[k] for k in two} == two
+    assert extra.pop("time") == (TIME_VR, "independent", "continuous")
+    n = len(md3.eventIndicators)
+    assert sorted(extra) == sorted(f"event_indicator[{i + 1}]" for i in range(n))
+    assert all(vr > TIME_VR for vr, _, _ in extra.values())
+    assert (md3.modelExchange is not None) == (md2.modelExchange is not None)
+    if md2.modelExchange is not None:
+        assert n == md2.numberOfEventIndicators and len(md3.derivatives) == len(md2.derivatives)
+    # Typed: a Real is a Float64, an Integer an Int32.
+    types = {v.name: v.type for v in md3.modelVariables}
+    for v in md2.modelVariables:
+        assert types[v.name] == {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}[v.type]
+
+
+class Slave:
+    """One FMU of either version, instantiated and initialised with `parameters`."""
+
+    def __init__(self, name, fmi, parameters=None, integers=None, log=None):
+        p = path(name, fmi)
+        self.md = read_model_description(p)
+        self.dir = extract(p)
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.fmi = fmi
+        identifier = self.md.coSimulation.modelIdentifier
+        if fmi == 3:
+            self.fmu = FMU3Slave(guid=self.md.guid, unzipDirectory=self.dir, modelIdentifier=identifier,
+                                 instanceName=name)
+            self.fmu.instantiate(logMessage=log)
+        else:
+            self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir, modelIdentifier=identifier,
+                                 instanceName=name)
+            self.fmu.instantiate()
+        for k, v in (parameters or {}).items():
+            if k in self.vr:
+                self.set([k], [v])
+        for k, v in (integers or {}).items():
+            vr = [self.vr[k]]
+            self.fmu.setInt32(vr, [v]) if fmi == 3 else self.fmu.setInteger(vr, [v])
+        if fmi == 3:
+            self.fmu.enterInitializationMode(startTime=0.0)
+        else:
+            self.fmu.setupExperiment(startTime=0.0)
+            self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+    def get(self, names):
+        vr = [self.vr[n] for n in names]
+        return self.fmu.getFloat64(vr) if self.fmi == 3 else self.fmu.getReal(vr)
+
+    def set(self, names, values):
+        vr = [self.vr[n] for n in names]
+        return self.fmu.setFloat64(vr, values) if self.fmi == 3 else self.fmu.setReal(vr, values)
+
+    def step(self, t, h):
+        if self.fmi == 3:
+            event, terminate, early, last = self.fmu.doStep(t, h)
+            assert not (event or terminate or early) and last == pytest.approx(t + h, abs=1e-12)
+        else:
+            self.fmu.doStep(t, h)
+
+    def close(self):
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def closed_loop(fmi, controller, seconds=2.0, h=1e-3):
+    """The bump scenario's loop (road -> plant -> controller, Gauss-Seidel), recorded."""
+    road = Slave("road", fmi, {"bump_height": 0.08, "bump_length": 3.0, "speed": 15.0, "start_distance": 1.5},
+                 {"profile": 1})
+    plant = Slave("plant", fmi)
+    ctrl = Slave(controller, fmi)
+    reads = [v.name for v in ctrl.md.modelVariables if v.causality == "input"]
+    record = ["a_seat", "stroke_fl", "stroke_seat", "f_fl", "f_seat", "tire_load_rl"]
+    log = []
+    t = 0.0
+    for k in range(int(round(seconds / h))):
+        plant.set(ROAD, road.get(ROAD))
+        plant.set(FORCES, ctrl.get(FORCES))
+        ctrl.set(reads, plant.get(reads))
+        log.append(plant.get(record) + ctrl.get(FORCES))
+        for s in (road, plant, ctrl):
+            s.step(t, h)
+        t = (k + 1) * h
+    for s in (road, plant, ctrl):
+        s.close()
+    return np.array(log)
+
+
+@pytest.mark.parametrize("controller", ["hinf_of", "delay_sf", "ft_of", "skyhook"])
+def test_the_fmi3_closed_loop_is_the_fmi2_loop_bit_for_bit(controller):
+    two, three = closed_loop(2, controller), closed_loop(3, controller)
+    assert np.abs(two).max() > 0.1  # the bump moves the car and the actuators
+    assert np.array_equal(two, three), np.abs(two - three).max()
+
+
+@pytest.mark.parametrize("start", [
+    # The FL wheel into its bump stop, the seat and the FR suspension into their rebound stops.
+    {"road_z_fl": 0.15, "u_seat": 1000.0, "u_fr": 2500.0},
+    # 10 Hz actuators and the seat losing half its force at 0.5 s (a time event).
+    {"road_z_rr": 0.03, "u_seat": 400.0, "u_rl": -800.0, "actuator_bandwidth": 10.0, "fault_time": 0.5,
+     "fault_loss_seat": 0.5},
+], ids=["stops", "lag and fault"])
+def test_the_plant_through_fmi3_model_exchange_matches_fmi2_and_its_co_simulation(start):
+    """FMPy's CVode (relative tolerance 1e-13) on the FMI 3.0 Model Exchange plant, its contacts'
+    and the fault's events included: against the same integration through FMI 2.0 and against
+    the FMI 3.0 Co-Simulation (exact steps), each output within 1e-8 of its range, as
+    `test_model_exchange.py` holds FMI 2.0's."""
+    outputs = ["x[1]", "x[13]", "stroke_fl", "stroke_fr", "stroke_seat", "stop_force_fl", "a_seat", "f_seat"]
+    run = lambda fmi, kind, **kw: simulate_fmu(path("plant", fmi), fmi_type=kind, stop_time=2.0, start_values=start,
+                                               output=outputs, output_interval=1e-3, **kw)
+    me3 = run(3, "ModelExchange", solver="CVode", relative_tolerance=1e-13, record_events=False)
+    me2 = run(2, "ModelExchange", solver="CVode", relative_tolerance=1e-13, record_events=False)
+    cs3 = run(3, "CoSimulation")
+    cs2 = run(2, "CoSimulation")
+    assert len(me3) == len(cs3) == 2001
+    for name in outputs:
+        assert np.array_equal(cs3[name], cs2[name]), name
+        scale = np.ptp(cs3[name])  # 0 for a constant (an ideal actuator's force)
+        assert np.abs(me3[name] - me2[name]).max() <= 1e-8 * scale, name
+        assert np.abs(me3[name] - cs3[name]).max() <= 1e-8 * scale, name
+
+
+@pytest.fixture
+def messages():
+    return []
+
+
+def plant3(messages, **kw):
+    def log(env, status, category, message):
+        messages.append((status, category.decode(), message.decode()))
+    return Slave("plant", 3, log=log, **kw)
+
+
+def test_fmi3_state_machine_and_arguments_are_enforced_with_a_message(messages):
+    p = path("plant", 3)
+    md = read_model_description(p)
+    unzipped = extract(p)
+    try:
+        def log(env, status, category, message):
+            messages.append((status, category.decode(), message.decode()))
+
+        # A wrong instantiation token, and Co-Simulation's Event Mode (hasEventMode = false).
+        wrong = FMU3Slave(guid="{00000000-0000-0000-0000-000000000000}", unzipDirectory=unzipped,
+                          modelIdentifier="plant", instanceName="wrong")
+        with pytest.raises(Exception, match="Failed to instantiate"):
+            wrong.instantiate(logMessage=log)
+        assert any("instantiation token mismatch" in m for _, _, m in messages), messages
+        events = FMU3Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier="plant", instanceName="events")
+        with pytest.raises(Exception, match="Failed to instantiate"):
+            events.instantiate(logMessage=log, eventModeUsed=True)
+        assert any("hasEventMode = false" in m for _, _, m in messages), messages
+
+        fmu = FMU3Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier="plant", instanceName="plant")
+        fmu.instantiate(logMessage=log)
+        # A step before initialisation.
+        with pytest.raises(FMICallException):
+            fmu.doStep(0.0, 1e-3)
+        assert messages[-1][0] == 3 and "fmi3DoStep: illegal call in state Instantiated" in messages[-1][2]
+        fmu.reset()
+        # In Initialization Mode: nValues that is not nValueReferences, a type the FMU has none
+        # of, and the independent variable, which is readable and not settable.
+        vr = (fmi3ValueReference * 1)(md.modelVariables[0].valueReference)
+        out = (ctypes.c_double * 2)()
+        refusals = [
+            (lambda: fmu.fmi3GetFloat64(fmu.component, vr, 1, out, 2), "every variable of this FMU is a scalar"),
+            (lambda: fmu.getFloat32([md.modelVariables[0].valueReference]), "this FMU has no Float32 variable"),
+            (lambda: fmu.setFloat64([TIME_VR], [1.0]), "'time' is the independent variable"),
+        ]
+        for call, why in refusals:
+            fmu.enterInitializationMode(startTime=0.25)
+            assert fmu.getFloat64([TIME_VR]) == [0.25]
+            assert fmu.getFloat32([]) == []  # naming no variable changes nothing
+            with pytest.raises(FMICallException):
+                call()
+            assert messages[-1][0] == 3 and why in messages[-1][2], messages[-1]
+            fmu.reset()
+        for call, why in [(lambda: fmu.enterConfigurationMode(), "no structural parameters"),
+                          (lambda: fmu.enterStepMode(), "Event Mode")]:
+            with pytest.raises(FMICallException):
+                call()
+            assert why in messages[-1][2], messages[-1]
+            fmu.reset()
+        fmu.freeInstance()
+    finally:
+        shutil.rmtree(unzipped, ignore_errors=True)
+
+
+def test_an_fmi3_state_serialises_and_restores_by_value(messages):
+    plant = plant3(messages)
+    plant.set(["road_z_fl", "road_v_fl"], [0.01, 0.2])
+    for k in range(200):
+        plant.step(k * 1e-3, 1e-3)
+    state = plant.fmu.getFMUState()
+    data = plant.fmu.serializeFMUState(state)
+    plant.fmu.freeFMUState(state)
+    before = plant.get(["a_seat", "stroke_fl"]) + plant.fmu.getFloat64([TIME_VR])
+    for k in range(200, 400):
+        plant.step(k * 1e-3, 1e-3)
+    after = plant.get(["a_seat", "stroke_fl"])
+    plant.fmu.setFMUState(plant.fmu.deserializeFMUState(data))
+    assert plant.get(["a_seat", "stroke_fl"]) + plant.fmu.getFloat64([TIME_VR]) == before
+    for k in range(200, 400):
+        plant.step(k * 1e-3, 1e-3)
+    assert plant.get(["a_seat", "stroke_fl"]) == after
+    plant.close()
