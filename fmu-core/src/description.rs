@@ -988,7 +988,7 @@ mod tests {
         let xml = sample().to_xml3();
         assert!(xml.contains(r#"fmiVersion="3.0""#) && xml.contains(r#"instantiationToken="{x}""#));
         assert!(
-            xml.contains(r#"<Float64 name="time" valueReference="1000000000" description="Simulation time" causality="independent" variability="continuous" unit="s"/>"#),
+            xml.contains(r#"<Float64 name="time" valueReference="1000000000" description="Simulation time" causality="independent" variability="continuous" declaredType="s"/>"#),
             "{xml}"
         );
         assert!(
@@ -996,7 +996,7 @@ mod tests {
             "{xml}"
         );
         assert!(
-            xml.contains(r#"<Float64 name="k" valueReference="0" description="gain" causality="parameter" variability="fixed" initial="exact" unit="N/m" start="2.5"/>"#),
+            xml.contains(r#"<Float64 name="k" valueReference="0" description="gain" causality="parameter" variability="fixed" initial="exact" declaredType="N/m" start="2.5"/>"#),
             "{xml}"
         );
         assert!(
@@ -1019,7 +1019,10 @@ mod tests {
             xml.contains(r#"needsCompletedIntegratorStep="true""#),
             "{xml}"
         );
-        assert!(xml.contains(r#"unit="m/s" derivative="2"/>"#), "{xml}");
+        assert!(
+            xml.contains(r#"declaredType="m/s" derivative="2"/>"#),
+            "{xml}"
+        );
         assert!(
             xml.contains(r#"<ContinuousStateDerivative valueReference="4" dependencies="1 2" dependenciesKind="dependent dependent"/>"#),
             "{xml}"

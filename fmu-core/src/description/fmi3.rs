@@ -27,11 +27,12 @@ impl ModelDescription {
         .unwrap();
         self.write_interfaces3(&mut x);
         self.write_units(&mut x, &["s"]);
+        self.write_types3(&mut x);
         self.write_categories_and_experiment(&mut x);
         writeln!(x, "  <ModelVariables>").unwrap();
         writeln!(
             x,
-            r#"    <Float64 name="time" valueReference="{FMI3_TIME_VR}" description="Simulation time" causality="independent" variability="continuous" unit="s"/>"#
+            r#"    <Float64 name="time" valueReference="{FMI3_TIME_VR}" description="Simulation time" causality="independent" variability="continuous" declaredType="s"/>"#
         )
         .unwrap();
         for v in &self.variables {
@@ -92,6 +93,24 @@ impl ModelDescription {
         .unwrap();
     }
 
+    /// `<TypeDefinitions>`: one `Float64Type` per unit, named after it, which each variable of
+    /// that unit declares (`declaredType`). FMI 3.0 takes `unit` on the variable too; the
+    /// declared type is the form every importer parses (the `fmi` crate's strict schema rejects
+    /// the variable's own `unit`, and so its import of the FMU).
+    fn write_types3(&self, x: &mut String) {
+        let units: std::collections::BTreeSet<&str> = self
+            .variables
+            .iter()
+            .filter_map(|v| v.unit())
+            .chain(["s"])
+            .collect();
+        writeln!(x, "  <TypeDefinitions>").unwrap();
+        for u in units {
+            writeln!(x, r#"    <Float64Type name="{0}" unit="{0}"/>"#, esc(u)).unwrap();
+        }
+        writeln!(x, "  </TypeDefinitions>").unwrap();
+    }
+
     /// One typed variable.
     fn write_variable3(&self, x: &mut String, v: &Variable) {
         let (causality, variability, initial) = v.attributes();
@@ -109,7 +128,7 @@ impl ModelDescription {
                 max,
             } => {
                 if !unit.is_empty() {
-                    write!(attrs, r#" unit="{}""#, esc(unit)).unwrap();
+                    write!(attrs, r#" declaredType="{}""#, esc(unit)).unwrap();
                 }
                 if let Some(m) = min {
                     write!(attrs, r#" min="{}""#, num(*m)).unwrap();

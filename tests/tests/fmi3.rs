@@ -1,0 +1,217 @@
+//! The FMI 3.0 FMUs (`dist/fmi3/`) imported by the `fmi` crate's FMI 3.0 support: each loads,
+//! its description parses and names every variable of the FMI 2.0 FMU under the same value
+//! reference; the closed loop over FMI 3.0, in the master's Gauss–Seidel order, is the master's
+//! FMI 2.0 loop bit for bit; and the FMI 3.0 road FMU gives the road the master computes.
+
+use fmi::fmi3::import::Fmi3Import;
+use fmi::fmi3::instance::InstanceCS;
+use fmi::fmi3::schema::AbstractVariableTrait;
+use fmi::fmi3::Fmi3Model;
+use fmi::fmi3::{CoSimulation, Common, GetSet};
+use fmi::traits::FmiImport;
+use integration_tests::{bump, dist, load, run_loop};
+use std::collections::BTreeMap;
+
+const H: f64 = 1e-3;
+const FMUS: [&str; 11] = [
+    "road",
+    "plant",
+    "hinf_sf",
+    "hinf_of",
+    "hinf_of_aw",
+    "robust_sf",
+    "robust_of",
+    "delay_sf",
+    "ft_of",
+    "skyhook",
+    "lqg",
+];
+const ROAD: [&str; 8] = [
+    "road_z_fl",
+    "road_z_fr",
+    "road_z_rl",
+    "road_z_rr",
+    "road_v_fl",
+    "road_v_fr",
+    "road_v_rl",
+    "road_v_rr",
+];
+const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
+
+/// `dist/fmi3/<name>.fmu` through the `fmi` crate, with its variables by name.
+struct Fmu3 {
+    import: Fmi3Import,
+    vrs: BTreeMap<String, (u32, String)>,
+}
+
+impl Fmu3 {
+    fn load(name: &str) -> Fmu3 {
+        let path = dist().join("fmi3").join(format!("{name}.fmu"));
+        assert!(path.exists(), "{}: run `make`", path.display());
+        let import: Fmi3Import = fmi::import::from_path(&path)
+            .unwrap_or_else(|e| panic!("the fmi crate cannot import {}: {e}", path.display()));
+        let vrs = import
+            .model_description()
+            .model_variables
+            .iter_abstract()
+            .map(|v| {
+                let causality = format!("{:?}", v.causality()).to_lowercase();
+                (v.name().to_string(), (v.value_reference(), causality))
+            })
+            .collect();
+        Fmu3 { import, vrs }
+    }
+
+    fn vr(&self, names: &[&str]) -> Vec<u32> {
+        names.iter().map(|n| self.vrs[*n].0).collect()
+    }
+
+    fn with_causality(&self, causality: &str) -> Vec<String> {
+        let mut named: Vec<(u32, &String)> = self
+            .vrs
+            .iter()
+            .filter(|(_, (_, c))| c == causality)
+            .map(|(n, (vr, _))| (*vr, n))
+            .collect();
+        named.sort();
+        named.into_iter().map(|(_, n)| n.clone()).collect()
+    }
+
+    /// Instantiated for Co-Simulation and initialised at t = 0.
+    fn start(&self) -> InstanceCS {
+        let mut i = self
+            .import
+            .instantiate_cs("fmi3-test", false, true, false, false, &[])
+            .expect("instantiate");
+        i.enter_initialization_mode(None, 0.0, None).expect("enter");
+        i.exit_initialization_mode().expect("exit");
+        i
+    }
+}
+
+fn step(i: &mut InstanceCS, t: f64) {
+    let (mut event, mut terminate, mut early, mut last) = (true, true, true, f64::NAN);
+    i.do_step(
+        t,
+        H,
+        true,
+        &mut event,
+        &mut terminate,
+        &mut early,
+        &mut last,
+    )
+    .expect("do_step");
+    assert!(!event && !terminate && !early);
+    assert!((last - (t + H)).abs() < 1e-12);
+}
+
+/// Every FMU imports, and names the FMI 2.0 FMU's variables under the same value references,
+/// with FMI 3.0's independent time beside them.
+#[test]
+fn every_fmi3_fmu_imports_with_the_fmi2_variables() {
+    for name in FMUS {
+        let three = Fmu3::load(name);
+        let two = load(name);
+        let names = two.names_with_causality("parameter").into_iter().chain(
+            ["input", "output", "local", "calculatedparameter"]
+                .iter()
+                .flat_map(|c| two.names_with_causality(c)),
+        );
+        let mut count = 0;
+        for n in names {
+            assert_eq!(three.vrs[&n].0, two.vr(&n).unwrap(), "{name}: {n}");
+            count += 1;
+        }
+        assert_eq!(three.vrs["time"], (1_000_000_000, "independent".into()));
+        let indicators = three
+            .vrs
+            .keys()
+            .filter(|n| n.starts_with("event_indicator["))
+            .count();
+        assert_eq!(three.vrs.len(), count + 1 + indicators, "{name}");
+        assert_eq!(indicators, if name == "plant" { 14 } else { 0 }, "{name}");
+    }
+}
+
+/// The bump loop, road computed in-process, in the master's Gauss–Seidel order over FMI 3.0:
+/// the same plant outputs as the master's FMI 2.0 loop, bit for bit.
+#[test]
+fn the_fmi3_closed_loop_is_the_masters_fmi2_loop_bit_for_bit() {
+    let road = bump(0.05);
+    let steps = 1500;
+    let record = [
+        "a_seat",
+        "stroke_fl",
+        "stroke_seat",
+        "f_fl",
+        "f_seat",
+        "tire_load_rl",
+    ];
+    let plant3 = Fmu3::load("plant");
+    for controller in ["hinf_of", "delay_sf", "ft_of", "skyhook"] {
+        let two = run_loop(
+            &load("plant"),
+            Some(&load(controller)),
+            &road,
+            H,
+            steps,
+            &record,
+        );
+        let ctrl3 = Fmu3::load(controller);
+        let (mut p, mut c) = (plant3.start(), ctrl3.start());
+        let inputs = ctrl3.with_causality("input");
+        let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+        let (y_from, y_to) = (plant3.vr(&inputs), ctrl3.vr(&inputs));
+        let (road_in, force_in, u_from) = (plant3.vr(&ROAD), plant3.vr(&FORCES), ctrl3.vr(&FORCES));
+        let recorded = plant3.vr(&record);
+        let (mut y, mut u, mut out) = (vec![0.0; inputs.len()], [0.0; 5], vec![0.0; record.len()]);
+        p.set_float64(&road_in, &road.at(0.0)).unwrap();
+        p.get_float64(&y_from, &mut y).unwrap();
+        let mut three = Vec::new();
+        for k in 0..steps {
+            let t = k as f64 * H;
+            c.set_float64(&y_to, &y).unwrap();
+            c.get_float64(&u_from, &mut u).unwrap();
+            step(&mut c, t);
+            p.set_float64(&force_in, &u).unwrap();
+            step(&mut p, t);
+            p.set_float64(&road_in, &road.at(t + H)).unwrap();
+            p.get_float64(&recorded, &mut out).unwrap();
+            p.get_float64(&y_from, &mut y).unwrap();
+            three.push(out.clone());
+        }
+        let largest = two.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(largest > 1.0, "{controller}: the bump moves the car");
+        assert_eq!(two, three, "{controller}");
+    }
+}
+
+/// The FMI 3.0 road FMU's bump is the road the master computes at the FMU's time, bit for bit,
+/// and that time, its independent variable, is the time it was stepped to.
+#[test]
+fn the_fmi3_road_is_the_road() {
+    let road = bump(0.05);
+    let fmu = Fmu3::load("road");
+    let mut r = fmu
+        .import
+        .instantiate_cs("road3", false, true, false, false, &[])
+        .unwrap();
+    r.set_int32(&fmu.vr(&["profile"]), &[1]).unwrap();
+    r.set_float64(
+        &fmu.vr(&["bump_height", "bump_length", "speed", "start_distance"]),
+        &[0.05, 5.0, 15.0, 1.5],
+    )
+    .unwrap();
+    r.enter_initialization_mode(None, 0.0, None).unwrap();
+    r.exit_initialization_mode().unwrap();
+    let out = fmu.vr(&ROAD);
+    let (mut values, mut t) = ([0.0; 8], [0.0]);
+    for k in 0..1000 {
+        step(&mut r, k as f64 * H);
+        r.get_float64(&out, &mut values).unwrap();
+        // Its time, the independent variable, is the sum of its steps.
+        r.get_float64(&[1_000_000_000], &mut t).unwrap();
+        assert!((t[0] - (k + 1) as f64 * H).abs() < 1e-12, "step {k}: {}", t[0]);
+        assert_eq!(values, road.at(t[0]), "step {k}");
+    }
+}
