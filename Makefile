@@ -92,7 +92,7 @@ sweep: $(FMU_FILES) $(STAMP)/release
 
 # Every scenario of scenarios/ with the passive car and each controller (master, in parallel):
 # results/report.md with the tables, the plots and the synthesis summary.
-compare: $(FMU_FILES) $(STAMP)/release
+compare: $(FMU_FILES) $(FMI3_FMU_FILES) $(STAMP)/release
 	./target/release/master compare --scenarios scenarios --controllers $(call commas,$(CONTROLLERS)) --out results --designs dist/synthesis.json
 
 # Opt-in (docs/thesis-designs.md): the thesis's designs (synth/designs/thesis.json,

@@ -12,11 +12,7 @@
 //! Jacobi (its command read before it is given the plant's outputs; its recorded outputs then
 //! too) and Gauss–Seidel with the controller stepped first.
 
-use fmi::fmi2::import::Fmi2Import;
-use fmi::fmi2::instance::{CoSimulation, Common, Instance};
-use fmi::fmi2::schema::ScalarVariableElement;
-use fmi::traits::FmiImport;
-use fmi::CS;
+use crate::slave::{Import, Kind, Slave, Var};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -93,11 +89,14 @@ pub(crate) fn did_you_mean<'a>(name: &str, candidates: impl Iterator<Item = &'a 
         .map_or(String::new(), |(_, c)| format!("; did you mean '{c}'?"))
 }
 
-/// A failed call `what` to FMU instance `instance`, with what the FMU logged since.
+/// A failed call `what` to FMU instance `instance`, with what the FMU logged since (an FMI 3.0
+/// FMU's messages name no instance: what the run's FMI 3.0 FMUs logged).
 fn fmu_err(instance: &str, what: String) -> MasterError {
-    match crate::fmu_log::said(instance) {
-        Some(said) => err(format!("{what}; {instance} says: {said}")),
-        None => err(what),
+    use crate::fmu_log::{said, UNNAMED};
+    match (said(instance), said(UNNAMED)) {
+        (Some(said), _) => err(format!("{what}; {instance} says: {said}")),
+        (None, Some(said)) => err(format!("{what}; an FMI 3.0 FMU says: {said}")),
+        (None, None) => err(what),
     }
 }
 
@@ -259,12 +258,11 @@ impl Scenario {
     }
 }
 
-/// A loaded FMU.
+/// A loaded FMU, of FMI 2.0 or 3.0 ([`crate::slave`]).
 pub struct Fmu {
     pub name: String,
-    pub import: Fmi2Import,
-    /// The unit of each Real variable that declares one, by name.
-    units: BTreeMap<String, String>,
+    pub import: Import,
+    variables: Vec<Var>,
 }
 
 impl Fmu {
@@ -296,24 +294,26 @@ impl Fmu {
                 did_you_mean(&name, in_dist.iter().map(String::as_str))
             )));
         }
-        let import: Fmi2Import = fmi::import::from_path(&path)
-            .map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
-        let xml = import.archive_path().join("modelDescription.xml");
-        let units = std::fs::read_to_string(&xml)
-            .map_err(|e| err(format!("{}: {e}", xml.display())))
-            .and_then(|text| {
-                real_units(&text).map_err(|e| err(format!("{}: {e}", xml.display())))
-            })?;
+        let import =
+            Import::load(&path).map_err(|e| err(format!("cannot load {}: {e}", path.display())))?;
+        let variables = import
+            .variables()
+            .map_err(|e| err(format!("{}: {e}", path.display())))?;
         Ok(Fmu {
             name,
             import,
-            units,
+            variables,
         })
+    }
+
+    /// The FMI version of the FMU: 2 or 3.
+    pub fn fmi_version(&self) -> u8 {
+        self.import.version()
     }
 
     /// The unit variable `name` declares ("" for none).
     pub fn unit(&self, name: &str) -> &str {
-        self.units.get(name).map_or("", String::as_str)
+        self.variable(name).map_or("", |v| v.unit.as_str())
     }
 
     /// The car a controller FMU was designed for (`designed_for` of its
@@ -331,24 +331,12 @@ impl Fmu {
             .map_err(|e| err(format!("{}: resources/controller.json: {e}", self.name)))
     }
 
-    pub(crate) fn variable(&self, name: &str) -> Option<(u32, &ScalarVariableElement, String)> {
-        self.import
-            .model_description()
-            .model_variables
-            .variables
-            .iter()
-            .find(|v| v.name == name)
-            .map(|v| {
-                (
-                    v.value_reference,
-                    &v.elem,
-                    format!("{:?}", v.causality).to_lowercase(),
-                )
-            })
+    pub(crate) fn variable(&self, name: &str) -> Option<&Var> {
+        self.variables.iter().find(|v| v.name == name)
     }
 
     pub fn vr(&self, name: &str) -> Result<u32, MasterError> {
-        self.variable(name).map(|v| v.0).ok_or_else(|| {
+        self.variable(name).map(|v| v.vr).ok_or_else(|| {
             err(format!(
                 "{} has no variable '{name}'{}",
                 self.name,
@@ -358,20 +346,12 @@ impl Fmu {
     }
 
     fn variable_names(&self) -> impl Iterator<Item = &str> {
-        self.import
-            .model_description()
-            .model_variables
-            .variables
-            .iter()
-            .map(|v| v.name.as_str())
+        self.variables.iter().map(|v| v.name.as_str())
     }
 
     /// The start value of Real variable `name`, if it has one.
     pub fn start_real(&self, name: &str) -> Option<f64> {
-        match self.variable(name)?.1 {
-            ScalarVariableElement::Real(r) => r.start,
-            _ => None,
-        }
+        self.variable(name)?.start
     }
 
     pub fn has(&self, name: &str) -> bool {
@@ -379,19 +359,16 @@ impl Fmu {
     }
 
     pub fn names_with_causality(&self, causality: &str) -> Vec<String> {
-        self.import
-            .model_description()
-            .model_variables
-            .variables
+        self.variables
             .iter()
-            .filter(|v| format!("{:?}", v.causality).eq_ignore_ascii_case(causality))
+            .filter(|v| v.causality.eq_ignore_ascii_case(causality))
             .map(|v| v.name.clone())
             .collect()
     }
 
     /// `value` as the type of parameter `name` (an Integer must fit an `fmi2Integer`).
     pub fn typed(&self, name: &str, value: &serde_json::Value) -> Result<Typed, MasterError> {
-        let (_, elem, causality) = self.variable(name).ok_or_else(|| {
+        let v = self.variable(name).ok_or_else(|| {
             let parameters = self.names_with_causality("parameter");
             err(format!(
                 "{} has no parameter '{name}'{}",
@@ -399,10 +376,10 @@ impl Fmu {
                 did_you_mean(name, parameters.iter().map(String::as_str))
             ))
         })?;
-        if causality != "parameter" {
+        if v.causality != "parameter" {
             return Err(err(format!(
-                "{}: '{name}' is not a parameter (its causality is {causality})",
-                self.name
+                "{}: '{name}' is not a parameter (its causality is {})",
+                self.name, v.causality
             )));
         }
         let bad = || {
@@ -411,11 +388,11 @@ impl Fmu {
                 self.name
             ))
         };
-        Ok(match elem {
-            ScalarVariableElement::Real(_) => Typed::Real(value.as_f64().ok_or_else(bad)?),
+        Ok(match v.kind {
+            Kind::Real => Typed::Real(value.as_f64().ok_or_else(bad)?),
             // A scenario's plant overrides are numbers: an Integer takes a whole number, a
             // Boolean 0 or 1 (as well as true / false where the file can say so).
-            ScalarVariableElement::Integer(_) => Typed::Integer(
+            Kind::Integer => Typed::Integer(
                 value
                     .as_i64()
                     .or_else(|| {
@@ -428,7 +405,7 @@ impl Fmu {
                     .and_then(|v| i32::try_from(v).ok())
                     .ok_or_else(bad)?,
             ),
-            ScalarVariableElement::Boolean(_) => Typed::Boolean(
+            Kind::Boolean => Typed::Boolean(
                 value
                     .as_bool()
                     .or_else(|| {
@@ -437,63 +414,30 @@ impl Fmu {
                     })
                     .ok_or_else(bad)?,
             ),
-            _ => return Err(bad()),
+            Kind::Other => return Err(bad()),
         })
     }
 
     /// Instantiate, set `params`, initialise.
-    fn start(&self, params: &[(String, Typed)]) -> Result<Instance<CS>, MasterError> {
+    fn start(&self, params: &[(String, Typed)]) -> Result<Slave, MasterError> {
         crate::fmu_log::install();
         let fail = |what: String| fmu_err(&self.name, format!("{}: {what}", self.name));
-        let mut i: Instance<CS> = self
+        let mut i = self
             .import
-            .instantiate_cs(&self.name, false, false)
+            .instantiate(&self.name)
             .map_err(|e| fail(format!("instantiate: {e}")))?;
         for (name, value) in params {
             let vr = self.vr(name)?;
             let status = match *value {
                 Typed::Real(v) => i.set_real(&[vr], &[v]),
                 Typed::Integer(v) => i.set_integer(&[vr], &[v]),
-                Typed::Boolean(v) => i.set_boolean(&[vr], &[v as i32]),
+                Typed::Boolean(v) => i.set_boolean(&[vr], &[v]),
             };
             status.map_err(|e| fail(format!("setting '{name}' = {value:?}: {e}")))?;
         }
-        i.setup_experiment(None, 0.0, None)
-            .map_err(|e| fail(e.to_string()))?;
-        Common::enter_initialization_mode(&mut i).map_err(|e| fail(e.to_string()))?;
-        Common::exit_initialization_mode(&mut i)
-            .map_err(|e| fail(format!("initialisation failed ({e})")))?;
+        i.initialise().map_err(fail)?;
         Ok(i)
     }
-}
-
-/// The `unit` of each `ScalarVariable` whose `<Real>` declares one, by variable name. The `fmi`
-/// crate's model description does not read a variable's unit, so the XML is read here with the
-/// tokenizer that crate's parser is built on.
-fn real_units(xml: &str) -> Result<BTreeMap<String, String>, String> {
-    use xmlparser::{ElementEnd, Token, Tokenizer};
-    let mut units = BTreeMap::new();
-    let (mut element, mut variable) = (String::new(), None::<String>);
-    for token in Tokenizer::from(xml) {
-        match token.map_err(|e| e.to_string())? {
-            Token::ElementStart { local, .. } => element = local.to_string(),
-            Token::Attribute { local, value, .. } => match (element.as_str(), local.as_str()) {
-                ("ScalarVariable", "name") => variable = Some(value.to_string()),
-                ("Real", "unit") => {
-                    if let Some(v) = &variable {
-                        units.insert(v.clone(), value.to_string());
-                    }
-                }
-                _ => {}
-            },
-            Token::ElementEnd {
-                end: ElementEnd::Close(_, local),
-                ..
-            } if local.as_str() == "ScalarVariable" => variable = None,
-            _ => {}
-        }
-    }
-    Ok(units)
 }
 
 /// A parameter value with its variable's type.
@@ -763,10 +707,7 @@ impl Recording {
             match (plant.has(n), ctrl) {
                 (true, _) => recording.add(Batch::Plant, plant.vr(n)?),
                 (false, Some(cf)) => {
-                    let boolean = matches!(
-                        cf.variable(n).map(|v| v.1),
-                        Some(ScalarVariableElement::Boolean(_))
-                    );
+                    let boolean = cf.variable(n).map(|v| v.kind) == Some(Kind::Boolean);
                     let batch = match boolean {
                         true => Batch::ControllerBoolean,
                         false => Batch::ControllerReal,
@@ -787,7 +728,7 @@ impl Recording {
 /// Instantiate and initialise the controller with its parameters. One with a parameter
 /// `master_order` (a predictor, whose commands in flight depend on it) is told the order it runs
 /// in, unless its parameters say.
-fn start_controller(c: &Participant, order: Order) -> Result<Instance<CS>, MasterError> {
+fn start_controller(c: &Participant, order: Order) -> Result<Slave, MasterError> {
     let mut params = c.params.to_vec();
     if c.fmu.has(MASTER_ORDER) && !params.iter().any(|(n, _)| n == MASTER_ORDER) {
         params.push((MASTER_ORDER.to_string(), Typed::Integer(order.code())));
@@ -858,7 +799,6 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     // The plant's values after initialisation: its own, or the scenario's overrides.
     let mut plant_reals = |names: &[&str], values: &mut [f64]| {
         p.get_real(&vrs(plant, names)?, values)
-            .map(|_| ())
             .map_err(|e| fmu_err(&plant.name, format!("plant: {e}")))
     };
     let mut static_tire_load = [0.0; 4];
@@ -880,10 +820,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         ("controller", _, Some(c)) => c.name.clone(),
         _ => plant.name.clone(),
     };
-    let fail = |who: &str, e: fmi::fmi2::Fmi2Error| fmu_err(&instance(who), format!("{who}: {e}"));
-    let step_err = |who: &str, t: f64, e: fmi::fmi2::Fmi2Error| {
-        fmu_err(&instance(who), format!("{who}: fmi2DoStep at t = {t}: {e}"))
-    };
+    let fail = |who: &str, e: String| fmu_err(&instance(who), format!("{who}: {e}"));
     let (h, steps) = (setup.step, setup.steps);
     // The log's memory written once before the clock starts: its first touch (the kernel's page
     // faults, a few hundred microseconds) is allocation, not stepping.
@@ -905,11 +842,9 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         }
         (RoadSource::Fmu(_), Some((r, out))) => {
             if h > 0.0 {
-                r.do_step(t, h, true).map_err(|e| step_err("road", t, e))?;
+                r.do_step(t, h).map_err(|e| fail("road", e))?;
             }
-            r.get_real(out, values)
-                .map(|_| ())
-                .map_err(|e| fail("road", e))
+            r.get_real(out, values).map_err(|e| fail("road", e))
         }
         (RoadSource::Fmu(_), None) => unreachable!("the road FMU is started above"),
     };
@@ -917,7 +852,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     road_at(0.0, 0.0, &mut road_values)?;
     p.set_real(&road_in, &road_values)
         .map_err(|e| fail("plant", e))?;
-    let read_plant = |p: &mut Instance<CS>, values: &mut [f64], y: &mut [f64]| {
+    let read_plant = |p: &mut Slave, values: &mut [f64], y: &mut [f64]| {
         if !plant_reads.is_empty() {
             p.get_real(&plant_reads, values)
                 .map_err(|e| fail("plant", e))?;
@@ -931,18 +866,12 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     for k in 0..steps {
         let t = k as f64 * h;
         if let Some(c) = c.as_mut() {
-            let set_y =
-                |c: &mut Instance<CS>| c.set_real(&y_to, &y).map_err(|e| fail("controller", e));
-            let mut get_u = |c: &mut Instance<CS>| {
+            let set_y = |c: &mut Slave| c.set_real(&y_to, &y).map_err(|e| fail("controller", e));
+            let mut get_u = |c: &mut Slave| {
                 c.get_real(&u_from, &mut u)
-                    .map(|_| ())
                     .map_err(|e| fail("controller", e))
             };
-            let step = |c: &mut Instance<CS>| {
-                c.do_step(t, h, true)
-                    .map(|_| ())
-                    .map_err(|e| step_err("controller", t, e))
-            };
+            let step = |c: &mut Slave| c.do_step(t, h).map_err(|e| fail("controller", e));
             match setup.order {
                 Order::GaussSeidel => {
                     set_y(c)?;
@@ -963,7 +892,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
             p.set_real(&force_in, &u).map_err(|e| fail("plant", e))?;
         }
         commands.push(u);
-        p.do_step(t, h, true).map_err(|e| step_err("plant", t, e))?;
+        p.do_step(t, h).map_err(|e| fail("plant", e))?;
         road_at(t, h, &mut road_values)?;
         p.set_real(&road_in, &road_values)
             .map_err(|e| fail("plant", e))?;
@@ -996,6 +925,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     let warnings = instances
         .iter()
         .filter_map(|i| crate::fmu_log::said(i).map(|m| format!("{i}: {m}")))
+        .chain(crate::fmu_log::said(crate::fmu_log::UNNAMED).map(|m| format!("FMI 3.0 FMU: {m}")))
         .collect();
     Ok(Run {
         columns: setup.record.to_vec(),

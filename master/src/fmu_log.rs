@@ -1,7 +1,10 @@
-//! What the FMUs said: their `fmi2CallbackLogger` messages, quoted in the master's errors.
+//! What the FMUs said: their `fmi2CallbackLogger` and `fmi3LogMessageCallback` messages, quoted
+//! in the master's errors.
 //!
-//! The `fmi` crate forwards every logger call of an FMU to the `log` facade (target: the
-//! instance name; module path `"logger"`). [`install`] registers a `log::Log` that keeps the
+//! The `fmi` crate forwards every logger call of an FMU to the `log` facade: FMI 2.0's with the
+//! instance name as target and module path `"logger"`, FMI 3.0's with the category as target
+//! and module path `"fmu"` (FMI 3.0's callback names no instance: those messages are kept under
+//! [`UNNAMED`]). [`install`] registers a `log::Log` that keeps the
 //! recent messages of the calling thread: all FMUs of one run are called from the thread that
 //! runs it, so an error in that run can quote its own FMU's explanation (e.g. why a parameter
 //! was refused) and parallel runs do not see each other's messages. The logger itself holds no
@@ -17,6 +20,9 @@ thread_local! {
     static MESSAGES: RefCell<VecDeque<(String, String)>> = const { RefCell::new(VecDeque::new()) };
 }
 
+/// The instance FMI 3.0 messages are kept under: its logger does not say whose they are.
+pub const UNNAMED: &str = "";
+
 struct FmuLog;
 
 impl log::Log for FmuLog {
@@ -25,14 +31,16 @@ impl log::Log for FmuLog {
     }
 
     fn log(&self, record: &log::Record) {
-        if record.module_path() != Some("logger") {
-            return;
-        }
+        let instance = match record.module_path() {
+            Some("logger") => record.target(),
+            Some("fmu") => UNNAMED,
+            _ => return,
+        };
         MESSAGES.with_borrow_mut(|m| {
             if m.len() == KEPT {
                 m.pop_front();
             }
-            m.push_back((record.target().to_string(), record.args().to_string()));
+            m.push_back((instance.to_string(), record.args().to_string()));
         });
     }
 

@@ -5,6 +5,7 @@ pub mod cosim;
 pub mod fmu_log;
 pub mod metrics;
 pub mod report;
+pub mod slave;
 pub mod structure;
 pub mod sweep;
 pub mod sweep_out;

@@ -292,6 +292,7 @@ fn compare(
         report += &t;
         report += "\n";
     }
+    report += &fmi3_section(dist, scenarios, &jobs, &runs)?;
     report += &format!("## Limits and model validity\n\nRuns marked ⚠ above: a wheel that leaves the road (its tyre load down to zero, where the linear tyre model no longer holds), a suspension stroke beyond the scenario's `stroke_max` ({} cm unless it says otherwise), or actuators at their force limits (the share of the time any one is: its command, delayed by the plant's `tau`, at or beyond `u_max` or `u_max_seat`). Over each scenario's metrics window.\n\n{}\n", 100.0 * master::cosim::DEFAULT_STROKE_MAX, limits_table(scenarios, &all));
     if !off_design.is_empty() {
         report += "## Runs off the car a controller was designed for\n\nThe plant of these runs differs from the car recorded in the controller's `resources/controller.json` (`designed_for`, from `synth --vehicle`): a sprung mass outside the range a robust design covers, or any other vehicle parameter. Scenarios do this on purpose to test robustness; outside them it means the controller was designed for another car.\n\n| scenario | controller | plant differs |\n|---|---|---|\n";
@@ -318,6 +319,54 @@ fn compare(
     report += &tables;
     std::fs::write(out.join("report.md"), report).map_err(io)?;
     Ok(format!("W_k RMS seat acceleration [m/s²] (vs passive):\n\n{summary}\n{}{} runs in {wall:.1} s; report: {}\n", design_table.map(|t| format!("Designs:\n\n{t}\n")).unwrap_or_default(), runs.len(), out.join("report.md").display()))
+}
+
+/// `## FMI 3.0`: every run of the comparison again with the FMI 3.0 FMUs of `<dist>/fmi3/`
+/// (the same model code behind FMI 3.0's functions), each against its FMI 2.0 run: identical bit
+/// for bit, or the largest difference of a recorded value. Says so when there are none.
+fn fmi3_section(
+    dist: &Path,
+    scenarios: &[Scenario],
+    jobs: &[(usize, Option<String>)],
+    runs: &[(usize, String, master::cosim::Run)],
+) -> Result<String, MasterError> {
+    let fmi3 = dist.join("fmi3");
+    let mut section = String::from("## FMI 3.0\n\n");
+    if !fmi3.join("plant.fmu").exists() {
+        section += &format!("Not run: {} holds no FMI 3.0 FMUs.\n\n", fmi3.display());
+        return Ok(section);
+    }
+    let (again, wall) = in_parallel(jobs, |(i, c)| run(&fmi3, &scenarios[*i], c.as_deref()));
+    let mut differ = Vec::new();
+    for ((i, name, two), three) in runs.iter().zip(again) {
+        let three = three?;
+        if three.time != two.time || three.data != two.data {
+            let largest = two
+                .data
+                .iter()
+                .zip(&three.data)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            differ.push(format!(
+                "| {} | `{name}` | {largest:.3e} |\n",
+                scenarios[*i].name
+            ));
+        }
+    }
+    section += &format!(
+        "Every run above again with the FMI 3.0 FMUs of `dist/fmi3/` (the same libraries behind \
+         FMI 3.0's functions, through the `fmi` crate's FMI 3.0 import; {wall:.1} s wall time): \
+         {} of {} identical to its FMI 2.0 run bit for bit.\n\n",
+        runs.len() - differ.len(),
+        runs.len()
+    );
+    if !differ.is_empty() {
+        section +=
+            "| scenario | controller | largest difference of a recorded value |\n|---|---|---|\n";
+        section += &differ.concat();
+        section += "\n";
+    }
+    Ok(section)
 }
 
 fn sweep(

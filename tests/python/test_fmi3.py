@@ -6,6 +6,7 @@ FMI 3.0 calling rules hold, and what the FMUs do not have is refused with a mess
 
 import ctypes
 import pathlib
+import re
 import shutil
 
 import numpy as np
@@ -164,6 +165,16 @@ def test_the_plant_through_fmi3_model_exchange_matches_fmi2_and_its_co_simulatio
         scale = np.ptp(cs3[name])  # 0 for a constant (an ideal actuator's force)
         assert np.abs(me3[name] - me2[name]).max() <= 1e-8 * scale, name
         assert np.abs(me3[name] - cs3[name]).max() <= 1e-8 * scale, name
+
+
+def test_the_comparison_ran_every_run_over_fmi3_too_and_each_is_its_fmi2_run():
+    """`master compare` (`make`) runs every scenario with every controller again through the FMI
+    3.0 FMUs and reports how many are identical to their FMI 2.0 run bit for bit: all."""
+    report = (ROOT / "results" / "report.md").read_text()
+    found = re.search(r"## FMI 3\.0\n\n.*?(\d+) of (\d+) identical to its FMI 2\.0 run bit for bit", report, re.S)
+    assert found, "results/report.md has no FMI 3.0 section: run `make compare`"
+    same, total = map(int, found.groups())
+    assert total >= 100 and same == total, found.group(0)
 
 
 @pytest.fixture

@@ -5,7 +5,6 @@
 
 use fmi::fmi3::import::Fmi3Import;
 use fmi::fmi3::instance::InstanceCS;
-use fmi::fmi3::schema::AbstractVariableTrait;
 use fmi::fmi3::Fmi3Model;
 use fmi::fmi3::{CoSimulation, Common, GetSet};
 use fmi::traits::FmiImport;
@@ -211,7 +210,11 @@ fn the_fmi3_road_is_the_road() {
         r.get_float64(&out, &mut values).unwrap();
         // Its time, the independent variable, is the sum of its steps.
         r.get_float64(&[1_000_000_000], &mut t).unwrap();
-        assert!((t[0] - (k + 1) as f64 * H).abs() < 1e-12, "step {k}: {}", t[0]);
+        assert!(
+            (t[0] - (k + 1) as f64 * H).abs() < 1e-12,
+            "step {k}: {}",
+            t[0]
+        );
         assert_eq!(values, road.at(t[0]), "step {k}");
     }
 }
