@@ -1,30 +1,36 @@
 /*
- * fmu_harness: load FMI 2.0 Co-Simulation libraries the way an importer does and run them.
+ * fmu_harness: load FMI 2.0 or FMI 3.0 Co-Simulation libraries the way an importer does and run
+ * them.
  *
  * Built with each target's C compiler (gcc, x86_64-w64-mingw32-gcc, aarch64-linux-gnu-gcc) and
  * run natively, under wine and under qemu-aarch64 by tests/python/test_platforms.py, which
  * compares the platforms' results. It loads each library with LoadLibrary/dlopen, resolves all
- * 44 fmi2 functions (Model Exchange's too), hands the FMU its resource URI in the platform's form, and checks the
- * calls an importer relies on: a wrong GUID is refused, every call of the run returns fmi2OK,
- * and a panic inside the FMU comes back as fmi2Error with a log message.
+ * 44 fmi2 functions (Model Exchange's too) or all 75 of fmi3Functions.h, hands the FMU its
+ * resource URI (FMI 2.0) or resource path (FMI 3.0) in the platform's form, and checks the
+ * calls an importer relies on: a wrong GUID or instantiation token is refused, every call of the
+ * run returns OK, and a panic inside the FMU comes back as an error with a log message.
  *
  *   fmu_harness run PLAN OUT.csv
- *   fmu_harness panic LIBRARY GUID VR
+ *   fmu_harness panic LIBRARY GUID VR [3]
  *
  * PLAN is a tab-separated text file (written by the test from an OSP system structure):
- *   fmu      NAME LIBRARY RESOURCE_URI GUID     one line per FMU, stepped in this order
+ *   fmi      VERSION                            2 (the default) or 3, before the fmu lines
+ *   fmu      NAME LIBRARY RESOURCES GUID        one line per FMU, stepped in this order
+ *                                               (FMI 3.0: RESOURCES a path, GUID the token)
  *   real     FMU VR VALUE                       a start value (FMU = index of its fmu line)
  *   integer  FMU VR VALUE
  *   connect  FROM VR TO VR                      a Real output to a Real input, set before TO steps
  *   record   FMU VR COLUMN                      a Real written to OUT.csv at every step
  *   time     STEP STOP
- * `panic` sets the Real VR to 666 (the probe FMU panics on it), steps, and expects fmi2Error, an
- * "internal error" log message and a working fmi2Reset.
+ * `panic` sets the Real VR to 666 (the probe FMU panics on it), steps, and expects an error, an
+ * "internal error" log message and a working reset (through FMI 3.0 with a trailing 3).
  *
- * The FMI 2.0 types are declared here rather than taken from the standard's headers: only the
+ * The FMI types are declared here rather than taken from the standard's headers: only the
  * handful below cross the ABI, and the harness then builds with nothing but a C compiler.
  */
 #include <stdarg.h>
+#include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -75,6 +81,95 @@ typedef fmi2Status (*RealIO)(fmi2Component, const fmi2ValueReference *, size_t, 
 typedef fmi2Status (*IntegerIO)(fmi2Component, const fmi2ValueReference *, size_t, fmi2Integer *);
 typedef fmi2Status (*DoStep)(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean);
 
+/* FMI 3.0: fmi3Boolean is C99 bool, the logger is not variadic, the status values are FMI 2.0's. */
+typedef void (*LogMessage3)(void *, int, const char *, const char *);
+typedef void *(*Instantiate3)(const char *, const char *, const char *, bool, bool, bool, bool,
+                              const unsigned int *, size_t, void *, LogMessage3, void *);
+typedef int (*EnterInit3)(void *, bool, double, double, bool, double);
+typedef int (*Float64IO)(void *, const unsigned int *, size_t, double *, size_t);
+typedef int (*Int32IO)(void *, const unsigned int *, size_t, int32_t *, size_t);
+typedef int (*DoStep3)(void *, double, double, bool, bool *, bool *, bool *, double *);
+
+/* The 75 functions of fmi3Functions.h (FMI 3.0.2), Model Exchange's and Scheduled Execution's
+ * too: an importer may resolve them all, and FMPy does. */
+static const char *const FUNCTIONS3[75] = {
+    "fmi3ActivateModelPartition",
+    "fmi3CompletedIntegratorStep",
+    "fmi3DeserializeFMUState",
+    "fmi3DoStep",
+    "fmi3EnterConfigurationMode",
+    "fmi3EnterContinuousTimeMode",
+    "fmi3EnterEventMode",
+    "fmi3EnterInitializationMode",
+    "fmi3EnterStepMode",
+    "fmi3EvaluateDiscreteStates",
+    "fmi3ExitConfigurationMode",
+    "fmi3ExitInitializationMode",
+    "fmi3FreeFMUState",
+    "fmi3FreeInstance",
+    "fmi3GetAdjointDerivative",
+    "fmi3GetBinary",
+    "fmi3GetBoolean",
+    "fmi3GetClock",
+    "fmi3GetContinuousStateDerivatives",
+    "fmi3GetContinuousStates",
+    "fmi3GetDirectionalDerivative",
+    "fmi3GetEventIndicators",
+    "fmi3GetFMUState",
+    "fmi3GetFloat32",
+    "fmi3GetFloat64",
+    "fmi3GetInt16",
+    "fmi3GetInt32",
+    "fmi3GetInt64",
+    "fmi3GetInt8",
+    "fmi3GetIntervalDecimal",
+    "fmi3GetIntervalFraction",
+    "fmi3GetNominalsOfContinuousStates",
+    "fmi3GetNumberOfContinuousStates",
+    "fmi3GetNumberOfEventIndicators",
+    "fmi3GetNumberOfVariableDependencies",
+    "fmi3GetOutputDerivatives",
+    "fmi3GetShiftDecimal",
+    "fmi3GetShiftFraction",
+    "fmi3GetString",
+    "fmi3GetUInt16",
+    "fmi3GetUInt32",
+    "fmi3GetUInt64",
+    "fmi3GetUInt8",
+    "fmi3GetVariableDependencies",
+    "fmi3GetVersion",
+    "fmi3InstantiateCoSimulation",
+    "fmi3InstantiateModelExchange",
+    "fmi3InstantiateScheduledExecution",
+    "fmi3Reset",
+    "fmi3SerializeFMUState",
+    "fmi3SerializedFMUStateSize",
+    "fmi3SetBinary",
+    "fmi3SetBoolean",
+    "fmi3SetClock",
+    "fmi3SetContinuousStates",
+    "fmi3SetDebugLogging",
+    "fmi3SetFMUState",
+    "fmi3SetFloat32",
+    "fmi3SetFloat64",
+    "fmi3SetInt16",
+    "fmi3SetInt32",
+    "fmi3SetInt64",
+    "fmi3SetInt8",
+    "fmi3SetIntervalDecimal",
+    "fmi3SetIntervalFraction",
+    "fmi3SetShiftDecimal",
+    "fmi3SetShiftFraction",
+    "fmi3SetString",
+    "fmi3SetTime",
+    "fmi3SetUInt16",
+    "fmi3SetUInt32",
+    "fmi3SetUInt64",
+    "fmi3SetUInt8",
+    "fmi3Terminate",
+    "fmi3UpdateDiscreteStates",
+};
+
 /* The 44 functions of FMI 2.0, common, Co-Simulation and Model Exchange: every one must
  * resolve (an importer may resolve them all whichever interface it uses). */
 static const char *const FUNCTIONS[44] = {
@@ -94,6 +189,7 @@ static const char *const FUNCTIONS[44] = {
 
 typedef struct {
     char *name;
+    int version; /* 2 or 3 */
     Library lib;
     fmi2Component c;
     Instantiate instantiate;
@@ -103,6 +199,11 @@ typedef struct {
     RealIO get_real, set_real;
     IntegerIO set_integer;
     DoStep do_step;
+    Instantiate3 instantiate3;
+    EnterInit3 enter_init3;
+    Float64IO get_float64, set_float64;
+    Int32IO set_int32;
+    DoStep3 do_step3;
 } Fmu;
 
 static char last_message[4096];
@@ -120,6 +221,12 @@ static void logger(fmi2ComponentEnvironment env, const char *instance, fmi2Statu
 
 static const fmi2CallbackFunctions CALLBACKS = {logger, calloc, free, NULL, NULL};
 
+static void logger3(void *env, int status, const char *category, const char *message) {
+    (void)env;
+    snprintf(last_message, sizeof last_message, "%s", message ? message : "");
+    fprintf(stderr, "[fmi3 %s status %d] %s\n", category ? category : "", status, last_message);
+}
+
 static void die(const char *what, const char *detail) {
     fprintf(stderr, "fmu_harness: %s%s%s\n", what, detail ? ": " : "", detail ? detail : "");
     exit(1);
@@ -132,33 +239,99 @@ static void check(fmi2Status status, const Fmu *f, const char *call) {
     }
 }
 
-static void load(Fmu *f, const char *name, const char *path) {
-    int i;
-    f->name = strdup(name);
-    f->lib = open_library(path);
-    if (!f->lib) die(path, load_error());
-    for (i = 0; i < 44; i++)
-        if (!symbol(f->lib, FUNCTIONS[i])) die(FUNCTIONS[i], "not exported");
-    f->instantiate = (Instantiate)symbol(f->lib, "fmi2Instantiate");
-    f->free_instance = (FreeInstance)symbol(f->lib, "fmi2FreeInstance");
-    f->setup = (SetupExperiment)symbol(f->lib, "fmi2SetupExperiment");
-    f->enter_init = (Simple)symbol(f->lib, "fmi2EnterInitializationMode");
-    f->exit_init = (Simple)symbol(f->lib, "fmi2ExitInitializationMode");
-    f->terminate = (Simple)symbol(f->lib, "fmi2Terminate");
-    f->reset = (Simple)symbol(f->lib, "fmi2Reset");
-    f->get_real = (RealIO)symbol(f->lib, "fmi2GetReal");
-    f->set_real = (RealIO)symbol(f->lib, "fmi2SetReal");
-    f->set_integer = (IntegerIO)symbol(f->lib, "fmi2SetInteger");
-    f->do_step = (DoStep)symbol(f->lib, "fmi2DoStep");
+static void *resolve(Fmu *f, const char *function) {
+    void *p = symbol(f->lib, function);
+    if (!p) die(function, "not exported");
+    return p;
 }
 
-/* Instantiate, after checking that a wrong GUID is refused. */
-static void instantiate(Fmu *f, const char *uri, const char *guid) {
-    const char *resources = uri[0] ? uri : NULL;
+static void load(Fmu *f, const char *name, const char *path, int version) {
+    int i;
+    f->name = strdup(name);
+    f->version = version;
+    f->lib = open_library(path);
+    if (!f->lib) die(path, load_error());
+    if (version == 3) {
+        for (i = 0; i < (int)(sizeof FUNCTIONS3 / sizeof FUNCTIONS3[0]); i++) resolve(f, FUNCTIONS3[i]);
+        f->instantiate3 = (Instantiate3)resolve(f, "fmi3InstantiateCoSimulation");
+        f->free_instance = (FreeInstance)resolve(f, "fmi3FreeInstance");
+        f->enter_init3 = (EnterInit3)resolve(f, "fmi3EnterInitializationMode");
+        f->exit_init = (Simple)resolve(f, "fmi3ExitInitializationMode");
+        f->terminate = (Simple)resolve(f, "fmi3Terminate");
+        f->reset = (Simple)resolve(f, "fmi3Reset");
+        f->get_float64 = (Float64IO)resolve(f, "fmi3GetFloat64");
+        f->set_float64 = (Float64IO)resolve(f, "fmi3SetFloat64");
+        f->set_int32 = (Int32IO)resolve(f, "fmi3SetInt32");
+        f->do_step3 = (DoStep3)resolve(f, "fmi3DoStep");
+        return;
+    }
+    for (i = 0; i < 44; i++) resolve(f, FUNCTIONS[i]);
+    f->instantiate = (Instantiate)resolve(f, "fmi2Instantiate");
+    f->free_instance = (FreeInstance)resolve(f, "fmi2FreeInstance");
+    f->setup = (SetupExperiment)resolve(f, "fmi2SetupExperiment");
+    f->enter_init = (Simple)resolve(f, "fmi2EnterInitializationMode");
+    f->exit_init = (Simple)resolve(f, "fmi2ExitInitializationMode");
+    f->terminate = (Simple)resolve(f, "fmi2Terminate");
+    f->reset = (Simple)resolve(f, "fmi2Reset");
+    f->get_real = (RealIO)resolve(f, "fmi2GetReal");
+    f->set_real = (RealIO)resolve(f, "fmi2SetReal");
+    f->set_integer = (IntegerIO)resolve(f, "fmi2SetInteger");
+    f->do_step = (DoStep)resolve(f, "fmi2DoStep");
+}
+
+/* Instantiate, after checking that a wrong GUID (instantiation token) is refused. */
+static void instantiate(Fmu *f, const char *resources_text, const char *guid) {
+    const char *resources = resources_text[0] ? resources_text : NULL;
+    if (f->version == 3) {
+        if (f->instantiate3(f->name, "{not-the-guid}", resources, false, false, false, false, NULL, 0, NULL, logger3, NULL))
+            die(f->name, "accepted a wrong instantiation token");
+        f->c = f->instantiate3(f->name, guid, resources, false, false, false, false, NULL, 0, NULL, logger3, NULL);
+        if (!f->c) die(f->name, "fmi3InstantiateCoSimulation returned NULL (see the log above)");
+        return;
+    }
     if (f->instantiate(f->name, 1, "{not-the-guid}", resources, &CALLBACKS, 0, 0))
         die(f->name, "accepted a wrong GUID");
     f->c = f->instantiate(f->name, 1, guid, resources, &CALLBACKS, 0, 0);
     if (!f->c) die(f->name, "fmi2Instantiate returned NULL (see the log above)");
+}
+
+/* The calls of a run in either version. */
+static int get_real(Fmu *f, fmi2ValueReference vr, double *v) {
+    return f->version == 3 ? f->get_float64(f->c, &vr, 1, v, 1) : f->get_real(f->c, &vr, 1, v);
+}
+
+static int set_real(Fmu *f, fmi2ValueReference vr, double v) {
+    return f->version == 3 ? f->set_float64(f->c, &vr, 1, &v, 1) : f->set_real(f->c, &vr, 1, &v);
+}
+
+static int set_integer(Fmu *f, fmi2ValueReference vr, int v) {
+    int32_t w = v;
+    return f->version == 3 ? f->set_int32(f->c, &vr, 1, &w, 1) : f->set_integer(f->c, &vr, 1, &v);
+}
+
+static int do_step(Fmu *f, double t, double h) {
+    bool event = true, terminate = true, early = true;
+    double last = -1.0;
+    int status;
+    if (f->version != 3) return f->do_step(f->c, t, h, 1);
+    status = f->do_step3(f->c, t, h, true, &event, &terminate, &early, &last);
+    if (status == fmi2OK && (event || terminate || early || last != t + h)) die(f->name, "fmi3DoStep's outputs are not a completed step");
+    return status;
+}
+
+/* Before the start values (FMI 2.0's experiment setup); after them, initialisation. */
+static void setup(Fmu *f, double stop) {
+    if (f->version != 3) check(f->setup(f->c, 0, 0.0, 0.0, stop > 0, stop), f, "fmi2SetupExperiment");
+}
+
+static void initialise(Fmu *f, double stop) {
+    if (f->version == 3) {
+        check(f->enter_init3(f->c, false, 0.0, 0.0, stop > 0, stop), f, "fmi3EnterInitializationMode");
+        check(f->exit_init(f->c), f, "fmi3ExitInitializationMode");
+    } else {
+        check(f->enter_init(f->c), f, "fmi2EnterInitializationMode");
+        check(f->exit_init(f->c), f, "fmi2ExitInitializationMode");
+    }
 }
 
 /* Split a line at tabs in place; returns the number of fields. */
@@ -192,7 +365,7 @@ static int run(const char *plan_path, const char *out_path) {
     static Start starts[MAX_ITEMS];
     static Connection connections[MAX_ITEMS];
     static Record records[MAX_ITEMS];
-    int n_fmus = 0, n_starts = 0, n_connections = 0, n_records = 0, i, j;
+    int n_fmus = 0, n_starts = 0, n_connections = 0, n_records = 0, i, j, version = 2;
     double step = 0, stop = 0;
     long k, steps;
     char line[8192], *f[8];
@@ -200,8 +373,11 @@ static int run(const char *plan_path, const char *out_path) {
     if (!plan) die("cannot open the plan", plan_path);
     while (fgets(line, sizeof line, plan)) {
         int n = fields(line, f, 8);
-        if (!strcmp(f[0], "fmu") && n == 5 && n_fmus < MAX_FMUS) {
-            load(&fmus[n_fmus], f[1], f[2]);
+        if (!strcmp(f[0], "fmi") && n == 2 && n_fmus == 0) {
+            version = atoi(f[1]);
+            if (version != 2 && version != 3) die("fmi: the version is 2 or 3", f[1]);
+        } else if (!strcmp(f[0], "fmu") && n == 5 && n_fmus < MAX_FMUS) {
+            load(&fmus[n_fmus], f[1], f[2], version);
             uris[n_fmus] = strdup(f[3]);
             guids[n_fmus] = strdup(f[4]);
             n_fmus++;
@@ -229,18 +405,15 @@ static int run(const char *plan_path, const char *out_path) {
     for (i = 0; i < n_fmus; i++) {
         Fmu *m = &fmus[i];
         instantiate(m, uris[i], guids[i]);
-        check(m->setup(m->c, 0, 0.0, 0.0, 1, stop), m, "fmi2SetupExperiment");
+        setup(m, stop);
         for (j = 0; j < n_starts; j++) {
             if (starts[j].fmu != i) continue;
-            if (starts[j].integer) {
-                fmi2Integer v = (fmi2Integer)starts[j].value;
-                check(m->set_integer(m->c, &starts[j].vr, 1, &v), m, "fmi2SetInteger");
-            } else {
-                check(m->set_real(m->c, &starts[j].vr, 1, &starts[j].value), m, "fmi2SetReal");
-            }
+            if (starts[j].integer)
+                check(set_integer(m, starts[j].vr, (int)starts[j].value), m, "set an Integer");
+            else
+                check(set_real(m, starts[j].vr, starts[j].value), m, "set a Real");
         }
-        check(m->enter_init(m->c), m, "fmi2EnterInitializationMode");
-        check(m->exit_init(m->c), m, "fmi2ExitInitializationMode");
+        initialise(m, stop);
     }
 
     out = fopen(out_path, "w");
@@ -257,58 +430,56 @@ static int run(const char *plan_path, const char *out_path) {
                 Connection *c = &connections[j];
                 fmi2Real v;
                 if (c->to != i) continue;
-                check(fmus[c->from].get_real(fmus[c->from].c, &c->from_vr, 1, &v), &fmus[c->from], "fmi2GetReal");
-                check(fmus[i].set_real(fmus[i].c, &c->to_vr, 1, &v), &fmus[i], "fmi2SetReal");
+                check(get_real(&fmus[c->from], c->from_vr, &v), &fmus[c->from], "get a Real");
+                check(set_real(&fmus[i], c->to_vr, v), &fmus[i], "set a Real");
             }
-            check(fmus[i].do_step(fmus[i].c, t, step, 1), &fmus[i], "fmi2DoStep");
+            check(do_step(&fmus[i], t, step), &fmus[i], "DoStep");
         }
         fprintf(out, "%.17g", (k + 1) * step);
         for (j = 0; j < n_records; j++) {
             fmi2Real v;
-            check(fmus[records[j].fmu].get_real(fmus[records[j].fmu].c, &records[j].vr, 1, &v),
-                  &fmus[records[j].fmu], "fmi2GetReal");
+            check(get_real(&fmus[records[j].fmu], records[j].vr, &v), &fmus[records[j].fmu], "get a Real");
             fprintf(out, ",%.17g", v);
         }
         fprintf(out, "\n");
     }
     fclose(out);
     for (i = 0; i < n_fmus; i++) {
-        check(fmus[i].terminate(fmus[i].c), &fmus[i], "fmi2Terminate");
+        check(fmus[i].terminate(fmus[i].c), &fmus[i], "Terminate");
         fmus[i].free_instance(fmus[i].c);
         close_library(fmus[i].lib);
     }
-    printf("fmu_harness: %d FMUs, %ld steps, %d columns -> %s\n", n_fmus, steps, n_records, out_path);
+    printf("fmu_harness: FMI %d.0, %d FMUs, %ld steps, %d columns -> %s\n", version, n_fmus, steps, n_records, out_path);
     return 0;
 }
 
-static int panic_probe(const char *library, const char *guid, const char *vr_text) {
+static int panic_probe(const char *library, const char *guid, const char *vr_text, int version) {
     Fmu m;
     fmi2ValueReference vr = (fmi2ValueReference)strtoul(vr_text, NULL, 10);
-    fmi2Real beast = 666.0;
-    fmi2Status status;
-    load(&m, "probe", library);
+    int status;
+    load(&m, "probe", library, version);
     instantiate(&m, "", guid);
-    check(m.setup(m.c, 0, 0.0, 0.0, 0, 0.0), &m, "fmi2SetupExperiment");
-    check(m.enter_init(m.c), &m, "fmi2EnterInitializationMode");
-    check(m.exit_init(m.c), &m, "fmi2ExitInitializationMode");
-    check(m.set_real(m.c, &vr, 1, &beast), &m, "fmi2SetReal");
+    setup(&m, 0.0);
+    initialise(&m, 0.0);
+    check(set_real(&m, vr, 666.0), &m, "set a Real");
     last_message[0] = 0;
-    status = m.do_step(m.c, 0.0, 0.1, 1);
+    status = do_step(&m, 0.0, 0.1);
     if (status != fmi2Error) {
-        fprintf(stderr, "fmu_harness: the panicking fmi2DoStep returned %d, not fmi2Error\n", status);
+        fprintf(stderr, "fmu_harness: the panicking DoStep returned %d, not an error\n", status);
         return 1;
     }
     if (!strstr(last_message, "internal error")) die("no 'internal error' log message after the panic", last_message);
-    check(m.reset(m.c), &m, "fmi2Reset after the panic");
+    check(m.reset(m.c), &m, "Reset after the panic");
     m.free_instance(m.c);
     close_library(m.lib);
-    printf("fmu_harness: panic -> fmi2Error, logged \"%s\", reset OK\n", last_message);
+    printf("fmu_harness: panic -> fmi%dError, logged \"%s\", reset OK\n", version, last_message);
     return 0;
 }
 
 int main(int argc, char **argv) {
     if (argc == 4 && !strcmp(argv[1], "run")) return run(argv[2], argv[3]);
-    if (argc == 5 && !strcmp(argv[1], "panic")) return panic_probe(argv[2], argv[3], argv[4]);
-    fprintf(stderr, "usage: fmu_harness run PLAN OUT.csv | fmu_harness panic LIBRARY GUID VR\n");
+    if (argc == 5 && !strcmp(argv[1], "panic")) return panic_probe(argv[2], argv[3], argv[4], 2);
+    if (argc == 6 && !strcmp(argv[1], "panic") && !strcmp(argv[5], "3")) return panic_probe(argv[2], argv[3], argv[4], 3);
+    fprintf(stderr, "usage: fmu_harness run PLAN OUT.csv | fmu_harness panic LIBRARY GUID VR [3]\n");
     return 2;
 }

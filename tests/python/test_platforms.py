@@ -43,6 +43,13 @@ PROBE = {
     "win64": CROSS / "x86_64-pc-windows-gnu" / "release" / "examples" / "panic_probe.dll",
     "linux-aarch64": CROSS / "aarch64-unknown-linux-gnu" / "release" / "examples" / "libpanic_probe.so",
 }
+# The same FMUs as FMI 3.0 (dist/fmi3: one archive, a folder per platform), run by the same
+# harness through fmi3Functions.h; the resources as a native path with a trailing separator.
+PLATFORMS3 = {
+    "linux64": (DIST / "fmi3", "x86_64-linux", "so", PLATFORMS["linux64"][3], str),
+    "win64": (DIST / "fmi3", "x86_64-windows", "dll", PLATFORMS["win64"][3], PLATFORMS["win64"][4]),
+    "linux-aarch64": (DIST / "fmi3", "aarch64-linux", "so", PLATFORMS["linux-aarch64"][3], str),
+}
 # Agreement with linux64, relative to each output's largest magnitude. Same Rust source (the win64
 # and ARM builds by rustc 1.96 from Debian, linux64 by rustup's 1.95). ARM: bit for bit (glibc's
 # libm on both). Windows: the road's cosines and the matrix exponential's exp come from
@@ -119,9 +126,10 @@ def extract(fmu: pathlib.Path, into: pathlib.Path):
     return read_model_description(str(fmu))
 
 
-def plan(work: pathlib.Path, platform: str, scenario: str, controller: str, stop: float):
-    """The harness plan of `master osp`'s system for `platform`, and the recorded column names."""
-    fmu_dir, folder, ext, _, host_path = PLATFORMS[platform]
+def plan(work: pathlib.Path, platform: str, scenario: str, controller: str, stop: float, fmi: int = 2):
+    """The harness plan of `master osp`'s system for `platform` in FMI version `fmi`, and the
+    recorded column names."""
+    fmu_dir, folder, ext, _, host_path = (PLATFORMS3 if fmi == 3 else PLATFORMS)[platform]
     structure = work / f"{scenario}-{controller}.xml"
     if not structure.exists():
         work.mkdir(parents=True, exist_ok=True)
@@ -129,15 +137,18 @@ def plan(work: pathlib.Path, platform: str, scenario: str, controller: str, stop
                         "--controller", controller, "--out", str(structure)], check=True, capture_output=True)
     ns = {"o": "http://opensimulationplatform.com/MSMI/OSPSystemStructure"}
     root = ET.parse(structure).getroot()
-    lines, index, variables, columns = [], {}, {}, []
+    lines, index, variables, columns = [f"fmi\t{fmi}"], {}, {}, []
     step = float(root.find("o:BaseStepSize", ns).text)
     for i, sim in enumerate(root.find("o:Simulators", ns)):
         name, source = sim.get("name"), sim.get("source")
-        unpacked = work / platform / name
+        unpacked = work / f"{platform}-fmi{fmi}" / name
         md = extract(fmu_dir / source, unpacked)
         library = unpacked / "binaries" / folder / f"{md.coSimulation.modelIdentifier}.{ext}"
         resources = unpacked / "resources"
-        uri = windows_uri(resources) if platform == "win64" else resources.as_uri()
+        if fmi == 3:  # FMI 3.0: an absolute native path ending in a separator
+            uri = host_path(resources) + ("\\" if platform == "win64" else "/")
+        else:
+            uri = windows_uri(resources) if platform == "win64" else resources.as_uri()
         lines.append(f"fmu\t{name}\t{host_path(library)}\t{uri}\t{md.guid}")
         index[name] = i
         variables[name] = {v.name: v for v in md.modelVariables}
@@ -152,11 +163,11 @@ def plan(work: pathlib.Path, platform: str, scenario: str, controller: str, stop
         lines.append(f"connect\t{index[a.get('simulator')]}\t{va.valueReference}\t{index[b.get('simulator')]}\t{vb.valueReference}")
     for name in ("plant", controller):
         for v in variables[name].values():
-            if v.causality == "output" and v.type == "Real":
+            if v.causality == "output" and v.type in ("Real", "Float64"):
                 lines.append(f"record\t{index[name]}\t{v.valueReference}\t{name}.{v.name}")
                 columns.append(f"{name}.{v.name}")
     lines.append(f"time\t{step!r}\t{stop!r}")
-    path = work / f"{platform}-{scenario}-{controller}.plan"
+    path = work / f"{platform}-fmi{fmi}-{scenario}-{controller}.plan"
     path.write_text("\n".join(lines) + "\n")
     return path, columns
 
@@ -171,10 +182,10 @@ def run_harness(work, platform, *args):
 
 
 @functools.lru_cache(maxsize=None)
-def closed_loop(work, platform, scenario, controller, stop):
+def closed_loop(work, platform, scenario, controller, stop, fmi=2):
     """The harness's log on `platform`; linux64's, the reference, is run once per scenario."""
-    path, columns = plan(work, platform, scenario, controller, stop)
-    out = work / f"{platform}-{scenario}-{controller}.csv"
+    path, columns = plan(work, platform, scenario, controller, stop, fmi)
+    out = work / f"{platform}-fmi{fmi}-{scenario}-{controller}.csv"
     run_harness(work, platform, "run", PLATFORMS[platform][4](path), PLATFORMS[platform][4](out))
     data = np.genfromtxt(out, delimiter=",", names=True, deletechars="")
     assert list(data.dtype.names) == ["time"] + columns
@@ -199,8 +210,25 @@ def test_each_platform_runs_the_closed_loop_like_linux64(work, platform, scenari
     print(f"{platform} {scenario}/{controller}: largest difference {worst:.2e} of an output's range")
 
 
+@pytest.mark.parametrize("scenario,controller,stop", [("iso_c", "hinf_of", 3.0), ("fault", "ft_of", 3.0)])
+@pytest.mark.parametrize("platform", list(PLATFORMS3))
+def test_each_platform_runs_the_fmi3_loop_like_the_fmi2_loop(work, platform, scenario, controller, stop):
+    """The same loop through fmi3Functions.h on each platform: against linux64's FMI 2.0 run, bit
+    for bit on Linux (one library serves both versions), within the platform's tolerance on
+    Windows."""
+    reference = closed_loop(work, "linux64", scenario, controller, stop)
+    other = closed_loop(work, platform, scenario, controller, stop, 3)
+    assert len(reference) == len(other) == round(stop / 1e-3)
+    assert reference.dtype.names == other.dtype.names
+    for name in reference.dtype.names[1:]:
+        scale = max(np.max(np.abs(reference[name])), 1e-12)
+        error = np.max(np.abs(other[name] - reference[name])) / scale
+        assert error <= TOLERANCE.get(platform, 0.0), f"FMI 3.0 on {platform} {scenario}/{controller}: {name} differs by {error:.2e} of its range"
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
 @pytest.mark.parametrize("platform", list(PLATFORMS))
-def test_a_panic_in_the_fmu_is_fmi2error_on_every_platform(work, platform):
+def test_a_panic_in_the_fmu_is_an_error_on_every_platform(work, platform, fmi):
     host_probe = PROBE["linux64"]  # loads here: fmu-pack asks it for its description
     xml = work / "probe.xml"
     work.mkdir(parents=True, exist_ok=True)
@@ -211,10 +239,11 @@ def test_a_panic_in_the_fmu_is_fmi2error_on_every_platform(work, platform):
     u = next(v for v in description.iter("ScalarVariable") if v.get("name") == "u").get("valueReference")
     library = PROBE[platform]
     assert library.exists(), f"{library}: `make` builds it (CROSS=1)"
-    done = run_harness(work, platform, "panic", PLATFORMS[platform][4](library), guid, u)
-    assert "panic -> fmi2Error" in done.stdout
+    done = run_harness(work, platform, "panic", PLATFORMS[platform][4](library), guid, u, *(["3"] if fmi == 3 else []))
+    assert f"panic -> fmi{fmi}Error" in done.stdout
     assert "internal error: the probe panics on u = 666" in done.stderr
-    assert "GUID mismatch" in done.stderr, "the wrong GUID was refused with a message"
+    mismatch = "instantiation token mismatch" if fmi == 3 else "GUID mismatch"
+    assert mismatch in done.stderr, "the wrong GUID was refused with a message"
 
 
 def test_every_fmu_carries_its_platforms():
