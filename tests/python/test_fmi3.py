@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave
-from fmpy.fmi3 import FMU3Slave, fmi3ValueReference
+from fmpy.fmi2 import FMU2Model, FMU2Slave
+from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3ValueReference
 from fmpy.validation import validate_fmu
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -260,3 +260,45 @@ def test_an_fmi3_state_serialises_and_restores_by_value(messages):
         plant.step(k * 1e-3, 1e-3)
     assert plant.get(["a_seat", "stroke_fl"]) == after
     plant.close()
+
+
+def test_the_fmi3_model_exchange_jacobians_are_the_fmi2_ones_and_its_indicators_are_variables():
+    """The linearisation an FMI 3.0 importer asks for: `fmi3GetDirectionalDerivative` of the
+    Model Exchange plant along every state and the seat command equals FMI 2.0's (which
+    `test_model_exchange.py` holds to central differences), and each `event_indicator[i]`
+    variable reads what `fmi3GetEventIndicators` gives."""
+    models = {}
+    for fmi, cls in [(2, FMU2Model), (3, FMU3Model)]:
+        md = read_model_description(path("plant", fmi))
+        fmu = cls(guid=md.guid, unzipDirectory=extract(path("plant", fmi)), modelIdentifier="plant",
+                  instanceName=f"jacobian{fmi}")
+        fmu.instantiate()
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        if fmi == 3:
+            fmu.enterInitializationMode(startTime=0.0)
+            fmu.setFloat64([vr["u_seat"], vr["road_z_fl"]], [100.0, 0.02])
+            fmu.exitInitializationMode()
+            fmu.updateDiscreteStates()
+        else:
+            fmu.setupExperiment(startTime=0.0)
+            fmu.enterInitializationMode()
+            fmu.setReal([vr["u_seat"], vr["road_z_fl"]], [100.0, 0.02])
+            fmu.exitInitializationMode()
+            fmu.newDiscreteStates()
+        fmu.enterContinuousTimeMode()
+        models[fmi] = (md, fmu, vr)
+    (md2, fmu2, vr2), (md3, fmu3, vr3) = models[2], models[3]
+    ders = [f"der(x[{k}])" for k in range(1, 17)]
+    for known in [f"x[{k}]" for k in range(1, 17)] + ["u_seat", "road_v_fl"]:
+        two = fmu2.getDirectionalDerivative([vr2[d] for d in ders], [vr2[known]], [1.0])
+        three = fmu3.getDirectionalDerivative([vr3[d] for d in ders], [vr3[known]], [1.0])
+        assert three == two and any(v != 0.0 for v in two), known
+    n = len(md3.eventIndicators)
+    assert n == 14
+    indicators = (ctypes.c_double * n)()
+    fmu3.fmi3GetEventIndicators(fmu3.component, indicators, n)
+    named = fmu3.getFloat64([vr3[f"event_indicator[{i + 1}]"] for i in range(n)])
+    assert named == list(indicators) and any(v != 0.0 for v in named)
+    for fmu in (fmu2, fmu3):
+        fmu.terminate()
+        fmu.freeInstance()
