@@ -584,6 +584,10 @@ fn power_of_ten(v: f64) -> String {
     format!("{v:.0e}")
 }
 
+/// A run's name, time and seat acceleration, as the figure draws it.
+type Trace = (String, Vec<f64>, Vec<f64>);
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
 /// One scenario's figure: the seat acceleration of every car over time, the controlled cars
 /// again on their own scale (on the passive car's they are one band), and its PSD; the legend
 /// beside the panels, the fault time marked. Unweighted, as the titles say: the tables are W_k-
@@ -593,11 +597,9 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
     let (width, legend_width) = (1100, 190);
     let root = SVGBackend::new(path, (width + legend_width, 1300)).into_drawing_area();
     root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-    let (panels, legend) = root.split_horizontally(width);
-    let (time_panels, psd_panel) = panels.split_vertically(820);
+    let (panels, legend_area) = root.split_horizontally(width);
+    let (time_panels, psd_area) = panels.split_vertically(820);
     let (all_panel, zoom_panel) = time_panels.split_vertically(410);
-    // Name, time and seat acceleration of each run.
-    type Trace = (String, Vec<f64>, Vec<f64>);
     let series: Vec<Trace> = runs
         .iter()
         .map(|(n, r)| {
@@ -608,78 +610,22 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
             )
         })
         .collect();
-    let fault_time = scenario
-        .plant
-        .get("fault_time")
-        .copied()
-        .filter(|t| *t > 0.0 && *t < scenario.duration);
     let window = if scenario.metrics_from > 0.0 {
         format!("; the tables count t > {} s", scenario.metrics_from)
     } else {
         String::new()
     };
-    // One time panel: the runs `keep` selects, on a scale that fits them.
-    let time_panel = |area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
-                      title: String,
-                      keep: &dyn Fn(&str) -> bool|
-     -> Result<(), MasterError> {
-        let shown: Vec<(usize, &Trace)> = series
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| keep(&s.0))
-            .collect();
-        let amax = shown.iter().map(|(_, s)| peak(&s.2)).fold(1e-6, f64::max) * 1.05;
-        let mut chart = ChartBuilder::on(area)
-            .caption(title, ("sans-serif", 18))
-            .margin(10)
-            .x_label_area_size(35)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..scenario.duration, -amax..amax)
-            .map_err(|x| e(x.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc("t [s]")
-            .y_desc("a_seat [m/s²]")
-            .y_label_formatter(&fixed_decimals(amax))
-            .draw()
-            .map_err(|x| e(x.to_string()))?;
-        for (k, (_, t, a)) in &shown {
-            // At most ~4000 points per line (the SVG stays small; the PSD uses every sample).
-            let stride = (t.len() / 4000).max(1);
-            chart
-                .draw_series(LineSeries::new(
-                    t.iter().copied().zip(a.iter().copied()).step_by(stride),
-                    color(*k).stroke_width(1),
-                ))
-                .map_err(|x| e(x.to_string()))?;
-        }
-        if let Some(tf) = fault_time {
-            chart
-                .draw_series(DashedLineSeries::new(
-                    [(tf, -amax), (tf, amax)],
-                    6,
-                    4,
-                    RED.stroke_width(2),
-                ))
-                .map_err(|x| e(x.to_string()))?;
-            chart
-                .draw_series([Text::new(
-                    format!(" fault at {tf} s"),
-                    (tf, amax * 0.97),
-                    ("sans-serif", 14).into_font().color(&RED),
-                )])
-                .map_err(|x| e(x.to_string()))?;
-        }
-        Ok(())
-    };
     time_panel(
         &all_panel,
+        scenario,
+        &series,
         format!(
             "{}: seat acceleration, unweighted (the tables are W_k-weighted){window}",
             scenario.name
         ),
         &|_| true,
-    )?;
+    )
+    .map_err(e)?;
     // The zoom: the controlled cars whose seat peaks below the passive car's (any that do not
     // would set the scale; the title names them).
     let passive_peak = series
@@ -700,10 +646,87 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
         };
         time_panel(
             &zoom_panel,
+            scenario,
+            &series,
             format!("The controlled cars on their own scale (unweighted){left_out}"),
             &|n| calm.contains(&n),
-        )?;
+        )
+        .map_err(e)?;
     }
+    psd_panel(&psd_area, scenario, &series).map_err(e)?;
+    legend(&legend_area, &series).map_err(e)?;
+    root.present().map_err(|x| e(x.to_string()))?;
+    Ok(())
+}
+
+/// One time panel: the runs `keep` selects, on a scale that fits them, the scenario's fault
+/// time marked.
+fn time_panel(
+    area: &Area,
+    scenario: &Scenario,
+    series: &[Trace],
+    title: String,
+    keep: &dyn Fn(&str) -> bool,
+) -> Result<(), String> {
+    let e = |x: &dyn std::fmt::Display| x.to_string();
+    let fault_time = scenario
+        .plant
+        .get("fault_time")
+        .copied()
+        .filter(|t| *t > 0.0 && *t < scenario.duration);
+    let shown: Vec<(usize, &Trace)> = series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| keep(&s.0))
+        .collect();
+    let amax = shown.iter().map(|(_, s)| peak(&s.2)).fold(1e-6, f64::max) * 1.05;
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..scenario.duration, -amax..amax)
+        .map_err(|x| e(&x))?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc("a_seat [m/s²]")
+        .y_label_formatter(&fixed_decimals(amax))
+        .draw()
+        .map_err(|x| e(&x))?;
+    for (k, (_, t, a)) in &shown {
+        // At most ~4000 points per line (the SVG stays small; the PSD uses every sample).
+        let stride = (t.len() / 4000).max(1);
+        chart
+            .draw_series(LineSeries::new(
+                t.iter().copied().zip(a.iter().copied()).step_by(stride),
+                color(*k).stroke_width(1),
+            ))
+            .map_err(|x| e(&x))?;
+    }
+    if let Some(tf) = fault_time {
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(tf, -amax), (tf, amax)],
+                6,
+                4,
+                RED.stroke_width(2),
+            ))
+            .map_err(|x| e(&x))?;
+        chart
+            .draw_series([Text::new(
+                format!(" fault at {tf} s"),
+                (tf, amax * 0.97),
+                ("sans-serif", 14).into_font().color(&RED),
+            )])
+            .map_err(|x| e(&x))?;
+    }
+    Ok(())
+}
+
+/// The PSD panel: Welch's estimate of every run's seat acceleration over 0.2–50 Hz.
+fn psd_panel(area: &Area, scenario: &Scenario, series: &[Trace]) -> Result<(), String> {
+    let e = |x: &dyn std::fmt::Display| x.to_string();
     let segment = ((4.0 / scenario.step) as usize)
         .next_power_of_two()
         .min(series.first().map_or(8, |s| s.2.len()).next_power_of_two() / 2)
@@ -724,7 +747,7 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
         .fold(1e-12, f64::max)
         * 2.0;
     let pmin = pmax * 1e-7;
-    let mut chart = ChartBuilder::on(&psd_panel)
+    let mut chart = ChartBuilder::on(area)
         .caption(
             format!(
                 "PSD of the seat acceleration, unweighted (Welch, Hann, {} s segments)",
@@ -741,7 +764,7 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
                 .with_key_points(vec![0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0]),
             (pmin..pmax).log_scale(),
         )
-        .map_err(|x| e(x.to_string()))?;
+        .map_err(|x| e(&x))?;
     chart
         .configure_mesh()
         .x_desc("f [Hz]")
@@ -749,7 +772,7 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
         .x_label_formatter(&|v| format!("{v}"))
         .y_label_formatter(&|v| power_of_ten(*v))
         .draw()
-        .map_err(|x| e(x.to_string()))?;
+        .map_err(|x| e(&x))?;
     for (k, (f, p)) in psds.iter().enumerate() {
         let points = f
             .iter()
@@ -758,31 +781,33 @@ pub fn plot(path: &Path, scenario: &Scenario, runs: &[(String, &Run)]) -> Result
             .map(|(f, p)| (*f, *p));
         chart
             .draw_series(LineSeries::new(points, color(k).stroke_width(1)))
-            .map_err(|x| e(x.to_string()))?;
+            .map_err(|x| e(&x))?;
     }
-    // The legend, outside the panels; a run identical to an earlier one is drawn over it, and
-    // says so.
+    Ok(())
+}
+
+/// The legend, outside the panels; a run identical to an earlier one is drawn over it, and
+/// says so.
+fn legend(area: &Area, series: &[Trace]) -> Result<(), String> {
+    let e = |x: &dyn std::fmt::Display| x.to_string();
     for (k, (name, _, a)) in series.iter().enumerate() {
         let y = 60 + 24 * k as i32;
         let name = match series[..k].iter().find(|s| s.2 == *a) {
             Some(same) => format!("{name} = {}", same.0),
             None => name.clone(),
         };
-        legend
-            .draw(&PathElement::new(
-                vec![(10, y), (40, y)],
-                color(k).stroke_width(3),
-            ))
-            .map_err(|x| e(x.to_string()))?;
-        legend
-            .draw(&Text::new(
-                name,
-                (48, y - 8),
-                ("sans-serif", 15).into_font(),
-            ))
-            .map_err(|x| e(x.to_string()))?;
+        area.draw(&PathElement::new(
+            vec![(10, y), (40, y)],
+            color(k).stroke_width(3),
+        ))
+        .map_err(|x| e(&x))?;
+        area.draw(&Text::new(
+            name,
+            (48, y - 8),
+            ("sans-serif", 15).into_font(),
+        ))
+        .map_err(|x| e(&x))?;
     }
-    root.present().map_err(|x| e(x.to_string()))?;
     Ok(())
 }
 
