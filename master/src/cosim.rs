@@ -736,6 +736,79 @@ fn start_controller(c: &Participant, order: Order) -> Result<Slave, MasterError>
     c.fmu.start(&params)
 }
 
+/// The value references of `names` in `f`.
+fn vrs(f: &Fmu, names: &[&str]) -> Result<Vec<u32>, MasterError> {
+    names.iter().map(|n| f.vr(n)).collect()
+}
+
+/// Who is connected to whom in a run, by value reference, and what is recorded.
+struct Wiring {
+    road_in: Vec<u32>,
+    force_in: Vec<u32>,
+    /// The controller's inputs: where they are read on the plant, where they are set.
+    y_from: Vec<u32>,
+    y_to: Vec<u32>,
+    /// The controller's commands.
+    u_from: Vec<u32>,
+    recording: Recording,
+    /// What is read from the plant once per communication point: the recorded outputs, then
+    /// the controller's inputs not among them, whose places there are `y_at`.
+    plant_reads: Vec<u32>,
+    y_at: Vec<usize>,
+    /// The unit of each recorded column.
+    units: Vec<String>,
+}
+
+impl Wiring {
+    fn of(setup: &Setup) -> Result<Wiring, MasterError> {
+        let plant = setup.plant.fmu;
+        let ctrl = setup.controller.map(|c| c.fmu);
+        let recording = Recording::of(setup.record, plant, ctrl)?;
+        let (y_from, y_to, u_from) = match ctrl {
+            Some(cf) => {
+                let inputs = cf.names_with_causality("input");
+                let names: Vec<&str> = inputs.iter().map(|s| s.as_str()).collect();
+                (vrs(plant, &names)?, vrs(cf, &names)?, vrs(cf, &FORCES)?)
+            }
+            None => (vec![], vec![], vec![]),
+        };
+        // The plant is read once per communication point. Nothing is set between the end of
+        // one step and the start of the next, so the values read at the end of a step are
+        // those the next one starts from (one FMI call a step fewer, same values).
+        let mut plant_reads = recording.plant.clone();
+        let y_at: Vec<usize> = y_from
+            .iter()
+            .map(|vr| match plant_reads.iter().position(|r| r == vr) {
+                Some(i) => i,
+                None => {
+                    plant_reads.push(*vr);
+                    plant_reads.len() - 1
+                }
+            })
+            .collect();
+        let units = setup
+            .record
+            .iter()
+            .zip(&recording.columns)
+            .map(|(n, (batch, _))| match (batch, ctrl) {
+                (Batch::Plant, _) | (_, None) => plant.unit(n).to_string(),
+                (_, Some(c)) => c.unit(n).to_string(),
+            })
+            .collect();
+        Ok(Wiring {
+            road_in: vrs(plant, &ROAD)?,
+            force_in: vrs(plant, &FORCES)?,
+            y_from,
+            y_to,
+            u_from,
+            recording,
+            plant_reads,
+            y_at,
+            units,
+        })
+    }
+}
+
 /// The co-simulation loop of this module's order (see the module's documentation), the one
 /// every run and every closed-loop test goes through.
 pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
@@ -745,12 +818,6 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
     if let Some(c) = ctrl {
         check_connections(plant, c)?;
     }
-    let vrs = |f: &Fmu, names: &[&str]| {
-        names
-            .iter()
-            .map(|n| f.vr(n))
-            .collect::<Result<Vec<u32>, _>>()
-    };
     let mut road = match &setup.road {
         RoadSource::Fmu(r) => Some((r.fmu.start(r.params)?, vrs(r.fmu, &ROAD)?)),
         RoadSource::InProcess(_) => None,
@@ -760,42 +827,18 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         .controller
         .map(|c| start_controller(&c, setup.order))
         .transpose()?;
-    let road_in = vrs(plant, &ROAD)?;
-    let force_in = vrs(plant, &FORCES)?;
-    let recording = Recording::of(setup.record, plant, ctrl)?;
-    let (y_from, y_to, u_from) = match ctrl {
-        Some(cf) => {
-            let inputs = cf.names_with_causality("input");
-            let names: Vec<&str> = inputs.iter().map(|s| s.as_str()).collect();
-            (vrs(plant, &names)?, vrs(cf, &names)?, vrs(cf, &FORCES)?)
-        }
-        None => (vec![], vec![], vec![]),
-    };
+    let Wiring {
+        road_in,
+        force_in,
+        y_from,
+        y_to,
+        u_from,
+        recording,
+        plant_reads,
+        y_at,
+        units,
+    } = Wiring::of(setup)?;
     let on_controller = recording.on_controller();
-    // The plant is read once per communication point: the recorded outputs, then the
-    // controller's inputs not among them. Nothing is set between the end of one step and the
-    // start of the next, so the values read at the end of a step are those the next one starts
-    // from (one FMI call a step fewer, same values).
-    let mut plant_reads = recording.plant.clone();
-    let y_at: Vec<usize> = y_from
-        .iter()
-        .map(|vr| match plant_reads.iter().position(|r| r == vr) {
-            Some(i) => i,
-            None => {
-                plant_reads.push(*vr);
-                plant_reads.len() - 1
-            }
-        })
-        .collect();
-    let units = setup
-        .record
-        .iter()
-        .zip(&recording.columns)
-        .map(|(n, (batch, _))| match (batch, ctrl) {
-            (Batch::Plant, _) | (_, None) => plant.unit(n).to_string(),
-            (_, Some(c)) => c.unit(n).to_string(),
-        })
-        .collect();
     // The plant's values after initialisation: its own, or the scenario's overrides.
     let mut plant_reals = |names: &[&str], values: &mut [f64]| {
         p.get_real(&vrs(plant, names)?, values)
