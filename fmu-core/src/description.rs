@@ -748,22 +748,8 @@ impl ModelDescription {
                 min,
                 max,
             } => {
-                let mut attrs = String::new();
-                if !unit.is_empty() {
-                    write!(attrs, r#" unit="{}""#, esc(unit)).unwrap();
-                }
-                if let Some(m) = min {
-                    write!(attrs, r#" min="{}""#, num(*m)).unwrap();
-                }
-                if let Some(m) = max {
-                    write!(attrs, r#" max="{}""#, num(*m)).unwrap();
-                }
-                if let Some(s) = start {
-                    write!(attrs, r#" start="{}""#, num(*s)).unwrap();
-                }
-                if let Some(state) = &v.derivative_of {
-                    write!(attrs, r#" derivative="{}""#, self.index_of(state)).unwrap();
-                }
+                let derivative = v.derivative_of.as_ref().map(|s| self.index_of(s));
+                let attrs = real_attributes("unit", unit, [min, max, start], derivative);
                 writeln!(x, "      <Real{attrs}/>").unwrap();
             }
             VarType::Integer { start } => match start {
@@ -849,6 +835,30 @@ impl ModelDescription {
         );
         writeln!(x, "  </ModelStructure>").unwrap();
     }
+}
+
+/// A Real's attributes as both versions write them: its unit (as `unit_attribute`, FMI 3.0's
+/// `declaredType`), `min`, `max`, `start`, and `derivative` (the state's index in FMI 2.0, its
+/// value reference in FMI 3.0).
+fn real_attributes(
+    unit_attribute: &str,
+    unit: &str,
+    [min, max, start]: [&Option<f64>; 3],
+    derivative: Option<usize>,
+) -> String {
+    let mut attrs = String::new();
+    if !unit.is_empty() {
+        write!(attrs, r#" {unit_attribute}="{}""#, esc(unit)).unwrap();
+    }
+    for (name, value) in [("min", min), ("max", max), ("start", start)] {
+        if let Some(v) = value {
+            write!(attrs, r#" {name}="{}""#, num(*v)).unwrap();
+        }
+    }
+    if let Some(d) = derivative {
+        write!(attrs, r#" derivative="{d}""#).unwrap();
+    }
+    attrs
 }
 
 /// An XML Boolean.

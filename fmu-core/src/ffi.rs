@@ -506,7 +506,78 @@ pub(crate) fn new_state<M: Model>(inst: &mut Instance<M>, bytes: Vec<u8>) -> Fmi
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
-    call::<M, String>(c, "fmi2GetFMUstate", sm::FMU_STATE, |inst| {
+    get_fmu_state_named::<M>(c, "fmi2GetFMUstate", state)
+}
+
+/// `fmi2SetFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
+    set_fmu_state_named::<M>(c, "fmi2SetFMUstate", state)
+}
+
+/// `fmi2FreeFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
+    free_fmu_state_named::<M>(c, "fmi2FreeFMUstate", state)
+}
+
+/// `fmi2SerializedFMUstateSize`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn serialized_fmu_state_size<M: Model>(
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+    size: *mut usize,
+) -> Fmi2Status {
+    serialized_fmu_state_size_named::<M>(c, "fmi2SerializedFMUstateSize", state, size)
+}
+
+/// `fmi2SerializeFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn serialize_fmu_state<M: Model>(
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+    bytes: *mut Fmi2Byte,
+    size: usize,
+) -> Fmi2Status {
+    serialize_fmu_state_named::<M>(c, "fmi2SerializeFMUstate", state, bytes as *mut u8, size)
+}
+
+/// `fmi2DeSerializeFMUstate`.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn deserialize_fmu_state<M: Model>(
+    c: Fmi2Component,
+    bytes: *const Fmi2Byte,
+    size: usize,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
+    deserialize_fmu_state_named::<M>(
+        c,
+        "fmi2DeSerializeFMUstate",
+        bytes as *const u8,
+        size,
+        state,
+    )
+}
+
+// The FMU state calls of both versions (FMI 3.0 spells them `FMUState`): the same pointers,
+// under the calling version's function name.
+
+pub(crate) unsafe fn get_fmu_state_named<M: Model>(
+    c: Fmi2Component,
+    func: &str,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
+    call::<M, String>(c, func, sm::FMU_STATE, |inst| {
         let out = out_ptr(state, "FMUstate")?;
         let bytes = inst.save_state();
         if out.is_null() {
@@ -519,23 +590,23 @@ pub unsafe fn get_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState
     })
 }
 
-/// `fmi2SetFMUstate`.
-///
-/// # Safety
-/// The FMI calling contract of [the module](self#safety).
-pub unsafe fn set_fmu_state<M: Model>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
-    call::<M, ModelError>(c, "fmi2SetFMUstate", sm::FMU_STATE, |inst| {
+pub(crate) unsafe fn set_fmu_state_named<M: Model>(
+    c: Fmi2Component,
+    func: &str,
+    state: Fmi2FmuState,
+) -> Fmi2Status {
+    call::<M, ModelError>(c, func, sm::FMU_STATE, |inst| {
         let bytes = owned_state(inst, state)?.bytes.clone();
         inst.restore_state(&bytes)
     })
 }
 
-/// `fmi2FreeFMUstate`.
-///
-/// # Safety
-/// The FMI calling contract of [the module](self#safety).
-pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuState) -> Fmi2Status {
-    call::<M, String>(c, "fmi2FreeFMUstate", sm::FMU_STATE, |inst| {
+pub(crate) unsafe fn free_fmu_state_named<M: Model>(
+    c: Fmi2Component,
+    func: &str,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
+    call::<M, String>(c, func, sm::FMU_STATE, |inst| {
         // A NULL pointer, like a NULL state, frees nothing (as free(NULL) does).
         if state.is_null() {
             return Ok(Status::Ok);
@@ -552,32 +623,26 @@ pub unsafe fn free_fmu_state<M: Model>(c: Fmi2Component, state: *mut Fmi2FmuStat
     })
 }
 
-/// `fmi2SerializedFMUstateSize`.
-///
-/// # Safety
-/// The FMI calling contract of [the module](self#safety).
-pub unsafe fn serialized_fmu_state_size<M: Model>(
+pub(crate) unsafe fn serialized_fmu_state_size_named<M: Model>(
     c: Fmi2Component,
+    func: &str,
     state: Fmi2FmuState,
     size: *mut usize,
 ) -> Fmi2Status {
-    call::<M, String>(c, "fmi2SerializedFMUstateSize", sm::FMU_STATE, |inst| {
+    call::<M, String>(c, func, sm::FMU_STATE, |inst| {
         *out_ptr(size, "size")? = owned_state(inst, state)?.bytes.len();
         Ok(Status::Ok)
     })
 }
 
-/// `fmi2SerializeFMUstate`.
-///
-/// # Safety
-/// The FMI calling contract of [the module](self#safety).
-pub unsafe fn serialize_fmu_state<M: Model>(
+pub(crate) unsafe fn serialize_fmu_state_named<M: Model>(
     c: Fmi2Component,
+    func: &str,
     state: Fmi2FmuState,
-    bytes: *mut Fmi2Byte,
+    bytes: *mut u8,
     size: usize,
 ) -> Fmi2Status {
-    call::<M, String>(c, "fmi2SerializeFMUstate", sm::FMU_STATE, |inst| {
+    call::<M, String>(c, func, sm::FMU_STATE, |inst| {
         let src = &owned_state(inst, state)?.bytes;
         if size < src.len() {
             return Err(format!(
@@ -585,25 +650,22 @@ pub unsafe fn serialize_fmu_state<M: Model>(
                 src.len()
             ));
         }
-        let dst = slice_mut(bytes as *mut u8, src.len(), "serializedState")?;
+        let dst = slice_mut(bytes, src.len(), "serializedState")?;
         dst.copy_from_slice(src);
         Ok(Status::Ok)
     })
 }
 
-/// `fmi2DeSerializeFMUstate`.
-///
-/// # Safety
-/// The FMI calling contract of [the module](self#safety).
-pub unsafe fn deserialize_fmu_state<M: Model>(
+pub(crate) unsafe fn deserialize_fmu_state_named<M: Model>(
     c: Fmi2Component,
-    bytes: *const Fmi2Byte,
+    func: &str,
+    bytes: *const u8,
     size: usize,
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
-    call::<M, String>(c, "fmi2DeSerializeFMUstate", sm::FMU_STATE, |inst| {
+    call::<M, String>(c, func, sm::FMU_STATE, |inst| {
         let out = out_ptr(state, "FMUstate")?;
-        let data = slice(bytes as *const u8, size, "serializedState")?.to_vec();
+        let data = slice(bytes, size, "serializedState")?.to_vec();
         inst.check_state(&data)?;
         if out.is_null() {
             *out = new_state(inst, data);

@@ -16,8 +16,8 @@
 //! NULL or a pointer this model's `fmi3Instantiate*` returned and not yet freed, and every
 //! pointer argument is NULL or valid for the elements the call announces.
 
-use crate::ffi::{c_str, call, catch_quietly, new_state, out_ptr, owned_state, slice, slice_mut};
-use crate::instance::{FmuStateBox, Instance};
+use crate::ffi::{self, c_str, call, catch_quietly, out_ptr, slice, slice_mut};
+use crate::instance::Instance;
 use crate::logger::Logger;
 use crate::model::{Model, ModelError};
 use crate::state_machine::{self as sm, FmiState, Interface};
@@ -451,16 +451,7 @@ pub unsafe fn not_provided<M: Model>(c: fmi3::Instance, func: &str, why: &str) -
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn get_fmu_state<M: Model>(c: fmi3::Instance, state: *mut fmi3::FmuState) -> Fmi3Status {
-    call::<M, String>(c, "fmi3GetFMUState", sm::FMU_STATE, |inst| {
-        let out = out_ptr(state, "FMUState")?;
-        let bytes = inst.save_state();
-        if out.is_null() {
-            *out = new_state(inst, bytes);
-        } else {
-            owned_state(inst, *out)?.bytes = bytes;
-        }
-        Ok(Status::Ok)
-    })
+    ffi::get_fmu_state_named::<M>(c, "fmi3GetFMUState", state)
 }
 
 /// `fmi3SetFMUState`.
@@ -468,10 +459,7 @@ pub unsafe fn get_fmu_state<M: Model>(c: fmi3::Instance, state: *mut fmi3::FmuSt
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn set_fmu_state<M: Model>(c: fmi3::Instance, state: fmi3::FmuState) -> Fmi3Status {
-    call::<M, ModelError>(c, "fmi3SetFMUState", sm::FMU_STATE, |inst| {
-        let bytes = owned_state(inst, state)?.bytes.clone();
-        inst.restore_state(&bytes)
-    })
+    ffi::set_fmu_state_named::<M>(c, "fmi3SetFMUState", state)
 }
 
 /// `fmi3FreeFMUState`.
@@ -482,20 +470,7 @@ pub unsafe fn free_fmu_state<M: Model>(
     c: fmi3::Instance,
     state: *mut fmi3::FmuState,
 ) -> Fmi3Status {
-    call::<M, String>(c, "fmi3FreeFMUState", sm::FMU_STATE, |inst| {
-        if state.is_null() {
-            return Ok(Status::Ok);
-        }
-        let slot = out_ptr(state, "FMUState")?;
-        if slot.is_null() {
-            return Ok(Status::Ok);
-        }
-        owned_state(inst, *slot)?;
-        inst.fmu_states.remove(&(*slot as usize));
-        drop(Box::from_raw(*slot as *mut FmuStateBox));
-        *slot = std::ptr::null_mut();
-        Ok(Status::Ok)
-    })
+    ffi::free_fmu_state_named::<M>(c, "fmi3FreeFMUState", state)
 }
 
 /// `fmi3SerializedFMUStateSize`.
@@ -507,10 +482,7 @@ pub unsafe fn serialized_fmu_state_size<M: Model>(
     state: fmi3::FmuState,
     size: *mut usize,
 ) -> Fmi3Status {
-    call::<M, String>(c, "fmi3SerializedFMUStateSize", sm::FMU_STATE, |inst| {
-        *out_ptr(size, "size")? = owned_state(inst, state)?.bytes.len();
-        Ok(Status::Ok)
-    })
+    ffi::serialized_fmu_state_size_named::<M>(c, "fmi3SerializedFMUStateSize", state, size)
 }
 
 /// `fmi3SerializeFMUState`.
@@ -523,17 +495,7 @@ pub unsafe fn serialize_fmu_state<M: Model>(
     bytes: *mut fmi3::Byte,
     size: usize,
 ) -> Fmi3Status {
-    call::<M, String>(c, "fmi3SerializeFMUState", sm::FMU_STATE, |inst| {
-        let src = &owned_state(inst, state)?.bytes;
-        if size < src.len() {
-            return Err(format!(
-                "buffer of {size} bytes is smaller than the serialized state ({} bytes)",
-                src.len()
-            ));
-        }
-        slice_mut(bytes, src.len(), "serializedState")?.copy_from_slice(src);
-        Ok(Status::Ok)
-    })
+    ffi::serialize_fmu_state_named::<M>(c, "fmi3SerializeFMUState", state, bytes, size)
 }
 
 /// `fmi3DeserializeFMUState`.
@@ -546,17 +508,7 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
     size: usize,
     state: *mut fmi3::FmuState,
 ) -> Fmi3Status {
-    call::<M, String>(c, "fmi3DeserializeFMUState", sm::FMU_STATE, |inst| {
-        let out = out_ptr(state, "FMUState")?;
-        let data = slice(bytes, size, "serializedState")?.to_vec();
-        inst.check_state(&data)?;
-        if out.is_null() {
-            *out = new_state(inst, data);
-        } else {
-            owned_state(inst, *out)?.bytes = data;
-        }
-        Ok(Status::Ok)
-    })
+    ffi::deserialize_fmu_state_named::<M>(c, "fmi3DeserializeFMUState", bytes, size, state)
 }
 
 /// `fmi3GetDirectionalDerivative`: scalars, so `nSeed = nKnowns` and

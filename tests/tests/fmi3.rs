@@ -25,17 +25,7 @@ const FMUS: [&str; 11] = [
     "skyhook",
     "lqg",
 ];
-const ROAD: [&str; 8] = [
-    "road_z_fl",
-    "road_z_fr",
-    "road_z_rl",
-    "road_z_rr",
-    "road_v_fl",
-    "road_v_fr",
-    "road_v_rl",
-    "road_v_rr",
-];
-const FORCES: [&str; 5] = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"];
+use master::cosim::{FORCES, ROAD};
 
 /// `dist/fmi3/<name>.fmu` through the `fmi` crate, with its variables by name.
 struct Fmu3 {

@@ -4,8 +4,8 @@
 //! event indicator ([`FMI3_TIME_VR`], [`FMI3_EVENT_INDICATOR_VR`]).
 
 use super::{
-    esc, flag, num, BaseType, Causality, DependencyKind, ModelDescription, VarType, Variable,
-    FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
+    esc, flag, real_attributes, BaseType, Causality, DependencyKind, ModelDescription, VarType,
+    Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
 };
 use std::fmt::Write;
 
@@ -127,21 +127,8 @@ impl ModelDescription {
                 min,
                 max,
             } => {
-                if !unit.is_empty() {
-                    write!(attrs, r#" declaredType="{}""#, esc(unit)).unwrap();
-                }
-                if let Some(m) = min {
-                    write!(attrs, r#" min="{}""#, num(*m)).unwrap();
-                }
-                if let Some(m) = max {
-                    write!(attrs, r#" max="{}""#, num(*m)).unwrap();
-                }
-                if let Some(s) = start {
-                    write!(attrs, r#" start="{}""#, num(*s)).unwrap();
-                }
-                if let Some(state) = &v.derivative_of {
-                    write!(attrs, r#" derivative="{}""#, self.vr_of(state)).unwrap();
-                }
+                let derivative = v.derivative_of.as_ref().map(|s| self.vr_of(s) as usize);
+                attrs = real_attributes("declaredType", unit, [min, max, start], derivative);
             }
             VarType::Integer { start } => {
                 if let Some(s) = start {
