@@ -302,3 +302,23 @@ def test_the_fmi3_model_exchange_jacobians_are_the_fmi2_ones_and_its_indicators_
     for fmu in (fmu2, fmu3):
         fmu.terminate()
         fmu.freeInstance()
+
+
+def test_the_fmi3_road_as_model_exchange_announces_the_same_kinks():
+    """The FMI 3.0 road in FMPy's Model Exchange: the same time events as FMI 2.0's (a pothole's
+    ramps and a terrain ramp's ends under the front and then the rear wheels) and the same
+    outputs, equal to its Co-Simulation."""
+    values = {"profile": 4, "pothole_depth": -0.05, "pothole_length": 3.0, "pothole_ramp": 0.5,
+              "speed": 10.0, "ramp_rise": 0.5, "ramp_length": 30.0}
+    outputs = ["road_z_fl", "road_z_rr", "road_v_fl", "road_v_rr"]
+    common = dict(stop_time=5.0, output_interval=1e-3, start_values=values, output=outputs)
+    runs = {fmi: simulate_fmu(path("road", fmi), fmi_type="ModelExchange", record_events=True, **common)
+            for fmi in (2, 3)}
+    events = {fmi: [t for i, t in enumerate(r["time"][1:]) if t == r["time"][i]] for fmi, r in runs.items()}
+    assert len(events[3]) >= 8 and events[3] == events[2]
+    for name in outputs:
+        assert np.array_equal(runs[3][name], runs[2][name]), name
+    cs = simulate_fmu(path("road", 3), fmi_type="CoSimulation", **common)
+    me = simulate_fmu(path("road", 3), fmi_type="ModelExchange", record_events=False, **common)
+    for name in outputs:
+        assert np.array_equal(me[name], cs[name]), name
