@@ -617,7 +617,7 @@ impl ModelDescription {
             x,
             r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" version="{}" generationTool="suspension-fmus {} (fmu-core)" variableNamingConvention="structured" numberOfEventIndicators="{}">"#,
             esc(&self.model_name), esc(&self.guid), esc(&self.description), esc(&self.version), env!("CARGO_PKG_VERSION"),
-            self.model_exchange.as_ref().map_or(0, |me| me.number_of_event_indicators)
+            self.number_of_event_indicators()
         )
         .unwrap();
         self.write_interfaces(&mut x);
@@ -696,15 +696,48 @@ impl ModelDescription {
         .unwrap();
     }
 
-    /// `<UnitDefinitions>`: every unit a variable uses, and `extra`, with its base-unit
-    /// exponents.
-    fn write_units(&self, x: &mut String, extra: &[&'static str]) {
-        let units: BTreeSet<&str> = self
-            .variables
+    /// The number of event indicators (0 without Model Exchange).
+    pub fn number_of_event_indicators(&self) -> usize {
+        self.model_exchange
+            .as_ref()
+            .map_or(0, |me| me.number_of_event_indicators)
+    }
+
+    /// Every unit a variable uses, and `extra`, sorted.
+    fn units(&self, extra: &[&'static str]) -> BTreeSet<&str> {
+        self.variables
             .iter()
             .filter_map(|v| v.unit())
             .chain(extra.iter().copied())
-            .collect();
+            .collect()
+    }
+
+    /// Whether `v` is an initial unknown: an output, a calculated parameter, a state or a
+    /// derivative (the locals).
+    fn is_initial_unknown(v: &Variable) -> bool {
+        matches!(
+            v.causality,
+            Causality::Output | Causality::CalculatedParameter | Causality::Local
+        )
+    }
+
+    /// An initial unknown's dependencies, by name: the inputs it depends on and its parameters
+    /// (a derivative's states are unknowns themselves at initialisation: they start at the
+    /// equilibrium). Only `dependent` and `constant` are kinds there, and no factor is constant
+    /// once the parameters are knowns, so every one is `dependent`.
+    fn initial_dependencies<'a>(&'a self, v: &'a Variable) -> impl Iterator<Item = &'a str> + 'a {
+        v.depends_on
+            .iter()
+            .map(|(d, _)| d)
+            .filter(|d| self.variable(d).map(|k| k.causality) == Some(Causality::Input))
+            .chain(&v.initial_parameters)
+            .map(String::as_str)
+    }
+
+    /// `<UnitDefinitions>`: every unit a variable uses, and `extra`, with its base-unit
+    /// exponents.
+    fn write_units(&self, x: &mut String, extra: &[&'static str]) {
+        let units = self.units(extra);
         if units.is_empty() {
             return;
         }
@@ -767,16 +800,10 @@ impl ModelDescription {
     /// `<ModelStructure>`: the outputs, the derivatives and the initial unknowns, each with
     /// its dependencies by index, sorted as the standard requires, and their kinds.
     fn write_structure(&self, x: &mut String) {
-        let unknown = |i: usize, mut deps: Vec<(usize, DependencyKind)>| {
-            deps.sort_unstable_by_key(|(d, _)| *d);
-            deps.dedup_by_key(|(d, _)| *d);
-            let list = |f: &dyn Fn(&(usize, DependencyKind)) -> String| {
-                deps.iter().map(f).collect::<Vec<_>>().join(" ")
-            };
+        let unknown = |i: usize, deps: Vec<(usize, DependencyKind)>| {
+            let (refs, kinds) = dependency_lists(deps);
             format!(
-                r#"      <Unknown index="{i}" dependencies="{}" dependenciesKind="{}"/>"#,
-                list(&|(d, _)| d.to_string()),
-                list(&|(_, k)| k.name().to_string())
+                r#"      <Unknown index="{i}" dependencies="{refs}" dependenciesKind="{kinds}"/>"#
             )
         };
         // A section of the unknowns `which` picks, each depending on what `deps` names.
@@ -810,31 +837,23 @@ impl ModelDescription {
         section(x, "Outputs", &|v| v.causality == Causality::Output, &own);
         // A derivative depends on continuous states and inputs.
         section(x, "Derivatives", &|v| v.derivative_of.is_some(), &own);
-        // Initial unknowns: outputs, calculated parameters, states and derivatives, depending
-        // on their inputs and parameters (a derivative's states are unknowns themselves at
-        // initialisation: they start at the equilibrium). Only `dependent` and `constant` are
-        // kinds there, and no factor is constant once the parameters are knowns.
-        section(
-            x,
-            "InitialUnknowns",
-            &|v| {
-                matches!(
-                    v.causality,
-                    Causality::Output | Causality::CalculatedParameter | Causality::Local
-                )
-            },
-            &|v| {
-                v.depends_on
-                    .iter()
-                    .map(|(d, _)| d)
-                    .filter(|d| self.variable(d).map(|k| k.causality) == Some(Causality::Input))
-                    .chain(&v.initial_parameters)
-                    .map(|d| (self.index_of(d), DependencyKind::Dependent))
-                    .collect()
-            },
-        );
+        section(x, "InitialUnknowns", &Self::is_initial_unknown, &|v| {
+            self.initial_dependencies(v)
+                .map(|d| (self.index_of(d), DependencyKind::Dependent))
+                .collect()
+        });
         writeln!(x, "  </ModelStructure>").unwrap();
     }
+}
+
+/// A model structure element's `dependencies` and `dependenciesKind`, sorted by the known
+/// (an index in FMI 2.0, a value reference in FMI 3.0) and each known once.
+fn dependency_lists(mut deps: Vec<(usize, DependencyKind)>) -> (String, String) {
+    deps.sort_unstable_by_key(|(d, _)| *d);
+    deps.dedup_by_key(|(d, _)| *d);
+    let refs: Vec<String> = deps.iter().map(|(d, _)| d.to_string()).collect();
+    let kinds: Vec<&str> = deps.iter().map(|(_, k)| k.name()).collect();
+    (refs.join(" "), kinds.join(" "))
 }
 
 /// A Real's attributes as both versions write them: its unit (as `unit_attribute`, FMI 3.0's

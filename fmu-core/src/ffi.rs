@@ -274,13 +274,30 @@ pub unsafe fn set_debug_logging<M: Model>(
     n: usize,
     categories: *const Fmi2String,
 ) -> Fmi2Status {
-    call::<M, String>(c, "fmi2SetDebugLogging", sm::SET_DEBUG_LOGGING, |inst| {
+    set_debug_logging_named::<M>(
+        c,
+        "fmi2SetDebugLogging",
+        logging_on != FMI2_FALSE,
+        n,
+        categories,
+    )
+}
+
+/// `fmi2SetDebugLogging` and `fmi3SetDebugLogging`, under the caller's function name.
+pub(crate) unsafe fn set_debug_logging_named<M: Model>(
+    c: Fmi2Component,
+    func: &str,
+    logging_on: bool,
+    n: usize,
+    categories: *const Fmi2String,
+) -> Fmi2Status {
+    call::<M, String>(c, func, sm::SET_DEBUG_LOGGING, |inst| {
         let ptrs = slice(categories, n, "categories")?;
         let mut names = Vec::with_capacity(n);
         for p in ptrs {
             names.push(c_str(*p).ok_or("a category is NULL")??);
         }
-        inst.set_debug_logging(logging_on != FMI2_FALSE, &names)
+        inst.set_debug_logging(logging_on, &names)
     })
 }
 

@@ -194,14 +194,7 @@ pub unsafe fn set_debug_logging<M: Model>(
     n: usize,
     categories: *const FmiString,
 ) -> Fmi3Status {
-    call::<M, String>(c, "fmi3SetDebugLogging", sm::SET_DEBUG_LOGGING, |inst| {
-        let ptrs = slice(categories, n, "categories")?;
-        let mut names = Vec::with_capacity(n);
-        for p in ptrs {
-            names.push(c_str(*p).ok_or("a category is NULL")??);
-        }
-        inst.set_debug_logging(logging_on, &names)
-    })
+    ffi::set_debug_logging_named::<M>(c, "fmi3SetDebugLogging", logging_on, n, categories)
 }
 
 /// `fmi3EnterInitializationMode`: FMI 2.0's `fmi2SetupExperiment` and

@@ -4,8 +4,8 @@
 //! event indicator ([`FMI3_TIME_VR`], [`FMI3_EVENT_INDICATOR_VR`]).
 
 use super::{
-    esc, flag, real_attributes, BaseType, Causality, DependencyKind, ModelDescription, VarType,
-    Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
+    dependency_lists, esc, flag, real_attributes, BaseType, Causality, DependencyKind,
+    ModelDescription, VarType, Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
 };
 use std::fmt::Write;
 
@@ -38,7 +38,7 @@ impl ModelDescription {
         for v in &self.variables {
             self.write_variable3(&mut x, v);
         }
-        for i in 0..self.event_indicators() {
+        for i in 0..self.number_of_event_indicators() {
             writeln!(
                 x,
                 r#"    <Float64 name="event_indicator[{}]" valueReference="{}" description="Event indicator {}: an event where it changes sign" causality="local" variability="continuous" initial="calculated"/>"#,
@@ -52,12 +52,6 @@ impl ModelDescription {
         self.write_structure3(&mut x);
         writeln!(x, "</fmiModelDescription>").unwrap();
         x
-    }
-
-    fn event_indicators(&self) -> usize {
-        self.model_exchange
-            .as_ref()
-            .map_or(0, |me| me.number_of_event_indicators)
     }
 
     /// The value reference of the variable named `name` (checked to exist).
@@ -98,14 +92,8 @@ impl ModelDescription {
     /// declared type is the form every importer parses (the `fmi` crate's strict schema rejects
     /// the variable's own `unit`, and so its import of the FMU).
     fn write_types3(&self, x: &mut String) {
-        let units: std::collections::BTreeSet<&str> = self
-            .variables
-            .iter()
-            .filter_map(|v| v.unit())
-            .chain(["s"])
-            .collect();
         writeln!(x, "  <TypeDefinitions>").unwrap();
-        for u in units {
+        for u in self.units(&["s"]) {
             writeln!(x, r#"    <Float64Type name="{0}" unit="{0}"/>"#, esc(u)).unwrap();
         }
         writeln!(x, "  </TypeDefinitions>").unwrap();
@@ -155,25 +143,19 @@ impl ModelDescription {
     /// derivatives and the initial unknowns with their dependencies, then the event indicators
     /// (no dependencies given: on every known).
     fn write_structure3(&self, x: &mut String) {
-        let element =
-            |x: &mut String, tag: &str, v: &Variable, mut deps: Vec<(u32, DependencyKind)>| {
-                deps.sort_unstable_by_key(|(d, _)| *d);
-                deps.dedup_by_key(|(d, _)| *d);
-                let refs: Vec<String> = deps.iter().map(|(d, _)| d.to_string()).collect();
-                let kinds: Vec<&str> = deps.iter().map(|(_, k)| k.name()).collect();
-                writeln!(
-                    x,
-                    r#"    <{tag} valueReference="{}" dependencies="{}" dependenciesKind="{}"/>"#,
-                    v.value_reference,
-                    refs.join(" "),
-                    kinds.join(" ")
-                )
-                .unwrap();
-            };
-        let own = |v: &Variable| -> Vec<(u32, DependencyKind)> {
+        let element = |x: &mut String, tag: &str, v: &Variable, deps| {
+            let (refs, kinds) = dependency_lists(deps);
+            writeln!(
+                x,
+                r#"    <{tag} valueReference="{}" dependencies="{refs}" dependenciesKind="{kinds}"/>"#,
+                v.value_reference,
+            )
+            .unwrap();
+        };
+        let own = |v: &Variable| -> Vec<(usize, DependencyKind)> {
             v.depends_on
                 .iter()
-                .map(|(d, k)| (self.vr_of(d), *k))
+                .map(|(d, k)| (self.vr_of(d) as usize, *k))
                 .collect()
         };
         writeln!(x, "  <ModelStructure>").unwrap();
@@ -187,24 +169,18 @@ impl ModelDescription {
         for v in self.variables.iter().filter(|v| v.derivative_of.is_some()) {
             element(x, "ContinuousStateDerivative", v, own(v));
         }
-        let initial = |v: &Variable| -> Vec<(u32, DependencyKind)> {
-            v.depends_on
-                .iter()
-                .map(|(d, _)| d)
-                .filter(|d| self.variable(d).map(|k| k.causality) == Some(Causality::Input))
-                .chain(&v.initial_parameters)
-                .map(|d| (self.vr_of(d), DependencyKind::Dependent))
-                .collect()
-        };
-        for v in self.variables.iter().filter(|v| {
-            matches!(
-                v.causality,
-                Causality::Output | Causality::CalculatedParameter | Causality::Local
-            )
-        }) {
-            element(x, "InitialUnknown", v, initial(v));
+        for v in self
+            .variables
+            .iter()
+            .filter(|v| Self::is_initial_unknown(v))
+        {
+            let deps = self
+                .initial_dependencies(v)
+                .map(|d| (self.vr_of(d) as usize, DependencyKind::Dependent))
+                .collect();
+            element(x, "InitialUnknown", v, deps);
         }
-        for i in 0..self.event_indicators() {
+        for i in 0..self.number_of_event_indicators() {
             writeln!(
                 x,
                 r#"    <EventIndicator valueReference="{}"/>"#,
