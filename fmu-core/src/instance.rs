@@ -103,6 +103,12 @@ impl Api {
     }
 }
 
+/// One of the variables FMI 3.0's description declares beside the model's.
+enum Fmi3Variable {
+    Time,
+    EventIndicator(usize),
+}
+
 /// An FMU state as handed to the importer: the serialised instance.
 pub struct FmuStateBox {
     pub(crate) bytes: Vec<u8>,
@@ -409,6 +415,20 @@ impl<M: Model> Instance<M> {
         Ok(Status::Ok)
     }
 
+    /// Which of FMI 3.0's own variables `vr` (at or above [`FMI3_TIME_VR`]) is: the
+    /// independent time, the `i`-th event indicator, or none of this FMU's.
+    fn fmi3_variable(&self, vr: ValueReference) -> Result<Fmi3Variable, String> {
+        if vr == FMI3_TIME_VR {
+            return Ok(Fmi3Variable::Time);
+        }
+        let i = vr.wrapping_sub(FMI3_EVENT_INDICATOR_VR) as usize;
+        if vr > FMI3_TIME_VR && i < self.number_of_event_indicators() {
+            Ok(Fmi3Variable::EventIndicator(i))
+        } else {
+            Err(format!("unknown value reference {vr} for type Float64"))
+        }
+    }
+
     /// `fmi3GetFloat64`: the model's Real variables, and the variables only FMI 3.0's
     /// description declares, the independent `time` and the event indicators
     /// ([`crate::description::FMI3_TIME_VR`]).
@@ -422,22 +442,20 @@ impl<M: Model> Instance<M> {
         }
         let mut indicators = Vec::new();
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
-            if *vr == FMI3_TIME_VR {
-                *out = self.time;
-            } else if *vr > FMI3_TIME_VR {
-                let i = (*vr - FMI3_EVENT_INDICATOR_VR) as usize;
-                let n = self.number_of_event_indicators();
-                if i >= n {
-                    return Err(format!("unknown value reference {vr} for type Float64"));
-                }
-                if indicators.is_empty() {
-                    indicators = vec![0.0; n];
-                    self.get_event_indicators(&mut indicators)?;
-                }
-                *out = indicators[i];
-            } else {
+            if *vr < FMI3_TIME_VR {
                 self.get_real(std::slice::from_ref(vr), std::slice::from_mut(out))?;
+                continue;
             }
+            *out = match self.fmi3_variable(*vr)? {
+                Fmi3Variable::Time => self.time,
+                Fmi3Variable::EventIndicator(i) => {
+                    if indicators.is_empty() {
+                        indicators = vec![0.0; self.number_of_event_indicators()];
+                        self.get_event_indicators(&mut indicators)?;
+                    }
+                    indicators[i]
+                }
+            };
         }
         Ok(Status::Ok)
     }
@@ -449,12 +467,15 @@ impl<M: Model> Instance<M> {
         values: &[f64],
     ) -> Result<Status, String> {
         if let Some(vr) = vrs.iter().find(|vr| **vr >= FMI3_TIME_VR) {
-            return Err(if *vr == FMI3_TIME_VR {
-                "'time' is the independent variable: it cannot be set (fmi3SetTime in Model \
-                 Exchange, fmi3DoStep in Co-Simulation)"
-                    .into()
-            } else {
-                format!("value reference {vr} is an event indicator: it cannot be set")
+            return Err(match self.fmi3_variable(*vr)? {
+                Fmi3Variable::Time => "'time' is the independent variable: it cannot be set \
+                                       (fmi3SetTime in Model Exchange, fmi3DoStep in \
+                                       Co-Simulation)"
+                    .into(),
+                Fmi3Variable::EventIndicator(i) => format!(
+                    "value reference {vr} is event_indicator[{}]: it cannot be set",
+                    i + 1
+                ),
             });
         }
         self.set_real(vrs, values)
@@ -462,10 +483,7 @@ impl<M: Model> Instance<M> {
 
     /// The number of event indicators (0 without Model Exchange).
     pub fn number_of_event_indicators(&self) -> usize {
-        self.description
-            .model_exchange
-            .as_ref()
-            .map_or(0, |me| me.number_of_event_indicators)
+        self.description.number_of_event_indicators()
     }
 
     /// The number of continuous states (0 without Model Exchange).

@@ -980,6 +980,18 @@ mod fmi3 {
             assert_eq!(fmi3GetInt64(c, null(), 0, &mut x, 0), OK);
             assert_eq!(fmi3GetInt64(c, &VR_Y, 1, &mut x, 1), ERROR);
             assert!(last(&messages).1.contains("this FMU has no Int64 variable"));
+            // Above the model's references only FMI 3.0's own variables are: this FMU has no
+            // event indicator.
+            assert_eq!(fmi3Reset(c), OK);
+            assert_eq!(
+                fmi3EnterInitializationMode(c, false, 0.0, 0.0, false, 0.0),
+                OK
+            );
+            let indicator = FMI3_TIME_VR + 1;
+            assert_eq!(fmi3SetFloat64(c, &indicator, 1, &1.0, 1), ERROR);
+            assert!(last(&messages)
+                .1
+                .contains("unknown value reference 1000000001"));
             let refused: [(unsafe extern "C" fn(*mut c_void) -> c_int, &str); 3] = [
                 (fmi3EnterConfigurationMode, "no structural parameters"),
                 (
