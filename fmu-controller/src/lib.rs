@@ -12,6 +12,7 @@ pub mod accommodation;
 pub mod predictor;
 pub mod spec;
 
+use fmu_core::description::SampleClock;
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
@@ -25,7 +26,7 @@ use std::path::Path;
 /// Value references: inputs from 0, outputs from 1000, the guarantee at 2000, force limits of an
 /// anti-windup controller from 3000, a fault detector's variables from 4000, a predictor's
 /// delay at 5000 and its master order at 5001, the effectiveness estimates of fault accommodation from 6000 and its actuators'
-/// bandwidth at 7000.
+/// bandwidth at 7000, FMI 3.0's sample clock at 8000.
 pub mod vr {
     pub const INPUT: u32 = 0;
     pub const OUTPUT: u32 = 1000;
@@ -38,7 +39,12 @@ pub mod vr {
     pub const MASTER_ORDER: u32 = 5001;
     pub const RHO_HAT: u32 = 6000;
     pub const ACTUATOR_BANDWIDTH: u32 = 7000;
+    pub const SAMPLE_CLOCK: u32 = 8000;
 }
+
+/// The sample period of FMI 3.0's clock, in seconds: the communication step the certificates predict
+/// the loop at (`DefaultExperiment`'s step).
+pub const SAMPLE_PERIOD: f64 = 1e-3;
 
 /// The order in which the master exchanges values at a communication point `t_k`, as a
 /// predictor must know it: its commands in flight are those the plant applies, and when each
@@ -330,10 +336,22 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         default_experiment: DefaultExperiment {
             start_time: 0.0,
             stop_time: 10.0,
-            step_size: 1e-3,
+            step_size: SAMPLE_PERIOD,
             tolerance: 1e-6,
         },
         variables: vars,
+        sample_clock: Some(SampleClock {
+            name: "sample".into(),
+            value_reference: vr::SAMPLE_CLOCK,
+            interval: SAMPLE_PERIOD,
+            description: format!(
+                "The controller's sample clock (FMI 3.0, eventModeUsed = true): at each tick the \
+                 inputs are sampled and the commands computed and held until the next, {} ms \
+                 later. Without Event Mode (and in FMI 2.0) the controller is sampled at every \
+                 communication point instead",
+                SAMPLE_PERIOD * 1e3
+            ),
+        }),
     }
     .with_derived_guid()
 }
@@ -819,6 +837,22 @@ impl Model for Controller {
                 p.reset(self.tau).map_err(ModelError::from)
             }
             _ => Ok(()),
+        }
+    }
+
+    /// Ticked by its clock, a predictor computes each command at the tick from the inputs there
+    /// and the plant applies it from then on: the Gauss–Seidel order's timing, whatever the
+    /// master's order.
+    fn check_clocked(&self) -> Result<(), ModelError> {
+        match self.master_order() {
+            MasterOrder::GaussSeidel => Ok(()),
+            order => Err(format!(
+                "master_order = {}: ticked by its clock (eventModeUsed = true) the command \
+                 computed at a tick acts from that tick whatever order the master steps in, \
+                 which is master_order = 0; leave it at 0",
+                order as i32
+            )
+            .into()),
         }
     }
 

@@ -23,6 +23,7 @@ impl Model for Probe {
             version: "1".into(),
             capabilities: Capabilities::exact_stepping(false),
             model_exchange: None,
+            sample_clock: None,
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,

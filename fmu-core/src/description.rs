@@ -363,6 +363,21 @@ pub struct ModelExchange {
     pub completed_integrator_step_not_needed: bool,
 }
 
+/// A periodic input clock of constant interval (FMI 3.0 §2.4.7.5, `intervalVariability =
+/// "constant"`) that ticks a sampled-data model: at each tick, in Co-Simulation's Event Mode,
+/// the model samples its inputs, computes its outputs and holds them until the next tick
+/// ([`crate::instance::Instance::update_discrete_states3`]). FMI 2.0 has no clocks: its
+/// description leaves it out, and the model is stepped at every communication point, which is
+/// also what an FMI 3.0 importer gets with `eventModeUsed = false`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleClock {
+    pub name: String,
+    pub value_reference: ValueReference,
+    /// The sample period, in seconds: the ticks are at `startTime + k · interval`.
+    pub interval: f64,
+    pub description: String,
+}
+
 /// Everything `modelDescription.xml` says.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModelDescription {
@@ -376,6 +391,9 @@ pub struct ModelDescription {
     pub variables: Vec<Variable>,
     /// Model Exchange beside Co-Simulation, if the model has it.
     pub model_exchange: Option<ModelExchange>,
+    /// FMI 3.0's input clock that ticks the model, if it is a sampled-data one; every output is
+    /// then clocked by it.
+    pub sample_clock: Option<SampleClock>,
 }
 
 /// Units declared by name alone: a noise density's `√Hz` has no integer base-unit exponents,
@@ -602,6 +620,24 @@ impl ModelDescription {
                         v.name
                     ));
                 }
+            }
+        }
+        if let Some(c) = &self.sample_clock {
+            if refs.contains(&c.value_reference) || c.value_reference >= FMI3_TIME_VR {
+                return err(format!(
+                    "clock '{}' has value reference {}, which a variable has or which is not \
+                     below {FMI3_TIME_VR}",
+                    c.name, c.value_reference
+                ));
+            }
+            if names.contains(c.name.as_str()) {
+                return err(format!("clock '{}' has a variable's name", c.name));
+            }
+            if !(c.interval.is_finite() && c.interval > 0.0) {
+                return err(format!(
+                    "clock '{}' has interval {}: it must be finite and > 0",
+                    c.name, c.interval
+                ));
             }
         }
         Ok(())
@@ -963,6 +999,7 @@ mod tests {
             version: "1".into(),
             capabilities: Capabilities::exact_stepping(false),
             model_exchange: None,
+            sample_clock: None,
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,

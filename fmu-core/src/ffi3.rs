@@ -4,11 +4,14 @@
 //! exports FMI 2.0's and FMI 3.0's functions side by side and an importer of either version
 //! finds its own.
 //!
+//! A model with a sample clock (the controllers) has Co-Simulation's Event Mode: with
+//! `eventModeUsed = true` its clock ticks it ([`Instance::update_discrete_states3`]).
+//!
 //! What FMI 3.0 adds over FMI 2.0 and these FMUs do not have is refused with a message, never
 //! pretended: the types beyond `Float64`, `Int32`, `Boolean` (a call naming no variable of
-//! them succeeds, as it changes nothing), clocks, Scheduled Execution, Configuration Mode,
-//! Co-Simulation's Event Mode and intermediate update, adjoint and output derivatives, and
-//! per-element dependencies. Every variable is a scalar: `nValues` must equal
+//! them succeeds, as it changes nothing), clocks other than a sample clock of constant
+//! interval, Scheduled Execution, Configuration Mode, intermediate update, adjoint and output
+//! derivatives, and per-element dependencies. Every variable is a scalar: `nValues` must equal
 //! `nValueReferences`.
 //!
 //! # Safety
@@ -20,7 +23,7 @@ use crate::ffi::{self, c_str, call, catch_quietly, out_ptr, slice, slice_mut};
 use crate::instance::Instance;
 use crate::logger::Logger;
 use crate::model::{Model, ModelError};
-use crate::state_machine::{self as sm, FmiState, Interface};
+use crate::state_machine::{self as sm, Interface};
 use crate::types::fmi3::{self, Boolean, FmiString, InstanceEnvironment, LogMessage};
 use crate::types::Status;
 use std::os::raw::c_char;
@@ -56,6 +59,7 @@ unsafe fn instantiate<M: Model>(
     environment: InstanceEnvironment,
     log_message: Option<LogMessage>,
     refuse: Option<String>,
+    event_mode_used: bool,
 ) -> fmi3::Instance {
     let result = catch_quietly(|| {
         let fail = |logger: &Logger, msg: &str| {
@@ -76,7 +80,7 @@ unsafe fn instantiate<M: Model>(
             (Ok(t), Ok(p)) => (t, p),
             (Err(e), _) | (_, Err(e)) => return fail(&logger, &e),
         };
-        match Instance::<M>::instantiate3(logger, interface, token, path) {
+        match Instance::<M>::instantiate3(logger, interface, token, path, event_mode_used) {
             Ok(inst) => Some(Box::into_raw(inst) as fmi3::Instance),
             Err((logger, msg)) => fail(&logger, &msg),
         }
@@ -107,13 +111,14 @@ pub unsafe fn instantiate_model_exchange<M: Model>(
         environment,
         log_message,
         None,
+        false,
     )
 }
 
-/// `fmi3InstantiateCoSimulation`. These FMUs step to any communication point exactly and have
-/// no Event Mode in Co-Simulation (`hasEventMode = false`): `eventModeUsed` is refused; early
-/// return is never taken and intermediate variables are never updated, so asking for them is
-/// harmless.
+/// `fmi3InstantiateCoSimulation`. These FMUs step to any communication point exactly; only one
+/// with a sample clock has Event Mode (`hasEventMode`), and `eventModeUsed` is refused by the
+/// others; early return is never taken and intermediate variables are never updated, so asking
+/// for them is harmless.
 ///
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
@@ -132,11 +137,6 @@ pub unsafe fn instantiate_co_simulation<M: Model>(
     log_message: Option<LogMessage>,
     _intermediate_update: Option<fmi3::IntermediateUpdate>,
 ) -> fmi3::Instance {
-    let refuse = event_mode_used.then(|| {
-        "eventModeUsed = true, but this FMU has no Event Mode in Co-Simulation \
-         (hasEventMode = false)"
-            .to_string()
-    });
     instantiate::<M>(
         Interface::CoSimulation,
         "fmi3InstantiateCoSimulation",
@@ -146,7 +146,8 @@ pub unsafe fn instantiate_co_simulation<M: Model>(
         logging_on,
         environment,
         log_message,
-        refuse,
+        None,
+        event_mode_used,
     )
 }
 
@@ -173,6 +174,7 @@ pub unsafe fn instantiate_scheduled_execution<M: Model>(
         environment,
         log_message,
         Some("this FMU does not support Scheduled Execution".into()),
+        false,
     )
 }
 
@@ -239,13 +241,67 @@ pub unsafe fn exit_initialization_mode<M: Model>(c: fmi3::Instance) -> Fmi3Statu
     )
 }
 
-/// `fmi3EnterEventMode` (Model Exchange).
+/// `fmi3EnterEventMode`: Model Exchange's, and Co-Simulation's for an instance its clock ticks.
 ///
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn enter_event_mode<M: Model>(c: fmi3::Instance) -> Fmi3Status {
-    call::<M, String>(c, "fmi3EnterEventMode", sm::ENTER_EVENT_MODE, |inst| {
-        inst.enter_event_mode()
+    call::<M, String>(c, "fmi3EnterEventMode", sm::ENTER_EVENT_MODE3, |inst| {
+        inst.enter_event_mode3()
+    })
+}
+
+/// The clock functions, over the sample clock (if the model has one).
+pub enum ClockCall {
+    /// `fmi3SetClock` (from the values).
+    Set(*const Boolean),
+    /// `fmi3GetClock`: refused, the sample clock being an input.
+    Get,
+    /// `fmi3GetIntervalDecimal` (into the intervals and qualifiers).
+    Interval(*mut f64, *mut i32),
+    /// `fmi3GetShiftDecimal`: the constant clock's shift, 0.
+    Shift(*mut f64),
+    /// What an input clock of constant interval does not do, and why.
+    Refuse(&'static str),
+}
+
+/// `fmi3SetClock`, `fmi3GetClock`, the intervals and the shifts.
+///
+/// # Safety
+/// The FMI calling contract of [the module](self#safety).
+pub unsafe fn clock<M: Model>(
+    c: fmi3::Instance,
+    func: &str,
+    vr: *const Vr,
+    n: usize,
+    what: ClockCall,
+) -> Fmi3Status {
+    let mask = match what {
+        ClockCall::Set(_) => sm::SET_VALUES,
+        _ => sm::GET_VALUES,
+    };
+    call::<M, String>(c, func, mask, |inst| {
+        let vrs = slice(vr, n, "valueReferences")?;
+        match what {
+            ClockCall::Set(values) => inst.set_clock(vrs, slice(values, n, "values")?),
+            ClockCall::Get => inst.clock_refusal(
+                vrs,
+                "is an input clock, which the importer activates: fmi3GetClock reads output clocks",
+            ),
+            ClockCall::Interval(intervals, qualifiers) => {
+                inst.clock_intervals(vrs, slice_mut(intervals, n, "intervals")?)?;
+                // fmi3IntervalUnchanged: a constant interval.
+                slice_mut(qualifiers, n, "qualifiers")?.fill(1);
+                Ok(Status::Ok)
+            }
+            ClockCall::Shift(shifts) => {
+                let shifts = slice_mut(shifts, n, "shifts")?;
+                inst.clock_intervals(vrs, shifts)?;
+                shifts.fill(0.0);
+                Ok(Status::Ok)
+            }
+            ClockCall::Refuse(why) => inst.clock_refusal(vrs, why),
+        }
     })
 }
 
@@ -542,7 +598,8 @@ pub unsafe fn get_directional_derivative<M: Model>(
     )
 }
 
-/// `fmi3DoStep`: exact to the communication point, so no event handling, no early return;
+/// `fmi3DoStep`: exact to the communication point, so no early return; event handling is
+/// needed where a step ends at the sample clock's tick (an instance its clock ticks);
 /// `lastSuccessfulTime` is the instance's time after the call (the step's start when the
 /// step was discarded).
 ///
@@ -565,13 +622,17 @@ pub unsafe fn do_step<M: Model>(
         let early = out_ptr(early_return, "earlyReturn")?;
         let last = out_ptr(last_successful_time, "lastSuccessfulTime")?;
         let result = inst.do_step(current, step);
-        (*event, *terminate, *early) = (false, false, false);
+        // At the clock's next tick: Event Mode is due.
+        let tick = inst.next_tick().is_some_and(|t| {
+            t == inst.time() || { (t - inst.time()).abs() <= 1e-9 * t.abs().max(1.0) }
+        });
+        (*event, *terminate, *early) = (tick && result.is_ok(), false, false);
         *last = inst.time();
         result
     })
 }
 
-/// `fmi3UpdateDiscreteStates` (Model Exchange's Event Mode).
+/// `fmi3UpdateDiscreteStates`: Model Exchange's event iteration, or Co-Simulation's tick.
 ///
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
@@ -588,7 +649,7 @@ pub unsafe fn update_discrete_states<M: Model>(
     call::<M, ModelError>(
         c,
         "fmi3UpdateDiscreteStates",
-        sm::NEW_DISCRETE_STATES,
+        sm::UPDATE_DISCRETE_STATES3,
         |inst| {
             let need = out_ptr(discrete_states_need_update, "discreteStatesNeedUpdate")?;
             let terminate = out_ptr(terminate_simulation, "terminateSimulation")?;
@@ -596,7 +657,7 @@ pub unsafe fn update_discrete_states<M: Model>(
             let values = out_ptr(values_changed, "valuesOfContinuousStatesChanged")?;
             let defined = out_ptr(next_event_time_defined, "nextEventTimeDefined")?;
             let next = out_ptr(next_event_time, "nextEventTime")?;
-            let update = inst.new_discrete_states()?;
+            let update = inst.update_discrete_states3()?;
             (*need, *terminate, *nominals) = (false, false, false);
             *values = update.states_changed;
             *defined = update.next_event_time.is_some();
@@ -748,22 +809,13 @@ pub unsafe fn number_of<M: Model>(
     })
 }
 
-/// `fmi3EnterStepMode`: Co-Simulation's Event Mode is never entered (`hasEventMode = false`),
-/// so there is nothing to leave.
+/// `fmi3EnterStepMode`: out of Co-Simulation's Event Mode.
 ///
 /// # Safety
 /// The FMI calling contract of [the module](self#safety).
 pub unsafe fn enter_step_mode<M: Model>(c: fmi3::Instance) -> Fmi3Status {
-    call::<M, String>(c, "fmi3EnterStepMode", sm::ANY_BUT_FATAL, |inst| {
-        Err(match (inst.interface, inst.state) {
-            (Interface::CoSimulation, FmiState::StepComplete) => {
-                "already in Step Mode: this FMU has no Event Mode in Co-Simulation \
-                 (hasEventMode = false)"
-            }
-            (Interface::ModelExchange, _) => "a Co-Simulation function, and this is Model Exchange",
-            _ => "only from Co-Simulation's Event Mode, which this FMU does not have",
-        }
-        .to_string())
+    call::<M, String>(c, "fmi3EnterStepMode", sm::ENTER_STEP_MODE, |inst| {
+        inst.enter_step_mode()
     })
 }
 
@@ -1117,7 +1169,7 @@ macro_rules! export_fmi3 {
                 n: usize,
                 _v: *mut Boolean,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3GetClock", "Clock", true, vr, n)
+                ffi3::clock::<M>(c, "fmi3GetClock", vr, n, ffi3::ClockCall::Get)
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3SetClock(
@@ -1126,7 +1178,7 @@ macro_rules! export_fmi3 {
                 n: usize,
                 _v: *const Boolean,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3SetClock", "Clock", false, vr, n)
+                ffi3::clock::<M>(c, "fmi3SetClock", vr, n, ffi3::ClockCall::Set(_v))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetNumberOfVariableDependencies(
@@ -1262,7 +1314,7 @@ macro_rules! export_fmi3 {
                 _intervals: *mut f64,
                 _qualifiers: *mut i32,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3GetIntervalDecimal", "Clock", true, vr, n)
+                ffi3::clock::<M>(c, "fmi3GetIntervalDecimal", vr, n, ffi3::ClockCall::Interval(_intervals, _qualifiers))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetIntervalFraction(
@@ -1273,7 +1325,7 @@ macro_rules! export_fmi3 {
                 _resolutions: *mut u64,
                 _qualifiers: *mut i32,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3GetIntervalFraction", "Clock", true, vr, n)
+                ffi3::clock::<M>(c, "fmi3GetIntervalFraction", vr, n, ffi3::ClockCall::Refuse("supports no fractions (supportsFraction = false): fmi3GetIntervalDecimal"))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetShiftDecimal(
@@ -1282,7 +1334,7 @@ macro_rules! export_fmi3 {
                 n: usize,
                 _shifts: *mut f64,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3GetShiftDecimal", "Clock", true, vr, n)
+                ffi3::clock::<M>(c, "fmi3GetShiftDecimal", vr, n, ffi3::ClockCall::Shift(_shifts))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3GetShiftFraction(
@@ -1292,7 +1344,7 @@ macro_rules! export_fmi3 {
                 _counters: *mut u64,
                 _resolutions: *mut u64,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3GetShiftFraction", "Clock", true, vr, n)
+                ffi3::clock::<M>(c, "fmi3GetShiftFraction", vr, n, ffi3::ClockCall::Refuse("supports no fractions (supportsFraction = false): fmi3GetShiftDecimal"))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3SetIntervalDecimal(
@@ -1301,7 +1353,7 @@ macro_rules! export_fmi3 {
                 n: usize,
                 _intervals: *const f64,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3SetIntervalDecimal", "Clock", false, vr, n)
+                ffi3::clock::<M>(c, "fmi3SetIntervalDecimal", vr, n, ffi3::ClockCall::Refuse("has a constant interval (intervalDecimal in modelDescription.xml): it cannot be set"))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3SetIntervalFraction(
@@ -1311,7 +1363,7 @@ macro_rules! export_fmi3 {
                 _counters: *const u64,
                 _resolutions: *const u64,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3SetIntervalFraction", "Clock", false, vr, n)
+                ffi3::clock::<M>(c, "fmi3SetIntervalFraction", vr, n, ffi3::ClockCall::Refuse("has a constant interval (intervalDecimal in modelDescription.xml): it cannot be set"))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3SetShiftDecimal(
@@ -1320,7 +1372,7 @@ macro_rules! export_fmi3 {
                 n: usize,
                 _shifts: *const f64,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3SetShiftDecimal", "Clock", false, vr, n)
+                ffi3::clock::<M>(c, "fmi3SetShiftDecimal", vr, n, ffi3::ClockCall::Refuse("has a constant shift of 0: it cannot be set"))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3SetShiftFraction(
@@ -1330,7 +1382,7 @@ macro_rules! export_fmi3 {
                 _counters: *const u64,
                 _resolutions: *const u64,
             ) -> Status {
-                ffi3::absent_type::<M>(c, "fmi3SetShiftFraction", "Clock", false, vr, n)
+                ffi3::clock::<M>(c, "fmi3SetShiftFraction", vr, n, ffi3::ClockCall::Refuse("has a constant shift of 0: it cannot be set"))
             }
             #[no_mangle]
             pub unsafe extern "C" fn fmi3EvaluateDiscreteStates(c: Instance) -> Status {

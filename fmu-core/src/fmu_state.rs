@@ -4,7 +4,9 @@
 //!
 //! Layout (little-endian): magic `"SUSPFMU2"`, GUID (u64 length + bytes), FMI state (u8),
 //! time, start time (f64), stop time (u8 flag + f64), model payload (u64 length + bytes),
-//! FNV-1a 64 checksum of everything before it.
+//! for an instance its sample clock ticks the clock's state (ticks taken (u64), active (u8),
+//! held outputs (u64 length + f64s)), FNV-1a 64 checksum of everything before it. A state
+//! without the clock's part is laid out as before it existed.
 //! A truncated, altered or foreign byte string is rejected before anything is changed.
 
 use crate::state_machine::FmiState;
@@ -127,6 +129,19 @@ pub struct Snapshot {
     pub start_time: f64,
     pub stop_time: Option<f64>,
     pub payload: Vec<u8>,
+    /// The sample clock's state, for an instance its clock ticks (FMI 3.0's Event Mode).
+    pub clock: Option<ClockSnapshot>,
+}
+
+/// What an instance its sample clock ticks keeps between ticks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClockSnapshot {
+    /// Ticks taken since the start: the next is at `startTime + ticks · interval`.
+    pub ticks: u64,
+    /// Activated (`fmi3SetClock`) and not yet ticked (`fmi3UpdateDiscreteStates`).
+    pub active: bool,
+    /// The outputs computed at the last tick, held until the next.
+    pub held: Vec<f64>,
 }
 
 pub fn encode(guid: &str, snapshot: &Snapshot) -> Vec<u8> {
@@ -139,6 +154,11 @@ pub fn encode(guid: &str, snapshot: &Snapshot) -> Vec<u8> {
     w.bool(snapshot.stop_time.is_some());
     w.f64(snapshot.stop_time.unwrap_or(0.0));
     w.bytes(&snapshot.payload);
+    if let Some(c) = &snapshot.clock {
+        w.u64(c.ticks);
+        w.bool(c.active);
+        w.f64s(&c.held);
+    }
     let sum = checksum(&w.bytes);
     w.u64(sum);
     w.into_bytes()
@@ -177,6 +197,19 @@ pub fn decode(guid: &str, bytes: &[u8]) -> Result<Snapshot, String> {
         ));
     }
     let payload = r.bytes()?.to_vec();
+    let clock = if r.pos < r.bytes.len() {
+        let (ticks, active, held) = (r.u64()?, r.bool()?, r.f64s()?);
+        if held.iter().any(|v| !v.is_finite()) {
+            return Err("FMU state has a non-finite held output".into());
+        }
+        Some(ClockSnapshot {
+            ticks,
+            active,
+            held,
+        })
+    } else {
+        None
+    };
     r.finish()?;
     Ok(Snapshot {
         state,
@@ -184,6 +217,7 @@ pub fn decode(guid: &str, bytes: &[u8]) -> Result<Snapshot, String> {
         start_time,
         stop_time,
         payload,
+        clock,
     })
 }
 
@@ -203,6 +237,7 @@ mod tests {
                 start_time: 0.0,
                 stop_time: Some(10.0),
                 payload: w.into_bytes(),
+                clock: None,
             },
         )
     }
@@ -217,6 +252,29 @@ mod tests {
         assert_eq!(r.f64s().unwrap(), vec![1.0, -2.5, f64::MIN_POSITIVE]);
         assert!(r.bool().unwrap());
         r.finish().unwrap();
+    }
+
+    #[test]
+    fn a_clock_state_round_trips_and_its_absence_keeps_the_old_layout() {
+        let plain = sample();
+        let mut snap = decode("{g}", &plain).unwrap();
+        assert_eq!(snap.clock, None);
+        assert_eq!(encode("{g}", &snap), plain);
+        snap.clock = Some(ClockSnapshot {
+            ticks: 7,
+            active: true,
+            held: vec![1.5, -2.0],
+        });
+        let clocked = encode("{g}", &snap);
+        assert_eq!(decode("{g}", &clocked).unwrap(), snap);
+        for i in 0..clocked.len() {
+            let mut bad = clocked.clone();
+            bad[i] ^= 0x40;
+            assert!(
+                decode("{g}", &bad).is_err(),
+                "flipping byte {i} was accepted"
+            );
+        }
     }
 
     #[test]

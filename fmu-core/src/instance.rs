@@ -6,7 +6,7 @@ use crate::description::{
     settable, BaseType, Causality, ModelDescription, ValueReference, VarType, Variability,
     Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
 };
-use crate::fmu_state::{self, Snapshot, StateReader, StateWriter};
+use crate::fmu_state::{self, ClockSnapshot, Snapshot, StateReader, StateWriter};
 use crate::logger::{Category, Logger};
 use crate::model::{DiscreteUpdate, Model, ModelError};
 use crate::state_machine::{FmiState, Interface};
@@ -49,6 +49,64 @@ pub struct Instance<M: Model> {
     pub(crate) logger: Logger,
     /// Addresses of the FMU states this instance handed out and has not freed.
     pub(crate) fmu_states: HashSet<usize>,
+    /// FMI 3.0 Co-Simulation with `eventModeUsed = true`: the sample clock that ticks the model.
+    clocked: Option<Clocked>,
+}
+
+/// A sampled-data model its clock ticks (FMI 3.0 Co-Simulation in Event Mode): at a tick
+/// (`fmi3SetClock`, then `fmi3UpdateDiscreteStates`) the outputs are computed from the inputs
+/// set and held until the next tick, and the model steps over the clock's interval; in Step
+/// Mode `fmi3DoStep` only advances time and may not pass a tick. So the command a master reads
+/// is the one computed at the last tick whatever order it steps the FMUs in.
+#[derive(Debug, Clone)]
+struct Clocked {
+    interval: f64,
+    /// The outputs, as (type, value reference), in the order of `held`.
+    outputs: Vec<(BaseType, ValueReference)>,
+    held: Vec<f64>,
+    /// Ticks taken: the next is at `start_time + ticks · interval`.
+    ticks: u64,
+    /// Activated and not yet ticked.
+    active: bool,
+}
+
+impl Clocked {
+    fn new(description: &ModelDescription) -> Option<Self> {
+        let clock = description.sample_clock.as_ref()?;
+        let outputs = description
+            .variables
+            .iter()
+            .filter(|v| v.causality == Causality::Output)
+            .map(|v| (v.kind.base(), v.value_reference))
+            .collect();
+        Some(Clocked {
+            interval: clock.interval,
+            outputs,
+            held: Vec::new(),
+            ticks: 0,
+            active: false,
+        })
+    }
+
+    /// The held value of output `vr` of type `base`, if it is one.
+    fn held(&self, base: BaseType, vr: ValueReference) -> Option<f64> {
+        let i = self.outputs.iter().position(|o| *o == (base, vr))?;
+        self.held.get(i).copied()
+    }
+
+    fn snapshot(&self) -> ClockSnapshot {
+        ClockSnapshot {
+            ticks: self.ticks,
+            active: self.active,
+            held: self.held.clone(),
+        }
+    }
+}
+
+/// Whether two times are the same communication point (the master's arithmetic may differ
+/// from ours in the last digits).
+fn same_time(a: f64, b: f64) -> bool {
+    (a - b).abs() <= TIME_TOLERANCE * a.abs().max(b.abs()).max(1.0)
 }
 
 /// What the per-value checks of a get or set read about a variable, packed beside its index
@@ -150,23 +208,32 @@ impl<M: Model> Instance<M> {
                 Err(e) => return Err((logger, e.to_string())),
             },
         };
-        Self::create(Api::Fmi2, logger, interface, guid, resources)
+        Self::create(Api::Fmi2, logger, interface, guid, resources, false)
     }
 
     /// `fmi3InstantiateCoSimulation` and `fmi3InstantiateModelExchange`: `resource_path` is a
-    /// native path (FMI 3.0.2 §2.3.1), not a URI; `logger` the FMI 3.0 one.
+    /// native path (FMI 3.0.2 §2.3.1), not a URI; `logger` the FMI 3.0 one; `event_mode_used`
+    /// Co-Simulation's, which only a model with a sample clock accepts.
     pub fn instantiate3(
         logger: Logger,
         interface: Interface,
         token: Option<&str>,
         resource_path: Option<&str>,
+        event_mode_used: bool,
     ) -> Result<Box<Self>, (Logger, String)> {
         let resources = resource_path.map(PathBuf::from);
         if let Some(dir) = resources.as_ref().filter(|d| !d.is_dir()) {
             let why = format!("resourcePath '{}' is not a directory", dir.display());
             return Err((logger, why));
         }
-        Self::create(Api::Fmi3, logger, interface, token, resources)
+        Self::create(
+            Api::Fmi3,
+            logger,
+            interface,
+            token,
+            resources,
+            event_mode_used,
+        )
     }
 
     /// The instance of either version: the description for `resources`, the token checked
@@ -177,10 +244,20 @@ impl<M: Model> Instance<M> {
         interface: Interface,
         token: Option<&str>,
         resources: Option<PathBuf>,
+        event_mode_used: bool,
     ) -> Result<Box<Self>, (Logger, String)> {
         let description = match M::description(resources.as_deref()) {
             Ok(d) => d,
             Err(e) => return Err((logger, e.message)),
+        };
+        let clocked = match (event_mode_used, Clocked::new(&description)) {
+            (false, _) => None,
+            (true, Some(c)) => Some(c),
+            (true, None) => {
+                let why = "eventModeUsed = true, but this FMU has no Event Mode in \
+                           Co-Simulation (hasEventMode = false: no clock ticks it)";
+                return Err((logger, why.into()));
+            }
         };
         let (what, argument) = match api {
             Api::Fmi2 => ("GUID", "fmuGUID"),
@@ -222,10 +299,15 @@ impl<M: Model> Instance<M> {
             slots[vr] = Some(Slot::new(i, v));
         }
         logger.event(&format!(
-            "{}: {} instantiated for {} (resources: {})",
+            "{}: {} instantiated for {}{} (resources: {})",
             api.name("Instantiate"),
             description.model_identifier,
             interface.name(),
+            if clocked.is_some() {
+                ", ticked by its clock in Event Mode"
+            } else {
+                ""
+            },
             resources
                 .as_ref()
                 .map(|p| p.display().to_string())
@@ -246,6 +328,7 @@ impl<M: Model> Instance<M> {
             resources,
             logger,
             fmu_states: HashSet::new(),
+            clocked,
         }))
     }
 
@@ -297,15 +380,25 @@ impl<M: Model> Instance<M> {
     }
 
     pub fn exit_initialization_mode(&mut self) -> Result<Status, ModelError> {
+        // Checked first: a refusal leaves the model as initialisation left it.
         if self.interface == Interface::ModelExchange {
-            // Checked first: a refusal leaves the model as initialisation left it.
             self.model.check_model_exchange()?;
+        }
+        if self.clocked.is_some() {
+            self.model.check_clocked()?;
         }
         self.model.exit_initialization(self.start_time)?;
         self.state = match self.interface {
-            Interface::CoSimulation => FmiState::StepComplete,
-            Interface::ModelExchange => FmiState::EventMode,
+            Interface::CoSimulation if self.clocked.is_none() => FmiState::StepComplete,
+            // FMI 3.0 Co-Simulation with Event Mode, as Model Exchange: into Event Mode, where
+            // the clock's first tick (at the start time) is due.
+            _ => FmiState::EventMode,
         };
+        if let Some(mut c) = self.clocked.take() {
+            c.held = self.read_outputs(&c.outputs);
+            (c.ticks, c.active) = (0, false);
+            self.clocked = Some(c);
+        }
         self.logger.event(&format!(
             "{}: initialised at t = {}",
             self.api.name("ExitInitializationMode"),
@@ -327,6 +420,9 @@ impl<M: Model> Instance<M> {
         self.accepted = 0.0;
         self.start_time = 0.0;
         self.stop_time = None;
+        if let Some(c) = &mut self.clocked {
+            (c.held, c.ticks, c.active) = (Vec::new(), 0, false);
+        }
         Ok(Status::Ok)
     }
 
@@ -410,9 +506,30 @@ impl<M: Model> Instance<M> {
             }
         }
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
-            *out = self.model.get_real(*vr);
+            *out = match self.held(BaseType::Real, *vr) {
+                Some(h) => h,
+                None => self.model.get_real(*vr),
+            };
         }
         Ok(Status::Ok)
+    }
+
+    /// The value output `vr` holds since its clock's last tick, if the clock ticks this
+    /// instance and `vr` is an output.
+    fn held(&self, base: BaseType, vr: ValueReference) -> Option<f64> {
+        self.clocked.as_ref()?.held(base, vr)
+    }
+
+    /// The outputs' values now, computed by the model (a tick's, before it steps).
+    fn read_outputs(&mut self, outputs: &[(BaseType, ValueReference)]) -> Vec<f64> {
+        outputs
+            .iter()
+            .map(|&(base, vr)| match base {
+                BaseType::Real => self.model.get_real(vr),
+                BaseType::Integer => f64::from(self.model.get_integer(vr)),
+                BaseType::Boolean => f64::from(u8::from(self.model.get_boolean(vr))),
+            })
+            .collect()
     }
 
     /// Which of FMI 3.0's own variables `vr` (at or above [`FMI3_TIME_VR`]) is: the
@@ -569,7 +686,10 @@ impl<M: Model> Instance<M> {
     ) -> Result<Status, String> {
         self.check_gettable(BaseType::Integer, vrs)?;
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
-            *out = self.model.get_integer(*vr);
+            *out = match self.held(BaseType::Integer, *vr) {
+                Some(h) => h as i32,
+                None => self.model.get_integer(*vr),
+            };
         }
         Ok(Status::Ok)
     }
@@ -593,7 +713,10 @@ impl<M: Model> Instance<M> {
     ) -> Result<Status, String> {
         self.check_gettable(BaseType::Boolean, vrs)?;
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
-            *out = self.model.get_boolean(*vr);
+            *out = match self.held(BaseType::Boolean, *vr) {
+                Some(h) => h != 0.0,
+                None => self.model.get_boolean(*vr),
+            };
         }
         Ok(Status::Ok)
     }
@@ -694,6 +817,9 @@ impl<M: Model> Instance<M> {
                 );
             }
         }
+        if self.clocked.is_some() {
+            return self.step_between_ticks(current, step).map_err(Into::into);
+        }
         if let Err(e) = self.model.do_step(current, step) {
             if e.status == Status::Discard {
                 // Nothing computed: the last successful time is the step's start.
@@ -711,6 +837,196 @@ impl<M: Model> Instance<M> {
             return Ok(Status::Warning);
         }
         Ok(Status::Ok)
+    }
+
+    /// The time of the sample clock's next tick (an instance its clock ticks).
+    pub fn next_tick(&self) -> Option<f64> {
+        let c = self.clocked.as_ref()?;
+        Some(self.start_time + c.ticks as f64 * c.interval)
+    }
+
+    /// The sample clock's name, for messages.
+    fn clock_name(&self) -> &str {
+        self.description
+            .sample_clock
+            .as_ref()
+            .map_or("", |c| c.name.as_str())
+    }
+
+    /// Step Mode of an instance its clock ticks: time advances, the held outputs stay; a step
+    /// may end at the next tick, not start at a tick not taken nor pass one.
+    fn step_between_ticks(&mut self, current: f64, step: f64) -> Result<Status, String> {
+        let next = self.next_tick().expect("a clocked instance");
+        let name = self.clock_name();
+        if same_time(current, next) {
+            return Err(format!(
+                "clock '{name}' ticks at t = {next} s and has not ticked: in Event Mode \
+                 (fmi3EnterEventMode), activate it (fmi3SetClock) and let it tick \
+                 (fmi3UpdateDiscreteStates) before stepping on"
+            ));
+        }
+        let end = current + step;
+        if end > next && !same_time(end, next) {
+            return Err(format!(
+                "the step from {current} s to {end} s passes the tick of clock '{name}' at \
+                 {next} s: with eventModeUsed = true the communication points include every \
+                 tick (every {} s from the start time)",
+                self.clocked.as_ref().map_or(0.0, |c| c.interval)
+            ));
+        }
+        self.time = end;
+        Ok(Status::Ok)
+    }
+
+    /// `fmi3EnterEventMode`: Model Exchange's, or Co-Simulation's from Step Mode, which only an
+    /// instance its clock ticks has.
+    pub fn enter_event_mode3(&mut self) -> Result<Status, String> {
+        if self.interface == Interface::CoSimulation {
+            if self.clocked.is_none() {
+                return Err("Co-Simulation's Event Mode needs eventModeUsed = true at \
+                            instantiation, and a clock to tick (hasEventMode)"
+                    .into());
+            }
+            if self.state != FmiState::StepComplete {
+                return Err(format!(
+                    "illegal call in state {}: Co-Simulation enters Event Mode from Step Mode",
+                    self.state.name_in(self.api)
+                ));
+            }
+        }
+        self.enter_event_mode()
+    }
+
+    /// `fmi3EnterStepMode`: out of Co-Simulation's Event Mode.
+    pub fn enter_step_mode(&mut self) -> Result<Status, String> {
+        if self.clocked.as_ref().is_some_and(|c| c.active) {
+            return Err(format!(
+                "clock '{}' is active and has not ticked: fmi3UpdateDiscreteStates first",
+                self.clock_name()
+            ));
+        }
+        self.state = FmiState::StepComplete;
+        Ok(Status::Ok)
+    }
+
+    /// `fmi3SetClock`: activate (or deactivate) the sample clock, at its tick only.
+    pub fn set_clock(&mut self, vrs: &[ValueReference], values: &[bool]) -> Result<Status, String> {
+        for &vr in vrs {
+            self.check_clock_ref(vr)?;
+        }
+        let Some(active) = values.iter().copied().reduce(|a, b| a || b) else {
+            return Ok(Status::Ok);
+        };
+        if self.state != FmiState::EventMode {
+            return Err(format!(
+                "a clock is set in Event Mode, not in {}",
+                self.state.name_in(self.api)
+            ));
+        }
+        let next = self.next_tick();
+        let name = self.clock_name().to_string();
+        let c = self.clocked.as_mut().ok_or_else(|| {
+            format!(
+                "clock '{name}' ticks this FMU only in Event Mode: instantiate it with \
+                 eventModeUsed = true"
+            )
+        })?;
+        let next = next.expect("a clocked instance");
+        if active && !same_time(self.time, next) {
+            return Err(format!(
+                "clock '{name}' ticks every {} s from the start time: t = {} s is not its next \
+                 tick, {next} s",
+                c.interval, self.time
+            ));
+        }
+        c.active = active;
+        Ok(Status::Ok)
+    }
+
+    /// The sample clock's value reference, or why `vr` is not it.
+    fn check_clock_ref(&self, vr: ValueReference) -> Result<(), String> {
+        match &self.description.sample_clock {
+            Some(c) if c.value_reference == vr => Ok(()),
+            Some(c) => Err(format!(
+                "unknown value reference {vr} for type Clock (this FMU's clock is '{}', {})",
+                c.name, c.value_reference
+            )),
+            None => Err(format!(
+                "unknown value reference {vr} for type Clock: this FMU has no Clock variable"
+            )),
+        }
+    }
+
+    /// `fmi3GetIntervalDecimal`: the constant interval, never changed (`fmi3IntervalUnchanged`).
+    pub fn clock_intervals(
+        &self,
+        vrs: &[ValueReference],
+        out: &mut [f64],
+    ) -> Result<Status, String> {
+        for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+            self.check_clock_ref(vr)?;
+            *o = self
+                .description
+                .sample_clock
+                .as_ref()
+                .map_or(0.0, |c| c.interval);
+        }
+        Ok(Status::Ok)
+    }
+
+    /// The clock functions that do not apply to an input clock of constant interval: the
+    /// reason, naming the clock if `vrs` names it.
+    pub fn clock_refusal(&self, vrs: &[ValueReference], why: &str) -> Result<Status, String> {
+        match vrs.first() {
+            None => Ok(Status::Ok),
+            Some(&vr) => {
+                self.check_clock_ref(vr)?;
+                Err(format!("clock '{}' {why}", self.clock_name()))
+            }
+        }
+    }
+
+    /// A tick of the sample clock: the outputs for the inputs set now, held, then the model's
+    /// step over the interval. On error nothing changes.
+    fn tick(&mut self) -> Result<(), ModelError> {
+        let c = self.clocked.take().expect("a clocked instance");
+        let held = self.read_outputs(&c.outputs);
+        let stepped = self.model.do_step(self.time, c.interval);
+        let mut c = c;
+        if let Err(e) = stepped {
+            self.clocked = Some(c);
+            // No step to discard in Event Mode: the tick failed.
+            return Err(ModelError::error(format!(
+                "the tick at t = {} s failed: {}",
+                self.time, e.message
+            )));
+        }
+        (c.held, c.ticks, c.active) = (held, c.ticks + 1, false);
+        let interval = c.interval;
+        self.clocked = Some(c);
+        if let Some(why) = self.model.step_warning(interval) {
+            self.logger.log(
+                Status::Warning,
+                Category::StatusWarning,
+                &format!("fmi3UpdateDiscreteStates: {why}"),
+            );
+        }
+        Ok(())
+    }
+
+    /// `fmi3UpdateDiscreteStates`: Model Exchange's event iteration, or in Co-Simulation the
+    /// sample clock's tick if it was activated; either way the next time event (the next tick).
+    pub fn update_discrete_states3(&mut self) -> Result<DiscreteUpdate, ModelError> {
+        if self.interface == Interface::ModelExchange {
+            return self.new_discrete_states();
+        }
+        if self.clocked.as_ref().is_some_and(|c| c.active) {
+            self.tick()?;
+        }
+        Ok(DiscreteUpdate {
+            states_changed: false,
+            next_event_time: self.next_tick(),
+        })
     }
 
     /// `fmi2Discard`, logged, for a status kind this FMU has no value for.
@@ -763,6 +1079,7 @@ impl<M: Model> Instance<M> {
                 start_time: self.start_time,
                 stop_time: self.stop_time,
                 payload: w.into_bytes(),
+                clock: self.clocked.as_ref().map(Clocked::snapshot),
             },
         )
     }
@@ -777,14 +1094,23 @@ impl<M: Model> Instance<M> {
     /// a state whose checksum matches may still have been forged or written by a buggy tool.
     pub fn restore_state(&mut self, bytes: &[u8]) -> Result<Status, ModelError> {
         let snap = fmu_state::decode(&self.description.guid, bytes)?;
-        if !self.interface.reaches(snap.state) {
+        let event_mode = self.interface == Interface::CoSimulation
+            && self.clocked.is_some()
+            && snap.state == FmiState::EventMode;
+        if !(self.interface.reaches(snap.state) || event_mode) {
             return Err(format!(
-                "FMU state refused: it was taken in {}, which a {} instance never reaches",
+                "FMU state refused: it was taken in {}, which a {} instance never reaches{}",
                 snap.state.name(),
-                self.interface.name()
+                self.interface.name(),
+                if self.interface == Interface::CoSimulation {
+                    " without eventModeUsed"
+                } else {
+                    ""
+                }
             )
             .into());
         }
+        let clock = self.restored_clock(&snap)?;
         let mut backup = StateWriter::default();
         self.model.save(&mut backup);
         self.model.restore(&mut StateReader::new(&snap.payload))?;
@@ -799,6 +1125,9 @@ impl<M: Model> Instance<M> {
         self.accepted = snap.time;
         self.start_time = snap.start_time;
         self.stop_time = snap.stop_time;
+        if let (Some(c), Some(restored)) = (&mut self.clocked, clock) {
+            (c.ticks, c.active, c.held) = (restored.ticks, restored.active, restored.held);
+        }
         self.logger.event(&format!(
             "{}: restored state at t = {}",
             match self.api {
@@ -808,6 +1137,50 @@ impl<M: Model> Instance<M> {
             self.time
         ));
         Ok(Status::Ok)
+    }
+
+    /// The clock's state a snapshot brings into this instance: its own if both are ticked by
+    /// the clock, none before the clock has ticked; a state taken with the clock ticking (or
+    /// not) past initialisation cannot continue in an instance without it (or with it).
+    fn restored_clock(&self, snap: &Snapshot) -> Result<Option<ClockSnapshot>, String> {
+        let initial = ClockSnapshot {
+            ticks: 0,
+            active: false,
+            held: Vec::new(),
+        };
+        match (&self.clocked, &snap.clock) {
+            (None, None) => Ok(None),
+            (Some(_), None) | (None, Some(_)) if snap.state.initialising() => Ok(Some(initial)),
+            (Some(_), Some(_)) if snap.state.initialising() => Ok(Some(initial)),
+            (Some(c), Some(s)) if s.held.len() == c.outputs.len() => {
+                // The time lies between the last tick taken and the next.
+                let next = snap.start_time + s.ticks as f64 * c.interval;
+                let after_last = s.ticks == 0 || snap.time >= next - c.interval * (1.0 + 1e-9);
+                if !(after_last && (snap.time <= next || same_time(snap.time, next))) {
+                    return Err(format!(
+                        "FMU state refused: its clock has ticked {} times, which does not \
+                         bring it to t = {} s",
+                        s.ticks, snap.time
+                    ));
+                }
+                Ok(Some(s.clone()))
+            }
+            (Some(c), Some(s)) => Err(format!(
+                "FMU state refused: it holds {} outputs, this FMU has {}",
+                s.held.len(),
+                c.outputs.len()
+            )),
+            (mine, _) => {
+                Err(format!(
+                "FMU state refused: it was taken {} its clock ticking it (eventModeUsed = {}), \
+                 and this instance runs {} (eventModeUsed = {})",
+                if mine.is_some() { "without" } else { "with" },
+                mine.is_none(),
+                if mine.is_some() { "with it" } else { "without it" },
+                mine.is_some()
+            ))
+            }
+        }
     }
 
     /// Every settable Real variable of the restored model, by the setters' rules.

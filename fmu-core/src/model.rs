@@ -145,6 +145,15 @@ pub trait Model: Sized + Send + 'static {
     /// Restore what [`Model::save`] wrote. On error the model must be left unchanged.
     fn restore(&mut self, input: &mut StateReader) -> Result<(), ModelError>;
 
+    /// FMI 3.0 Co-Simulation with the description's sample clock ticking the model
+    /// (`eventModeUsed = true`): why the parameters set do not make a model its clock can tick,
+    /// if they do not (asked at the end of initialisation). Each tick is then one
+    /// [`Model::do_step`] over the clock's interval, the outputs read before it and held until
+    /// the next tick.
+    fn check_clocked(&self) -> Result<(), ModelError> {
+        Ok(())
+    }
+
     // Model Exchange. The runtime calls these only on an instance instantiated for Model
     // Exchange, which only a description with [`crate::description::ModelExchange`] allows;
     // slices have the lengths the description declares (its states, its event indicators).

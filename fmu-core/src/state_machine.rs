@@ -223,6 +223,15 @@ pub const DO_STEP: Mask = m(&[S::StepComplete]).only(CS);
 pub const CANCEL_STEP: Mask = m(&[]).only(CS);
 pub const GET_STATUS: Mask = m(&[S::StepComplete, S::StepFailed, S::Terminated]).only(CS);
 
+// FMI 3.0's Event Mode, which Co-Simulation has too (for an instance a clock ticks): the
+// instance checks the interface's own rules ([`crate::instance::Instance::enter_event_mode3`]).
+/// `fmi3EnterEventMode`: Model Exchange's, and Co-Simulation's from Step Mode.
+pub const ENTER_EVENT_MODE3: Mask = m(&[S::EventMode, S::ContinuousTimeMode, S::StepComplete]);
+/// `fmi3UpdateDiscreteStates`: in Event Mode of either interface.
+pub const UPDATE_DISCRETE_STATES3: Mask = m(&[S::EventMode]);
+/// `fmi3EnterStepMode`: out of Co-Simulation's Event Mode.
+pub const ENTER_STEP_MODE: Mask = m(&[S::EventMode]).only(CS);
+
 // Model Exchange only (the Reference FMUs' masks, from the FMI 2.0.4 table of §3.2.3).
 /// FMI 3.0's `fmi3GetNumberOfContinuousStates` and `fmi3GetNumberOfEventIndicators`: any
 /// state of a Model Exchange instance.

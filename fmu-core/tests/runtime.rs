@@ -35,6 +35,7 @@ impl Model for Lag {
             version: "1".into(),
             capabilities: Capabilities::exact_stepping(false),
             model_exchange: None,
+            sample_clock: None,
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,
@@ -998,7 +999,7 @@ mod fmi3 {
                     fmi3EvaluateDiscreteStates,
                     "providesEvaluateDiscreteStates = false",
                 ),
-                (fmi3EnterStepMode, "only from Co-Simulation's Event Mode"),
+                (fmi3EnterStepMode, "illegal call in state Instantiated"),
             ];
             for (call, why) in refused {
                 assert_eq!(call(c), ERROR);

@@ -938,6 +938,7 @@ impl Plant {
                 number_of_event_indicators: N_UNILATERAL,
                 completed_integrator_step_not_needed: false,
             }),
+            sample_clock: None,
         }
         .with_derived_guid()
     }

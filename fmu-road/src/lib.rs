@@ -152,6 +152,7 @@ pub fn model_description() -> ModelDescription {
         }),
         default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3, tolerance: 1e-6 },
         variables: vars,
+        sample_clock: None,
     }
     .with_derived_guid()
 }

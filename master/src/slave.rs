@@ -113,6 +113,9 @@ impl Import {
                 .model_variables
                 .variables
                 .iter()
+                // A controller's sample clock is not a value the loop exchanges: the master
+                // instantiates without Event Mode, where the FMU is sampled at every step.
+                .filter(|v| !matches!(v, Variable::Clock(_)))
                 .map(|v| {
                     let (kind, start) = match v {
                         Variable::Float64(f) => (

@@ -2,12 +2,15 @@
 with the same value references; the closed loop over FMI 3.0 (road FMU, plant, controller in a
 Gauss-Seidel master written here) is the FMI 2.0 loop bit for bit; the plant's Model Exchange
 through FMI 3.0 in FMPy's CVode lands on its FMI 2.0 twin and on its own Co-Simulation; the
-FMI 3.0 calling rules hold, and what the FMUs do not have is refused with a message."""
+FMI 3.0 calling rules hold, and what the FMUs do not have is refused with a message. A controller
+ticked by its sample clock (Event Mode) is the certified Gauss-Seidel loop in every master order."""
 
 import ctypes
 import pathlib
 import re
 import shutil
+import zipfile
+from xml.etree import ElementTree
 
 import numpy as np
 import pytest
@@ -23,6 +26,7 @@ FMUS = ["road", "plant"] + CONTROLLERS
 ROAD = [f"road_{q}_{c}" for q in "zv" for c in ("fl", "fr", "rl", "rr")]
 FORCES = ["u_fl", "u_fr", "u_rl", "u_rr", "u_seat"]
 TIME_VR = 1_000_000_000
+SAMPLE_CLOCK_VR = 8000
 
 
 def path(name, fmi):
@@ -38,9 +42,32 @@ def test_every_fmi3_fmu_validates_and_carries_the_fmi2_variables(name):
     assert validate_fmu(fmu3) == []
     md2, md3 = read_model_description(path(name, 2)), read_model_description(fmu3)
     assert md3.fmiVersion == "3.0" and md3.instantiationToken == md2.guid
-    assert md3.coSimulation is not None and md3.coSimulation.hasEventMode is False
-    two = {v.name: (v.valueReference, v.causality, v.variability) for v in md2.modelVariables}
-    three = {v.name: (v.valueReference, v.causality, v.variability) for v in md3.modelVariables}
+    # A controller has Event Mode: its sample clock ticks it, and clocks its outputs, which are
+    # discrete and no initial unknowns; a plant or road has neither.
+    clocked = name in CONTROLLERS
+    assert md3.coSimulation is not None and md3.coSimulation.hasEventMode is clocked
+    clocks = [v for v in md3.modelVariables if v.type == "Clock"]
+    if clocked:
+        [clock] = clocks
+        assert (clock.name, clock.valueReference, clock.causality) == ("sample", SAMPLE_CLOCK_VR, "input")
+        # FMPy reads no interval: the XML says it.
+        with zipfile.ZipFile(fmu3) as z:
+            xml = ElementTree.fromstring(z.read("modelDescription.xml"))
+        element = xml.find("ModelVariables/Clock")
+        assert element.get("intervalVariability") == "constant"
+        assert float(element.get("intervalDecimal")) == 1e-3
+        outputs = [v for v in md3.modelVariables if v.causality == "output"]
+        assert outputs and all(v.clocks == [clock] and v.variability == "discrete" for v in outputs)
+        assert not {u.variable.name for u in md3.initialUnknowns} & {v.name for v in outputs}
+    else:
+        assert clocks == []
+
+    def table(md):
+        # FMI 2.0's Real outputs are continuous; FMI 3.0's clocked ones discrete.
+        return {v.name: (v.valueReference, v.causality,
+                         "discrete" if clocked and v.causality == "output" else v.variability)
+                for v in md.modelVariables if v.type != "Clock"}
+    two, three = table(md2), table(md3)
     # Every FMI 2.0 variable, and FMI 3.0's own: the independent time and (Model Exchange) the
     # event indicators, above every model variable's reference.
     extra = {k: v for k, v in three.items() if k not in two}
@@ -61,7 +88,7 @@ def test_every_fmi3_fmu_validates_and_carries_the_fmi2_variables(name):
 class Slave:
     """One FMU of either version, instantiated and initialised with `parameters`."""
 
-    def __init__(self, name, fmi, parameters=None, integers=None, log=None):
+    def __init__(self, name, fmi, parameters=None, integers=None, log=None, clocked=False):
         p = path(name, fmi)
         self.md = read_model_description(p)
         self.dir = extract(p)
@@ -71,7 +98,7 @@ class Slave:
         if fmi == 3:
             self.fmu = FMU3Slave(guid=self.md.guid, unzipDirectory=self.dir, modelIdentifier=identifier,
                                  instanceName=name)
-            self.fmu.instantiate(logMessage=log)
+            self.fmu.instantiate(logMessage=log, eventModeUsed=clocked)
         else:
             self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir, modelIdentifier=identifier,
                                  instanceName=name)
@@ -97,10 +124,12 @@ class Slave:
         vr = [self.vr[n] for n in names]
         return self.fmu.setFloat64(vr, values) if self.fmi == 3 else self.fmu.setReal(vr, values)
 
-    def step(self, t, h):
+    def step(self, t, h, tick=False):
         if self.fmi == 3:
             event, terminate, early, last = self.fmu.doStep(t, h)
-            assert not (event or terminate or early) and last == pytest.approx(t + h, abs=1e-12)
+            # A clocked instance asks for Event Mode where a step ends at its tick.
+            assert event == tick and not (terminate or early)
+            assert last == pytest.approx(t + h, abs=1e-12)
         else:
             self.fmu.doStep(t, h)
 
@@ -110,24 +139,45 @@ class Slave:
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
-def closed_loop(fmi, controller, seconds=2.0, h=1e-3):
-    """The bump scenario's loop (road -> plant -> controller, Gauss-Seidel), recorded."""
-    road = Slave("road", fmi, {"bump_height": 0.08, "bump_length": 3.0, "speed": 15.0, "start_distance": 1.5},
-                 {"profile": 1})
+def inputs(md):
+    """The inputs a master exchanges values of (a controller's clock is no value)."""
+    return [v.name for v in md.modelVariables if v.causality == "input" and v.type != "Clock"]
+
+
+BUMP = {"bump_height": 0.08, "bump_length": 3.0, "speed": 15.0, "start_distance": 1.5}
+
+
+def ordered_loop(fmi, controller, order, clocked=False, seconds=2.0, h=1e-3):
+    """The bump loop in a master order: "gauss-seidel" (the plant's outputs set on the controller,
+    its command read and set on the plant, then every FMU steps) or "controller first" (the
+    controller stepped first, its command read after its step driving the plant over the step
+    it took; legitimate, and the order `delay_sf` loses its comfort in over FMI 2.0). With
+    `clocked` the FMI 3.0 controller runs in Event Mode and its sample clock ticks it at every
+    communication point: the command is computed at the tick and held."""
+    road = Slave("road", fmi, BUMP, {"profile": 1})
     plant = Slave("plant", fmi)
-    ctrl = Slave(controller, fmi)
-    reads = [v.name for v in ctrl.md.modelVariables if v.causality == "input"]
+    ctrl = Slave(controller, fmi, clocked=clocked)
+    reads = inputs(ctrl.md)
     record = ["a_seat", "stroke_fl", "stroke_seat", "f_fl", "f_seat", "tire_load_rl"]
     log = []
     t = 0.0
     for k in range(int(round(seconds / h))):
         plant.set(ROAD, road.get(ROAD))
-        plant.set(FORCES, ctrl.get(FORCES))
         ctrl.set(reads, plant.get(reads))
+        if clocked:  # in Event Mode at the tick (after initialisation, then after each step)
+            ctrl.fmu.setClock([SAMPLE_CLOCK_VR], [True])
+            need, terminate, _, _, defined, following = ctrl.fmu.updateDiscreteStates()
+            assert not (need or terminate) and defined and following == pytest.approx(t + h, abs=1e-12)
+            ctrl.fmu.enterStepMode()
+        if order == "controller first":
+            ctrl.step(t, h, tick=clocked)
+        plant.set(FORCES, ctrl.get(FORCES))
         log.append(plant.get(record) + ctrl.get(FORCES))
-        for s in (road, plant, ctrl):
-            s.step(t, h)
+        for s in (road, plant) + ((ctrl,) if order == "gauss-seidel" else ()):
+            s.step(t, h, tick=clocked and s is ctrl)
         t = (k + 1) * h
+        if clocked:
+            ctrl.fmu.enterEventMode()
     for s in (road, plant, ctrl):
         s.close()
     return np.array(log)
@@ -135,9 +185,27 @@ def closed_loop(fmi, controller, seconds=2.0, h=1e-3):
 
 @pytest.mark.parametrize("controller", ["hinf_of", "delay_sf", "ft_of", "skyhook"])
 def test_the_fmi3_closed_loop_is_the_fmi2_loop_bit_for_bit(controller):
-    two, three = closed_loop(2, controller), closed_loop(3, controller)
-    assert np.abs(two).max() > 0.1  # the bump moves the car and the actuators
-    assert np.array_equal(two, three), np.abs(two - three).max()
+    for order in ("gauss-seidel", "controller first"):
+        two, three = ordered_loop(2, controller, order), ordered_loop(3, controller, order)
+        assert np.abs(two).max() > 0.1  # the bump moves the car and the actuators
+        assert np.array_equal(two, three), (order, np.abs(two - three).max())
+
+
+@pytest.mark.parametrize("controller", ["delay_sf", "hinf_of", "ft_of", "lqg"])
+def test_a_clocked_controller_is_the_gauss_seidel_loop_in_every_master_order(controller):
+    """Ticked by its clock, the command a master reads is the one computed at the last tick
+    whatever it steps first: both orders are FMI 2.0's Gauss-Seidel loop (the one the
+    certificates predict) bit for bit, which the controller-first order over FMI 2.0 is not."""
+    reference = ordered_loop(2, controller, "gauss-seidel")
+    assert np.abs(reference).max() > 0.1
+    for order in ("gauss-seidel", "controller first"):
+        clocked = ordered_loop(3, controller, order, clocked=True)
+        assert np.array_equal(clocked, reference), (order, np.abs(clocked - reference).max())
+    unclocked = ordered_loop(2, controller, "controller first")
+    seat = lambda log: np.sqrt(np.mean(log[:, 0] ** 2))
+    assert not np.array_equal(unclocked, reference)
+    print(f"{controller}: rms a_seat Gauss-Seidel and clocked {seat(reference):.5f}, "
+          f"controller first unclocked {seat(unclocked):.5f}")
 
 
 @pytest.mark.parametrize("start", [
@@ -232,7 +300,7 @@ def test_fmi3_state_machine_and_arguments_are_enforced_with_a_message(messages):
             assert messages[-1][0] == 3 and why in messages[-1][2], messages[-1]
             fmu.reset()
         for call, why in [(lambda: fmu.enterConfigurationMode(), "no structural parameters"),
-                          (lambda: fmu.enterStepMode(), "Event Mode")]:
+                          (lambda: fmu.enterStepMode(), "illegal call in state Instantiated")]:
             with pytest.raises(FMICallException):
                 call()
             assert why in messages[-1][2], messages[-1]
@@ -322,3 +390,100 @@ def test_the_fmi3_road_as_model_exchange_announces_the_same_kinks():
     me = simulate_fmu(path("road", 3), fmi_type="ModelExchange", record_events=False, **common)
     for name in outputs:
         assert np.array_equal(me[name], cs[name]), name
+
+
+def test_the_sample_clock_is_enforced_with_a_message(messages):
+    """Ticked by its clock, a controller steps only between ticks, ticks only at its ticks and
+    in Event Mode, says why it refuses anything else, and keeps its clock in its FMU state."""
+    def log(env, status, category, message):
+        messages.append((status, category.decode(), message.decode()))
+
+    def clocked(name="hinf_of", **kw):
+        return Slave(name, 3, log=log, clocked=True, **kw)
+
+    def tick(ctrl, t):
+        ctrl.fmu.setClock([SAMPLE_CLOCK_VR], [True])
+        assert ctrl.fmu.updateDiscreteStates()[4:] == (True, pytest.approx(t + 1e-3, abs=1e-12))
+
+    def refused(call, why):
+        with pytest.raises(FMICallException):
+            call()
+        assert messages[-1][0] == 3 and why in messages[-1][2], messages[-1]
+
+    ctrl = clocked()  # in Event Mode at t = 0, its first tick due
+    refused(lambda: ctrl.fmu.doStep(0.0, 1e-3), "fmi3DoStep: illegal call in state EventMode")
+    ctrl = clocked()
+    ctrl.fmu.enterStepMode()
+    refused(lambda: ctrl.fmu.doStep(0.0, 1e-3), "ticks at t = 0 s and has not ticked")
+    ctrl = clocked()
+    tick(ctrl, 0.0)
+    ctrl.fmu.enterStepMode()
+    refused(lambda: ctrl.fmu.doStep(0.0, 1.5e-3), "passes the tick of clock 'sample' at 0.001 s")
+    # Between ticks any steps; Event Mode is asked for where one ends at the tick.
+    ctrl = clocked()
+    tick(ctrl, 0.0)
+    ctrl.fmu.enterStepMode()
+    assert ctrl.fmu.doStep(0.0, 4e-4)[0] is False and ctrl.fmu.doStep(4e-4, 6e-4)[0] is True
+    refused(lambda: ctrl.fmu.setClock([SAMPLE_CLOCK_VR], [True]), "a clock is set in Event Mode")
+    ctrl = clocked()
+    tick(ctrl, 0.0)
+    ctrl.fmu.enterStepMode()
+    ctrl.fmu.doStep(0.0, 4e-4)
+    ctrl.fmu.enterEventMode()
+    refused(lambda: ctrl.fmu.setClock([SAMPLE_CLOCK_VR], [True]), "is not its next tick, 0.001 s")
+    # After a reset the clock starts again: Event Mode at the new start time, its first tick due.
+    ctrl.fmu.reset()
+    ctrl.fmu.enterInitializationMode(startTime=0.5)
+    ctrl.fmu.exitInitializationMode()
+    tick(ctrl, 0.5)
+    ctrl.fmu.enterStepMode()
+    assert ctrl.fmu.doStep(0.5, 1e-3)[0] is True
+    ctrl = clocked()
+    refused(lambda: ctrl.fmu.getClock([SAMPLE_CLOCK_VR]), "is an input clock")
+    ctrl = clocked()
+    vr = (fmi3ValueReference * 1)(SAMPLE_CLOCK_VR)
+    interval, qualifier = (ctypes.c_double * 1)(), (ctypes.c_int * 1)()
+    ctrl.fmu.getIntervalDecimal(vr, interval, qualifier)
+    assert (interval[0], qualifier[0]) == (1e-3, 1)  # constant: fmi3IntervalUnchanged
+    refused(lambda: ctrl.fmu.fmi3SetIntervalDecimal(ctrl.fmu.component, vr, 1, interval), "constant interval")
+    # A predictor ticked by its clock has the Gauss-Seidel order's timing whatever the master's.
+    with pytest.raises(FMICallException):
+        clocked("delay_sf", integers={"master_order": 1})
+    assert "master_order = 1: ticked by its clock" in messages[-1][2], messages[-1]
+    # Without Event Mode the plant and road have none to enter.
+    refused(lambda: Slave("plant", 3, log=log).fmu.enterEventMode(), "needs eventModeUsed = true")
+
+    # FMPy's simulate_fmu activates no input clock: with Event Mode the first step is refused
+    # (its tick never taken); without it the controller is sampled at every step, as in FMI 2.0.
+    with pytest.raises(Exception, match="fmi3DoStep failed"):
+        simulate_fmu(path("hinf_of", 3), stop_time=0.01, output_interval=1e-3, use_event_mode=True,
+                     logger=lambda *a: None)
+    assert len(simulate_fmu(path("hinf_of", 3), stop_time=0.01, output_interval=1e-3)) == 11
+
+    # FMU state: the clock's ticks and held commands restore by value, into a clocked instance only.
+    ctrl = clocked()
+    reads = inputs(ctrl.md)
+    commands = []
+    for k in range(10):
+        if k == 5:
+            data = ctrl.fmu.serializeFMUState(ctrl.fmu.getFMUState())
+        ctrl.set(reads, [0.01 * np.sin(k + i) for i in range(len(reads))])
+        tick(ctrl, k * 1e-3)
+        ctrl.fmu.enterStepMode()
+        ctrl.fmu.doStep(k * 1e-3, 5e-4)
+        commands.append(ctrl.get(FORCES))
+        ctrl.fmu.doStep(k * 1e-3 + 5e-4, 5e-4)
+        ctrl.fmu.enterEventMode()
+    again = clocked()
+    again.fmu.setFMUState(again.fmu.deserializeFMUState(data))
+    for k in range(5, 10):
+        again.set(reads, [0.01 * np.sin(k + i) for i in range(len(reads))])
+        tick(again, k * 1e-3)
+        again.fmu.enterStepMode()
+        again.fmu.doStep(k * 1e-3, 5e-4)
+        assert again.get(FORCES) == commands[k]
+        again.fmu.doStep(k * 1e-3 + 5e-4, 5e-4)
+        again.fmu.enterEventMode()
+    assert np.abs(commands).max() > 0
+    unclocked = Slave("hinf_of", 3, log=log)
+    refused(lambda: unclocked.fmu.setFMUState(unclocked.fmu.deserializeFMUState(data)), "eventModeUsed")

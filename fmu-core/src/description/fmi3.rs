@@ -5,7 +5,7 @@
 
 use super::{
     dependency_lists, esc, flag, real_attributes, BaseType, Causality, DependencyKind,
-    ModelDescription, VarType, Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
+    ModelDescription, SampleClock, VarType, Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
 };
 use std::fmt::Write;
 
@@ -35,6 +35,17 @@ impl ModelDescription {
             r#"    <Float64 name="time" valueReference="{FMI3_TIME_VR}" description="Simulation time" causality="independent" variability="continuous" declaredType="s"/>"#
         )
         .unwrap();
+        if let Some(c) = &self.sample_clock {
+            writeln!(
+                x,
+                r#"    <Clock name="{}" valueReference="{}" description="{}" causality="input" variability="discrete" intervalVariability="constant" intervalDecimal="{}"/>"#,
+                esc(&c.name),
+                c.value_reference,
+                esc(&c.description),
+                super::num(c.interval)
+            )
+            .unwrap();
+        }
         for v in &self.variables {
             self.write_variable3(&mut x, v);
         }
@@ -60,7 +71,8 @@ impl ModelDescription {
     }
 
     /// `<ModelExchange>` where the model has it, and `<CoSimulation>`: exact steps to any
-    /// communication point, no Event Mode, no early return, no intermediate update.
+    /// communication point, no early return, no intermediate update, and Event Mode for a model
+    /// its clock ticks.
     fn write_interfaces3(&self, x: &mut String) {
         let c = &self.capabilities;
         let common = format!(
@@ -80,9 +92,10 @@ impl ModelDescription {
         }
         writeln!(
             x,
-            r#"  <CoSimulation {common} canHandleVariableCommunicationStepSize="{}" maxOutputDerivativeOrder="{}" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
+            r#"  <CoSimulation {common} canHandleVariableCommunicationStepSize="{}" maxOutputDerivativeOrder="{}" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="{}" providesEvaluateDiscreteStates="false"/>"#,
             flag(c.can_handle_variable_communication_step_size),
-            c.max_output_derivative_order
+            c.max_output_derivative_order,
+            flag(self.sample_clock.is_some())
         )
         .unwrap();
     }
@@ -99,9 +112,14 @@ impl ModelDescription {
         writeln!(x, "  </TypeDefinitions>").unwrap();
     }
 
-    /// One typed variable.
+    /// One typed variable. With a sample clock every output is a discrete variable of it.
     fn write_variable3(&self, x: &mut String, v: &Variable) {
-        let (causality, variability, initial) = v.attributes();
+        let (causality, mut variability, initial) = v.attributes();
+        let mut clocks = String::new();
+        if let Some(c) = self.clock_of(v) {
+            variability = "discrete";
+            clocks = format!(r#" clocks="{}""#, c.value_reference);
+        }
         let tag = match v.kind.base() {
             BaseType::Real => "Float64",
             BaseType::Integer => "Int32",
@@ -131,12 +149,19 @@ impl ModelDescription {
         }
         writeln!(
             x,
-            r#"    <{tag} name="{}" valueReference="{}" description="{}" causality="{causality}" variability="{variability}"{initial}{attrs}/>"#,
+            r#"    <{tag} name="{}" valueReference="{}" description="{}" causality="{causality}" variability="{variability}"{clocks}{initial}{attrs}/>"#,
             esc(&v.name),
             v.value_reference,
             esc(&v.description)
         )
         .unwrap();
+    }
+
+    /// The clock `v` is a variable of: the sample clock for an output.
+    fn clock_of(&self, v: &Variable) -> Option<&SampleClock> {
+        self.sample_clock
+            .as_ref()
+            .filter(|_| v.causality == Causality::Output)
     }
 
     /// `<ModelStructure>` as FMI 2.0's, by value reference: the outputs, the continuous-state
@@ -172,7 +197,8 @@ impl ModelDescription {
         for v in self
             .variables
             .iter()
-            .filter(|v| Self::is_initial_unknown(v))
+            // A clocked variable has no value before its clock's first tick to compute.
+            .filter(|v| Self::is_initial_unknown(v) && self.clock_of(v).is_none())
         {
             let deps = self
                 .initial_dependencies(v)
