@@ -12,7 +12,7 @@ pub mod accommodation;
 pub mod predictor;
 pub mod spec;
 
-use fmu_core::description::SampleClock;
+use fmu_core::description::{ArrayParameter, SampleClock};
 use fmu_core::fmu_state::{StateReader, StateWriter};
 use fmu_core::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
@@ -26,7 +26,7 @@ use std::path::Path;
 /// Value references: inputs from 0, outputs from 1000, the guarantee at 2000, force limits of an
 /// anti-windup controller from 3000, a fault detector's variables from 4000, a predictor's
 /// delay at 5000 and its master order at 5001, the effectiveness estimates of fault accommodation from 6000 and its actuators'
-/// bandwidth at 7000, FMI 3.0's sample clock at 8000.
+/// bandwidth at 7000, FMI 3.0's sample clock at 8000 and its matrices (arrays) from 9000.
 pub mod vr {
     pub const INPUT: u32 = 0;
     pub const OUTPUT: u32 = 1000;
@@ -40,6 +40,7 @@ pub mod vr {
     pub const RHO_HAT: u32 = 6000;
     pub const ACTUATOR_BANDWIDTH: u32 = 7000;
     pub const SAMPLE_CLOCK: u32 = 8000;
+    pub const MATRICES: u32 = 9000;
 }
 
 /// The sample period of FMI 3.0's clock, in seconds: the communication step the certificates predict
@@ -340,6 +341,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             tolerance: 1e-6,
         },
         variables: vars,
+        arrays: matrices(spec),
         sample_clock: Some(SampleClock {
             name: "sample".into(),
             value_reference: vr::SAMPLE_CLOCK,
@@ -354,6 +356,47 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         }),
     }
     .with_derived_guid()
+}
+
+/// FMI 3.0's view of the controller's matrices, `A_c`, `B_c`, `C_c`, `D_c` (value references
+/// 9000 to 9003; those with elements), as the resource file gives them: arrays a control engineer reads from the FMU
+/// (`fmi3GetFloat64`) to check a design without unpacking it.
+fn matrices(spec: &Spec) -> Vec<ArrayParameter> {
+    let (n, ny, nu) = (spec.order(), spec.inputs.len(), spec.outputs.len());
+    let names = |count: usize, what: &str| -> String {
+        let signals = match what {
+            "inputs" => &spec.inputs,
+            _ => &spec.outputs,
+        };
+        let listed: Vec<&str> = signals
+            .iter()
+            .take(count)
+            .map(|s| s.name.as_str())
+            .collect();
+        format!("{what} {}", listed.join(", "))
+    };
+    let lti = &spec.lti;
+    [
+        ("A_c", &lti.a, format!("the state matrix ({n} × {n})")),
+        ("B_c", &lti.b, format!("the input matrix ({n} × {ny}; columns: {})", names(ny, "inputs"))),
+        ("C_c", &lti.c, format!("the output matrix ({nu} × {n}; rows: {})", names(nu, "outputs"))),
+        ("D_c", &lti.d, format!("the feedthrough ({nu} × {ny}): rows the outputs, columns the inputs, in the variables' order")),
+    ]
+    .into_iter()
+    .enumerate()
+    .filter(|(_, (_, m, _))| !m.is_empty())
+    .map(|(k, (name, m, what))| ArrayParameter {
+        name: name.into(),
+        value_reference: vr::MATRICES + k as u32,
+        description: format!(
+            "The controller's {what}, from controller.json: dx_c/dt = A_c x_c + B_c y, \
+             y_c = C_c x_c + D_c y (before anti-windup, prediction or accommodation act), \
+             row-major"
+        ),
+        dimensions: vec![m.nrows(), m.ncols()],
+        values: m.transpose().as_slice().to_vec(),
+    })
+    .collect()
 }
 
 /// Units the runtime knows, as `'static` strings.

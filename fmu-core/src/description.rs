@@ -378,6 +378,20 @@ pub struct SampleClock {
     pub description: String,
 }
 
+/// An FMI 3.0 array the model is made of (a controller's matrices): a `calculatedParameter`
+/// of fixed variability, computed from the resources, which the runtime answers
+/// (`fmi3GetFloat64`) without the model. FMI 2.0 has no arrays: its description leaves it out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArrayParameter {
+    pub name: String,
+    pub value_reference: ValueReference,
+    pub description: String,
+    /// The size of each dimension (every one ≥ 1).
+    pub dimensions: Vec<usize>,
+    /// The elements in row-major order, FMI 3.0's serialisation of an array.
+    pub values: Vec<f64>,
+}
+
 /// Everything `modelDescription.xml` says.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModelDescription {
@@ -394,6 +408,8 @@ pub struct ModelDescription {
     /// FMI 3.0's input clock that ticks the model, if it is a sampled-data one; every output is
     /// then clocked by it.
     pub sample_clock: Option<SampleClock>,
+    /// FMI 3.0's array parameters.
+    pub arrays: Vec<ArrayParameter>,
 }
 
 /// Units declared by name alone: a noise density's `√Hz` has no integer base-unit exponents,
@@ -620,6 +636,29 @@ impl ModelDescription {
                         v.name
                     ));
                 }
+            }
+        }
+        for a in &self.arrays {
+            if !names.insert(a.name.as_str()) || !refs.insert(a.value_reference) {
+                return err(format!(
+                    "array '{}' (value reference {}) repeats a name or a value reference",
+                    a.name, a.value_reference
+                ));
+            }
+            let size: usize = a.dimensions.iter().product();
+            if a.value_reference >= FMI3_TIME_VR
+                || a.dimensions.contains(&0)
+                || size != a.values.len()
+                || a.values.iter().any(|v| !v.is_finite())
+            {
+                return err(format!(
+                    "array '{}': value reference {} not below {FMI3_TIME_VR}, or dimensions {:?} \
+                     not all ≥ 1 and not holding its {} finite values",
+                    a.name,
+                    a.value_reference,
+                    a.dimensions,
+                    a.values.len()
+                ));
             }
         }
         if let Some(c) = &self.sample_clock {
@@ -1000,6 +1039,7 @@ mod tests {
             capabilities: Capabilities::exact_stepping(false),
             model_exchange: None,
             sample_clock: None,
+            arrays: Vec::new(),
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,

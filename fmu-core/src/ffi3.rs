@@ -333,11 +333,9 @@ pub unsafe fn get_float64<M: Model>(
     n_values: usize,
 ) -> Fmi3Status {
     call::<M, String>(c, "fmi3GetFloat64", sm::GET_VALUES, |inst| {
-        scalars(n, n_values)?;
-        inst.get_float64(
-            slice(vr, n, "valueReferences")?,
-            slice_mut(values, n, "values")?,
-        )
+        let vrs = slice(vr, n, "valueReferences")?;
+        inst.check_number_of_values(vrs, n_values)?;
+        inst.get_float64(vrs, slice_mut(values, n_values, "values")?)
     })
 }
 
@@ -353,11 +351,9 @@ pub unsafe fn set_float64<M: Model>(
     n_values: usize,
 ) -> Fmi3Status {
     call::<M, String>(c, "fmi3SetFloat64", sm::SET_REAL, |inst| {
-        scalars(n, n_values)?;
-        inst.set_float64(
-            slice(vr, n, "valueReferences")?,
-            slice(values, n, "values")?,
-        )
+        let vrs = slice(vr, n, "valueReferences")?;
+        inst.check_number_of_values(vrs, n_values)?;
+        inst.set_float64(vrs, slice(values, n_values, "values")?)
     })
 }
 

@@ -3,8 +3,8 @@
 //! The C ABI layer ([`crate::ffi`]) only converts pointers and catches panics.
 
 use crate::description::{
-    settable, BaseType, Causality, ModelDescription, ValueReference, VarType, Variability,
-    Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
+    settable, ArrayParameter, BaseType, Causality, ModelDescription, ValueReference, VarType,
+    Variability, Variable, FMI3_EVENT_INDICATOR_VR, FMI3_TIME_VR,
 };
 use crate::fmu_state::{self, ClockSnapshot, Snapshot, StateReader, StateWriter};
 use crate::logger::{Category, Logger};
@@ -546,14 +546,69 @@ impl<M: Model> Instance<M> {
         }
     }
 
-    /// `fmi3GetFloat64`: the model's Real variables, and the variables only FMI 3.0's
-    /// description declares, the independent `time` and the event indicators
-    /// ([`crate::description::FMI3_TIME_VR`]).
+    /// The FMI 3.0 array parameter `vr` names, if any.
+    fn array(&self, vr: ValueReference) -> Option<&ArrayParameter> {
+        self.description
+            .arrays
+            .iter()
+            .find(|a| a.value_reference == vr)
+    }
+
+    /// FMI 3.0's `nValues` for `vrs`, or why `n_values` is not it: one value per scalar, every
+    /// element of an array.
+    pub fn check_number_of_values(
+        &self,
+        vrs: &[ValueReference],
+        n_values: usize,
+    ) -> Result<(), String> {
+        if self.description.arrays.is_empty() {
+            if n_values == vrs.len() {
+                return Ok(());
+            }
+            return Err(format!(
+                "nValues = {n_values} for nValueReferences = {}: every variable of this FMU is \
+                 a scalar",
+                vrs.len()
+            ));
+        }
+        let expected: usize = vrs
+            .iter()
+            .map(|vr| self.array(*vr).map_or(1, |a| a.values.len()))
+            .sum();
+        if n_values == expected {
+            Ok(())
+        } else {
+            Err(format!(
+                "nValues = {n_values}, where the {} value references name {expected} values (an \
+                 array counts its elements)",
+                vrs.len()
+            ))
+        }
+    }
+
+    /// `fmi3GetFloat64`: the model's Real variables, the arrays of the description, and the
+    /// variables only FMI 3.0's description declares, the independent `time` and the event
+    /// indicators ([`crate::description::FMI3_TIME_VR`]). `values` holds every element of an
+    /// array, in order ([`Self::check_number_of_values`]).
     pub fn get_float64(
         &mut self,
         vrs: &[ValueReference],
         values: &mut [f64],
     ) -> Result<Status, String> {
+        if vrs.iter().any(|vr| self.array(*vr).is_some()) {
+            let mut at = 0;
+            for vr in vrs {
+                if let Some(a) = self.array(*vr) {
+                    let n = a.values.len();
+                    values[at..at + n].copy_from_slice(&a.values);
+                    at += n;
+                } else {
+                    self.get_float64(std::slice::from_ref(vr), &mut values[at..at + 1])?;
+                    at += 1;
+                }
+            }
+            return Ok(Status::Ok);
+        }
         if vrs.iter().all(|vr| *vr < FMI3_TIME_VR) {
             return self.get_real(vrs, values);
         }
@@ -583,6 +638,13 @@ impl<M: Model> Instance<M> {
         vrs: &[ValueReference],
         values: &[f64],
     ) -> Result<Status, String> {
+        if let Some(a) = vrs.iter().find_map(|vr| self.array(*vr)) {
+            return Err(format!(
+                "'{}' is a calculated parameter (the model's, from its resources): it cannot be \
+                 set",
+                a.name
+            ));
+        }
         if let Some(vr) = vrs.iter().find(|vr| **vr >= FMI3_TIME_VR) {
             return Err(match self.fmi3_variable(*vr)? {
                 Fmi3Variable::Time => "'time' is the independent variable: it cannot be set \

@@ -36,6 +36,7 @@ impl Model for Lag {
             capabilities: Capabilities::exact_stepping(false),
             model_exchange: None,
             sample_clock: None,
+            arrays: Vec::new(),
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,

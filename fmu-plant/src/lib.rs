@@ -939,6 +939,7 @@ impl Plant {
                 completed_integrator_step_not_needed: false,
             }),
             sample_clock: None,
+            arrays: Vec::new(),
         }
         .with_derived_guid()
     }

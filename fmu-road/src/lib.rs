@@ -153,6 +153,7 @@ pub fn model_description() -> ModelDescription {
         default_experiment: DefaultExperiment { start_time: 0.0, stop_time: 10.0, step_size: 1e-3, tolerance: 1e-6 },
         variables: vars,
         sample_clock: None,
+        arrays: Vec::new(),
     }
     .with_derived_guid()
 }

@@ -6,6 +6,7 @@ FMI 3.0 calling rules hold, and what the FMUs do not have is refused with a mess
 ticked by its sample clock (Event Mode) is the certified Gauss-Seidel loop in every master order."""
 
 import ctypes
+import json
 import pathlib
 import re
 import shutil
@@ -73,6 +74,10 @@ def test_every_fmi3_fmu_validates_and_carries_the_fmi2_variables(name):
     extra = {k: v for k, v in three.items() if k not in two}
     assert {k: three[k] for k in two} == two
     assert extra.pop("time") == (TIME_VR, "independent", "continuous")
+    # A controller's matrices, FMI 3.0 arrays (held to its resource file below).
+    for name in ("A_c", "B_c", "C_c", "D_c"):
+        if name in extra:
+            assert clocked and extra.pop(name)[1:] == ("calculatedParameter", "fixed")
     n = len(md3.eventIndicators)
     assert sorted(extra) == sorted(f"event_indicator[{i + 1}]" for i in range(n))
     assert all(vr > TIME_VR for vr, _, _ in extra.values())
@@ -487,3 +492,39 @@ def test_the_sample_clock_is_enforced_with_a_message(messages):
     assert np.abs(commands).max() > 0
     unclocked = Slave("hinf_of", 3, log=log)
     refused(lambda: unclocked.fmu.setFMUState(unclocked.fmu.deserializeFMUState(data)), "eventModeUsed")
+
+
+@pytest.mark.parametrize("controller", CONTROLLERS)
+def test_a_controllers_matrices_are_fmi3_arrays_of_its_resource_file(controller, messages):
+    """`A_c`, `B_c`, `C_c`, `D_c` (value references 9000-9003, those with elements) are
+    row-major arrays equal to the matrices of the FMU's own `resources/controller.json`; nValues
+    counts their elements, and they cannot be set."""
+    def log(env, status, category, message):
+        messages.append((status, category.decode(), message.decode()))
+
+    ctrl = Slave(controller, 3, log=log)
+    with open(pathlib.Path(ctrl.dir) / "resources" / "controller.json") as f:
+        spec = json.load(f)
+    arrays = {v.name: v for v in ctrl.md.modelVariables if v.dimensions}
+    expected = {k: np.array(spec[k[0]], dtype=float) for k in ("A_c", "B_c", "C_c", "D_c")}
+    expected = {k: m for k, m in expected.items() if m.size}
+    assert sorted(arrays) == sorted(expected)
+    for name, m in expected.items():
+        v = arrays[name]
+        assert v.valueReference == 9000 + "ABCD".index(name[0])
+        assert v.causality == "calculatedParameter" and [int(d.start) for d in v.dimensions] == list(m.shape)
+        values = ctrl.fmu.getFloat64([v.valueReference], nValues=m.size)
+        assert np.array_equal(np.array(values).reshape(m.shape), m), name
+    # An array with a scalar: every element, then the scalar.
+    d = arrays["D_c"]
+    both = ctrl.fmu.getFloat64([d.valueReference, ctrl.vr["u_fl"]], nValues=expected["D_c"].size + 1)
+    assert both[:-1] == list(expected["D_c"].ravel()) and both[-1] == ctrl.get(["u_fl"])[0]
+    with pytest.raises(FMICallException):
+        ctrl.fmu.getFloat64([d.valueReference])
+    assert "an array counts its elements" in messages[-1][2], messages[-1]
+    ctrl.fmu.reset()
+    with pytest.raises(FMICallException):
+        ctrl.fmu.setFloat64([d.valueReference], list(expected["D_c"].ravel()))
+    assert "'D_c' is a calculated parameter" in messages[-1][2], messages[-1]
+    ctrl.fmu.freeInstance()
+    shutil.rmtree(ctrl.dir, ignore_errors=True)

@@ -49,6 +49,20 @@ impl ModelDescription {
         for v in &self.variables {
             self.write_variable3(&mut x, v);
         }
+        for a in &self.arrays {
+            writeln!(
+                x,
+                r#"    <Float64 name="{}" valueReference="{}" description="{}" causality="calculatedParameter" variability="fixed" initial="calculated">"#,
+                esc(&a.name),
+                a.value_reference,
+                esc(&a.description)
+            )
+            .unwrap();
+            for d in &a.dimensions {
+                writeln!(x, r#"      <Dimension start="{d}"/>"#).unwrap();
+            }
+            writeln!(x, "    </Float64>").unwrap();
+        }
         for i in 0..self.number_of_event_indicators() {
             writeln!(
                 x,
@@ -205,6 +219,15 @@ impl ModelDescription {
                 .map(|d| (self.vr_of(d) as usize, DependencyKind::Dependent))
                 .collect();
             element(x, "InitialUnknown", v, deps);
+        }
+        // The arrays, computed from the resources: on nothing.
+        for a in &self.arrays {
+            writeln!(
+                x,
+                r#"    <InitialUnknown valueReference="{}" dependencies="" dependenciesKind=""/>"#,
+                a.value_reference
+            )
+            .unwrap();
         }
         for i in 0..self.number_of_event_indicators() {
             writeln!(
