@@ -342,6 +342,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
         },
         variables: vars,
         arrays: matrices(spec),
+        terminals: Vec::new(),
         sample_clock: Some(SampleClock {
             name: "sample".into(),
             value_reference: vr::SAMPLE_CLOCK,
@@ -355,6 +356,7 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             ),
         }),
     }
+    .with_suspension_terminals()
     .with_derived_guid()
 }
 

@@ -392,6 +392,88 @@ pub struct ArrayParameter {
     pub values: Vec<f64>,
 }
 
+/// An FMI 3.0 terminal (`terminalsAndIcons/terminalsAndIcons.xml`, FMI 3.0.2 §2.4.9): input
+/// and output variables grouped under member names, so a tool that connects FMUs by terminals
+/// (a suspension corner to a controller's corner) makes the connections a master makes by name.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Terminal {
+    pub name: String,
+    pub description: String,
+    /// `(variable, member name)`: the member names are the variable names less the terminal's
+    /// suffix, so the members of two terminals match by name (`matchingRule="bus"`).
+    pub members: Vec<(String, String)>,
+}
+
+impl Terminal {
+    /// The inputs and outputs among `variables` whose names end in `_{suffix}`, each the member
+    /// its name less the suffix; `None` if there is none.
+    pub fn by_suffix(
+        variables: &[Variable],
+        name: &str,
+        suffix: &str,
+        description: &str,
+    ) -> Option<Terminal> {
+        let tail = format!("_{suffix}");
+        let members: Vec<(String, String)> = variables
+            .iter()
+            .filter(|v| matches!(v.causality, Causality::Input | Causality::Output))
+            .filter_map(|v| {
+                let member = v.name.strip_suffix(&tail)?;
+                Some((v.name.clone(), member.to_string()))
+            })
+            .collect();
+        (!members.is_empty()).then(|| Terminal {
+            name: name.into(),
+            description: description.into(),
+            members,
+        })
+    }
+
+    /// A suspension's terminals: one per corner (`corner_fl` … `corner_rr`: the variables
+    /// ending in `_fl` … `_rr`), the seat's (`seat`, in `_seat`), and `body` for the other inputs
+    /// and outputs (their names the members); those with members. Connected terminal to
+    /// terminal, FMUs get the connections a master makes by variable name.
+    pub fn suspension(variables: &[Variable]) -> Vec<Terminal> {
+        let groups = [
+            ("corner_fl", "fl", "front left corner"),
+            ("corner_fr", "fr", "front right corner"),
+            ("corner_rl", "rl", "rear left corner"),
+            ("corner_rr", "rr", "rear right corner"),
+            ("seat", "seat", "driver's seat"),
+        ];
+        let mut terminals: Vec<Terminal> = groups
+            .iter()
+            .filter_map(|(name, suffix, what)| {
+                let description = format!(
+                    "The {what}: this FMU's inputs and outputs named *_{suffix}, each the \
+                     member its name less the suffix"
+                );
+                Terminal::by_suffix(variables, name, suffix, &description)
+            })
+            .collect();
+        let grouped: BTreeSet<&str> = terminals
+            .iter()
+            .flat_map(|t| t.members.iter().map(|(v, _)| v.as_str()))
+            .collect();
+        let body: Vec<(String, String)> = variables
+            .iter()
+            .filter(|v| matches!(v.causality, Causality::Input | Causality::Output))
+            .filter(|v| !grouped.contains(v.name.as_str()))
+            .map(|v| (v.name.clone(), v.name.clone()))
+            .collect();
+        if !body.is_empty() {
+            terminals.push(Terminal {
+                name: "body".into(),
+                description: "The body and the rest: this FMU's other inputs and outputs, each \
+                              the member of its own name"
+                    .into(),
+                members: body,
+            });
+        }
+        terminals
+    }
+}
+
 /// Everything `modelDescription.xml` says.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModelDescription {
@@ -410,6 +492,8 @@ pub struct ModelDescription {
     pub sample_clock: Option<SampleClock>,
     /// FMI 3.0's array parameters.
     pub arrays: Vec<ArrayParameter>,
+    /// FMI 3.0's terminals.
+    pub terminals: Vec<Terminal>,
 }
 
 /// Units declared by name alone: a noise density's `√Hz` has no integer base-unit exponents,
@@ -456,6 +540,12 @@ impl ModelDescription {
     /// Set the GUID to a hash of everything else the description says, so the GUID changes
     /// exactly when the interface (or a default) changes, and a binary refuses a
     /// `modelDescription.xml` it was not built with.
+    /// With a suspension's terminals ([`Terminal::suspension`]) from its variables.
+    pub fn with_suspension_terminals(mut self) -> Self {
+        self.terminals = Terminal::suspension(&self.variables);
+        self
+    }
+
     pub fn with_derived_guid(mut self) -> Self {
         self.guid = String::new();
         let xml = self.to_xml();
@@ -659,6 +749,21 @@ impl ModelDescription {
                     a.dimensions,
                     a.values.len()
                 ));
+            }
+        }
+        for t in &self.terminals {
+            let mut members = BTreeSet::new();
+            for (variable, member) in &t.members {
+                let io = self
+                    .variable(variable)
+                    .is_some_and(|v| matches!(v.causality, Causality::Input | Causality::Output));
+                if !io || !members.insert(member.as_str()) {
+                    return err(format!(
+                        "terminal '{}': '{variable}' is not an input or output, or member \
+                         '{member}' repeats",
+                        t.name
+                    ));
+                }
             }
         }
         if let Some(c) = &self.sample_clock {
@@ -1040,6 +1145,7 @@ mod tests {
             model_exchange: None,
             sample_clock: None,
             arrays: Vec::new(),
+            terminals: Vec::new(),
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,
@@ -1254,5 +1360,101 @@ mod tests {
         d.variables[0] =
             Variable::real("k", 0, Causality::Parameter, "furlong", "").with_start(1.0);
         assert!(d.check().unwrap_err().0.contains("unknown unit"));
+    }
+
+    /// FMI 3.0's additions to a table: a sample clock, arrays and terminals, each checked.
+    fn with_fmi3_parts() -> ModelDescription {
+        let mut d = sample();
+        d.variables
+            .push(Variable::real("u_fl", 4, Causality::Input, "N", "").with_start(0.0));
+        d.variables
+            .push(Variable::real("stroke_fl", 5, Causality::Output, "m", ""));
+        d.sample_clock = Some(SampleClock {
+            name: "tick".into(),
+            value_reference: 10,
+            interval: 1e-3,
+            description: "the sample clock".into(),
+        });
+        d.arrays = vec![ArrayParameter {
+            name: "M".into(),
+            value_reference: 11,
+            description: "a 2 × 3 matrix".into(),
+            dimensions: vec![2, 3],
+            values: vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+        }];
+        d.with_suspension_terminals()
+    }
+
+    #[test]
+    fn fmi3_clocks_arrays_and_terminals_are_written_and_checked() {
+        let d = with_fmi3_parts();
+        d.check().unwrap();
+        // Terminals by suffix, the rest in `body`; parameters in none.
+        let t: Vec<(&str, Vec<(&str, &str)>)> = d
+            .terminals
+            .iter()
+            .map(|t| {
+                let m = t.members.iter().map(|(v, m)| (v.as_str(), m.as_str()));
+                (t.name.as_str(), m.collect())
+            })
+            .collect();
+        assert_eq!(
+            t,
+            [
+                ("corner_fl", vec![("u_fl", "u"), ("stroke_fl", "stroke")]),
+                ("body", vec![("u", "u"), ("y", "y"), ("a", "a")]),
+            ]
+        );
+        let xml = d.to_xml3();
+        assert!(xml.contains(r#"intervalVariability="constant" intervalDecimal="0.001""#));
+        assert!(xml.contains(r#"hasEventMode="true""#));
+        // Every output clocked, discrete, and no initial unknown.
+        assert!(xml.contains(r#"name="y" valueReference="2" description="position" causality="output" variability="discrete" clocks="10""#), "{xml}");
+        assert!(!xml.contains(r#"<InitialUnknown valueReference="2""#));
+        assert!(xml.contains("<Dimension start=\"2\"/>\n      <Dimension start=\"3\"/>"));
+        assert!(xml.contains(r#"<InitialUnknown valueReference="11" dependencies="""#));
+        // FMI 2.0 has none of them: its description, and so the GUID, are the plain table's.
+        assert_eq!(d.to_xml(), {
+            let mut plain = d.clone();
+            (plain.sample_clock, plain.arrays, plain.terminals) = (None, vec![], vec![]);
+            plain.to_xml()
+        });
+        let terminals = d.to_terminals_xml().unwrap();
+        assert!(terminals.contains(r#"<TerminalMemberVariable variableName="stroke_fl" memberName="stroke" variableKind="signal"/>"#));
+        assert_eq!(sample().to_terminals_xml(), None);
+
+        type Breaks = fn(&mut ModelDescription);
+        let broken: [(Breaks, &str); 6] = [
+            (
+                |d| d.arrays[0].value_reference = 2,
+                "repeats a name or a value reference",
+            ),
+            (
+                |d| d.sample_clock.as_mut().unwrap().value_reference = 2,
+                "clock 'tick' has value reference 2",
+            ),
+            (
+                |d| d.sample_clock.as_mut().unwrap().interval = 0.0,
+                "interval 0",
+            ),
+            (
+                |d| d.arrays[0].values.pop().map(|_| ()).unwrap(),
+                "array 'M'",
+            ),
+            (
+                |d| d.arrays[0].value_reference = 10,
+                "has value reference 10, which a variable has",
+            ),
+            (
+                |d| d.terminals[1].members.push(("k".into(), "k".into())),
+                "'k' is not an input or output",
+            ),
+        ];
+        for (breaks, why) in broken {
+            let mut d = with_fmi3_parts();
+            breaks(&mut d);
+            let e = d.check().unwrap_err().0;
+            assert!(e.contains(why), "{e}");
+        }
     }
 }

@@ -1025,7 +1025,7 @@ pub unsafe fn get_nominals_of_continuous_states<M: Model>(
 
 /// The model's description document for a resource directory (NULL = none): `format` 0 gives
 /// FMI 2.0's `modelDescription.xml`, 1 the Markdown variable table, 2 FMI 3.0's
-/// `modelDescription.xml`. The packager loads the built library
+/// `modelDescription.xml`, 3 FMI 3.0's `terminalsAndIcons.xml` (empty without terminals). The packager loads the built library
 /// and calls this, so the XML in an FMU always comes from the binary beside it. The string is
 /// freed with [`free_string`]; NULL on error (message on stderr: this is a build-time tool call).
 ///
@@ -1046,6 +1046,7 @@ pub unsafe fn description_document<M: Model>(
         Ok(match format {
             1 => d.to_markdown_table(),
             2 => d.to_xml3(),
+            3 => d.to_terminals_xml().unwrap_or_default(),
             _ => d.to_xml(),
         })
     });

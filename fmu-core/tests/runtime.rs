@@ -37,6 +37,7 @@ impl Model for Lag {
             model_exchange: None,
             sample_clock: None,
             arrays: Vec::new(),
+            terminals: Vec::new(),
             default_experiment: DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 1.0,

@@ -100,6 +100,9 @@ enum Command {
     },
 }
 
+/// Where FMI 3.0 keeps the terminals in an archive (FMI 3.0.2 §2.5).
+const TERMINALS: &str = "terminalsAndIcons/terminalsAndIcons.xml";
+
 struct Library(libloading::Library);
 
 impl Library {
@@ -111,7 +114,7 @@ impl Library {
     }
 
     /// `format` 0: FMI 2.0's modelDescription.xml, 1: Markdown variable table, 2: FMI 3.0's
-    /// modelDescription.xml.
+    /// modelDescription.xml, 3: FMI 3.0's terminalsAndIcons.xml (empty without terminals).
     fn document(&self, resources: Option<&Path>, format: c_int) -> Result<String, String> {
         type Describe = unsafe extern "C" fn(*const c_char, c_int) -> *mut c_char;
         type Free = unsafe extern "C" fn(*mut c_char);
@@ -209,7 +212,15 @@ fn run(cli: Cli) -> Result<(), String> {
             if !libs.iter().any(|b| b.platform.folder == host.folder) {
                 libs.insert(0, Binary::read(host.folder, &lib)?);
             }
-            package::write_fmu(&out, &xml, &id, &libs, &files)?;
+            // FMI 3.0's terminals, where the model has them.
+            let mut extra = Vec::new();
+            if fmi == 3 {
+                let terminals = library.document(resources.as_deref(), 3)?;
+                if !terminals.is_empty() {
+                    extra.push((TERMINALS.to_string(), terminals.into_bytes()));
+                }
+            }
+            package::write_fmu(&out, &xml, &id, &libs, &files, &extra)?;
             let folders: Vec<&str> = libs.iter().map(|b| b.platform.folder).collect();
             println!(
                 "wrote {} (modelIdentifier {id}, binaries {}, {} resource file(s))",

@@ -116,14 +116,16 @@ impl Binary {
     }
 }
 
-/// Write `out` from the `modelDescription.xml` text, the libraries (one per platform folder) and
-/// resource files (`(path inside resources/, contents)`).
+/// Write `out` from the `modelDescription.xml` text, the libraries (one per platform folder),
+/// resource files (`(path inside resources/, contents)`) and other files at their paths in the
+/// archive (FMI 3.0's terminals).
 pub fn write_fmu(
     out: &Path,
     xml: &str,
     model_identifier: &str,
     binaries: &[Binary],
     resources: &[(String, Vec<u8>)],
+    others: &[(String, Vec<u8>)],
 ) -> Result<(), String> {
     for (i, b) in binaries.iter().enumerate() {
         if binaries[..i]
@@ -162,6 +164,10 @@ pub fn write_fmu(
     for (name, contents) in resources {
         zip.start_file(format!("resources/{name}"), options)
             .map_err(zerr)?;
+        zip.write_all(contents).map_err(io)?;
+    }
+    for (name, contents) in others {
+        zip.start_file(name.as_str(), options).map_err(zerr)?;
         zip.write_all(contents).map_err(io)?;
     }
     zip.finish().map_err(zerr)?;

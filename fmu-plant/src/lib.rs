@@ -940,7 +940,9 @@ impl Plant {
             }),
             sample_clock: None,
             arrays: Vec::new(),
+            terminals: Vec::new(),
         }
+        .with_suspension_terminals()
         .with_derived_guid()
     }
 }

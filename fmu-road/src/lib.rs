@@ -154,7 +154,9 @@ pub fn model_description() -> ModelDescription {
         variables: vars,
         sample_clock: None,
         arrays: Vec::new(),
+        terminals: Vec::new(),
     }
+    .with_suspension_terminals()
     .with_derived_guid()
 }
 

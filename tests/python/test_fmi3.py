@@ -528,3 +528,46 @@ def test_a_controllers_matrices_are_fmi3_arrays_of_its_resource_file(controller,
     assert "'D_c' is a calculated parameter" in messages[-1][2], messages[-1]
     ctrl.fmu.freeInstance()
     shutil.rmtree(ctrl.dir, ignore_errors=True)
+
+
+def terminals(name):
+    """The FMU's FMI 3.0 terminals, validated against the standard's schema (FMPy's copy):
+    {(terminal, member): variable}."""
+    from lxml import etree
+    import fmpy
+    schema = etree.XMLSchema(file=str(pathlib.Path(fmpy.__file__).parent / "schema" / "fmi3" /
+                                      "fmi3TerminalsAndIcons.xsd"))
+    with zipfile.ZipFile(path(name, 3)) as z:
+        doc = etree.fromstring(z.read("terminalsAndIcons/terminalsAndIcons.xml"))
+    schema.assertValid(doc)
+    out = {}
+    for t in doc.iter("Terminal"):
+        assert t.get("matchingRule") == "bus"
+        for m in t.iter("TerminalMemberVariable"):
+            assert m.get("variableKind") == "signal"
+            out[(t.get("name"), m.get("memberName"))] = m.get("variableName")
+    return out
+
+
+@pytest.mark.parametrize("name", FMUS)
+def test_every_fmi3_fmu_has_terminals_holding_each_input_and_output_once(name):
+    md = read_model_description(path(name, 3))
+    io = sorted(v.name for v in md.modelVariables
+                if v.causality in ("input", "output") and v.type != "Clock")
+    assert sorted(terminals(name).values()) == io
+
+
+@pytest.mark.parametrize("other", ["road"] + CONTROLLERS)
+def test_terminals_connect_the_plant_as_the_variable_names_do(other):
+    """Matching the terminals of the plant and of the road or a controller member by member
+    (the `bus` rule) gives exactly the connections a master makes by name: each of the other
+    FMU's inputs from the plant's output of its name, each of its outputs to the plant's input."""
+    plant, theirs = terminals("plant"), terminals(other)
+    by_terminal = {(plant[k], v) for k, v in theirs.items() if k in plant}
+    md_plant, md_other = (read_model_description(path(n, 3)) for n in ("plant", other))
+    causality = {v.name: v.causality for v in md_plant.modelVariables}
+    by_name = {(v.name, v.name) for v in md_other.modelVariables
+               if v.causality in ("input", "output") and v.type != "Clock" and v.name in causality}
+    assert by_terminal == by_name and by_name
+    them = {v.name: v.causality for v in md_other.modelVariables}
+    assert all({causality[p], them[o]} == {"input", "output"} for p, o in by_terminal)

@@ -79,6 +79,45 @@ impl ModelDescription {
         x
     }
 
+    /// FMI 3.0's `terminalsAndIcons/terminalsAndIcons.xml` (FMI 3.0.2 §2.4.9), if the model
+    /// has terminals: each a `bus` of signals whose members match another FMU's by name.
+    pub fn to_terminals_xml(&self) -> Option<String> {
+        if self.terminals.is_empty() {
+            return None;
+        }
+        let mut x = String::new();
+        writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#).unwrap();
+        writeln!(
+            x,
+            "<!-- Generated from the variable table in Rust; do not edit. -->"
+        )
+        .unwrap();
+        writeln!(x, r#"<fmiTerminalsAndIcons fmiVersion="3.0">"#).unwrap();
+        writeln!(x, "  <Terminals>").unwrap();
+        for t in &self.terminals {
+            writeln!(
+                x,
+                r#"    <Terminal name="{}" matchingRule="bus" terminalKind="suspension" description="{}">"#,
+                esc(&t.name),
+                esc(&t.description)
+            )
+            .unwrap();
+            for (variable, member) in &t.members {
+                writeln!(
+                    x,
+                    r#"      <TerminalMemberVariable variableName="{}" memberName="{}" variableKind="signal"/>"#,
+                    esc(variable),
+                    esc(member)
+                )
+                .unwrap();
+            }
+            writeln!(x, "    </Terminal>").unwrap();
+        }
+        writeln!(x, "  </Terminals>").unwrap();
+        writeln!(x, "</fmiTerminalsAndIcons>").unwrap();
+        Some(x)
+    }
+
     /// The value reference of the variable named `name` (checked to exist).
     fn vr_of(&self, name: &str) -> u32 {
         self.variable(name).expect("checked").value_reference
