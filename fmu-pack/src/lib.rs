@@ -57,23 +57,32 @@ fn runs_on(lib: &Inspected) -> String {
 /// The README's table of platforms: one row per library of each FMU (`(path, [(folder,
 /// library)])`), the FMU standing for every `.fmu` of its folder.
 pub fn platform_note(fmus: &[(String, Vec<(String, Inspected)>)]) -> String {
-    let mut out =
-        String::from("| FMUs | `binaries/` folder | library | runs on |\n|---|---|---|---|\n");
+    let mut out = String::from(
+        "| FMUs | `binaries/` folder | in `dist/fmi3/*.fmu` | library | runs on |\n\
+         |---|---|---|---|---|\n",
+    );
     for (path, libs) in fmus {
         let dir = std::path::Path::new(path)
             .parent()
             .map(|d| d.display().to_string())
             .unwrap_or_default();
         for (folder, lib) in libs {
+            // The FMI 3.0 folder of a library of this format and architecture.
+            let fmi3 = package::PLATFORMS3
+                .iter()
+                .find(|p| p.format == lib.format && p.architectures.contains(&lib.architecture))
+                .map_or("none".to_string(), |p| format!("`{}`", p.folder));
             out += &format!(
-                "| `{dir}/*.fmu` | `{folder}` | {} | {} |\n",
+                "| `{dir}/*.fmu` | `{folder}` | {fmi3} | {} | {} |\n",
                 lib.kind(),
                 runs_on(lib)
             );
         }
     }
     out += "\nRead from the packed libraries by `make descriptions` (`fmu-pack platforms`); a \
-            test fails while this table is stale.\n";
+            test fails while this table is stale. Each FMI 3.0 archive of `dist/fmi3/` carries \
+            the same libraries, byte for byte (a test checks), all three in one archive under \
+            FMI 3.0's folder names.\n";
     out
 }
 
