@@ -167,8 +167,15 @@ def ordered_loop(fmi, controller, order, clocked=False, seconds=2.0, h=1e-3):
     log = []
     t = 0.0
     for k in range(int(round(seconds / h))):
-        plant.set(ROAD, road.get(ROAD))
-        ctrl.set(reads, plant.get(reads))
+        if order == "jacobi":
+            # Every output read before any input is set; the command given is the one at hand
+            # then, or with a clock the one its tick gives (the event's outputs read again).
+            r, y, u = road.get(ROAD), plant.get(reads), ctrl.get(FORCES)
+            plant.set(ROAD, r)
+            ctrl.set(reads, y)
+        else:
+            plant.set(ROAD, road.get(ROAD))
+            ctrl.set(reads, plant.get(reads))
         if clocked:  # in Event Mode at the tick (after initialisation, then after each step)
             ctrl.fmu.setClock([SAMPLE_CLOCK_VR], [True])
             need, terminate, _, _, defined, following = ctrl.fmu.updateDiscreteStates()
@@ -176,9 +183,9 @@ def ordered_loop(fmi, controller, order, clocked=False, seconds=2.0, h=1e-3):
             ctrl.fmu.enterStepMode()
         if order == "controller first":
             ctrl.step(t, h, tick=clocked)
-        plant.set(FORCES, ctrl.get(FORCES))
+        plant.set(FORCES, u if order == "jacobi" and not clocked else ctrl.get(FORCES))
         log.append(plant.get(record) + ctrl.get(FORCES))
-        for s in (road, plant) + ((ctrl,) if order == "gauss-seidel" else ()):
+        for s in (road, plant) + ((ctrl,) if order != "controller first" else ()):
             s.step(t, h, tick=clocked and s is ctrl)
         t = (k + 1) * h
         if clocked:
@@ -196,21 +203,29 @@ def test_the_fmi3_closed_loop_is_the_fmi2_loop_bit_for_bit(controller):
         assert np.array_equal(two, three), (order, np.abs(two - three).max())
 
 
-@pytest.mark.parametrize("controller", ["delay_sf", "hinf_of", "ft_of", "lqg"])
+@pytest.mark.parametrize("controller", ["delay_sf", "hinf_sf", "hinf_of", "ft_of", "lqg"])
 def test_a_clocked_controller_is_the_gauss_seidel_loop_in_every_master_order(controller):
     """Ticked by its clock, the command a master reads is the one computed at the last tick
-    whatever it steps first: both orders are FMI 2.0's Gauss-Seidel loop (the one the
-    certificates predict) bit for bit, which the controller-first order over FMI 2.0 is not."""
+    whatever it steps first: Gauss-Seidel and controller first are FMI 2.0's Gauss-Seidel loop
+    (the one the certificates predict) bit for bit. In the Jacobi order the tick samples the
+    plant's outputs before the road's new values reach them (the plant's feedthrough from the
+    road): within 0.5 % of it in RMS seat acceleration. Over FMI 2.0 the controller-first and
+    Jacobi orders read another command: `delay_sf` and `hinf_sf`, which feed measurements
+    through, lose 9-12 % on this bump."""
+    rms = lambda log: np.sqrt(np.mean(log[:, 0] ** 2))
     reference = ordered_loop(2, controller, "gauss-seidel")
     assert np.abs(reference).max() > 0.1
     for order in ("gauss-seidel", "controller first"):
         clocked = ordered_loop(3, controller, order, clocked=True)
         assert np.array_equal(clocked, reference), (order, np.abs(clocked - reference).max())
-    unclocked = ordered_loop(2, controller, "controller first")
-    seat = lambda log: np.sqrt(np.mean(log[:, 0] ** 2))
-    assert not np.array_equal(unclocked, reference)
-    print(f"{controller}: rms a_seat Gauss-Seidel and clocked {seat(reference):.5f}, "
-          f"controller first unclocked {seat(unclocked):.5f}")
+    jacobi = rms(ordered_loop(3, controller, "jacobi", clocked=True)) / rms(reference) - 1
+    unclocked = {o: rms(ordered_loop(2, controller, o)) / rms(reference) - 1
+                 for o in ("jacobi", "controller first")}
+    print(f"{controller}: RMS a_seat against Gauss-Seidel: clocked Jacobi {jacobi:+.2%}; over FMI 2.0 "
+          + ", ".join(f"{o} {d:+.2%}" for o, d in unclocked.items()))
+    assert abs(jacobi) < 5e-3
+    if controller in ("delay_sf", "hinf_sf"):
+        assert min(unclocked.values()) > 0.05, unclocked
 
 
 @pytest.mark.parametrize("start", [
