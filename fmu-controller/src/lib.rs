@@ -137,6 +137,41 @@ pub fn load_spec(resources: Option<&Path>) -> Result<Spec, String> {
 
 /// The variable table of a controller FMU.
 pub fn description_for(spec: &Spec) -> ModelDescription {
+    let mut vars = signal_variables(spec);
+    let g = &spec.guarantee;
+    vars.push(Variable::real(
+        g.name.clone(),
+        vr::GUARANTEE,
+        Causality::CalculatedParameter,
+        unit(&g.unit),
+        g.description.clone(),
+    ));
+    vars.extend(parameter_variables(spec));
+    ModelDescription {
+        model_name: spec.variant.clone(),
+        model_identifier: spec.variant.clone(),
+        guid: String::new(),
+        description: spec.description.clone(),
+        version: format!("{}+{:016x}", env!("CARGO_PKG_VERSION"), spec.content_hash),
+        capabilities: Capabilities::exact_stepping(false),
+        model_exchange: None,
+        default_experiment: DefaultExperiment {
+            start_time: 0.0,
+            stop_time: 10.0,
+            step_size: SAMPLE_PERIOD,
+            tolerance: 1e-6,
+        },
+        variables: vars,
+        arrays: matrices(spec),
+        terminals: Vec::new(),
+        sample_clock: Some(sample_clock()),
+    }
+    .with_suspension_terminals()
+    .with_derived_guid()
+}
+
+/// The inputs (the plant outputs read) and the commands, with their dependencies.
+fn signal_variables(spec: &Spec) -> Vec<Variable> {
     let mut vars = Vec::new();
     for (i, s) in spec.inputs.iter().enumerate() {
         vars.push(
@@ -202,14 +237,13 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .initially_depending_on(initial(i)),
         );
     }
-    let g = &spec.guarantee;
-    vars.push(Variable::real(
-        g.name.clone(),
-        vr::GUARANTEE,
-        Causality::CalculatedParameter,
-        unit(&g.unit),
-        g.description.clone(),
-    ));
+    vars
+}
+
+/// The parameters a part of the controller file brings: force limits, the fault detector's
+/// threshold, the predictor's delay and master order, the actuators' bandwidth.
+fn parameter_variables(spec: &Spec) -> Vec<Variable> {
+    let mut vars = Vec::new();
     if let Some(u_max) = spec.default_limits() {
         for (k, (name, outputs)) in limit_groups(spec).into_iter().enumerate() {
             let what = outputs
@@ -326,38 +360,23 @@ pub fn description_for(spec: &Spec) -> ModelDescription {
             .with_max(spec::MAX_ACTUATOR_BANDWIDTH),
         );
     }
-    ModelDescription {
-        model_name: spec.variant.clone(),
-        model_identifier: spec.variant.clone(),
-        guid: String::new(),
-        description: spec.description.clone(),
-        version: format!("{}+{:016x}", env!("CARGO_PKG_VERSION"), spec.content_hash),
-        capabilities: Capabilities::exact_stepping(false),
-        model_exchange: None,
-        default_experiment: DefaultExperiment {
-            start_time: 0.0,
-            stop_time: 10.0,
-            step_size: SAMPLE_PERIOD,
-            tolerance: 1e-6,
-        },
-        variables: vars,
-        arrays: matrices(spec),
-        terminals: Vec::new(),
-        sample_clock: Some(SampleClock {
-            name: "sample".into(),
-            value_reference: vr::SAMPLE_CLOCK,
-            interval: SAMPLE_PERIOD,
-            description: format!(
-                "The controller's sample clock (FMI 3.0, eventModeUsed = true): at each tick the \
-                 inputs are sampled and the commands computed and held until the next, {} ms \
-                 later. Without Event Mode (and in FMI 2.0) the controller is sampled at every \
-                 communication point instead",
-                SAMPLE_PERIOD * 1e3
-            ),
-        }),
+    vars
+}
+
+/// FMI 3.0's sample clock: periodic, every [`SAMPLE_PERIOD`].
+fn sample_clock() -> SampleClock {
+    SampleClock {
+        name: "sample".into(),
+        value_reference: vr::SAMPLE_CLOCK,
+        interval: SAMPLE_PERIOD,
+        description: format!(
+            "The controller's sample clock (FMI 3.0, eventModeUsed = true): at each tick the \
+             inputs are sampled and the commands computed and held until the next, {} ms \
+             later. Without Event Mode (and in FMI 2.0) the controller is sampled at every \
+             communication point instead",
+            SAMPLE_PERIOD * 1e3
+        ),
     }
-    .with_suspension_terminals()
-    .with_derived_guid()
 }
 
 /// FMI 3.0's view of the controller's matrices, `A_c`, `B_c`, `C_c`, `D_c` (value references

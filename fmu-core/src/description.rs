@@ -594,140 +594,161 @@ impl ModelDescription {
     /// per type, start values where required and forbidden, known units, dependencies on
     /// existing inputs.
     pub fn check(&self) -> Result<(), DescriptionError> {
-        let err = |s: String| Err(DescriptionError(s));
         let mut names = BTreeSet::new();
         let mut refs = BTreeSet::new();
         for v in &self.variables {
-            if !names.insert(v.name.as_str()) {
-                return err(format!("duplicate variable name '{}'", v.name));
+            self.check_variable(v, &mut names, &mut refs)?;
+        }
+        self.check_fmi3_parts(&mut names, &mut refs)
+    }
+
+    /// One variable of the table, its name and value reference unique among those seen.
+    fn check_variable<'a>(
+        &self,
+        v: &'a Variable,
+        names: &mut BTreeSet<&'a str>,
+        refs: &mut BTreeSet<ValueReference>,
+    ) -> Result<(), DescriptionError> {
+        let err = |s: String| Err(DescriptionError(s));
+        if !names.insert(v.name.as_str()) {
+            return err(format!("duplicate variable name '{}'", v.name));
+        }
+        // Unique across the types, as FMI 3.0 requires (FMI 2.0 only within a type), and
+        // below the references FMI 3.0's own variables take.
+        if !refs.insert(v.value_reference) {
+            return err(format!(
+                "duplicate value reference {} ({:?})",
+                v.value_reference,
+                v.kind.base()
+            ));
+        }
+        if v.value_reference >= FMI3_TIME_VR {
+            return err(format!(
+                "value reference {} of '{}' is not below {FMI3_TIME_VR}, where FMI 3.0's \
+                 time and event indicators are",
+                v.value_reference, v.name
+            ));
+        }
+        if v.name == "time" || v.name.starts_with("event_indicator[") {
+            return err(format!(
+                "variable name '{}' is FMI 3.0's time or an event indicator",
+                v.name
+            ));
+        }
+        let has_start = match &v.kind {
+            VarType::Real { start, unit, .. } => {
+                if !unit.is_empty() && base_unit(unit).is_none() {
+                    return err(format!("variable '{}' has unknown unit '{unit}'", v.name));
+                }
+                start.is_some()
             }
-            // Unique across the types, as FMI 3.0 requires (FMI 2.0 only within a type), and
-            // below the references FMI 3.0's own variables take.
-            if !refs.insert(v.value_reference) {
+            VarType::Integer { start } => start.is_some(),
+            VarType::Boolean { start } => start.is_some(),
+        };
+        if let Some(state) = &v.derivative_of {
+            let fine = v.causality == Causality::Local
+                && self.variable(state).is_some_and(|s| {
+                    matches!(s.causality, Causality::Output | Causality::Local)
+                        && s.variability == Variability::Continuous
+                        && s.kind.base() == BaseType::Real
+                        && s.derivative_of.is_none()
+                });
+            if !fine {
                 return err(format!(
-                    "duplicate value reference {} ({:?})",
-                    v.value_reference,
-                    v.kind.base()
-                ));
-            }
-            if v.value_reference >= FMI3_TIME_VR {
-                return err(format!(
-                    "value reference {} of '{}' is not below {FMI3_TIME_VR}, where FMI 3.0's \
-                     time and event indicators are",
-                    v.value_reference, v.name
-                ));
-            }
-            if v.name == "time" || v.name.starts_with("event_indicator[") {
-                return err(format!(
-                    "variable name '{}' is FMI 3.0's time or an event indicator",
+                    "'{}' must be a local derivative of a continuous Real state, '{state}'",
                     v.name
                 ));
             }
-            let has_start = match &v.kind {
-                VarType::Real { start, unit, .. } => {
-                    if !unit.is_empty() && base_unit(unit).is_none() {
-                        return err(format!("variable '{}' has unknown unit '{unit}'", v.name));
-                    }
-                    start.is_some()
-                }
-                VarType::Integer { start } => start.is_some(),
-                VarType::Boolean { start } => start.is_some(),
-            };
-            if let Some(state) = &v.derivative_of {
-                let fine = v.causality == Causality::Local
-                    && self.variable(state).is_some_and(|s| {
-                        matches!(s.causality, Causality::Output | Causality::Local)
-                            && s.variability == Variability::Continuous
-                            && s.kind.base() == BaseType::Real
-                            && s.derivative_of.is_none()
-                    });
-                if !fine {
-                    return err(format!(
-                        "'{}' must be a local derivative of a continuous Real state, '{state}'",
-                        v.name
-                    ));
-                }
-                if self.model_exchange.is_none() {
-                    return err(format!(
-                        "'{}' is a state derivative, but there is no Model Exchange",
-                        v.name
-                    ));
-                }
-            }
-            if v.causality == Causality::Local
-                && v.derivative_of.is_none()
-                && !self
-                    .variables
-                    .iter()
-                    .any(|d| d.derivative_of.as_ref() == Some(&v.name))
-            {
+            if self.model_exchange.is_none() {
                 return err(format!(
-                    "local '{}' is neither a continuous state nor a derivative",
+                    "'{}' is a state derivative, but there is no Model Exchange",
                     v.name
                 ));
-            }
-            let needs_start = matches!(v.causality, Causality::Parameter | Causality::Input);
-            if needs_start != has_start {
-                return err(format!(
-                    "variable '{}' ({:?}) must {}have a start value",
-                    v.name,
-                    v.causality,
-                    if needs_start { "" } else { "not " }
-                ));
-            }
-            let derivative = v.derivative_of.is_some();
-            if !v.depends_on.is_empty() && v.causality != Causality::Output && !derivative {
-                return err(format!(
-                    "'{}' has dependencies but is neither an output nor a state derivative",
-                    v.name
-                ));
-            }
-            for (d, kind) in &v.depends_on {
-                // An output's knowns are inputs; a derivative's, inputs and continuous states.
-                let state = derivative
-                    && self
-                        .variables
-                        .iter()
-                        .any(|x| x.derivative_of.as_ref() == Some(d));
-                let Some(known) = self
-                    .variable(d)
-                    .filter(|k| k.causality == Causality::Input || state)
-                else {
-                    return err(format!(
-                        "'{}' depends on '{d}', which is not an input{}",
-                        v.name,
-                        if derivative { " or a state" } else { "" }
-                    ));
-                };
-                let linear = !matches!(kind, DependencyKind::Dependent);
-                if linear && known.kind.base() != BaseType::Real {
-                    return err(format!(
-                        "'{}' depends on '{d}' as {:?}, which only a Real can",
-                        v.name, kind
-                    ));
-                }
-            }
-            if !v.initial_parameters.is_empty()
-                && !matches!(
-                    v.causality,
-                    Causality::Output | Causality::CalculatedParameter
-                )
-                && !derivative
-            {
-                return err(format!(
-                    "'{}' has initial dependencies but is not an initial unknown",
-                    v.name
-                ));
-            }
-            for d in &v.initial_parameters {
-                if self.variable(d).map(|k| k.causality) != Some(Causality::Parameter) {
-                    return err(format!(
-                        "'{}' initially depends on '{d}', which is not a parameter",
-                        v.name
-                    ));
-                }
             }
         }
+        if v.causality == Causality::Local
+            && v.derivative_of.is_none()
+            && !self
+                .variables
+                .iter()
+                .any(|d| d.derivative_of.as_ref() == Some(&v.name))
+        {
+            return err(format!(
+                "local '{}' is neither a continuous state nor a derivative",
+                v.name
+            ));
+        }
+        let needs_start = matches!(v.causality, Causality::Parameter | Causality::Input);
+        if needs_start != has_start {
+            return err(format!(
+                "variable '{}' ({:?}) must {}have a start value",
+                v.name,
+                v.causality,
+                if needs_start { "" } else { "not " }
+            ));
+        }
+        let derivative = v.derivative_of.is_some();
+        if !v.depends_on.is_empty() && v.causality != Causality::Output && !derivative {
+            return err(format!(
+                "'{}' has dependencies but is neither an output nor a state derivative",
+                v.name
+            ));
+        }
+        for (d, kind) in &v.depends_on {
+            // An output's knowns are inputs; a derivative's, inputs and continuous states.
+            let state = derivative
+                && self
+                    .variables
+                    .iter()
+                    .any(|x| x.derivative_of.as_ref() == Some(d));
+            let Some(known) = self
+                .variable(d)
+                .filter(|k| k.causality == Causality::Input || state)
+            else {
+                return err(format!(
+                    "'{}' depends on '{d}', which is not an input{}",
+                    v.name,
+                    if derivative { " or a state" } else { "" }
+                ));
+            };
+            let linear = !matches!(kind, DependencyKind::Dependent);
+            if linear && known.kind.base() != BaseType::Real {
+                return err(format!(
+                    "'{}' depends on '{d}' as {:?}, which only a Real can",
+                    v.name, kind
+                ));
+            }
+        }
+        if !v.initial_parameters.is_empty()
+            && !matches!(
+                v.causality,
+                Causality::Output | Causality::CalculatedParameter
+            )
+            && !derivative
+        {
+            return err(format!(
+                "'{}' has initial dependencies but is not an initial unknown",
+                v.name
+            ));
+        }
+        for d in &v.initial_parameters {
+            if self.variable(d).map(|k| k.causality) != Some(Causality::Parameter) {
+                return err(format!(
+                    "'{}' initially depends on '{d}', which is not a parameter",
+                    v.name
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// FMI 3.0's parts beside the variables: the arrays, the terminals and the sample clock.
+    fn check_fmi3_parts<'a>(
+        &'a self,
+        names: &mut BTreeSet<&'a str>,
+        refs: &mut BTreeSet<ValueReference>,
+    ) -> Result<(), DescriptionError> {
+        let err = |s: String| Err(DescriptionError(s));
         for a in &self.arrays {
             if !names.insert(a.name.as_str()) || !refs.insert(a.value_reference) {
                 return err(format!(
