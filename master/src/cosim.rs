@@ -839,24 +839,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         units,
     } = Wiring::of(setup)?;
     let on_controller = recording.on_controller();
-    // The plant's values after initialisation: its own, or the scenario's overrides.
-    let mut plant_reals = |names: &[&str], values: &mut [f64]| {
-        p.get_real(&vrs(plant, names)?, values)
-            .map_err(|e| fmu_err(&plant.name, format!("plant: {e}")))
-    };
-    let mut static_tire_load = [0.0; 4];
-    plant_reals(
-        &[
-            "static_tire_load_fl",
-            "static_tire_load_fr",
-            "static_tire_load_rl",
-            "static_tire_load_rr",
-        ],
-        &mut static_tire_load,
-    )?;
-    let mut actuator = [0.0; 3];
-    plant_reals(&["u_max", "u_max_seat", "tau"], &mut actuator)?;
-    let [u_max, u_max_seat, delay] = actuator;
+    let (static_tire_load, [u_max, u_max_seat, delay]) = plant_facts(&mut p, plant)?;
     // The instance names the FMUs log under, by role.
     let instance = |who: &str| match (who, &setup.road, ctrl) {
         ("road", RoadSource::Fmu(r), _) => r.fmu.name.clone(),
@@ -963,13 +946,7 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         time.push(t + h);
     }
     let loop_seconds = started.elapsed().as_secs_f64();
-    let mut instances = vec![instance("road"), instance("plant"), instance("controller")];
-    instances.dedup();
-    let warnings = instances
-        .iter()
-        .filter_map(|i| crate::fmu_log::said(i).map(|m| format!("{i}: {m}")))
-        .chain(crate::fmu_log::said(crate::fmu_log::UNNAMED).map(|m| format!("FMI 3.0 FMU: {m}")))
-        .collect();
+    let warnings = warnings_of(&[instance("road"), instance("plant"), instance("controller")]);
     Ok(Run {
         columns: setup.record.to_vec(),
         units,
@@ -982,6 +959,40 @@ pub fn simulate(setup: &Setup) -> Result<Run, MasterError> {
         loop_seconds,
         warnings,
     })
+}
+
+/// The plant's values after initialisation (its own, or the scenario's overrides) a run
+/// reports: the static tyre loads, and `[u_max, u_max_seat, tau]`.
+fn plant_facts(p: &mut Slave, plant: &Fmu) -> Result<([f64; 4], [f64; 3]), MasterError> {
+    let mut plant_reals = |names: &[&str], values: &mut [f64]| {
+        p.get_real(&vrs(plant, names)?, values)
+            .map_err(|e| fmu_err(&plant.name, format!("plant: {e}")))
+    };
+    let mut static_tire_load = [0.0; 4];
+    plant_reals(
+        &[
+            "static_tire_load_fl",
+            "static_tire_load_fr",
+            "static_tire_load_rl",
+            "static_tire_load_rr",
+        ],
+        &mut static_tire_load,
+    )?;
+    let mut actuator = [0.0; 3];
+    plant_reals(&["u_max", "u_max_seat", "tau"], &mut actuator)?;
+    Ok((static_tire_load, actuator))
+}
+
+/// What each FMU instance said during the run ([`crate::fmu_log::said`]; an instance named twice
+/// in a row counts once), and what FMI 3.0 FMUs said (their logger names no instance).
+fn warnings_of(instances: &[String]) -> Vec<String> {
+    let mut instances = instances.to_vec();
+    instances.dedup();
+    instances
+        .iter()
+        .filter_map(|i| crate::fmu_log::said(i).map(|m| format!("{i}: {m}")))
+        .chain(crate::fmu_log::said(crate::fmu_log::UNNAMED).map(|m| format!("FMI 3.0 FMU: {m}")))
+        .collect()
 }
 
 /// An empty vector with room for `n` values whose memory has been written (so that filling it
