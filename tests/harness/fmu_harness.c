@@ -21,6 +21,8 @@
  *   integer  FMU VR VALUE
  *   connect  FROM VR TO VR                      a Real output to a Real input, set before TO steps
  *   record   FMU VR COLUMN                      a Real written to OUT.csv at every step
+ *   clock    FMU VR                             FMI 3.0: instantiate FMU with Event Mode and tick
+ *                                               its clock VR (1 ms) before each of its steps
  *   time     STEP STOP
  * `panic` sets the Real VR to 666 (the probe FMU panics on it), steps, and expects an error, an
  * "internal error" log message and a working reset (through FMI 3.0 with a trailing 3).
@@ -89,6 +91,8 @@ typedef int (*EnterInit3)(void *, bool, double, double, bool, double);
 typedef int (*Float64IO)(void *, const unsigned int *, size_t, double *, size_t);
 typedef int (*Int32IO)(void *, const unsigned int *, size_t, int32_t *, size_t);
 typedef int (*DoStep3)(void *, double, double, bool, bool *, bool *, bool *, double *);
+typedef int (*SetClock3)(void *, const unsigned int *, size_t, const bool *);
+typedef int (*UpdateDiscreteStates3)(void *, bool *, bool *, bool *, bool *, bool *, double *);
 
 /* The 75 functions of fmi3Functions.h (FMI 3.0.2), Model Exchange's and Scheduled Execution's
  * too: an importer may resolve them all, and FMPy does. */
@@ -204,6 +208,12 @@ typedef struct {
     Float64IO get_float64, set_float64;
     Int32IO set_int32;
     DoStep3 do_step3;
+    /* FMI 3.0 with a sample clock the harness ticks (plan line `clock`): in Event Mode. */
+    bool clocked;
+    fmi2ValueReference clock;
+    Simple enter_event_mode, enter_step_mode;
+    SetClock3 set_clock;
+    UpdateDiscreteStates3 update_discrete_states;
 } Fmu;
 
 static char last_message[4096];
@@ -263,6 +273,10 @@ static void load(Fmu *f, const char *name, const char *path, int version) {
         f->set_float64 = (Float64IO)resolve(f, "fmi3SetFloat64");
         f->set_int32 = (Int32IO)resolve(f, "fmi3SetInt32");
         f->do_step3 = (DoStep3)resolve(f, "fmi3DoStep");
+        f->enter_event_mode = (Simple)resolve(f, "fmi3EnterEventMode");
+        f->enter_step_mode = (Simple)resolve(f, "fmi3EnterStepMode");
+        f->set_clock = (SetClock3)resolve(f, "fmi3SetClock");
+        f->update_discrete_states = (UpdateDiscreteStates3)resolve(f, "fmi3UpdateDiscreteStates");
         return;
     }
     for (i = 0; i < 44; i++) resolve(f, FUNCTIONS[i]);
@@ -285,7 +299,7 @@ static void instantiate(Fmu *f, const char *resources_text, const char *guid) {
     if (f->version == 3) {
         if (f->instantiate3(f->name, "{not-the-guid}", resources, false, false, false, false, NULL, 0, NULL, logger3, NULL))
             die(f->name, "accepted a wrong instantiation token");
-        f->c = f->instantiate3(f->name, guid, resources, false, false, false, false, NULL, 0, NULL, logger3, NULL);
+        f->c = f->instantiate3(f->name, guid, resources, false, false, f->clocked, false, NULL, 0, NULL, logger3, NULL);
         if (!f->c) die(f->name, "fmi3InstantiateCoSimulation returned NULL (see the log above)");
         return;
     }
@@ -315,8 +329,26 @@ static int do_step(Fmu *f, double t, double h) {
     int status;
     if (f->version != 3) return f->do_step(f->c, t, h, 1);
     status = f->do_step3(f->c, t, h, true, &event, &terminate, &early, &last);
-    if (status == fmi2OK && (event || terminate || early || last != t + h)) die(f->name, "fmi3DoStep's outputs are not a completed step");
+    /* A clocked FMU asks for Event Mode at the end of each step: its next tick is there. */
+    if (status == fmi2OK && (event != f->clocked || terminate || early || last != t + h))
+        die(f->name, "fmi3DoStep's outputs are not a completed step (with Event Mode due at a tick)");
     return status;
+}
+
+/* A tick of a clocked FMU at t, in Event Mode (entered here but at the first, where
+ * initialisation left it): the clock activated, the discrete states updated, the next tick at
+ * t + h, then Step Mode. */
+static void tick(Fmu *f, long k, double t, double h) {
+    bool need = true, terminate = true, nominals = true, values = true, defined = false;
+    double next = 0.0;
+    const bool on = true;
+    if (k > 0) check(f->enter_event_mode(f->c), f, "fmi3EnterEventMode");
+    check(f->set_clock(f->c, &f->clock, 1, &on), f, "fmi3SetClock");
+    check(f->update_discrete_states(f->c, &need, &terminate, &nominals, &values, &defined, &next), f,
+          "fmi3UpdateDiscreteStates");
+    if (need || terminate || values || !defined || next - (t + h) > 1e-12 || (t + h) - next > 1e-12)
+        die(f->name, "fmi3UpdateDiscreteStates did not tick to the next tick");
+    check(f->enter_step_mode(f->c), f, "fmi3EnterStepMode");
 }
 
 /* Before the start values (FMI 2.0's experiment setup); after them, initialisation. */
@@ -349,6 +381,8 @@ static int fields(char *line, char **out, int max) {
 }
 
 enum { MAX_FMUS = 8, MAX_ITEMS = 256 };
+/* The interval of the controllers' sample clock (their modelDescription.xml's intervalDecimal). */
+static const double CLOCK_INTERVAL = 0.001;
 typedef struct { int fmu; fmi2ValueReference vr; double value; int integer; } Start;
 typedef struct { int from; fmi2ValueReference from_vr; int to; fmi2ValueReference to_vr; } Connection;
 typedef struct { int fmu; fmi2ValueReference vr; char *column; } Record;
@@ -392,6 +426,10 @@ static int run(const char *plan_path, const char *out_path) {
         } else if (!strcmp(f[0], "record") && n == 4 && n_records < MAX_ITEMS) {
             Record r = {index_of(f[1], n_fmus), (fmi2ValueReference)strtoul(f[2], NULL, 10), strdup(f[3])};
             records[n_records++] = r;
+        } else if (!strcmp(f[0], "clock") && n == 3 && version == 3) {
+            Fmu *m = &fmus[index_of(f[1], n_fmus)];
+            m->clocked = true;
+            m->clock = (fmi2ValueReference)strtoul(f[2], NULL, 10);
         } else if (!strcmp(f[0], "time") && n == 3) {
             step = strtod(f[1], NULL);
             stop = strtod(f[2], NULL);
@@ -404,6 +442,7 @@ static int run(const char *plan_path, const char *out_path) {
 
     for (i = 0; i < n_fmus; i++) {
         Fmu *m = &fmus[i];
+        if (m->clocked && step != CLOCK_INTERVAL) die(m->name, "a clocked FMU ticks every 1 ms: the plan's step must be 0.001");
         instantiate(m, uris[i], guids[i]);
         setup(m, stop);
         for (j = 0; j < n_starts; j++) {
@@ -433,6 +472,7 @@ static int run(const char *plan_path, const char *out_path) {
                 check(get_real(&fmus[c->from], c->from_vr, &v), &fmus[c->from], "get a Real");
                 check(set_real(&fmus[i], c->to_vr, v), &fmus[i], "set a Real");
             }
+            if (fmus[i].clocked) tick(&fmus[i], k, t, step);
             check(do_step(&fmus[i], t, step), &fmus[i], "DoStep");
         }
         fprintf(out, "%.17g", (k + 1) * step);
