@@ -4,9 +4,10 @@ within 1.3x of this floor on both roads. (The old targets, 50x FMPy and 1000x re
 below the floor itself.)
 
 The working tree's sources are copied to a temporary directory and one function is changed:
-`linsys::exact::mat_vec_sum` becomes a copy of its first vector's head, halved. That function is
+`linsys::exact::mat_vec_sum` (and its variant for a quasi-triangular first matrix,
+`mat_vec_sum_quasi_upper`) becomes a copy of its first vector's head, halved. Those functions are
 every dense matrix–vector product of the FMUs' stepping: the plant's step (the car and the
-vibration meter, `Φ x + Γ₀ v₀ + Γ₁ Δv`) and the controller's step and outputs (39 states).
+vibration meter, `Φ x + Γ₀ v₀ + Γ₁ Δv`) and the controller's step and outputs.
 Everything else is as shipped: the FMI calls, their checks, the state machine, the plant's
 sparse output rows and bookkeeping, the road, the master, and the first step's discretisations
 (matrix exponentials). The three FMUs are built from that copy (into target/floor, kept between
@@ -27,7 +28,10 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
 import master_vs_fmpy as bench  # noqa: E402
 
-SIGNATURE = "pub fn mat_vec_sum(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {\n"
+# Every dense product: the general one and the one whose first matrix is quasi-upper-triangular
+# (a controller stepped in its real Schur basis).
+SIGNATURES = [f"pub fn {name}(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {{\n"
+              for name in ("mat_vec_sum", "mat_vec_sum_quasi_upper")]
 FREE = ("    if std::hint::black_box(true) {\n"
         "        y.iter_mut().zip(terms[0].1).for_each(|(y, x)| *y = 0.5 * x);\n"
         "        return;\n"
@@ -44,9 +48,11 @@ def floor_dist(work):
             shutil.copy2(ROOT / name, src / name)
     exact = src / "linsys" / "src" / "exact.rs"
     text = exact.read_text()
-    if text.count(SIGNATURE) != 1:
-        sys.exit(f"{exact.relative_to(src)}: mat_vec_sum's signature changed; update bench/floor.py")
-    exact.write_text(text.replace(SIGNATURE, SIGNATURE + FREE))
+    for signature in SIGNATURES:
+        if text.count(signature) != 1:
+            sys.exit(f"{exact.relative_to(src)}: no '{signature.strip()}'; update bench/floor.py")
+        text = text.replace(signature, signature + FREE)
+    exact.write_text(text)
     target = ROOT / "target" / "floor"
     subprocess.run(["cargo", "build", "--release", "-q", "-p", "fmu-plant", "-p", "fmu-road", "-p", "fmu-controller"],
                    cwd=src, check=True, env={**os.environ, "CARGO_TARGET_DIR": str(target)})

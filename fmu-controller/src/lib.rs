@@ -10,6 +10,7 @@
 
 pub mod accommodation;
 pub mod predictor;
+pub mod schur;
 pub mod spec;
 
 use fmu_core::description::{ArrayParameter, SampleClock};
@@ -18,7 +19,7 @@ use fmu_core::{
     Capabilities, Causality, DefaultExperiment, DependencyKind, Model, ModelDescription,
     ModelError, ValueReference, Variable,
 };
-use linsys::{discretize, mat_vec_sum, Discretization};
+use linsys::{discretize, mat_vec_sum, mat_vec_sum_quasi_upper, Discretization};
 use nalgebra::DVector;
 use spec::Spec;
 use std::path::Path;
@@ -438,7 +439,8 @@ fn unit(u: &str) -> &'static str {
 
 pub struct Controller {
     spec: Spec,
-    /// The state: the controller's, then the anti-windup compensator's `η`.
+    /// The state: the controller's, then the anti-windup compensator's `η`, then the fault
+    /// detector's `ξ`; in the real Schur basis of [`Readout`] where it has one (`z = Qᵀ x`).
     x: DVector<f64>,
     y: DVector<f64>,
     /// Force limit of each output (anti-windup and accommodation only), and the parameters that
@@ -448,10 +450,13 @@ pub struct Controller {
     /// Fault detector: its threshold and the latched flag.
     threshold: f64,
     detected: bool,
-    /// The stepped system `ẋ = A x + B v`, `v = y`, or `v = [y; u − y_c]` with anti-windup.
+    /// The stepped system `ẋ = A x + B v`, `v = y`, or `v = [y; u − y_c]` with anti-windup, in
+    /// the state's basis.
     a: nalgebra::DMatrix<f64>,
     b: nalgebra::DMatrix<f64>,
     cache: Option<Discretization>,
+    /// What reads the state (every controller without a predictor), and its basis.
+    readout: Option<Readout>,
     /// The controller's own output `y_c` and the command sent `u` for the current state and
     /// inputs (`valid` until an input, a limit or the state changes): a master reading the five
     /// outputs one by one costs one evaluation.
@@ -481,6 +486,68 @@ pub struct Controller {
     sent_before: Option<DVector<f64>>,
     /// Fault accommodation: the effectiveness estimator the commands are divided by.
     estimator: Option<accommodation::Estimator>,
+}
+
+/// What reads the stepped system's state `x = [xc; η; ξ]` (or, in its real Schur basis, `z`,
+/// `x = Q z`): the controller's own output `y_c = [C, −D C_aw, 0] x + D y` (it reads
+/// `w = y − C_aw η`), the compensator's gain `F η = [0, F, 0] x` (absent where `F = 0`, the
+/// plain model recovery), the detector's residual `r = [0, 0, C_d] x + D_d y`.
+#[derive(Debug, Clone)]
+struct Readout {
+    basis: Option<schur::SchurBasis>,
+    yc: nalgebra::DMatrix<f64>,
+    f: Option<nalgebra::DMatrix<f64>>,
+    residual: Option<nalgebra::DMatrix<f64>>,
+}
+
+impl Readout {
+    /// In the real Schur basis of the stepped system `(a, b)` where it has states and one
+    /// exists ([`schur::SchurBasis`]), else in its own.
+    fn new(
+        spec: &Spec,
+        a: &nalgebra::DMatrix<f64>,
+        b: &nalgebra::DMatrix<f64>,
+        schur: bool,
+    ) -> Readout {
+        let (n, nu) = (spec.order(), spec.outputs.len());
+        let total = a.nrows();
+        let m = spec.anti_windup.as_ref().map_or(0, |aw| aw.a.nrows());
+        let mut yc = nalgebra::DMatrix::zeros(nu, total);
+        yc.view_mut((0, 0), (nu, n)).copy_from(&spec.lti.c);
+        let mut f = None;
+        if let Some(aw) = &spec.anti_windup {
+            yc.view_mut((0, n), (nu, m))
+                .copy_from(&(-&spec.lti.d * &aw.c));
+            if aw.f.iter().any(|v| *v != 0.0) {
+                let mut rows = nalgebra::DMatrix::zeros(nu, total);
+                rows.view_mut((0, n), (nu, m)).copy_from(&aw.f);
+                f = Some(rows);
+            }
+        }
+        let residual = spec.fault_detection.as_ref().map(|fd| {
+            let mut rows = nalgebra::DMatrix::zeros(fd.c.nrows(), total);
+            rows.view_mut((0, n + m), (fd.c.nrows(), fd.c.ncols()))
+                .copy_from(&fd.c);
+            rows
+        });
+        let basis = (schur && total > 0)
+            .then(|| schur::SchurBasis::new(a, b))
+            .flatten();
+        match &basis {
+            Some(s) => Readout {
+                yc: s.reading(&yc),
+                f: f.map(|f| s.reading(&f)),
+                residual: residual.map(|r| s.reading(&r)),
+                basis,
+            },
+            None => Readout {
+                basis,
+                yc,
+                f,
+                residual,
+            },
+        }
+    }
 }
 
 /// `(A, B)` of the stepped system, its state `[xc; η; ξ]` and its input `[y; u_a − y_c; d]`,
@@ -522,6 +589,15 @@ fn stepped_system(spec: &Spec) -> (nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64
 }
 
 impl Controller {
+    /// What the saved state's numbers are: the state in the real Schur basis, or in the
+    /// stepped system's own (a predictor's, or where the Schur iteration did not converge).
+    fn basis_tag(&self) -> u64 {
+        match self.readout.as_ref().and_then(|r| r.basis.as_ref()) {
+            Some(_) => 0x5343_4855_5242_4153, // "SCHURBAS"
+            None => 0x4f57_4e42_4153_4953,    // "OWNBASIS"
+        }
+    }
+
     /// Bring `y_c` and `u` up to date. With anti-windup the controller reads `y − C η` (less
     /// `D_aw (u − y_c)`, which only its state sees: the controller's `D` reads no input `D_aw`
     /// feeds, `D D_aw = 0`) and `u = sat(y_c + F η)`, with fault accommodation
@@ -536,34 +612,26 @@ impl Controller {
             self.valid = true;
             return;
         }
-        let n = self.spec.order();
-        self.w.copy_from(&self.y);
-        if let Some(aw) = &self.spec.anti_windup {
-            self.w.gemv(-1.0, &aw.c, &self.x.rows(n, aw.a.nrows()), 1.0);
-        }
+        let r = self
+            .readout
+            .as_ref()
+            .expect("a controller without a predictor");
         mat_vec_sum(
             self.yc.as_mut_slice(),
             &[
-                (&self.spec.lti.c, &self.x.as_slice()[..n]),
-                (&self.spec.lti.d, self.w.as_slice()),
+                (&r.yc, self.x.as_slice()),
+                (&self.spec.lti.d, self.y.as_slice()),
             ],
         );
-        match &self.spec.anti_windup {
-            None => {
-                self.u.copy_from(&self.yc);
-                if let Some(e) = &self.estimator {
-                    e.compensate(self.u.as_mut_slice());
-                }
-            }
-            Some(aw) => {
-                let eta = self.x.rows(n, aw.a.nrows());
-                self.u.copy_from(&self.yc);
-                self.u.gemv(1.0, &aw.f, &eta, 1.0);
-                if let Some(e) = &self.estimator {
-                    e.compensate(self.u.as_mut_slice());
-                }
-                clamp(&mut self.u, &self.limits);
-            }
+        self.u.copy_from(&self.yc);
+        if let Some(f) = &r.f {
+            self.u.gemv(1.0, f, &self.x, 1.0);
+        }
+        if let Some(e) = &self.estimator {
+            e.compensate(self.u.as_mut_slice());
+        }
+        if self.spec.anti_windup.is_some() {
+            clamp(&mut self.u, &self.limits);
         }
         self.valid = true;
     }
@@ -589,14 +657,15 @@ impl Controller {
 
     /// `‖r‖` of the fault detector (0 without one).
     fn residual_norm(&mut self) -> f64 {
-        let m = self.spec.anti_windup.as_ref().map_or(0, |aw| aw.a.nrows());
-        let n = self.spec.order() + m;
-        let Some(fd) = &self.spec.fault_detection else {
+        let (Some(fd), Some(rows)) = (
+            &self.spec.fault_detection,
+            self.readout.as_ref().and_then(|r| r.residual.as_ref()),
+        ) else {
             return 0.0;
         };
         mat_vec_sum(
             self.r.as_mut_slice(),
-            &[(&fd.c, &self.x.as_slice()[n..]), (&fd.d, self.y.as_slice())],
+            &[(rows, self.x.as_slice()), (&fd.d, self.y.as_slice())],
         );
         self.r.norm()
     }
@@ -682,8 +751,11 @@ impl Controller {
             return Ok(());
         }
         if self.cache.as_ref().map(|d| d.step.to_bits()) != Some(step.to_bits()) {
-            self.cache =
-                Some(discretize(&self.a, &self.b, step).map_err(|e| step_refused(step, e))?);
+            let mut d = discretize(&self.a, &self.b, step).map_err(|e| step_refused(step, e))?;
+            if let Some(basis) = self.readout.as_ref().and_then(|r| r.basis.as_ref()) {
+                d.phi = basis.quasi_upper(d.phi);
+            }
+            self.cache = Some(d);
         }
         // The detector latches on the values at the start of the step (what a master read).
         let detected_before = self.detected;
@@ -710,13 +782,15 @@ impl Controller {
             self.v.as_mut_slice()[at..].copy_from_slice(drive);
         }
         let d = self.cache.as_ref().unwrap();
-        mat_vec_sum(
-            self.next.as_mut_slice(),
-            &[
-                (&d.phi, self.x.as_slice()),
-                (&d.gamma_hold, self.v.as_slice()),
-            ],
-        );
+        let terms = [
+            (&d.phi, self.x.as_slice()),
+            (&d.gamma_hold, self.v.as_slice()),
+        ];
+        if self.readout.as_ref().is_some_and(|r| r.basis.is_some()) {
+            mat_vec_sum_quasi_upper(self.next.as_mut_slice(), &terms);
+        } else {
+            mat_vec_sum(self.next.as_mut_slice(), &terms);
+        }
         if !self.next.iter().all(|v| v.is_finite()) {
             self.detected = detected_before;
             return Err("controller state became non-finite; the step was discarded".into());
@@ -734,7 +808,14 @@ impl Model for Controller {
 
     fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
         let spec = load_spec(resources)?;
-        let (a, b) = stepped_system(&spec);
+        let (mut a, mut b) = stepped_system(&spec);
+        let readout = spec
+            .predictor
+            .is_none()
+            .then(|| Readout::new(&spec, &a, &b, true));
+        if let Some(basis) = readout.as_ref().and_then(|r| r.basis.as_ref()) {
+            (a, b) = (basis.a.clone(), basis.b.clone());
+        }
         let limits = spec
             .default_limits()
             .map(<[f64]>::to_vec)
@@ -775,6 +856,7 @@ impl Model for Controller {
             detected: false,
             a,
             b,
+            readout,
             spec,
             cache: None,
             yc: DVector::zeros(nu),
@@ -964,6 +1046,7 @@ impl Model for Controller {
 
     fn save(&self, out: &mut StateWriter) {
         out.u64(self.spec.content_hash);
+        out.u64(self.basis_tag());
         out.f64s(self.x.as_slice());
         out.f64s(self.y.as_slice());
         out.f64s(&self.limits);
@@ -985,6 +1068,13 @@ impl Model for Controller {
         let hash = input.u64()?;
         if hash != self.spec.content_hash {
             return Err("FMU state was saved with a different controller.json".into());
+        }
+        if input.u64()? != self.basis_tag() {
+            return Err(
+                "FMU state was saved by a controller stepping its state in another \
+                        basis (another build of this FMU)"
+                    .into(),
+            );
         }
         let x = input.f64s_exact(self.x.len(), "controller states")?;
         let y = input.f64s_exact(self.spec.inputs.len(), "controller inputs")?;
@@ -1048,3 +1138,133 @@ fn step_refused(step: f64, e: linsys::ExpError) -> String {
 
 fmu_core::export_fmi2!(Controller);
 fmu_core::export_fmi3!(Controller);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    impl Controller {
+        /// The same controller stepping its state in the stepped system's own basis.
+        fn in_own_basis(mut self) -> Self {
+            let (a, b) = stepped_system(&self.spec);
+            self.readout = Some(Readout::new(&self.spec, &a, &b, false));
+            (self.a, self.b, self.cache) = (a, b, None);
+            self
+        }
+    }
+
+    /// A controller with every part a real one has (a filter with lightly damped complex modes,
+    /// an anti-windup compensator with a gain, a fault detector), its numbers from a small LCG.
+    fn spec_json() -> String {
+        let mut seed = 99u64;
+        let mut rand = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let (n, ny, nu, m, q) = (24, 6, 5, 4, 3);
+        let mut matrix = |r: usize, c: usize, scale: f64, diag: &dyn Fn(usize, usize) -> f64| {
+            let rows: Vec<Vec<f64>> = (0..r)
+                .map(|i| (0..c).map(|j| scale * rand() + diag(i, j)).collect())
+                .collect();
+            format!("{rows:?}")
+        };
+        let none = |_: usize, _: usize| 0.0;
+        // Pairs of rows coupled as oscillators (ω up to 60 rad/s), each pole well left.
+        let filter = |i: usize, j: usize| match (i == j, i / 2 == j / 2, i % 2) {
+            (true, _, _) => -(5.0 + 3.0 * i as f64),
+            (false, true, 0) => 10.0 + 2.0 * i as f64,
+            (false, true, _) => -(10.0 + 2.0 * i as f64),
+            _ => 0.0,
+        };
+        let stable = |i: usize, j: usize| if i == j { -(2.0 + i as f64) } else { 0.0 };
+        let inputs: Vec<String> = ["fl", "fr", "rl", "rr", "seat"]
+            .iter()
+            .map(|c| format!(r#"{{"name": "sensor_stroke_{c}", "unit": "m"}}"#))
+            .chain(std::iter::once(
+                r#"{"name": "sensor_a_body_fl", "unit": "m/s2"}"#.to_string(),
+            ))
+            .collect();
+        let outputs: Vec<String> = ["fl", "fr", "rl", "rr", "seat"]
+            .iter()
+            .map(|c| format!(r#"{{"name": "u_{c}", "unit": "N"}}"#))
+            .collect();
+        format!(
+            r#"{{"format": "suspension-controller/2", "variant": "test_schur", "description": "test",
+              "guarantee": {{"name": "gamma", "value": 1.0, "unit": "1", "description": "test"}},
+              "inputs": [{}], "outputs": [{}],
+              "A": {}, "B": {}, "C": {}, "D": {},
+              "anti_windup": {{"A": {}, "B": {}, "C": {}, "D": {}, "F": {}, "u_max": [300.0, 300.0, 300.0, 300.0, 200.0]}},
+              "fault_detection": {{"A": {}, "B": {}, "B_u": {}, "C": {}, "D": {}, "threshold": 1e9}}}}"#,
+            inputs.join(", "),
+            outputs.join(", "),
+            matrix(n, n, 2.0, &filter),
+            matrix(n, ny, 50.0, &none),
+            matrix(nu, n, 200.0, &none),
+            matrix(nu, ny, 100.0, &none),
+            matrix(m, m, 0.5, &stable),
+            matrix(m, nu, 0.01, &none),
+            matrix(ny, m, 0.1, &none),
+            matrix(ny, nu, 0.0, &none),
+            matrix(nu, m, 20.0, &none),
+            matrix(q, q, 0.5, &stable),
+            matrix(q, ny, 1.0, &none),
+            matrix(q, nu, 0.01, &none),
+            matrix(2, q, 1.0, &none),
+            matrix(2, ny, 0.5, &none),
+        )
+    }
+
+    /// Stepped in its real Schur basis a controller gives the commands and the residual of its
+    /// own basis to rounding, saturated or not, at two step sizes; and a state saved in one
+    /// basis is refused by the other.
+    #[test]
+    fn the_schur_basis_gives_the_commands_of_the_controllers_own() {
+        let dir = std::env::temp_dir().join(format!("schur-basis-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("controller.json"), spec_json()).unwrap();
+        let schur = Controller::instantiate(Some(&dir)).unwrap();
+        assert!(schur.readout.as_ref().unwrap().basis.is_some());
+        let own = Controller::instantiate(Some(&dir)).unwrap().in_own_basis();
+        let mut pair = [schur, own];
+        for c in &mut pair {
+            c.exit_initialization(0.0).unwrap();
+        }
+        let (ny, nu) = (pair[0].spec.inputs.len(), pair[0].spec.outputs.len());
+        let (mut worst, mut largest, mut saturated) = (0.0f64, 0.0f64, 0);
+        for k in 0..2000 {
+            let t = k as f64 * 1e-3;
+            let step = if k < 1000 { 1e-3 } else { 4e-4 };
+            let mut outs = [vec![0.0; nu + 1], vec![0.0; nu + 1]];
+            for (c, out) in pair.iter_mut().zip(&mut outs) {
+                for i in 0..ny {
+                    let y = 2.0 * (7.0 * t + i as f64).sin() + (31.0 * t * i as f64).cos();
+                    c.set_real(vr::INPUT + i as u32, y);
+                }
+                for (i, o) in out.iter_mut().take(nu).enumerate() {
+                    *o = c.get_real(vr::OUTPUT + i as u32);
+                }
+                out[nu] = c.get_real(vr::RESIDUAL_NORM);
+                c.do_step(t, step).unwrap();
+            }
+            saturated += outs[0].iter().take(4).filter(|u| u.abs() == 300.0).count();
+            for (a, b) in outs[0].iter().zip(&outs[1]) {
+                worst = worst.max((a - b).abs());
+                largest = largest.max(b.abs());
+            }
+        }
+        assert!(largest > 100.0 && saturated > 0, "{largest}, {saturated}");
+        println!(
+            "largest command {largest:.1} N, {saturated} saturated, worst difference {worst:e}"
+        );
+        assert!(worst <= 1e-11 * largest, "{worst:e} of {largest}");
+        let mut bytes = StateWriter::default();
+        pair[0].save(&mut bytes);
+        let err = pair[1]
+            .restore(&mut StateReader::new(&bytes.into_bytes()))
+            .unwrap_err();
+        assert!(err.message.contains("another basis"), "{err}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -86,9 +86,23 @@ pub fn mat_vec_sum(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the CPU has AVX, checked just above.
-        return unsafe { mat_vec_sum_avx(y, terms) };
+        return unsafe { mat_vec_sum_avx::<false>(y, terms) };
     }
-    mat_vec_sum_blocks(y, terms)
+    mat_vec_sum_blocks::<false>(y, terms)
+}
+
+/// [`mat_vec_sum`] whose first term is quasi-upper-triangular (zero below its first
+/// subdiagonal: a real Schur form, or its exponential): a block of rows skips the columns left
+/// of its first row's subdiagonal, about half of a square matrix. The same values as
+/// [`mat_vec_sum`] of the same matrices, bit for bit but for the sign of a zero (the products
+/// skipped are of exact zeros, and `acc + 0·x` is `acc` for a finite `x` unless `acc` is −0).
+pub fn mat_vec_sum_quasi_upper(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has AVX, checked just above.
+        return unsafe { mat_vec_sum_avx::<true>(y, terms) };
+    }
+    mat_vec_sum_blocks::<true>(y, terms)
 }
 
 /// [`mat_vec_sum`] in AVX's four-wide registers where the CPU has them (the FMUs are built for
@@ -96,12 +110,13 @@ pub fn mat_vec_sum(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
 /// order per row, and Rust never fuses a multiply and an add.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn mat_vec_sum_avx(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
-    mat_vec_sum_blocks(y, terms)
+unsafe fn mat_vec_sum_avx<const UPPER: bool>(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
+    mat_vec_sum_blocks::<UPPER>(y, terms)
 }
 
+/// With `UPPER`, the first term is quasi-upper-triangular ([`mat_vec_sum_quasi_upper`]).
 #[inline(always)]
-fn mat_vec_sum_blocks(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
+fn mat_vec_sum_blocks<const UPPER: bool>(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
     let n = y.len();
     for (a, x) in terms {
         assert!(
@@ -115,33 +130,44 @@ fn mat_vec_sum_blocks(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])]) {
     }
     let mut r0 = 0;
     while r0 + 16 <= n {
-        row_block::<16>(y, terms, r0);
+        row_block::<16, UPPER>(y, terms, r0);
         r0 += 16;
     }
     if r0 + 8 <= n {
-        row_block::<8>(y, terms, r0);
+        row_block::<8, UPPER>(y, terms, r0);
         r0 += 8;
     }
     // The last rows, as a block of their own size (accumulators in registers again).
     match n - r0 {
-        1 => row_block::<1>(y, terms, r0),
-        2 => row_block::<2>(y, terms, r0),
-        3 => row_block::<3>(y, terms, r0),
-        4 => row_block::<4>(y, terms, r0),
-        5 => row_block::<5>(y, terms, r0),
-        6 => row_block::<6>(y, terms, r0),
-        7 => row_block::<7>(y, terms, r0),
+        1 => row_block::<1, UPPER>(y, terms, r0),
+        2 => row_block::<2, UPPER>(y, terms, r0),
+        3 => row_block::<3, UPPER>(y, terms, r0),
+        4 => row_block::<4, UPPER>(y, terms, r0),
+        5 => row_block::<5, UPPER>(y, terms, r0),
+        6 => row_block::<6, UPPER>(y, terms, r0),
+        7 => row_block::<7, UPPER>(y, terms, r0),
         _ => {}
     }
 }
 
-/// Rows `r0 .. r0 + B` of [`mat_vec_sum`], the accumulators in registers.
+/// Rows `r0 .. r0 + B` of [`mat_vec_sum`], the accumulators in registers; with `UPPER` the
+/// first term's columns left of `r0 − 1` (zero in these rows) skipped.
 #[inline(always)]
-fn row_block<const B: usize>(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])], r0: usize) {
+fn row_block<const B: usize, const UPPER: bool>(
+    y: &mut [f64],
+    terms: &[(&DMatrix<f64>, &[f64])],
+    r0: usize,
+) {
     let n = y.len();
     let mut acc = [0.0; B];
-    for (a, x) in terms {
-        for (col, &xj) in a.as_slice().chunks_exact(n).zip(x.iter()) {
+    for (k, (a, x)) in terms.iter().enumerate() {
+        let first = if UPPER && k == 0 {
+            r0.saturating_sub(1)
+        } else {
+            0
+        };
+        let columns = a.as_slice().chunks_exact(n).zip(x.iter()).skip(first);
+        for (col, &xj) in columns {
             let col: &[f64; B] = col[r0..r0 + B].try_into().unwrap();
             for r in 0..B {
                 acc[r] += col[r] * xj;
@@ -154,6 +180,35 @@ fn row_block<const B: usize>(y: &mut [f64], terms: &[(&DMatrix<f64>, &[f64])], r
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_quasi_upper_first_term_gives_the_dense_sum() {
+        let mut seed = 777u64;
+        let mut rand = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for n in [1, 2, 7, 16, 17, 33, 66] {
+            // Zero below the first subdiagonal, which holds 2×2 blocks here and there.
+            let u = DMatrix::from_fn(n, n, |i, j| {
+                if i <= j || (i == j + 1 && j % 3 == 1) {
+                    1.0 + rand()
+                } else {
+                    0.0
+                }
+            });
+            let g = DMatrix::from_fn(n, 5, |_, _| rand());
+            let (x, v): (Vec<f64>, Vec<f64>) = ((0..n).map(|_| rand()).collect(), vec![0.3; 5]);
+            let (mut fast, mut dense) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+            mat_vec_sum_quasi_upper(&mut fast, &[(&u, &x), (&g, &v)]);
+            mat_vec_sum(&mut dense, &[(&u, &x), (&g, &v)]);
+            for (k, (a, b)) in fast.iter().zip(&dense).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "n = {n}, row {k}: {a} vs {b}");
+            }
+        }
+    }
 
     #[test]
     fn mat_vec_sum_is_chained_gemv_bit_for_bit() {
@@ -188,7 +243,7 @@ mod tests {
             mat_vec_sum(&mut y, &[(&a1, &x1), (&a2, &x2)]);
             // The baseline code too (what runs where the CPU has no AVX).
             let mut baseline = vec![f64::NAN; n];
-            mat_vec_sum_blocks(&mut baseline, &[(&a1, &x1), (&a2, &x2)]);
+            mat_vec_sum_blocks::<false>(&mut baseline, &[(&a1, &x1), (&a2, &x2)]);
             for (k, (a, b)) in y.iter().zip(&baseline).enumerate() {
                 assert_eq!(a.to_bits(), b.to_bits(), "n = {n}, row {k}: {a} vs {b}");
             }
