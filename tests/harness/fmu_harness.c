@@ -257,6 +257,8 @@ static void *resolve(Fmu *f, const char *function) {
 
 static void load(Fmu *f, const char *name, const char *path, int version) {
     int i;
+    /* Every field starts defined (not clocked, no instance): the panic probe's Fmu is on the stack. */
+    memset(f, 0, sizeof *f);
     f->name = strdup(name);
     f->version = version;
     f->lib = open_library(path);
