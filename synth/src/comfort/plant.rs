@@ -112,6 +112,8 @@ pub struct Layout {
     pub weight: Option<Range<usize>>,
     /// The frame's nine states ([`ComfortPlant::with_frame`]).
     pub frame: Option<Range<usize>>,
+    /// The actuators' forces, one state per actuator ([`ComfortPlant::with_actuator_lag`]).
+    pub actuators: Option<Range<usize>>,
 }
 
 /// The road model's numbers.
@@ -469,6 +471,7 @@ impl ComfortPlant {
                 filters,
                 weight: None,
                 frame: None,
+                actuators: None,
             },
             road,
             r_x,
@@ -487,10 +490,16 @@ impl ComfortPlant {
 
     /// A physical output of the car as rows of this plant's `(x, w, u)`.
     pub fn output(&self, name: &str) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-        let (c, d_w, mut d_u) =
+        let (mut c, d_w, mut d_u) =
             physical_rows(row(&self.outputs, name), &self.r_x, &self.r_w, self.n());
         for (k, rho) in self.effectiveness.iter().enumerate() {
             d_u.column_mut(k).scale_mut(*rho);
+        }
+        // Behind lagging actuators an output feels the applied force, a state.
+        if let Some(forces) = &self.layout.actuators {
+            let mut by_force = c.columns_mut(forces.start, forces.len());
+            by_force += &d_u;
+            d_u.fill(0.0);
         }
         (c, d_w, d_u)
     }
@@ -499,8 +508,8 @@ impl ComfortPlant {
     /// weight is added).
     pub fn with_effectiveness(&self, rho: &[f64; N_ACTUATORS]) -> Self {
         assert!(
-            self.layout.weight.is_none(),
-            "scale the effectiveness before adding the delay weight"
+            self.layout.weight.is_none() && self.layout.actuators.is_none(),
+            "scale the effectiveness before adding the delay weight or the actuators' lag"
         );
         let mut g = self.clone();
         for (k, r) in rho.iter().enumerate() {
@@ -623,11 +632,46 @@ impl ComfortPlant {
         let channel = Channel {
             name: "actuator delay",
             b_p,
-            applied_force: Some(limits),
+            // Behind lagging actuators `p` drives their forces, not the car.
+            applied_force: g.layout.actuators.is_none().then_some(limits),
             c_q,
             d_q: per_limit * (c * d),
         };
         (g, channel)
+    }
+}
+
+impl ComfortPlant {
+    /// This plant behind first-order actuators of `bandwidth_hz` (the plant FMU's
+    /// `actuator_bandwidth`): each applied force a state, `ḟ = ω_a (u − f)`, driving what the
+    /// command drove (the car, the weightings and, through [`ComfortPlant::output`], the
+    /// accelerometers and load cells), the command driving the forces only. A force limit stays
+    /// a limit of the command; every other limit that read the command reads the force.
+    pub fn with_actuator_lag(&self, bandwidth_hz: f64) -> ComfortPlant {
+        assert!(
+            self.layout.weight.is_none() && self.layout.frame.is_none(),
+            "the actuators' lag comes before the delay weight and the frame"
+        );
+        assert!(self.layout.actuators.is_none(), "one lag");
+        let (n, m) = (self.n(), N_ACTUATORS);
+        let w = 2.0 * std::f64::consts::PI * bandwidth_hz;
+        let mut g = self.with_states_appended(m);
+        g.a.view_mut((0, n), (n, m)).copy_from(&self.b_u);
+        g.b_u.fill(0.0);
+        for k in 0..m {
+            g.a[(n + k, n + k)] = -w;
+            g.b_u[(n + k, k)] = w;
+        }
+        for (i, name) in self.limit_names.iter().enumerate() {
+            if !name.starts_with("force_") {
+                let du = g.d_lim_u.row(i).into_owned();
+                let mut by_force = g.c_lim.view_mut((i, n), (1, m));
+                by_force += &du;
+                g.d_lim_u.row_mut(i).fill(0.0);
+            }
+        }
+        g.layout.actuators = Some(n..n + m);
+        g
     }
 }
 
@@ -947,5 +991,51 @@ mod tests {
         let total = passive.h2_norm().unwrap();
         eprintln!("passive on ISO C at 20 m/s (design model): a_v {total:.4}, W_k seat {seat:.4}");
         assert!(seat > 0.3 && seat < total);
+    }
+
+    /// Behind first-order actuators every response to the command is the ideal actuators' times
+    /// `ω_a / (s + ω_a)`: the comfort outputs, an accelerometer (which felt the command at
+    /// once), a load cell, a limit; and a force limit still reads the command.
+    #[test]
+    fn behind_lagging_actuators_every_response_is_the_ideal_one_lagged() {
+        let g = ComfortPlant::new(&VehicleParams::default(), &design());
+        let hz = 10.0;
+        let lagged = g.with_actuator_lag(hz);
+        assert_eq!(lagged.layout.actuators, Some(g.n()..g.n() + N_ACTUATORS));
+        let responses = |g: &ComfortPlant, w: f64| {
+            let (a_seat, _, a_seat_u) = g.output("sensor_a_seat");
+            let (force, _, force_u) = g.output("f_seat");
+            let c = stack(&stack(&stack(&g.c_z, &a_seat), &force), &g.c_lim);
+            let mut d = DMatrix::zeros(c.nrows(), N_ACTUATORS);
+            d.rows_mut(3, 1).copy_from(&a_seat_u);
+            d.rows_mut(4, 1).copy_from(&force_u);
+            d.rows_mut(5, g.d_lim_u.nrows()).copy_from(&g.d_lim_u);
+            frequency_response(&[g.a.clone(), g.b_u.clone(), c, d], w)
+        };
+        let forces = g
+            .limit_names
+            .iter()
+            .position(|n| n.starts_with("force_"))
+            .unwrap();
+        for f in [0.5, 2.0, 9.0, 40.0] {
+            let w = 2.0 * std::f64::consts::PI * f;
+            let lag = Complex::new(2.0 * std::f64::consts::PI * hz, 0.0)
+                / Complex::new(2.0 * std::f64::consts::PI * hz, w);
+            let (ideal, behind) = (responses(&g, w), responses(&lagged, w));
+            for i in 0..ideal.nrows() {
+                let expected = if i >= 5 + forces {
+                    Complex::new(1.0, 0.0)
+                } else {
+                    lag
+                };
+                for k in 0..N_ACTUATORS {
+                    let (want, got) = (ideal[(i, k)] * expected, behind[(i, k)]);
+                    assert!(
+                        (got - want).norm() <= 1e-9 * (1.0 + want.norm()),
+                        "row {i}, actuator {k} at {f} Hz: {got} vs {want}"
+                    );
+                }
+            }
+        }
     }
 }
