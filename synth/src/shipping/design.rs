@@ -308,6 +308,11 @@ pub struct CarDesign {
     /// production default.
     #[serde(default)]
     pub rigid_drift: RigidDrift,
+    /// The actuators `hinf_of`'s gain is designed behind: first-order, of this bandwidth \[Hz\]
+    /// (a hydraulic unit: about 10), the controller carrying its own model of their forces
+    /// (`crate::comfort::car`); absent, ideal actuators.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub actuator_bandwidth_hz: Option<f64>,
 }
 
 /// Fictitious process noise in the Kalman filter of the designs on the car's sensors that moves
@@ -451,6 +456,9 @@ impl ComfortDesign {
                 ("car.seat_stroke_max", car.seat_stroke_max),
                 ("car.inertial_washout_hz", car.inertial_washout_hz),
             ])?;
+            if let Some(hz) = car.actuator_bandwidth_hz {
+                require_positive(&[("car.actuator_bandwidth_hz", hz)])?;
+            }
             for (name, value) in [
                 ("car.rigid_drift.position", car.rigid_drift.position),
                 ("car.rigid_drift.velocity", car.rigid_drift.velocity),
