@@ -301,6 +301,154 @@ fn accommodation(
     })
 }
 
+/// The file's format, its variant and guarantee names, and that it has inputs and outputs.
+fn check_header(raw: &Raw) -> Result<(), SpecError> {
+    if raw.format != FORMAT {
+        return Err(SpecError::Format(raw.format.clone()));
+    }
+    if raw.variant.is_empty()
+        || !raw
+            .variant
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_')
+    {
+        return Err(SpecError::Invalid(format!(
+            "variant '{}' is not a valid model identifier",
+            raw.variant
+        )));
+    }
+    let g = &raw.guarantee;
+    if g.name.is_empty()
+        || !g
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_')
+        || !g.value.is_finite()
+    {
+        return Err(SpecError::Invalid(format!(
+            "guarantee must have a variable name of letters, digits and _ and a finite value, \
+             got '{}' = {}",
+            g.name, g.value
+        )));
+    }
+    if raw.inputs.is_empty() || raw.outputs.is_empty() {
+        return Err(SpecError::Invalid(
+            "a controller needs inputs and outputs".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The blocks go together: a predictor forms the command alone; accommodation (dividing by the
+/// effectiveness estimate), anti-windup (the compensator) and the detector (which only watches)
+/// in any combination, the first two with the same limits.
+fn check_blocks(raw: &Raw) -> Result<(), SpecError> {
+    let blocks: Vec<&str> = [
+        ("accommodation", raw.accommodation.is_some()),
+        ("anti_windup", raw.anti_windup.is_some()),
+        ("fault_detection", raw.fault_detection.is_some()),
+        ("predictor", raw.predictor.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(name, present)| present.then_some(name))
+    .collect();
+    if blocks.len() > 1 && blocks.contains(&"predictor") {
+        return Err(SpecError::Invalid(format!(
+            "a controller with a predictor has no other block (accommodation, anti_windup, \
+             fault_detection); this one has {blocks:?}"
+        )));
+    }
+    if let (Some(acc), Some(aw)) = (&raw.accommodation, &raw.anti_windup) {
+        if acc.u_max != aw.u_max {
+            return Err(SpecError::Invalid(format!(
+                "accommodation.u_max {:?} and anti_windup.u_max {:?} differ: both are the \
+                 actuators' limits (the parameters u_max, u_max_seat)",
+                acc.u_max, aw.u_max
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The anti-windup block of a controller whose `D` is `d_k` (`nu × ny`).
+fn anti_windup(
+    aw: &controller_file::AntiWindup,
+    d_k: &[Vec<f64>],
+    ny: usize,
+    nu: usize,
+) -> Result<AntiWindup, SpecError> {
+    let m = aw.a.len();
+    let d = if aw.d.is_empty() {
+        DMatrix::zeros(ny, nu)
+    } else {
+        matrix("anti_windup.D", &aw.d, ny, nu)?
+    };
+    // The command would depend on itself where the controller's D reads an input that `D`
+    // feeds the forces through to (a state feedback's D on the states beside accelerometers
+    // only its filters read is fine: `D_K D = 0`).
+    let d_k = matrix("D", d_k, nu, ny)?;
+    if (&d_k * &d).iter().any(|v| *v != 0.0) {
+        return Err(SpecError::Invalid(
+            "anti_windup.D feeds the forces through to inputs the controller's D reads \
+             (D_K anti_windup.D is not zero): the command would depend on itself"
+                .into(),
+        ));
+    }
+    Ok(AntiWindup {
+        a: matrix("anti_windup.A", &aw.a, m, m)?,
+        b: matrix("anti_windup.B", &aw.b, m, nu)?,
+        c: matrix("anti_windup.C", &aw.c, ny, m)?,
+        f: matrix("anti_windup.F", &aw.f, nu, m)?,
+        d,
+        u_max: force_limits("anti_windup.u_max", &aw.u_max, nu)?,
+    })
+}
+
+/// The fault detection block.
+fn fault_detection(
+    fd: &controller_file::FaultDetection,
+    ny: usize,
+    nu: usize,
+) -> Result<FaultDetection, SpecError> {
+    if !(fd.threshold > 0.0 && fd.threshold.is_finite()) {
+        return Err(SpecError::Invalid(format!(
+            "fault_detection.threshold must be finite and > 0, found {}",
+            fd.threshold
+        )));
+    }
+    let (m, nr) = (fd.a.len(), fd.c.len());
+    if nr == 0 {
+        return Err(SpecError::Invalid(
+            "fault_detection needs at least one residual".into(),
+        ));
+    }
+    Ok(FaultDetection {
+        a: matrix("fault_detection.A", &fd.a, m, m)?,
+        b: matrix("fault_detection.B", &fd.b, m, ny)?,
+        b_u: matrix("fault_detection.B_u", &fd.b_u, m, nu)?,
+        c: matrix("fault_detection.C", &fd.c, nr, m)?,
+        d: matrix("fault_detection.D", &fd.d, nr, ny)?,
+        threshold: fd.threshold,
+        input: fd.input,
+    })
+}
+
+/// The steps the certificate found stable, and the first it did not (above them).
+fn check_communication_steps(c: &controller_file::CommunicationSteps) -> Result<(), SpecError> {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !positive(c.stable_up_to_s)
+        || c.unstable_at_s
+            .is_some_and(|u| !(positive(u) && u > c.stable_up_to_s))
+    {
+        return Err(SpecError::Invalid(format!(
+            "communication_steps: stable_up_to_s must be finite and > 0 and unstable_at_s \
+             above it, found {} and {:?}",
+            c.stable_up_to_s, c.unstable_at_s
+        )));
+    }
+    Ok(())
+}
+
 /// At `θ = 0` the predictor is the file's controller: `C = K S_ξ`, `D = K S_y`,
 /// `A = A_ξ + B_ξu K S_ξ`, `B = B_ξ + B_ξu K S_y` (to rounding). A file whose blocks disagree
 /// was edited or corrupted.
@@ -337,124 +485,19 @@ fn check_undelayed(spec: &Spec, p: &Predictor) -> Result<(), SpecError> {
 impl Spec {
     pub fn from_json(text: &str) -> Result<Spec, SpecError> {
         let raw = Raw::from_json(text).map_err(|e| SpecError::Syntax(e.to_string()))?;
-        if raw.format != FORMAT {
-            return Err(SpecError::Format(raw.format));
-        }
-        if raw.variant.is_empty()
-            || !raw
-                .variant
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_')
-        {
-            return Err(SpecError::Invalid(format!(
-                "variant '{}' is not a valid model identifier",
-                raw.variant
-            )));
-        }
-        let g = &raw.guarantee;
-        if g.name.is_empty()
-            || !g
-                .name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_')
-            || !g.value.is_finite()
-        {
-            return Err(SpecError::Invalid(format!(
-                "guarantee must have a variable name of letters, digits and _ and a finite value, \
-                 got '{}' = {}",
-                g.name, g.value
-            )));
-        }
-        if raw.inputs.is_empty() || raw.outputs.is_empty() {
-            return Err(SpecError::Invalid(
-                "a controller needs inputs and outputs".into(),
-            ));
-        }
+        check_header(&raw)?;
         let (n, ny, nu) = (raw.a.len(), raw.inputs.len(), raw.outputs.len());
-        // A predictor forms the command alone; accommodation (dividing by the effectiveness
-        // estimate), anti-windup (the compensator) and the detector (which only watches) go
-        // together in any combination.
-        let blocks: Vec<&str> = [
-            ("accommodation", raw.accommodation.is_some()),
-            ("anti_windup", raw.anti_windup.is_some()),
-            ("fault_detection", raw.fault_detection.is_some()),
-            ("predictor", raw.predictor.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(name, present)| present.then_some(name))
-        .collect();
-        if blocks.len() > 1 && blocks.contains(&"predictor") {
-            return Err(SpecError::Invalid(format!(
-                "a controller with a predictor has no other block (accommodation, anti_windup, \
-                 fault_detection); this one has {blocks:?}"
-            )));
-        }
-        if let (Some(acc), Some(aw)) = (&raw.accommodation, &raw.anti_windup) {
-            if acc.u_max != aw.u_max {
-                return Err(SpecError::Invalid(format!(
-                    "accommodation.u_max {:?} and anti_windup.u_max {:?} differ: both are the \
-                     actuators' limits (the parameters u_max, u_max_seat)",
-                    acc.u_max, aw.u_max
-                )));
-            }
-        }
-        let anti_windup = match &raw.anti_windup {
-            None => None,
-            Some(aw) => {
-                let m = aw.a.len();
-                let d = if aw.d.is_empty() {
-                    DMatrix::zeros(ny, nu)
-                } else {
-                    matrix("anti_windup.D", &aw.d, ny, nu)?
-                };
-                // The command would depend on itself where the controller's D reads an input
-                // that `D` feeds the forces through to (a state feedback's D on the states
-                // beside accelerometers only its filters read is fine: `D_K D = 0`).
-                let d_k = matrix("D", &raw.d, nu, ny)?;
-                if (&d_k * &d).iter().any(|v| *v != 0.0) {
-                    return Err(SpecError::Invalid(
-                        "anti_windup.D feeds the forces through to inputs the controller's D \
-                         reads (D_K anti_windup.D is not zero): the command would depend on \
-                         itself"
-                            .into(),
-                    ));
-                }
-                Some(AntiWindup {
-                    a: matrix("anti_windup.A", &aw.a, m, m)?,
-                    b: matrix("anti_windup.B", &aw.b, m, nu)?,
-                    c: matrix("anti_windup.C", &aw.c, ny, m)?,
-                    f: matrix("anti_windup.F", &aw.f, nu, m)?,
-                    d,
-                    u_max: force_limits("anti_windup.u_max", &aw.u_max, nu)?,
-                })
-            }
-        };
-        let fault_detection = match &raw.fault_detection {
-            None => None,
-            Some(fd) => {
-                if !(fd.threshold > 0.0 && fd.threshold.is_finite()) {
-                    return Err(SpecError::Invalid(format!(
-                        "fault_detection.threshold must be finite and > 0, found {}",
-                        fd.threshold
-                    )));
-                }
-                let (m, nr) = (fd.a.len(), fd.c.len());
-                if nr == 0 {
-                    return Err(SpecError::Invalid(
-                        "fault_detection needs at least one residual".into(),
-                    ));
-                }
-                Some(FaultDetection {
-                    a: matrix("fault_detection.A", &fd.a, m, m)?,
-                    b: matrix("fault_detection.B", &fd.b, m, ny)?,
-                    b_u: matrix("fault_detection.B_u", &fd.b_u, m, nu)?,
-                    c: matrix("fault_detection.C", &fd.c, nr, m)?,
-                    d: matrix("fault_detection.D", &fd.d, nr, ny)?,
-                    threshold: fd.threshold,
-                    input: fd.input,
-                })
-            }
-        };
+        check_blocks(&raw)?;
+        let anti_windup = raw
+            .anti_windup
+            .as_ref()
+            .map(|aw| anti_windup(aw, &raw.d, ny, nu))
+            .transpose()?;
+        let fault_detection = raw
+            .fault_detection
+            .as_ref()
+            .map(|fd| fault_detection(fd, ny, nu))
+            .transpose()?;
         if fault_detection
             .as_ref()
             .is_some_and(|fd| fd.input == DetectorInput::ModelledForce)
@@ -477,17 +520,7 @@ impl Spec {
             .map(|a| accommodation(a, &raw.inputs, nu))
             .transpose()?;
         if let Some(c) = &raw.communication_steps {
-            let positive = |v: f64| v.is_finite() && v > 0.0;
-            if !positive(c.stable_up_to_s)
-                || c.unstable_at_s
-                    .is_some_and(|u| !(positive(u) && u > c.stable_up_to_s))
-            {
-                return Err(SpecError::Invalid(format!(
-                    "communication_steps: stable_up_to_s must be finite and > 0 and \
-                     unstable_at_s above it, found {} and {:?}",
-                    c.stable_up_to_s, c.unstable_at_s
-                )));
-            }
+            check_communication_steps(c)?;
         }
         let spec = Spec {
             communication_steps: raw.communication_steps,
@@ -510,15 +543,21 @@ impl Spec {
                 (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
             }),
         };
-        let mut names: Vec<&str> = spec
-            .inputs
-            .iter()
-            .chain(&spec.outputs)
-            .map(|s| s.name.as_str())
-            .collect();
         if let Some(p) = &spec.predictor {
             check_undelayed(&spec, p)?;
         }
+        spec.check_names()?;
+        Ok(spec)
+    }
+
+    /// Every signal's name once, none of them a name of a variable the runtime adds.
+    fn check_names(&self) -> Result<(), SpecError> {
+        let mut names: Vec<&str> = self
+            .inputs
+            .iter()
+            .chain(&self.outputs)
+            .map(|s| s.name.as_str())
+            .collect();
         names.sort_unstable();
         if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
             return Err(SpecError::Invalid(format!(
@@ -527,14 +566,14 @@ impl Spec {
             )));
         }
         // The variables the runtime adds must not share a name with a signal.
-        let generated = spec.generated_names();
+        let generated = self.generated_names();
         if let Some(clash) = names.iter().find(|n| generated.iter().any(|g| g == *n)) {
             return Err(SpecError::Invalid(format!(
                 "signal name '{clash}' is also the name of a variable the controller FMU adds \
                  (reserved here: {generated:?})"
             )));
         }
-        Ok(spec)
+        Ok(())
     }
 
     /// The names of the variables the runtime adds beside the signals: the guarantee, the

@@ -755,175 +755,32 @@ impl Plant {
     pub fn model_description() -> ModelDescription {
         let defaults = VehicleParams::default();
         let act_defaults = ActuatorParams::default();
-        let mut vars = Vec::new();
-        for (i, s) in PARAMETERS.iter().enumerate() {
-            let v = Variable::real(
-                s.name,
-                vr::VEHICLE + i as u32,
-                Causality::Parameter,
-                s.unit,
-                s.description,
-            )
-            .with_start((s.get)(&defaults))
-            .with_min(s.admissible.min)
-            .with_max(s.admissible.max);
-            vars.push(v);
-        }
-        for (i, s) in ACTUATOR_PARAMETERS.iter().enumerate() {
-            vars.push(s.variable(vr::ACTUATOR + i as u32, &act_defaults));
-        }
-        // The static equilibrium depends on masses, springs, geometry and gravity, not on the
-        // dampers or the inertias.
-        let static_parameters: Vec<String> = PARAMETERS
-            .iter()
-            .filter(|s| !matches!(s.unit, "N.s/m" | "kg.m2"))
-            .map(|s| s.name.to_string())
-            .collect();
-        vars.extend(
-            static_variables()
-                .into_iter()
-                .map(|v| v.initially_depending_on(static_parameters.clone())),
-        );
-        for (i, name) in input_names().into_iter().enumerate() {
-            let (unit, desc) = match i {
-                0..4 => (
-                    "m",
-                    format!("Road height under the {} wheel", CORNERS[i].to_uppercase()),
-                ),
-                4..8 => (
-                    "m/s",
-                    format!(
-                        "Road vertical velocity under the {} wheel (time derivative of road_z_{})",
-                        CORNERS[i - 4].to_uppercase(),
-                        CORNERS[i - 4]
-                    ),
-                ),
-                _ => (
-                    "N",
-                    format!(
-                        "Force command of the {} actuator (positive extends it)",
-                        ACTUATORS[i - 8].to_uppercase()
-                    ),
-                ),
-            };
-            vars.push(
-                Variable::real(name, vr::INPUT + i as u32, Causality::Input, unit, desc)
-                    .with_start(0.0),
-            );
-        }
-        for (k, (name, unit, desc)) in STATES.iter().enumerate() {
-            vars.push(Variable::real(
+        let mut vars = parameter_variables(&defaults, &act_defaults);
+        vars.extend(input_variables());
+        vars.extend(STATES.iter().enumerate().map(|(k, (name, unit, desc))| {
+            Variable::real(
                 format!("x[{}]", k + 1),
                 vr::STATE + k as u32,
                 Causality::Output,
                 unit,
                 format!("State {name}: {desc}, from static equilibrium"),
-            ));
-        }
+            )
+        }));
         vars.extend(model_exchange_variables(&vars));
-        // Direct feed-through, for the worst case of the actuator model (no delay, no lag): the
-        // road enters through the car's matrices (fixed parameters), a command through the
-        // actuator's saturation, fault and delay. The states start at the equilibrium whatever
-        // the parameters, so in Initialization Mode an output is its feed-through: it reads the
-        // parameters of those matrices and of the actuators it feeds through from.
-        let inputs = input_names();
-        let matrix_parameters = feedthrough_parameters(&defaults);
-        // A tyre's load reads the road only while the tyre is on it (the physical car).
-        let switched = Simulator::new(defaults, act_defaults).outputs_switched_by_tyres();
-        for (k, row) in physical_outputs(&defaults).iter().enumerate() {
-            let road: Vec<String> = (0..N_ROAD)
-                .filter(|&j| row.d_r[j] != 0.0)
-                .map(|j| inputs[j].clone())
-                .collect();
-            let actuators: Vec<usize> = (0..N_ACTUATORS).filter(|&j| row.d_u[j] != 0.0).collect();
-            let commands = actuators
-                .iter()
-                .map(|&j| inputs[N_ROAD + j].clone())
-                .collect();
-            let mut initial = matrix_parameters[k].clone();
-            for &j in &actuators {
-                initial.extend(actuator_parameters(j));
-            }
-            vars.push(
-                Variable::real(
-                    row.name.clone(),
-                    vr::OUTPUT + k as u32,
-                    Causality::Output,
-                    row.unit,
-                    row.description.clone(),
-                )
-                .depending_on(
-                    road,
-                    if switched[k] {
-                        DependencyKind::Dependent
-                    } else {
-                        DependencyKind::Fixed
-                    },
-                )
-                .depending_on(commands, DependencyKind::Dependent)
-                .initially_depending_on(initial),
-            );
-        }
-        for (i, a) in ACTUATORS.iter().enumerate() {
-            vars.push(
-                Variable::real(format!("f_{a}"), vr::FORCE + i as u32, Causality::Output, "N", format!("Force actually applied by the {} actuator (after delay, saturation, fault and lag)", a.to_uppercase()))
-                    .depending_on(vec![inputs[N_ROAD + i].clone()], DependencyKind::Dependent)
-                    .initially_depending_on(actuator_parameters(i)),
-            );
-        }
+        vars.extend(physical_output_variables(&defaults, act_defaults));
+        vars.extend(force_variables());
         // States only (no input reaches them at once; zero at the start whatever the
         // parameters).
-        for (k, (name, _, unit, desc)) in METER_OUTPUTS.iter().enumerate() {
-            vars.push(Variable::real(
-                *name,
-                vr::METER + k as u32,
-                Causality::Output,
-                unit,
-                *desc,
-            ));
-        }
-        let sensor_defaults = SensorParams::default();
-        for (i, p) in SENSOR_PARAMETERS.iter().enumerate() {
-            vars.push(p.variable(vr::SENSOR + i as u32, &sensor_defaults));
-        }
-        vars.push(
-            Variable::boolean(
-                "sensor_model",
-                vr::SENSOR_SWITCH,
-                Causality::Parameter,
-                "Sensor model on: the sensor_* outputs carry each sensor's bias and noise (off: they read the physical outputs exactly)",
-            )
-            .with_boolean_start(sensor_defaults.on),
-        );
-        vars.push(Variable::integer(
-            "sensor_seed",
-            vr::SENSOR_SEED,
-            Causality::Parameter,
-            sensor_defaults.seed as i32,
-            "Sensor model: seed of the biases and the noise (the same seed gives the same readings)",
-        ));
-        // A sensor depends on what its physical output depends on. Its bias and noise start
-        // when initialisation ends, so in Initialization Mode it reads the physical output.
-        for (k, &row) in sensor_rows().iter().enumerate() {
-            let truth = vars
+        vars.extend(
+            METER_OUTPUTS
                 .iter()
-                .find(|v| v.value_reference == vr::OUTPUT + row as u32)
-                .expect("the physical output")
-                .clone();
-            let mut v = truth.clone();
-            v.name = format!("{}{}", sensors::PREFIX, SENSORS[k].0);
-            v.value_reference = vr::SENSOR_OUTPUT + k as u32;
-            v.description = format!(
-                "What the {} sensor reads: {} (with bias and noise when sensor_model is on)",
-                match SENSORS[k].1 {
-                    sensors::Kind::Height => "height",
-                    sensors::Kind::Accelerometer => "accelerometer",
-                    sensors::Kind::Gyro => "gyro",
-                },
-                truth.description
-            );
-            vars.push(v);
-        }
+                .enumerate()
+                .map(|(k, (name, _, unit, desc))| {
+                    Variable::real(*name, vr::METER + k as u32, Causality::Output, unit, *desc)
+                }),
+        );
+        let sensors = sensor_variables(&vars);
+        vars.extend(sensors);
         vars.extend(contact_variables());
         ModelDescription {
             model_name: "plant".into(),
@@ -945,6 +802,188 @@ impl Plant {
         .with_suspension_terminals()
         .with_derived_guid()
     }
+}
+
+/// The parameters: the car's, the actuators', and the static equilibrium they make.
+fn parameter_variables(defaults: &VehicleParams, act_defaults: &ActuatorParams) -> Vec<Variable> {
+    let mut vars = Vec::new();
+    for (i, s) in PARAMETERS.iter().enumerate() {
+        let v = Variable::real(
+            s.name,
+            vr::VEHICLE + i as u32,
+            Causality::Parameter,
+            s.unit,
+            s.description,
+        )
+        .with_start((s.get)(defaults))
+        .with_min(s.admissible.min)
+        .with_max(s.admissible.max);
+        vars.push(v);
+    }
+    for (i, s) in ACTUATOR_PARAMETERS.iter().enumerate() {
+        vars.push(s.variable(vr::ACTUATOR + i as u32, act_defaults));
+    }
+    // The static equilibrium depends on masses, springs, geometry and gravity, not on the
+    // dampers or the inertias.
+    let static_parameters: Vec<String> = PARAMETERS
+        .iter()
+        .filter(|s| !matches!(s.unit, "N.s/m" | "kg.m2"))
+        .map(|s| s.name.to_string())
+        .collect();
+    vars.extend(
+        static_variables()
+            .into_iter()
+            .map(|v| v.initially_depending_on(static_parameters.clone())),
+    );
+    vars
+}
+
+/// The road under each wheel and the commands.
+fn input_variables() -> Vec<Variable> {
+    let mut vars = Vec::new();
+    for (i, name) in input_names().into_iter().enumerate() {
+        let (unit, desc) = match i {
+            0..4 => (
+                "m",
+                format!("Road height under the {} wheel", CORNERS[i].to_uppercase()),
+            ),
+            4..8 => (
+                "m/s",
+                format!(
+                    "Road vertical velocity under the {} wheel (time derivative of road_z_{})",
+                    CORNERS[i - 4].to_uppercase(),
+                    CORNERS[i - 4]
+                ),
+            ),
+            _ => (
+                "N",
+                format!(
+                    "Force command of the {} actuator (positive extends it)",
+                    ACTUATORS[i - 8].to_uppercase()
+                ),
+            ),
+        };
+        vars.push(
+            Variable::real(name, vr::INPUT + i as u32, Causality::Input, unit, desc)
+                .with_start(0.0),
+        );
+    }
+    vars
+}
+
+/// The car's physical outputs, with what each depends on at once and in Initialization Mode.
+fn physical_output_variables(
+    defaults: &VehicleParams,
+    act_defaults: ActuatorParams,
+) -> Vec<Variable> {
+    let mut vars = Vec::new();
+    // Direct feed-through, for the worst case of the actuator model (no delay, no lag): the
+    // road enters through the car's matrices (fixed parameters), a command through the
+    // actuator's saturation, fault and delay. The states start at the equilibrium whatever
+    // the parameters, so in Initialization Mode an output is its feed-through: it reads the
+    // parameters of those matrices and of the actuators it feeds through from.
+    let inputs = input_names();
+    let matrix_parameters = feedthrough_parameters(defaults);
+    // A tyre's load reads the road only while the tyre is on it (the physical car).
+    let switched = Simulator::new(*defaults, act_defaults).outputs_switched_by_tyres();
+    for (k, row) in physical_outputs(defaults).iter().enumerate() {
+        let road: Vec<String> = (0..N_ROAD)
+            .filter(|&j| row.d_r[j] != 0.0)
+            .map(|j| inputs[j].clone())
+            .collect();
+        let actuators: Vec<usize> = (0..N_ACTUATORS).filter(|&j| row.d_u[j] != 0.0).collect();
+        let commands = actuators
+            .iter()
+            .map(|&j| inputs[N_ROAD + j].clone())
+            .collect();
+        let mut initial = matrix_parameters[k].clone();
+        for &j in &actuators {
+            initial.extend(actuator_parameters(j));
+        }
+        vars.push(
+            Variable::real(
+                row.name.clone(),
+                vr::OUTPUT + k as u32,
+                Causality::Output,
+                row.unit,
+                row.description.clone(),
+            )
+            .depending_on(
+                road,
+                if switched[k] {
+                    DependencyKind::Dependent
+                } else {
+                    DependencyKind::Fixed
+                },
+            )
+            .depending_on(commands, DependencyKind::Dependent)
+            .initially_depending_on(initial),
+        );
+    }
+    vars
+}
+
+/// The forces the actuators apply.
+fn force_variables() -> Vec<Variable> {
+    let inputs = input_names();
+    let mut vars = Vec::new();
+    for (i, a) in ACTUATORS.iter().enumerate() {
+        vars.push(
+            Variable::real(format!("f_{a}"), vr::FORCE + i as u32, Causality::Output, "N", format!("Force actually applied by the {} actuator (after delay, saturation, fault and lag)", a.to_uppercase()))
+                .depending_on(vec![inputs[N_ROAD + i].clone()], DependencyKind::Dependent)
+                .initially_depending_on(actuator_parameters(i)),
+        );
+    }
+    vars
+}
+
+/// The sensor model's parameters and the sensors' outputs (`vars`: every variable before them,
+/// the physical outputs among them).
+fn sensor_variables(vars: &[Variable]) -> Vec<Variable> {
+    let mut out = Vec::new();
+    let sensor_defaults = SensorParams::default();
+    for (i, p) in SENSOR_PARAMETERS.iter().enumerate() {
+        out.push(p.variable(vr::SENSOR + i as u32, &sensor_defaults));
+    }
+    out.push(
+        Variable::boolean(
+            "sensor_model",
+            vr::SENSOR_SWITCH,
+            Causality::Parameter,
+            "Sensor model on: the sensor_* outputs carry each sensor's bias and noise (off: they read the physical outputs exactly)",
+        )
+        .with_boolean_start(sensor_defaults.on),
+    );
+    out.push(Variable::integer(
+        "sensor_seed",
+        vr::SENSOR_SEED,
+        Causality::Parameter,
+        sensor_defaults.seed as i32,
+        "Sensor model: seed of the biases and the noise (the same seed gives the same readings)",
+    ));
+    // A sensor depends on what its physical output depends on. Its bias and noise start
+    // when initialisation ends, so in Initialization Mode it reads the physical output.
+    for (k, &row) in sensor_rows().iter().enumerate() {
+        let truth = vars
+            .iter()
+            .find(|v| v.value_reference == vr::OUTPUT + row as u32)
+            .expect("the physical output")
+            .clone();
+        let mut v = truth.clone();
+        v.name = format!("{}{}", sensors::PREFIX, SENSORS[k].0);
+        v.value_reference = vr::SENSOR_OUTPUT + k as u32;
+        v.description = format!(
+            "What the {} sensor reads: {} (with bias and noise when sensor_model is on)",
+            match SENSORS[k].1 {
+                sensors::Kind::Height => "height",
+                sensors::Kind::Accelerometer => "accelerometer",
+                sensors::Kind::Gyro => "gyro",
+            },
+            truth.description
+        );
+        out.push(v);
+    }
+    out
 }
 
 impl Plant {

@@ -422,49 +422,112 @@ pub fn physical_outputs(p: &VehicleParams) -> Vec<OutputRow> {
 pub fn physical_outputs_with_accelerations(p: &VehicleParams) -> Vec<(OutputRow, [f64; N_DOF])> {
     let mech = MechanicalModel::new(p);
     let ss = StateSpace::from_mechanical(&mech);
-    let mut rows = Vec::new();
-    let mut weights = Vec::new();
-    let mut acceleration = |name: &str, unit, description: &str, j: usize| {
-        let r = N_DOF + j;
-        let mut w = [0.0; N_DOF];
+    // Each block of rows, and the acceleration weights of those that are accelerations.
+    let mut out: Vec<(OutputRow, [f64; N_DOF])> = acceleration_rows(&ss);
+    let none = |rows: Vec<OutputRow>| rows.into_iter().map(|r| (r, [0.0; N_DOF]));
+    out.extend(none(rate_rows()));
+    out.extend(none(deflection_rows(&mech)));
+    out.extend(none(tyre_load_rows(&mech)));
+    out.extend(body_accelerometer_rows(p, &ss));
+    assert_eq!(out.len(), N_PHYSICAL_OUTPUTS);
+    out
+}
+
+/// The row of the state space's `(A, B_r, B_u)` that is `w · q̈`.
+fn acceleration_row(
+    ss: &StateSpace,
+    name: String,
+    unit: &'static str,
+    description: String,
+    w: [f64; N_DOF],
+) -> (OutputRow, [f64; N_DOF]) {
+    let combine = |m: &nalgebra::DMatrix<f64>, k: usize| -> f64 {
+        (0..N_DOF).map(|j| w[j] * m[(N_DOF + j, k)]).sum()
+    };
+    let row = OutputRow {
+        name,
+        unit,
+        description,
+        c: std::array::from_fn(|k| combine(&ss.a, k)),
+        d_r: std::array::from_fn(|k| combine(&ss.b_r, k)),
+        d_u: std::array::from_fn(|k| combine(&ss.b_u, k)),
+    };
+    (row, w)
+}
+
+/// The seat's heave and the body's heave, roll and pitch accelerations.
+fn acceleration_rows(ss: &StateSpace) -> Vec<(OutputRow, [f64; N_DOF])> {
+    [
+        (
+            "a_seat",
+            "m/s2",
+            "Seat (driver) heave acceleration",
+            coord::SEAT,
+        ),
+        (
+            "a_body",
+            "m/s2",
+            "Body heave acceleration at the COG",
+            coord::HEAVE,
+        ),
+        (
+            "alpha_roll",
+            "rad/s2",
+            "Body roll acceleration (left side up)",
+            coord::ROLL,
+        ),
+        (
+            "alpha_pitch",
+            "rad/s2",
+            "Body pitch acceleration (nose up)",
+            coord::PITCH,
+        ),
+    ]
+    .into_iter()
+    .map(|(name, unit, description, j)| {
+        let (mut w, r) = ([0.0; N_DOF], N_DOF + j);
         w[j] = 1.0;
-        weights.push((rows.len(), w));
-        rows.push(OutputRow {
+        // The rows themselves (a weighted sum would give the same values, perhaps not the
+        // same signs of their zeros).
+        let row = OutputRow {
             name: name.into(),
             unit,
             description: description.into(),
             c: std::array::from_fn(|k| ss.a[(r, k)]),
             d_r: std::array::from_fn(|k| ss.b_r[(r, k)]),
             d_u: std::array::from_fn(|k| ss.b_u[(r, k)]),
-        });
-    };
-    acceleration(
-        "a_seat",
-        "m/s2",
-        "Seat (driver) heave acceleration",
-        coord::SEAT,
-    );
-    acceleration(
-        "a_body",
-        "m/s2",
-        "Body heave acceleration at the COG",
-        coord::HEAVE,
-    );
-    acceleration(
-        "alpha_roll",
-        "rad/s2",
-        "Body roll acceleration (left side up)",
-        coord::ROLL,
-    );
-    acceleration(
-        "alpha_pitch",
-        "rad/s2",
-        "Body pitch acceleration (nose up)",
-        coord::PITCH,
-    );
-    let state = |name: &str, unit, description: &str, k: usize| {
+        };
+        (row, w)
+    })
+    .collect()
+}
+
+/// The body's heave velocity and its roll and pitch rates: states.
+fn rate_rows() -> Vec<OutputRow> {
+    [
+        (
+            "v_body",
+            "m/s",
+            "Body heave velocity at the COG (measured)",
+            coord::HEAVE,
+        ),
+        (
+            "omega_roll",
+            "rad/s",
+            "Body roll rate (measured)",
+            coord::ROLL,
+        ),
+        (
+            "omega_pitch",
+            "rad/s",
+            "Body pitch rate (measured)",
+            coord::PITCH,
+        ),
+    ]
+    .into_iter()
+    .map(|(name, unit, description, j)| {
         let mut c = [0.0; N_STATES];
-        c[k] = 1.0;
+        c[N_DOF + j] = 1.0;
         OutputRow {
             name: name.into(),
             unit,
@@ -473,48 +536,40 @@ pub fn physical_outputs_with_accelerations(p: &VehicleParams) -> Vec<(OutputRow,
             d_r: [0.0; 8],
             d_u: [0.0; 5],
         }
-    };
-    rows.push(state(
-        "v_body",
-        "m/s",
-        "Body heave velocity at the COG (measured)",
-        N_DOF + coord::HEAVE,
-    ));
-    rows.push(state(
-        "omega_roll",
-        "rad/s",
-        "Body roll rate (measured)",
-        N_DOF + coord::ROLL,
-    ));
-    rows.push(state(
-        "omega_pitch",
-        "rad/s",
-        "Body pitch rate (measured)",
-        N_DOF + coord::PITCH,
-    ));
-    let deflection = |e: &Element| {
+    })
+    .collect()
+}
+
+/// The suspension strokes, the seat's stroke and the tyre deflections: each element's
+/// deflection (its Jacobian on `q`, less the road under it).
+fn deflection_rows(mech: &MechanicalModel) -> Vec<OutputRow> {
+    let deflection = |e: &Element, name: String, description: String| {
         let mut c = [0.0; N_STATES];
         c[..N_DOF].copy_from_slice(&e.jacobian);
         let mut d_r = [0.0; N_ROAD];
         for (k, v) in e.road.iter().enumerate() {
             d_r[k] = -v;
         }
-        (c, d_r)
+        OutputRow {
+            name,
+            unit: "m",
+            description,
+            c,
+            d_r,
+            d_u: [0.0; 5],
+        }
     };
+    let mut rows = Vec::new();
     for e in &mech.elements {
         if let ElementKind::Suspension(i) = e.kind {
-            let (c, d_r) = deflection(e);
-            rows.push(OutputRow {
-                name: format!("stroke_{}", CORNERS[i]),
-                unit: "m",
-                description: format!(
+            rows.push(deflection(
+                e,
+                format!("stroke_{}", CORNERS[i]),
+                format!(
                     "Suspension stroke {}, body minus wheel, dynamic part (positive = extension)",
                     CORNERS[i].to_uppercase()
                 ),
-                c,
-                d_r,
-                d_u: [0.0; 5],
-            });
+            ));
         }
     }
     let seat = mech
@@ -522,31 +577,33 @@ pub fn physical_outputs_with_accelerations(p: &VehicleParams) -> Vec<(OutputRow,
         .iter()
         .find(|e| e.kind == ElementKind::Seat)
         .unwrap();
-    let (c, d_r) = deflection(seat);
-    rows.push(OutputRow {
-        name: "stroke_seat".into(),
-        unit: "m",
-        description:
-            "Seat stroke, seat minus its body attachment point, dynamic part (positive = extension)"
-                .into(),
-        c,
-        d_r,
-        d_u: [0.0; 5],
-    });
+    rows.push(deflection(
+        seat,
+        "stroke_seat".into(),
+        "Seat stroke, seat minus its body attachment point, dynamic part (positive = extension)"
+            .into(),
+    ));
     for e in &mech.elements {
         if let ElementKind::Tyre(i) = e.kind {
-            let (c, d_r) = deflection(e);
-            rows.push(OutputRow {
-                name: format!("tire_defl_{}", CORNERS[i]),
-                unit: "m",
-                description: format!("Tyre deflection {}, wheel minus road, dynamic part (negative = more compressed)", CORNERS[i].to_uppercase()),
-                c, d_r, d_u: [0.0; 5],
-            });
+            rows.push(deflection(
+                e,
+                format!("tire_defl_{}", CORNERS[i]),
+                format!(
+                    "Tyre deflection {}, wheel minus road, dynamic part (negative = more compressed)",
+                    CORNERS[i].to_uppercase()
+                ),
+            ));
         }
     }
+    rows
+}
+
+/// The dynamic tyre loads: the load on the road rises when the tyre is compressed,
+/// `−k_t d − c_t ḋ`.
+fn tyre_load_rows(mech: &MechanicalModel) -> Vec<OutputRow> {
+    let mut rows = Vec::new();
     for e in &mech.elements {
         if let ElementKind::Tyre(i) = e.kind {
-            // Load on the road rises when the tyre is compressed: −k_t d − c_t ḋ.
             let mut c = [0.0; N_STATES];
             let mut d_r = [0.0; N_ROAD];
             let w = coord::WHEEL[i];
@@ -567,33 +624,30 @@ pub fn physical_outputs_with_accelerations(p: &VehicleParams) -> Vec<(OutputRow,
             });
         }
     }
-    // What a body accelerometer above each wheel reads (at the suspension's top mount): that
-    // body point's height is the row `body_point` of `q` (the suspension element's body part),
-    // so its acceleration is that row applied to `q̈`, the velocity rows of `A` and `B`.
-    for (i, corner) in CORNERS.iter().enumerate() {
-        let top_mount = body_point(corner_positions(p)[i].0, corner_positions(p)[i].1);
-        weights.push((rows.len(), top_mount));
-        let combine = |m: &nalgebra::DMatrix<f64>, k: usize| -> f64 {
-            (0..N_DOF).map(|j| top_mount[j] * m[(N_DOF + j, k)]).sum()
-        };
-        rows.push(OutputRow {
-            name: format!("a_body_{corner}"),
-            unit: "m/s2",
-            description: format!(
-                "Body vertical acceleration above the {} wheel (an accelerometer at the suspension's top mount)",
-                corner.to_uppercase()
-            ),
-            c: std::array::from_fn(|k| combine(&ss.a, k)),
-            d_r: std::array::from_fn(|k| combine(&ss.b_r, k)),
-            d_u: std::array::from_fn(|k| combine(&ss.b_u, k)),
-        });
-    }
-    assert_eq!(rows.len(), N_PHYSICAL_OUTPUTS);
-    let mut out: Vec<_> = rows.into_iter().map(|r| (r, [0.0; N_DOF])).collect();
-    for (k, w) in weights {
-        out[k].1 = w;
-    }
-    out
+    rows
+}
+
+/// What a body accelerometer above each wheel reads (at the suspension's top mount): that body
+/// point's height is the row `body_point` of `q` (the suspension element's body part), so its
+/// acceleration is that row applied to `q̈`, the velocity rows of `A` and `B`.
+fn body_accelerometer_rows(p: &VehicleParams, ss: &StateSpace) -> Vec<(OutputRow, [f64; N_DOF])> {
+    CORNERS
+        .iter()
+        .enumerate()
+        .map(|(i, corner)| {
+            let (x, y) = corner_positions(p)[i];
+            acceleration_row(
+                ss,
+                format!("a_body_{corner}"),
+                "m/s2",
+                format!(
+                    "Body vertical acceleration above the {} wheel (an accelerometer at the suspension's top mount)",
+                    corner.to_uppercase()
+                ),
+                body_point(x, y),
+            )
+        })
+        .collect()
 }
 
 /// The forces the actuators actually apply (`f_fl … f_seat`, the plant FMU's outputs of those
