@@ -1212,8 +1212,7 @@ impl<M: Model> Instance<M> {
         };
         match (&self.clocked, &snap.clock) {
             (None, None) => Ok(None),
-            (Some(_), None) | (None, Some(_)) if snap.state.initialising() => Ok(Some(initial)),
-            (Some(_), Some(_)) if snap.state.initialising() => Ok(Some(initial)),
+            _ if snap.state.initialising() => Ok(Some(initial)),
             (Some(c), Some(s)) if s.held.len() == c.outputs.len() => {
                 // The time lies between the last tick taken and the next.
                 let next = snap.start_time + s.ticks as f64 * c.interval;

@@ -18,8 +18,8 @@
 //! otherwise turn into estimation error.
 
 use crate::comfort::controllers::{
-    applied_force_names, kalman_gain, noisy_sensors, observer_based, plant_of, with_load_cells,
-    ObserverInput,
+    applied_force_names, kalman_gain, noisy_sensors, observer_based, observer_of, plant_of,
+    with_load_cells, ObserverInput,
 };
 use crate::comfort::designs::{
     certify, check_masses, delay_channel_norm, nominal_gain, ComfortDesignResult, ComfortError,
@@ -406,33 +406,15 @@ impl CarObserver {
     /// it); the observer is driven by the load cells, so its estimate does not depend on the
     /// lag.
     fn lagged_law(&self, g: &ComfortPlant, lagged: &ComfortPlant, k: &DMatrix<f64>) -> ControlLaw {
-        let n = lagged
-            .layout
-            .actuators
-            .as_ref()
-            .expect("lagging actuators")
-            .start;
-        let ns = lagged.n() - n;
-        let (k_x, k_s) = (k.columns(0, n).into_owned(), k.columns(n, ns).into_owned());
-        let o = observer_based(
-            g,
-            &k_x,
+        let observer = observer_of(
+            &plant_of(g),
+            lagged,
+            k,
             &self.sensors,
             &self.l,
             ObserverInput::MeasuredForce,
         );
-        let a_s = lagged.a.view((n, n), (ns, ns)).into_owned();
-        let b_s = lagged.b_u.rows(n, ns).into_owned();
-        let mut a = DMatrix::zeros(n + ns, n + ns);
-        a.view_mut((0, 0), (n, n)).copy_from(&o.a);
-        a.view_mut((n, 0), (ns, n)).copy_from(&(&b_s * &k_x));
-        a.view_mut((n, n), (ns, ns)).copy_from(&(a_s + &b_s * &k_s));
-        let mut b = DMatrix::zeros(n + ns, o.b.ncols());
-        b.rows_mut(0, n).copy_from(&o.b);
-        let mut c = DMatrix::zeros(k.nrows(), n + ns);
-        c.columns_mut(0, n).copy_from(&k_x);
-        c.columns_mut(n, ns).copy_from(&k_s);
-        self.washed_out(g, Lti::new(a, b, c, o.d))
+        self.washed_out(g, observer)
     }
 
     /// `observer` with its accelerometers and gyros washed out, reading this design's inputs.

@@ -298,7 +298,22 @@ pub fn observer_based(
     l: &DMatrix<f64>,
     input: ObserverInput,
 ) -> Lti {
-    let plant = plant_of(g);
+    observer_of(&plant_of(g), g, k, sensors, l, input)
+}
+
+/// [`observer_based`] observing `plant`, the controller's own states those of `g` after
+/// `plant`'s (the delay weight; behind lagging actuators the forces too,
+/// [`ComfortPlant::with_actuator_lag`]), driven by the command alone; `k` a gain on
+/// `[x; own states]`. Driven by its command ([`ObserverInput::Command`]) the observer takes it
+/// for `plant`'s input, which behind lagging actuators it is not: measure the forces there.
+pub fn observer_of(
+    plant: &Plant,
+    g: &ComfortPlant,
+    k: &DMatrix<f64>,
+    sensors: &Sensors,
+    l: &DMatrix<f64>,
+    input: ObserverInput,
+) -> Lti {
     let n = plant.a.nrows();
     let nd = g.n() - n;
     let (kp, kd) = (k.columns(0, n).into_owned(), k.columns(n, nd).into_owned());
