@@ -501,16 +501,10 @@ struct Readout {
 }
 
 impl Readout {
-    /// In the real Schur basis of the stepped system `(a, b)` where it has states and one
-    /// exists ([`schur::SchurBasis`]), else in its own.
-    fn new(
-        spec: &Spec,
-        a: &nalgebra::DMatrix<f64>,
-        b: &nalgebra::DMatrix<f64>,
-        schur: bool,
-    ) -> Readout {
+    /// For the stepped system of `total` states, in `basis` ([`schur::SchurBasis`]) or, with
+    /// none, in its own.
+    fn new(spec: &Spec, total: usize, basis: Option<schur::SchurBasis>) -> Readout {
         let (n, nu) = (spec.order(), spec.outputs.len());
-        let total = a.nrows();
         let m = spec.anti_windup.as_ref().map_or(0, |aw| aw.a.nrows());
         let mut yc = nalgebra::DMatrix::zeros(nu, total);
         yc.view_mut((0, 0), (nu, n)).copy_from(&spec.lti.c);
@@ -530,9 +524,6 @@ impl Readout {
                 .copy_from(&fd.c);
             rows
         });
-        let basis = (schur && total > 0)
-            .then(|| schur::SchurBasis::new(a, b))
-            .flatten();
         match &basis {
             Some(s) => Readout {
                 yc: s.reading(&yc),
@@ -809,13 +800,14 @@ impl Model for Controller {
     fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
         let spec = load_spec(resources)?;
         let (mut a, mut b) = stepped_system(&spec);
-        let readout = spec
-            .predictor
-            .is_none()
-            .then(|| Readout::new(&spec, &a, &b, true));
-        if let Some(basis) = readout.as_ref().and_then(|r| r.basis.as_ref()) {
-            (a, b) = (basis.a.clone(), basis.b.clone());
-        }
+        // Every controller without a predictor steps in the real Schur basis where one exists.
+        let readout = spec.predictor.is_none().then(|| {
+            let basis = schur::SchurForm::new(&a, &b).map(|stepped| {
+                (a, b) = (stepped.a, stepped.b);
+                stepped.basis
+            });
+            Readout::new(&spec, a.nrows(), basis)
+        });
         let limits = spec
             .default_limits()
             .map(<[f64]>::to_vec)
@@ -1147,7 +1139,7 @@ mod tests {
         /// The same controller stepping its state in the stepped system's own basis.
         fn in_own_basis(mut self) -> Self {
             let (a, b) = stepped_system(&self.spec);
-            self.readout = Some(Readout::new(&self.spec, &a, &b, false));
+            self.readout = Some(Readout::new(&self.spec, a.nrows(), None));
             (self.a, self.b, self.cache) = (a, b, None);
             self
         }
@@ -1156,13 +1148,8 @@ mod tests {
     /// A controller with every part a real one has (a filter with lightly damped complex modes,
     /// an anti-windup compensator with a gain, a fault detector), its numbers from a small LCG.
     fn spec_json() -> String {
-        let mut seed = 99u64;
-        let mut rand = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = linsys::lcg(99);
+        let mut rand = || uniform() - 0.5;
         let (n, ny, nu, m, q) = (24, 6, 5, 4, 3);
         let mut matrix = |r: usize, c: usize, scale: f64, diag: &dyn Fn(usize, usize) -> f64| {
             let rows: Vec<Vec<f64>> = (0..r)

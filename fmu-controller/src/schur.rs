@@ -16,34 +16,43 @@ use nalgebra::DMatrix;
 pub struct SchurBasis {
     /// `x = Q z`.
     pub q: DMatrix<f64>,
-    /// `T = Qᵀ A Q`, quasi-upper-triangular (zeroed below its blocks), and `Qᵀ B`.
-    pub a: DMatrix<f64>,
-    pub b: DMatrix<f64>,
     /// Whether `T` has a 2×2 block at rows `i, i + 1` (its subdiagonal entry `(i + 1, i)`).
     block: Vec<bool>,
 }
 
-impl SchurBasis {
-    /// The real Schur basis of `(a, b)`, or `None` where the QR iteration does not converge
-    /// (the controller then steps in its own basis).
-    pub fn new(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Option<SchurBasis> {
+/// The stepped system in its real Schur basis: `T = Qᵀ A Q`, quasi-upper-triangular (zeroed
+/// below its blocks), and `Qᵀ B`.
+pub struct SchurForm {
+    pub basis: SchurBasis,
+    pub a: DMatrix<f64>,
+    pub b: DMatrix<f64>,
+}
+
+impl SchurForm {
+    /// `(a, b)` in its real Schur basis, or `None` where it has no state or the QR iteration
+    /// does not converge (the controller then steps in its own basis).
+    pub fn new(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Option<SchurForm> {
         let n = a.nrows();
+        if n == 0 {
+            return None;
+        }
         let (q, t) = nalgebra::linalg::Schur::try_new(a.clone(), f64::EPSILON, 10_000)?.unpack();
         let scale = a.amax().max(f64::MIN_POSITIVE);
         // A subdiagonal entry the iteration left negligible is no block.
-        let block: Vec<bool> = (0..n.saturating_sub(1))
+        let block: Vec<bool> = (0..n - 1)
             .map(|i| t[(i + 1, i)].abs() > 8.0 * f64::EPSILON * scale)
             .collect();
-        let mut basis = SchurBasis {
-            b: q.transpose() * b,
-            q,
-            a: t,
-            block,
-        };
-        basis.a = basis.quasi_upper(basis.a.clone());
-        Some(basis)
+        let b = q.transpose() * b;
+        let basis = SchurBasis { q, block };
+        Some(SchurForm {
+            a: basis.quasi_upper(t),
+            b,
+            basis,
+        })
     }
+}
 
+impl SchurBasis {
     /// `m` with the entries outside `T`'s structure (below the subdiagonal, and on it where
     /// `T` has no 2×2 block) set to zero: rounding, in `T` and in its exponential.
     pub fn quasi_upper(&self, mut m: DMatrix<f64>) -> DMatrix<f64> {
@@ -84,14 +93,18 @@ mod tests {
             ],
         );
         let b = DMatrix::from_fn(4, 2, |i, j| (i + 2 * j) as f64 - 1.5);
-        let s = SchurBasis::new(&a, &b).unwrap();
+        let SchurForm {
+            basis: s,
+            a: t,
+            b: qb,
+        } = SchurForm::new(&a, &b).unwrap();
         let identity = s.q.transpose() * &s.q;
         assert!((identity - DMatrix::identity(4, 4)).amax() < 1e-14);
-        assert!((&s.q * &s.a * s.q.transpose() - &a).amax() < 1e-12 * a.amax());
-        assert!((&s.q * &s.b - &b).amax() < 1e-13);
+        assert!((&s.q * &t * s.q.transpose() - &a).amax() < 1e-12 * a.amax());
+        assert!((&s.q * &qb - &b).amax() < 1e-13);
         for j in 0..4 {
             for i in j + 2..4 {
-                assert_eq!(s.a[(i, j)], 0.0);
+                assert_eq!(t[(i, j)], 0.0);
             }
         }
         assert_eq!(s.block.iter().filter(|b| **b).count(), 1, "{:?}", s.block);

@@ -2,6 +2,7 @@
 //! `u = C xc + D y` in the plant's units, and the names and units of its inputs (plant outputs)
 //! and outputs (plant inputs `u_*`).
 
+use fmu_core::fmu_state;
 use linsys::Lti;
 use nalgebra::DMatrix;
 
@@ -539,9 +540,7 @@ impl Spec {
             guarantee: raw.guarantee,
             inputs: raw.inputs,
             outputs: raw.outputs,
-            content_hash: text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-                (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
-            }),
+            content_hash: fmu_state::fnv1a(fmu_state::FNV_OFFSET, text.bytes()),
         };
         if let Some(p) = &spec.predictor {
             check_undelayed(&spec, p)?;

@@ -108,6 +108,11 @@ pub struct Variable {
 }
 
 impl Variable {
+    /// An input or an output: what a terminal groups and a master connects.
+    pub fn is_io(&self) -> bool {
+        matches!(self.causality, Causality::Input | Causality::Output)
+    }
+
     pub fn real(
         name: impl Into<String>,
         vr: ValueReference,
@@ -416,7 +421,7 @@ impl Terminal {
         let tail = format!("_{suffix}");
         let members: Vec<(String, String)> = variables
             .iter()
-            .filter(|v| matches!(v.causality, Causality::Input | Causality::Output))
+            .filter(|v| v.is_io())
             .filter_map(|v| {
                 let member = v.name.strip_suffix(&tail)?;
                 Some((v.name.clone(), member.to_string()))
@@ -457,7 +462,7 @@ impl Terminal {
             .collect();
         let body: Vec<(String, String)> = variables
             .iter()
-            .filter(|v| matches!(v.causality, Causality::Input | Causality::Output))
+            .filter(|v| v.is_io())
             .filter(|v| !grouped.contains(v.name.as_str()))
             .map(|v| (v.name.clone(), v.name.clone()))
             .collect();
@@ -549,12 +554,8 @@ impl ModelDescription {
     pub fn with_derived_guid(mut self) -> Self {
         self.guid = String::new();
         let xml = self.to_xml();
-        let h = |seed: u64| {
-            xml.bytes().fold(seed, |h, b| {
-                (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
-            })
-        };
-        let (a, b) = (h(0xcbf2_9ce4_8422_2325), h(0x8422_2325_cbf2_9ce4));
+        let h = |seed: u64| crate::fmu_state::fnv1a(seed, xml.bytes());
+        let (a, b) = (h(crate::fmu_state::FNV_OFFSET), h(0x8422_2325_cbf2_9ce4));
         self.guid = format!(
             "{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}",
             a >> 32,
@@ -775,9 +776,7 @@ impl ModelDescription {
         for t in &self.terminals {
             let mut members = BTreeSet::new();
             for (variable, member) in &t.members {
-                let io = self
-                    .variable(variable)
-                    .is_some_and(|v| matches!(v.causality, Causality::Input | Causality::Output));
+                let io = self.variable(variable).is_some_and(Variable::is_io);
                 if !io || !members.insert(member.as_str()) {
                     return err(format!(
                         "terminal '{}': '{variable}' is not an input or output, or member \

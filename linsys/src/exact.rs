@@ -183,13 +183,8 @@ mod tests {
 
     #[test]
     fn a_quasi_upper_first_term_gives_the_dense_sum() {
-        let mut seed = 777u64;
-        let mut rand = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = crate::lcg(777);
+        let mut rand = || uniform() - 0.5;
         for n in [1, 2, 7, 16, 17, 33, 66] {
             // Zero below the first subdiagonal, which holds 2×2 blocks here and there.
             let u = DMatrix::from_fn(n, n, |i, j| {
@@ -213,13 +208,8 @@ mod tests {
     #[test]
     fn mat_vec_sum_is_chained_gemv_bit_for_bit() {
         // Sizes with and without a partial block; a small LCG for reproducible values.
-        let mut seed = 12345u64;
-        let mut rand = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = crate::lcg(12345);
+        let mut rand = || uniform() - 0.5;
         for (n, m1, m2) in [
             (16, 16, 13),
             (21, 21, 13),

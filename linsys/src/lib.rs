@@ -7,6 +7,7 @@
 //!   core); the synthesis's norms of it are `synth::numerics::hinf_norm::Analysis`;
 //! * [`discretize`], [`expm`]: exact discretisation over a step with held or ramped inputs;
 //! * [`mat_vec_sum`]: the FMUs' inner-loop matrix-vector sum;
+//! * [`lcg`]: the road's and the tests' reproducible pseudo-random numbers;
 //! * [`predictor`]: a predictor's matrices over a delay, as the controller FMU runs it and the
 //!   synthesis certifies it.
 //!
@@ -19,3 +20,18 @@ pub mod predictor;
 
 pub use exact::*;
 pub use lti::Lti;
+
+/// A 64-bit LCG (Knuth's MMIX constants) giving uniform numbers in [0, 1): the phases of the ISO
+/// road (`vehicle::road`), deterministic for a seed on every platform (a PRNG crate's stream may
+/// change between versions; this one cannot), and the tests' reproducible matrices.
+pub fn lcg(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}

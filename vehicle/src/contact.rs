@@ -543,13 +543,8 @@ mod tests {
     #[test]
     fn the_fast_guards_are_the_rows() {
         let cs = default_contacts();
-        let mut seed = 12345u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut uniform = linsys::lcg(12345);
+        let mut next = || 2.0 * uniform() - 1.0;
         let mut switched = 0;
         for _ in 0..2000 {
             let x: [f64; N_STATES] = std::array::from_fn(|_| 0.15 * next());

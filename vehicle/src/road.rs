@@ -146,7 +146,7 @@ impl Road {
                 if !(*fade_in >= 0.0 && fade_in.is_finite()) {
                     return Err(format!("fade_in must be finite and >= 0, got {fade_in}"));
                 }
-                let mut rand = lcg(*seed);
+                let mut rand = linsys::lcg(*seed);
                 let g_d_n0 = iso_g_d_n0(*class);
                 let mut track = || iso_track(g_d_n0, &mut rand);
                 let left = track();
@@ -625,21 +625,6 @@ impl IsoTrack {
             nodes.push([z.iter().sum(), dz.iter().sum(), ddz.iter().sum()]);
         }
         nodes
-    }
-}
-
-/// A 64-bit LCG (Knuth's MMIX constants) giving uniform numbers in [0, 1): the phases of the ISO
-/// road, deterministic for a seed on every platform (a PRNG crate's stream may change between
-/// versions; this one cannot).
-fn lcg(seed: u64) -> impl FnMut() -> f64 {
-    let mut state = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
     }
 }
 
