@@ -475,6 +475,9 @@ pub struct Controller {
     /// The last communication step warned about (by its bits): a master that keeps its step
     /// hears it once.
     warned_step: Option<u64>,
+    /// The last step taken: a step within the rounding of its time points of it is taken as
+    /// it ([`linsys::same_step`]), so the discretisations keyed on it are reused.
+    last_step: Option<f64>,
     tau: f64,
     /// The order the master exchanges values in (parameter `master_order`, as set: checked with
     /// the parameters), for a predictor.
@@ -835,6 +838,7 @@ impl Model for Controller {
         Ok(Controller {
             predictor,
             warned_step: None,
+            last_step: None,
             tau: 0.0,
             order: MasterOrder::GaussSeidel as i32,
             sent: None,
@@ -1011,6 +1015,8 @@ impl Model for Controller {
 
     fn step_warning(&mut self, step: f64) -> Option<String> {
         let steps = self.spec.communication_steps.as_ref()?;
+        // The step as taken (once per step size, not once per rounding of it).
+        let step = self.last_step.unwrap_or(step);
         // 10⁻⁹ relative: a step the certificate checked, as a master computes it, is not beyond.
         if step <= steps.stable_up_to_s * (1.0 + 1e-9) || self.warned_step == Some(step.to_bits()) {
             return None;
@@ -1032,8 +1038,14 @@ impl Model for Controller {
     /// Every failure of a step leaves the controller as it was and comes from the step's
     /// length (an exponential or a state that overflows): `fmi2Discard`, after which a master
     /// may go on in shorter steps, as with the plant.
-    fn do_step(&mut self, _time: f64, step: f64) -> Result<(), ModelError> {
-        self.step_or_keep(step).map_err(ModelError::discard)
+    fn do_step(&mut self, time: f64, step: f64) -> Result<(), ModelError> {
+        let step = match self.last_step {
+            Some(last) if linsys::same_step(last, step, time) => last,
+            _ => step,
+        };
+        self.step_or_keep(step).map_err(ModelError::discard)?;
+        self.last_step = Some(step);
+        Ok(())
     }
 
     fn save(&self, out: &mut StateWriter) {

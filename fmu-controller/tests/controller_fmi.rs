@@ -1250,3 +1250,58 @@ fn anti_windup_with_accommodation_counts_the_force_the_accommodated_command_make
     }
     assert!(saturated > 300, "the limit must bite: {saturated} steps");
 }
+
+/// An importer that keeps time in integer nanoseconds (libcosim) hands 1 ms over as the
+/// difference of two doubles, a little different at each step. The controller takes each as
+/// the step before it (`linsys::same_step`): its commands are those of the same controller
+/// stepped at exactly 1 ms, to the bit, a dynamic controller's and a predictor's (which
+/// predicts over the step). Before, each such step recomputed the matrix exponentials:
+/// `delay_sf` in libcosim took 45 s for 4 s of road.
+#[test]
+fn steps_in_nanosecond_time_are_the_constant_step_to_the_bit() {
+    let log = LogCapture::default();
+    for (name, spec) in [("ns_dynamic", SPEC), ("ns_predictor", PRED_SPEC)] {
+        let dir = dir_with(name, Some(spec));
+        let ny = Spec::from_json(spec).unwrap().inputs.len();
+        let run = |nanoseconds: bool| -> (Vec<f64>, usize) {
+            let (c, _cb) = instantiate(&log, &guid_of(spec), Some(&dir));
+            assert!(!c.is_null(), "{:?}", log.messages());
+            let (mut commands, mut differed) = (Vec::new(), 0);
+            unsafe {
+                fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+                fmi2EnterInitializationMode(c);
+                fmi2ExitInitializationMode(c);
+                for k in 0..3000i64 {
+                    let (t, h) = if nanoseconds {
+                        let seconds = |ns: i64| ns as f64 / 1e9;
+                        let t = seconds(k * 1_000_000);
+                        (t, seconds((k + 1) * 1_000_000) - t)
+                    } else {
+                        (k as f64 * 1e-3, 1e-3)
+                    };
+                    differed += (h != 1e-3) as usize;
+                    for i in 0..ny {
+                        let y = (7.0 * k as f64 * 1e-3 + i as f64).sin();
+                        assert_eq!(fmi2SetReal(c, &(vr::INPUT + i as u32), 1, &y), 0);
+                    }
+                    let mut u = f64::NAN;
+                    assert_eq!(fmi2GetReal(c, &vr::OUTPUT, 1, &mut u), 0);
+                    commands.push(u);
+                    assert_eq!(fmi2DoStep(c, t, h, 1), 0, "{:?}", log.messages());
+                }
+                fmi2FreeInstance(c);
+            }
+            (commands, differed)
+        };
+        let ((constant, _), (nanoseconds, differed)) = (run(false), run(true));
+        assert!(differed > 1000, "{name}: the nanosecond steps were 1 ms");
+        let first = constant
+            .iter()
+            .zip(&nanoseconds)
+            .position(|(a, b)| a.to_bits() != b.to_bits());
+        assert_eq!(
+            first, None,
+            "{name}: the commands differ from step {first:?}"
+        );
+    }
+}

@@ -983,6 +983,21 @@ impl Simulator {
         ContactState::in_mode(mode, self.dwell, |k| sys.contacts.force(k, z))
     }
 
+    /// `h`, or the step of a discretisation already made that `h` from `t` is to the rounding
+    /// of its time points ([`linsys::same_step`]): the step as an importer that keeps time in
+    /// integer nanoseconds hands it over, a little different at each step.
+    fn usual_step(&self, t: f64, h: f64) -> f64 {
+        self.system
+            .as_ref()
+            .and_then(|s| {
+                s.cache
+                    .iter()
+                    .map(|d| d.car.step)
+                    .find(|&c| linsys::same_step(c, h, t))
+            })
+            .unwrap_or(h)
+    }
+
     /// Advance from `t` by `h` with the current inputs and slopes. Afterwards the inputs hold
     /// their values at `t + h` and the slopes are zero. On error nothing changes.
     pub fn step(&mut self, t: f64, h: f64) -> Result<(), StepError> {
@@ -1038,6 +1053,7 @@ impl Simulator {
         }
         breaks.dedup();
 
+        let whole = self.usual_step(t, h);
         let [mut xi, mut next] = std::mem::take(&mut self.work);
         if xi.len() != self.xi.len() {
             xi = DVector::zeros(self.xi.len());
@@ -1055,8 +1071,9 @@ impl Simulator {
             let (a, b) = (breaks[k], breaks[k + 1]);
             // A step in one piece is `h` long, not `(t + h) − t`: that is `h` rounded to `t`'s
             // ulp, six values over 10 s at 1 kHz (a new one in some binades of `t`), each its
-            // own pair of matrix exponentials (0.4 ms) for a change in the 13th digit.
-            let len = if breaks.len() == 2 { h } else { b - a };
+            // own pair of matrix exponentials (0.4 ms) for a change in the 13th digit. Likewise
+            // an `h` that is such a difference (`usual_step`).
+            let len = if breaks.len() == 2 { whole } else { b - a };
             let mid = 0.5 * (a + b);
             let seg = self.segment_at(mid - tau);
             for j in 0..N_ROAD {
@@ -1260,6 +1277,41 @@ mod tests {
             let cache = &sim.system.as_ref().unwrap().cache;
             let steps: Vec<f64> = cache.iter().map(|d| d.car.step).collect();
             assert_eq!(steps, [h], "τ = {tau}, h = {h}");
+        }
+    }
+
+    /// A master that keeps time in integer nanoseconds (libcosim) hands 1 ms over as the
+    /// difference of two doubles, a little different at each step: the plant takes each as the
+    /// step it has discretised (one pair of exponentials, as at a constant step; before, one at
+    /// nearly every step), and its state is the constant step's to the bit.
+    #[test]
+    fn a_run_in_nanosecond_time_is_the_constant_step_run() {
+        for tau in [0.0, 0.02] {
+            let (mut constant, mut nanoseconds) =
+                (started_with_delay(tau), started_with_delay(tau));
+            let seconds = |ns: i64| ns as f64 / 1e9;
+            let mut differed = 0;
+            for k in 0..5000i64 {
+                let command = [(k % 5) as f64 * 100.0; N_ACTUATORS];
+                (constant.command, nanoseconds.command) = (command, command);
+                constant.step(k as f64 * 1e-3, 1e-3).unwrap();
+                let t = seconds(k * 1_000_000);
+                let h = seconds((k + 1) * 1_000_000) - t;
+                differed += (h != 1e-3) as usize;
+                nanoseconds.step(t, h).unwrap();
+            }
+            assert!(differed > 1000, "the nanosecond steps were 1 ms");
+            let steps: Vec<f64> = nanoseconds
+                .system
+                .as_ref()
+                .unwrap()
+                .cache
+                .iter()
+                .map(|d| d.car.step)
+                .collect();
+            assert_eq!(steps, [1e-3], "τ = {tau}");
+            let bits = |s: &Simulator| s.state().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&constant), bits(&nanoseconds), "τ = {tau}");
         }
     }
 
