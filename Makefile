@@ -273,8 +273,10 @@ lint: | $(STAMP)/apt
 test-rust: $(FMU_FILES) $(FMI3_FMU_FILES) $(STAMP)/thesis-fmus | $(STAMP)/apt
 	$(CARGO) test --workspace --release
 
+# On every core (pytest-xdist), a test file per worker (a file's module fixtures, such as the
+# other BLAS kernel's synthesis or the wine prefix, made once); the slowest tests listed.
 test-python: $(FMU_FILES) $(ARM_FMU_FILES) $(FMI3_FMU_FILES) $(HARNESSES) dist/OspSystemStructure.xml dist/car.ssp $(STAMP)/thesis-fmus $(STAMP)/venv $(STAMP)/release compare
-	FMU_CROSS=$(CROSS) $(PY) -m pytest tests/python -q
+	FMU_CROSS=$(CROSS) $(PY) -m pytest tests/python -q -n auto --dist loadfile --durations=15
 
 $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
 	$(PY) -m pip install -q -r bench/requirements.txt
