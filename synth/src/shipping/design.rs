@@ -313,6 +313,12 @@ pub struct CarDesign {
     /// (`crate::comfort::car`); absent, ideal actuators.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub actuator_bandwidth_hz: Option<f64>,
+    /// Behind `actuator_bandwidth_hz`: the controller's model of each force corrected towards
+    /// the load cell's measured force at this rate \[Hz\] (`ḟ̂ = ω_a (u − f̂) + ω_c (f − f̂)`),
+    /// so that a force the actuator does not give (lost, saturated, faster than modelled) stops
+    /// being fed back; absent, the model runs on the command alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_correction_hz: Option<f64>,
 }
 
 /// Fictitious process noise in the Kalman filter of the designs on the car's sensors that moves
@@ -458,6 +464,16 @@ impl ComfortDesign {
             ])?;
             if let Some(hz) = car.actuator_bandwidth_hz {
                 require_positive(&[("car.actuator_bandwidth_hz", hz)])?;
+            }
+            if let Some(hz) = car.force_correction_hz {
+                require_positive(&[("car.force_correction_hz", hz)])?;
+                if car.actuator_bandwidth_hz.is_none() {
+                    return Err(DesignError::Value {
+                        name: "car.force_correction_hz",
+                        expected: "absent without car.actuator_bandwidth_hz (ideal actuators have no force model)",
+                        value: hz,
+                    });
+                }
             }
             for (name, value) in [
                 ("car.rigid_drift.position", car.rigid_drift.position),
@@ -725,6 +741,44 @@ mod tests {
         assert_eq!(sf.state_feedback_frame_hz, d.state_feedback_frame_hz);
         let plain = ComfortDesign { car: None, ..d };
         assert_eq!(plain.for_state_feedback(), plain);
+    }
+
+    /// `car.force_correction_hz` corrects a model of the actuators' forces: without
+    /// `car.actuator_bandwidth_hz` there is none, and the file is refused by the name; so is a
+    /// rate that is not positive. With both it parses, and the shipped file has neither.
+    #[test]
+    fn a_force_correction_needs_lagging_actuators_and_a_positive_rate() {
+        let text = include_str!("../../designs/comfort.json");
+        let shipped = ComfortDesign::from_json(text).unwrap().car.unwrap();
+        assert_eq!(
+            (shipped.actuator_bandwidth_hz, shipped.force_correction_hz),
+            (None, None)
+        );
+        let drift = r#""rigid_drift": { "position": 1e-3, "velocity": 1e-2 }"#;
+        assert!(text.contains(drift));
+        let with = |extra: &str| text.replace(drift, &format!("{drift}, {extra}"));
+        let refused = |extra: &str| match ComfortDesign::from_json(&with(extra)) {
+            Err(DesignError::Value { name, .. }) => name,
+            other => panic!("{extra}: {other:?}"),
+        };
+        assert_eq!(
+            refused(r#""force_correction_hz": 5"#),
+            "car.force_correction_hz"
+        );
+        for bad in ["0", "-5"] {
+            let extra = format!(r#""actuator_bandwidth_hz": 10, "force_correction_hz": {bad}"#);
+            assert_eq!(refused(&extra), "car.force_correction_hz");
+        }
+        let car = ComfortDesign::from_json(&with(
+            r#""actuator_bandwidth_hz": 10, "force_correction_hz": 5"#,
+        ))
+        .unwrap()
+        .car
+        .unwrap();
+        assert_eq!(
+            (car.actuator_bandwidth_hz, car.force_correction_hz),
+            (Some(10.0), Some(5.0))
+        );
     }
 
     #[test]
