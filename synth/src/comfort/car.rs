@@ -700,6 +700,19 @@ mod tests {
             let r = worst_radius(&corrected, bandwidth_hz);
             assert!(r < 1.0, "at {bandwidth_hz:?} Hz: spectral radius {r}");
         }
+        // Its model-recovery anti-windup (`hinf_of`'s) runs the car behind the same actuators.
+        let mut d = design.clone();
+        d.car.as_mut().unwrap().force_correction_hz = Some(5.0);
+        let ctx = Context {
+            params: &params,
+            design: &d,
+        };
+        let of = car_design(&ctx).unwrap();
+        let recovered =
+            crate::comfort::designs::model_recovery_design(&ctx, &of, "hinf_of").unwrap();
+        let aw = recovered.extensions.anti_windup.unwrap();
+        assert_eq!(aw.a.len(), vehicle::model::N_STATES + 5);
+        assert_eq!(recovered.certificate.saturation.verdict, "model recovery");
         match law_with(Some(20.0)) {
             Err(ComfortError::Certificate { reason, .. }) => {
                 assert!(reason.contains("unmodelled-delay channel"), "{reason}")

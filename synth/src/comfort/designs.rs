@@ -1118,6 +1118,7 @@ pub fn anti_windup_design(
         });
     }
     let compensator = Compensator {
+        model: None,
         f: &aw.f * ku,
         saturation: crate::predict::saturation::SaturationCheck::anti_windup(
             aw.w.as_slice(),
@@ -1153,19 +1154,45 @@ pub fn model_recovery_design(
     variant: &str,
 ) -> Result<ComfortDesignResult, ComfortError> {
     let ss = vehicle::StateSpace::new(ctx.params);
-    let saturation =
-        crate::predict::saturation::SaturationCheck::model_recovery(&ss.a, &ss.b_u, "its");
+    // Behind lagging actuators (`car.actuator_bandwidth_hz`) the unconstrained model is the car
+    // behind them: the compensator's forces are states, `ḟ_η = ω_a (dz − f_η)`, and the
+    // controller's inputs read them where they read the forces.
+    let lag_hz = ctx
+        .design
+        .car
+        .as_ref()
+        .and_then(|c| c.actuator_bandwidth_hz);
+    let model = lag_hz
+        .map(|hz| {
+            let (c_y, d_y) =
+                input_rows(ctx.params, &of.law.inputs).map_err(|e| ctx.fail(variant, e))?;
+            Ok::<_, ComfortError>(behind_lagging_actuators(&ss.a, &ss.b_u, &c_y, &d_y, hz))
+        })
+        .transpose()?;
+    let (ma, mb) = match &model {
+        Some(m) => (m.a.clone(), m.b.clone()),
+        None => (ss.a.clone(), ss.b_u.clone()),
+    };
+    let saturation = crate::predict::saturation::SaturationCheck::model_recovery(&ma, &mb, "its");
     if !saturation.holds() {
         return Err(ctx.fail(variant, saturation.why));
     }
+    let behind = match lag_hz {
+        Some(hz) => format!(
+            " behind the design's first-order actuators of {hz} Hz (their forces states of eta, \
+             read where the inputs read the forces)"
+        ),
+        None => String::new(),
+    };
     let compensator = Compensator {
-        f: DMatrix::zeros(N_ACTUATORS, ss.a.nrows()),
+        model,
+        f: DMatrix::zeros(N_ACTUATORS, ma.nrows()),
         what: format!(
             "the plain model-recovery anti-windup (thesis Th. 5.3's compensator with F = 0, the \
              internal-model anti-windup): eta' = A eta - B_u dz(u_lin), u = sat(u_lin), the \
              controller reads y - C_y eta - D_y (u - u_lin), so it sees the unconstrained car; \
-             eta is the passive car driven by the dead zones, whose spectral abscissa is {:.3} \
-             rad/s",
+             eta is the passive car{behind} driven by the dead zones, whose spectral abscissa is \
+             {:.3} rad/s",
             saturation.recovery_abscissa.unwrap_or(f64::NAN)
         ),
         saturation,
@@ -1173,9 +1200,38 @@ pub fn model_recovery_design(
     with_compensator(ctx, of, variant, of.certificate.robust_to, compensator)
 }
 
+/// The car `(A, B_u)` whose inputs read `C_y x + D_y f` behind first-order actuators of
+/// `bandwidth_hz`: state `[x; f]`, `ḟ = ω_a (v − f)`, the inputs `[C_y D_y] [x; f]` (no
+/// feed-through left: the forces are states). A compensator's unconstrained model:
+/// `η̇ = A η + B v`, the controller's inputs `C η + D v`.
+pub(crate) fn behind_lagging_actuators(
+    a: &DMatrix<f64>,
+    b_u: &DMatrix<f64>,
+    c_y: &DMatrix<f64>,
+    d_y: &DMatrix<f64>,
+    bandwidth_hz: f64,
+) -> Lti {
+    let (n, m, p) = (a.nrows(), b_u.ncols(), c_y.nrows());
+    let w = 2.0 * std::f64::consts::PI * bandwidth_hz;
+    let mut big_a = DMatrix::zeros(n + m, n + m);
+    big_a.view_mut((0, 0), (n, n)).copy_from(a);
+    big_a.view_mut((0, n), (n, m)).copy_from(b_u);
+    let mut big_b = DMatrix::zeros(n + m, m);
+    for k in 0..m {
+        big_a[(n + k, n + k)] = -w;
+        big_b[(n + k, k)] = w;
+    }
+    let mut c = DMatrix::zeros(p, n + m);
+    c.view_mut((0, 0), (p, n)).copy_from(c_y);
+    c.view_mut((0, n), (p, m)).copy_from(d_y);
+    Lti::new(big_a, big_b, c, DMatrix::zeros(p, m))
+}
+
 /// An anti-windup compensator on the nominal car: its gain `F` (N per state), its saturation
 /// check, and what it is, for the certificate's notes.
 struct Compensator {
+    /// The unconstrained model it runs when not the nominal car's ([`behind_lagging_actuators`]).
+    model: Option<Lti>,
     f: DMatrix<f64>,
     saturation: crate::predict::saturation::SaturationCheck,
     what: String,
@@ -1193,6 +1249,10 @@ fn with_compensator(
     let d = ctx.design;
     let ss = vehicle::StateSpace::new(ctx.params);
     let (c_y, d_y) = input_rows(ctx.params, &of.law.inputs).map_err(|e| ctx.fail(variant, e))?;
+    let (ss_a, ss_b, c_y, d_y) = match compensator.model {
+        Some(m) => (m.a, m.b, m.c, m.d),
+        None => (ss.a.clone(), ss.b_u.clone(), c_y, d_y),
+    };
     let feeds_through = d_y.iter().any(|v| *v != 0.0);
     // The runtime forms the command from `y − C η` and only the state sees `D (u − y_c)`: exact
     // where the law's feed-through reads no input the forces feed through to (a state
@@ -1239,8 +1299,8 @@ fn with_compensator(
     }
     let extensions = Extensions {
         anti_windup: Some(AntiWindup {
-            a: matrix_rows(&ss.a),
-            b: matrix_rows(&ss.b_u),
+            a: matrix_rows(&ss_a),
+            b: matrix_rows(&ss_b),
             c: matrix_rows(&c_y),
             d: if feeds_through {
                 matrix_rows(&d_y)
@@ -1958,6 +2018,59 @@ pub fn comfort_rows(g0: &ComfortPlant, cl: &ClosedLoop, rows: &[usize]) -> DMatr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The compensator's model behind lagging actuators answers each input with the car's
+    /// response times the lag `ω_a / (s + ω_a)` (checked at `s = 0`, `s = j ω_a` and
+    /// `s = 3 + 40 j` against the car's own transfer matrix), on the car and the inputs
+    /// `hinf_of` reads.
+    #[test]
+    fn a_compensator_behind_lagging_actuators_is_the_car_times_the_lag() {
+        use nalgebra::Complex;
+        let p = VehicleParams::default();
+        let ss = vehicle::StateSpace::new(&p);
+        let inputs: Vec<String> = [
+            "sensor_a_body_fl",
+            "sensor_a_seat",
+            "f_fl",
+            "f_seat",
+            "sensor_stroke_rr",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let (c_y, d_y) = input_rows(&p, &inputs).unwrap();
+        assert!(
+            d_y.iter().any(|v| *v != 0.0),
+            "the inputs feel the forces at once"
+        );
+        let hz = 10.0;
+        let m = behind_lagging_actuators(&ss.a, &ss.b_u, &c_y, &d_y, hz);
+        assert_eq!(m.d, DMatrix::zeros(inputs.len(), N_ACTUATORS));
+        let w = 2.0 * std::f64::consts::PI * hz;
+        let response = |a: &DMatrix<f64>,
+                        b: &DMatrix<f64>,
+                        c: &DMatrix<f64>,
+                        d: &DMatrix<f64>,
+                        s: Complex<f64>| {
+            let cx = |x: &DMatrix<f64>| x.map(|v| Complex::new(v, 0.0));
+            let n = a.nrows();
+            let resolvent = (DMatrix::<Complex<f64>>::identity(n, n) * s - cx(a))
+                .try_inverse()
+                .expect("s is no pole");
+            cx(c) * resolvent * cx(b) + cx(d)
+        };
+        for s in [
+            Complex::new(0.0, 0.0),
+            Complex::new(0.0, w),
+            Complex::new(3.0, 40.0),
+        ] {
+            let lagged = response(&m.a, &m.b, &m.c, &m.d, s);
+            let car = response(&ss.a, &ss.b_u, &c_y, &d_y, s) * (Complex::new(w, 0.0) / (s + w));
+            let err = (&lagged - &car).map(|z| z.norm()).max();
+            let scale = car.map(|z| z.norm()).max();
+            assert!(err <= 1e-9 * scale, "at s = {s}: {err} against {scale}");
+        }
+    }
 
     /// The bisection of [`engaged_stops`] finds a stability boundary to 1 % of the stop and
     /// never reports a share at which the loop is unstable.
