@@ -647,14 +647,16 @@ mod tests {
             .unwrap();
         design.car.as_mut().unwrap().actuator_bandwidth_hz = Some(10.0);
         let params = VehicleParams::default();
-        let law_with = |correction: Option<f64>| {
+        let corrected_at = |correction: Option<f64>| {
             let mut d = design.clone();
             d.car.as_mut().unwrap().force_correction_hz = correction;
-            let ctx = Context {
+            d
+        };
+        let designed = |d: &ComfortDesign| {
+            car_design(&Context {
                 params: &params,
-                design: &d,
-            };
-            car_design(&ctx).map(|r| r.law)
+                design: d,
+            })
         };
         let seat = |law: &ControlLaw, bandwidth_hz: Option<f64>, effectiveness: [f64; 5]| {
             let mut c = Conditions::nominal(params);
@@ -666,7 +668,9 @@ mod tests {
                 .wk_rms_seat_m_s2
         };
         let (all, corners_lost) = ([1.0; 5], [0.0, 0.0, 0.0, 0.0, 1.0]);
-        let (plain, corrected) = (law_with(None).unwrap(), law_with(Some(5.0)).unwrap());
+        let at_5_hz = corrected_at(Some(5.0));
+        let of = designed(&at_5_hz).unwrap();
+        let (plain, corrected) = (designed(&corrected_at(None)).unwrap().law, of.law.clone());
         let (exact, inert) = (
             seat(&plain, Some(10.0), all),
             seat(&corrected, Some(10.0), all),
@@ -701,19 +705,16 @@ mod tests {
             assert!(r < 1.0, "at {bandwidth_hz:?} Hz: spectral radius {r}");
         }
         // Its model-recovery anti-windup (`hinf_of`'s) runs the car behind the same actuators.
-        let mut d = design.clone();
-        d.car.as_mut().unwrap().force_correction_hz = Some(5.0);
         let ctx = Context {
             params: &params,
-            design: &d,
+            design: &at_5_hz,
         };
-        let of = car_design(&ctx).unwrap();
         let recovered =
             crate::comfort::designs::model_recovery_design(&ctx, &of, "hinf_of").unwrap();
         let aw = recovered.extensions.anti_windup.unwrap();
         assert_eq!(aw.a.len(), vehicle::model::N_STATES + 5);
         assert_eq!(recovered.certificate.saturation.verdict, "model recovery");
-        match law_with(Some(20.0)) {
+        match designed(&corrected_at(Some(20.0))) {
             Err(ComfortError::Certificate { reason, .. }) => {
                 assert!(reason.contains("unmodelled-delay channel"), "{reason}")
             }
