@@ -1169,11 +1169,13 @@ pub fn model_recovery_design(
             Ok::<_, ComfortError>(behind_lagging_actuators(&ss.a, &ss.b_u, &c_y, &d_y, hz))
         })
         .transpose()?;
-    let (ma, mb) = match &model {
-        Some(m) => (m.a.clone(), m.b.clone()),
-        None => (ss.a.clone(), ss.b_u.clone()),
+    let (eta_a, eta_b) = match &model {
+        Some(m) => (&m.a, &m.b),
+        None => (&ss.a, &ss.b_u),
     };
-    let saturation = crate::predict::saturation::SaturationCheck::model_recovery(&ma, &mb, "its");
+    let saturation =
+        crate::predict::saturation::SaturationCheck::model_recovery(eta_a, eta_b, "its");
+    let states = eta_a.nrows();
     if !saturation.holds() {
         return Err(ctx.fail(variant, saturation.why));
     }
@@ -1186,7 +1188,7 @@ pub fn model_recovery_design(
     };
     let compensator = Compensator {
         model,
-        f: DMatrix::zeros(N_ACTUATORS, ma.nrows()),
+        f: DMatrix::zeros(N_ACTUATORS, states),
         what: format!(
             "the plain model-recovery anti-windup (thesis Th. 5.3's compensator with F = 0, the \
              internal-model anti-windup): eta' = A eta - B_u dz(u_lin), u = sat(u_lin), the \
@@ -1247,11 +1249,15 @@ fn with_compensator(
 ) -> Result<ComfortDesignResult, ComfortError> {
     let nominal = of.certificate.variant.clone();
     let d = ctx.design;
-    let ss = vehicle::StateSpace::new(ctx.params);
-    let (c_y, d_y) = input_rows(ctx.params, &of.law.inputs).map_err(|e| ctx.fail(variant, e))?;
-    let (ss_a, ss_b, c_y, d_y) = match compensator.model {
+    // The compensator's unconstrained model: its own, or the nominal car read by the inputs.
+    let (eta_a, eta_b, c_y, d_y) = match compensator.model {
         Some(m) => (m.a, m.b, m.c, m.d),
-        None => (ss.a.clone(), ss.b_u.clone(), c_y, d_y),
+        None => {
+            let ss = vehicle::StateSpace::new(ctx.params);
+            let (c_y, d_y) =
+                input_rows(ctx.params, &of.law.inputs).map_err(|e| ctx.fail(variant, e))?;
+            (ss.a, ss.b_u, c_y, d_y)
+        }
     };
     let feeds_through = d_y.iter().any(|v| *v != 0.0);
     // The runtime forms the command from `y − C η` and only the state sees `D (u − y_c)`: exact
@@ -1299,8 +1305,8 @@ fn with_compensator(
     }
     let extensions = Extensions {
         anti_windup: Some(AntiWindup {
-            a: matrix_rows(&ss_a),
-            b: matrix_rows(&ss_b),
+            a: matrix_rows(&eta_a),
+            b: matrix_rows(&eta_b),
             c: matrix_rows(&c_y),
             d: if feeds_through {
                 matrix_rows(&d_y)
