@@ -282,8 +282,9 @@ $(STAMP)/venv-bench: bench/requirements.txt | $(STAMP)/venv
 	$(PY) -m pip install -q -r bench/requirements.txt
 	@touch $@
 
-# Benchmarks: one fmi2DoStep of the plant and one step of three shipped controllers (criterion), each synthesis against the same LMIs
-# in CVXPY + Clarabel (Python) in the same run, every design together (wall time), a 10 s
+# Benchmarks: one fmi2DoStep of the plant and one step of three shipped controllers
+# (criterion), each synthesis against the same LMIs in CVXPY + Clarabel (Python) in the same
+# run, every design together (wall time), a 10 s
 # closed loop in the Rust master against the same loop in FMPy, and the 10 000-run sweep
 # (sweeps/study_10k.json, about 3 minutes on 2 cores; its report in $(STAMP)/bench-study).
 bench: $(FMU_FILES) $(STAMP)/venv-bench
