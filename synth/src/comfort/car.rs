@@ -560,7 +560,7 @@ mod tests {
     use crate::shipping::design::ComfortDesign;
 
     /// `hinf_of`'s gain designed behind 10 Hz actuators (the design file's
-    /// `car.actuator_bandwidth_hz`) against the shipped design behind ideal ones: stable from
+    /// `car.actuator_bandwidth_hz`) against the same design behind ideal ones: stable from
     /// ideal actuators down to 5 Hz, and quieter at every bandwidth from 20 Hz down to 5 Hz (at
     /// 10 Hz by a fifth); noisier with ideal ones. A lighter force weight is quieter still at
     /// 10 Hz but inverts the lag with a fast force loop that is unstable with ideal actuators.
@@ -575,12 +575,7 @@ mod tests {
             .for_car()
             .unwrap();
         let hz = 10.0;
-        let car = design.car.as_mut().unwrap();
-        assert_eq!(
-            car.actuator_bandwidth_hz, None,
-            "the shipped design has ideal actuators"
-        );
-        car.actuator_bandwidth_hz = Some(hz);
+        design.car.as_mut().unwrap().actuator_bandwidth_hz = Some(hz);
         let params = VehicleParams::default();
         let ctx = Context {
             params: &params,
@@ -628,6 +623,73 @@ mod tests {
             light_at[0].is_none(),
             "the light weight's loop is unstable with ideal actuators"
         );
+    }
+
+    /// `hinf_of` designed behind 30 Hz actuators (`car.actuator_bandwidth_hz`: 30; measured, not
+    /// shipped: `docs/comfort-designs.md`). Against the shipped design, behind ideal actuators,
+    /// run with the plant's ideal actuators (the FMU's default):
+    /// quieter on the design road, several times the delay margin, and its held loop stable at
+    /// every step a certificate checks in every master order (the ideal design's is not at
+    /// 10 ms); behind 10 Hz actuators it is quieter too, and at 5 Hz noisier by under 10 %
+    /// (4.8 % measured: 0.1077 against 0.1028 m/s²).
+    #[test]
+    fn designed_behind_30_hz_actuators_hinf_of_is_quieter_with_ideal_ones_and_tolerates_more_delay()
+    {
+        let mut design = ComfortDesign::from_json(include_str!("../../designs/comfort.json"))
+            .unwrap()
+            .for_car()
+            .unwrap();
+        let car = design.car.as_mut().unwrap();
+        assert_eq!(
+            car.actuator_bandwidth_hz, None,
+            "shipped behind ideal actuators"
+        );
+        car.actuator_bandwidth_hz = Some(30.0);
+        let params = VehicleParams::default();
+        let ctx = Context {
+            params: &params,
+            design: &design,
+        };
+        let behind = car_design(&ctx).unwrap().law;
+        let (g, sf) = nominal_gain(&ctx).unwrap();
+        let ideal = CarObserver::new(&ctx, "hinf_of").unwrap().law(&g, &sf.k);
+        let at = |bandwidth_hz: Option<f64>| {
+            let mut c = Conditions::nominal(params);
+            c.actuator_bandwidth_hz = bandwidth_hz;
+            c
+        };
+        let figures = |law: &ControlLaw, bandwidth_hz: Option<f64>| {
+            let l = Loop::new(Some(law), at(bandwidth_hz)).expect("stable");
+            (l.figures(&design.road).wk_rms_seat_m_s2, l.delay_margin())
+        };
+        let [(s, s_margin), (s10, _), (s5, _)] =
+            [None, Some(10.0), Some(5.0)].map(|b| figures(&behind, b));
+        let [(i, i_margin), (i10, _), (i5, _)] =
+            [None, Some(10.0), Some(5.0)].map(|b| figures(&ideal, b));
+        eprintln!(
+            "W_k seat ideal / 10 Hz / 5 Hz, delay margin: behind 30 Hz {s} / {s10} / {s5}, \
+             {s_margin} s; behind ideal actuators {i} / {i10} / {i5}, {i_margin} s"
+        );
+        assert!(s < i, "{s} against {i}");
+        assert!(s10 < i10, "{s10} against {i10}");
+        assert!(s5 < 1.1 * i5, "{s5} against {i5}");
+        assert!(s_margin > 3.0 * i_margin, "{s_margin} against {i_margin}");
+        let worst_radius = |law: &ControlLaw, h: f64| {
+            crate::predict::sampled::ORDERS
+                .iter()
+                .map(|&order| {
+                    crate::predict::sampled::order_check(Some(law), at(None), h, order, None)
+                        .unwrap_or_else(|e| panic!("{order:?} at {h} s: {e}"))
+                        .radius
+                })
+                .fold(0.0, f64::max)
+        };
+        for &h in &crate::comfort::designs::CHECKED_STEPS {
+            let r = worst_radius(&behind, h);
+            assert!(r < 1.0, "at {h} s: spectral radius {r}");
+        }
+        let r = worst_radius(&ideal, 10e-3);
+        assert!(r >= 1.0, "the ideal design at 10 ms: spectral radius {r}");
     }
 
     /// The same gain (behind 10 Hz actuators) with its model of the forces corrected towards the
