@@ -9,11 +9,11 @@
 //! warns (`fmi2Warning`, from its `controller.json`'s `communication_steps`). A robust design's
 //! range is checked at every condition of its uncertainty, and co-simulated at both ends of it.
 //!
-//! Measured (ISO C at 20 m/s, seed 7, W_k seat RMS over the second half of the run, m/s²):
-//! `hinf_sf` 0.058 at 5 ms, 0.56 at 7.5 ms; `ft_of` 0.049 at 7.5 ms, 4.5 at 10 ms; `delay_sf`
-//! 0.054 at 10 ms with no delay and with 20 ms (0.0094 and 0.0099 at 1 ms), 0.38 with 50 ms
-//! (0.054 at 1 ms): stable at every checked step since it predicts over at least one step
-//! (`docs/comfort-designs.md`).
+//! Measured (ISO C at 20 m/s, seed 7, W_k seat RMS over the second half of the run, m/s²;
+//! `cargo test --release -p master --test communication_steps -- --nocapture`, 2 December
+//! 2026): `hinf_sf` 0.082 at 7.5 ms, 4.1 at 10 ms; `ft_of` 0.086 at 7.5 ms, 5.4 at 10 ms;
+//! `delay_sf` 0.074 at 10 ms with no delay, 0.17 with 50 ms: stable at every checked step
+//! since it predicts over at least one step (`docs/comfort-designs.md`).
 
 mod common;
 
