@@ -2053,25 +2053,16 @@ mod tests {
         let m = behind_lagging_actuators(&ss.a, &ss.b_u, &c_y, &d_y, hz);
         assert_eq!(m.d, DMatrix::zeros(inputs.len(), N_ACTUATORS));
         let w = 2.0 * std::f64::consts::PI * hz;
-        let response = |a: &DMatrix<f64>,
-                        b: &DMatrix<f64>,
-                        c: &DMatrix<f64>,
-                        d: &DMatrix<f64>,
-                        s: Complex<f64>| {
-            let cx = |x: &DMatrix<f64>| x.map(|v| Complex::new(v, 0.0));
-            let n = a.nrows();
-            let resolvent = (DMatrix::<Complex<f64>>::identity(n, n) * s - cx(a))
-                .try_inverse()
-                .expect("s is no pole");
-            cx(c) * resolvent * cx(b) + cx(d)
-        };
+        let lagged_sys = [m.a.clone(), m.b.clone(), m.c.clone(), m.d.clone()];
+        let car_sys = [ss.a.clone(), ss.b_u.clone(), c_y, d_y];
         for s in [
             Complex::new(0.0, 0.0),
             Complex::new(0.0, w),
             Complex::new(3.0, 40.0),
         ] {
-            let lagged = response(&m.a, &m.b, &m.c, &m.d, s);
-            let car = response(&ss.a, &ss.b_u, &c_y, &d_y, s) * (Complex::new(w, 0.0) / (s + w));
+            let lagged = crate::comfort::plant::transfer_at(&lagged_sys, s);
+            let car =
+                crate::comfort::plant::transfer_at(&car_sys, s) * (Complex::new(w, 0.0) / (s + w));
             let err = (&lagged - &car).map(|z| z.norm()).max();
             let scale = car.map(|z| z.norm()).max();
             assert!(err <= 1e-9 * scale, "at s = {s}: {err} against {scale}");

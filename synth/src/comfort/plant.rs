@@ -821,12 +821,18 @@ pub(crate) fn stack(top: &DMatrix<f64>, bottom: &DMatrix<f64>) -> DMatrix<f64> {
 /// Evaluate a state-space system's frequency response at `s = jω` (helper for tests and
 /// certificates): `C (sI − A)⁻¹ B + D`.
 pub fn frequency_response(sys: &Abcd, omega: f64) -> DMatrix<nalgebra::Complex<f64>> {
+    transfer_at(sys, nalgebra::Complex::new(0.0, omega))
+}
+
+/// A state-space system's transfer matrix at any `s` that is not a pole:
+/// `C (sI − A)⁻¹ B + D`.
+pub fn transfer_at(sys: &Abcd, s: nalgebra::Complex<f64>) -> DMatrix<nalgebra::Complex<f64>> {
     use nalgebra::Complex;
     let [a, b, c, d] = sys;
     let n = a.nrows();
     let cx = |m: &DMatrix<f64>| m.map(|v| Complex::new(v, 0.0));
-    let m = DMatrix::<Complex<f64>>::identity(n, n) * Complex::new(0.0, omega) - cx(a);
-    let x = m.lu().solve(&cx(b)).expect("jωI − A is invertible");
+    let m = DMatrix::<Complex<f64>>::identity(n, n) * s - cx(a);
+    let x = m.lu().solve(&cx(b)).expect("sI − A is invertible");
     cx(c) * x + cx(d)
 }
 
