@@ -652,7 +652,7 @@ impl Controller {
     /// stepped system's own (a predictor's, or where the Schur iteration did not converge).
     fn basis_tag(&self) -> u64 {
         match self.readout.as_ref().and_then(|r| r.basis.as_ref()) {
-            Some(_) => 0x5343_4855_5242_4c4b, // "SCHURBLK": taken block by block
+            Some(_) => 0x5343_4855_5242_414c, // "SCHURBAL": balanced, taken block by block
             None => 0x4f57_4e42_4153_4953,    // "OWNBASIS"
         }
     }
