@@ -7,9 +7,13 @@ use master::cosim::{run, Run, Scenario};
 use master::metrics::{peak, rms};
 use std::path::PathBuf;
 
-/// Where the shipped comfort designs' FMUs and certificates are (`make`).
+/// Where the shipped comfort designs' FMUs and certificates are (`make`), or, to judge a
+/// candidate design before it ships, the directory `CANDIDATE_DIST` names.
 pub fn dist() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dist")
+    std::env::var_os("CANDIDATE_DIST").map_or_else(
+        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dist"),
+        PathBuf::from,
+    )
 }
 
 /// The applied forces, in the order of [`Run::force_limits`] (corners, seat).
@@ -76,4 +80,24 @@ pub fn judge(r: &Run) -> (f64, bool) {
         .zip(r.force_limits)
         .any(|(name, limit)| peak(&r.column(name).expect("recorded")) >= 0.999 * limit);
     (rms(&seat[seat.len() / 2..]), saturated)
+}
+
+/// The share of the run's time at a limit: the largest over the forces (their samples within
+/// 0.1 % of the limit) and the end stops (the plant's `stop_time_*`, the time on each stop)
+/// but `except` (`fl` … `rr`, `seat`).
+pub fn contact_share(r: &Run, except: Option<&str>) -> f64 {
+    // The runs start at 0.
+    let duration = r.time.last().copied().unwrap_or(0.0);
+    let forces = FORCES.iter().zip(r.force_limits).map(|(name, limit)| {
+        let f = r.column(name).expect("recorded");
+        f.iter().filter(|v| v.abs() >= 0.999 * limit).count() as f64 / f.len().max(1) as f64
+    });
+    let stops = ["fl", "fr", "rl", "rr", "seat"]
+        .iter()
+        .filter(|s| Some(**s) != except)
+        .map(|s| {
+            let on = r.column(&format!("stop_time_{s}")).expect("recorded");
+            on.last().copied().unwrap_or(0.0) / duration.max(f64::MIN_POSITIVE)
+        });
+    forces.chain(stops).fold(0.0, f64::max)
 }

@@ -469,6 +469,23 @@ pub struct Limits {
     pub force: [f64; 5],
 }
 
+impl Limits {
+    /// The limits of `predicted` at the design's `limit_sigmas`, whether they hold or not.
+    fn of(predicted: &Figures, d: &ComfortDesign) -> Self {
+        let limits = force_limits(d);
+        let k = d.limit_sigmas;
+        Limits {
+            limit_sigmas: k,
+            stroke: predicted.rms_stroke_m.map(|s| k * s / d.stroke_max),
+            seat_stroke: d
+                .seat_stroke_max
+                .map(|max| k * predicted.rms_seat_stroke_m / max),
+            tire_load: predicted.rms_tire_load_ratio.map(|s| k * s),
+            force: std::array::from_fn(|i| k * predicted.rms_force_n[i] / limits[i]),
+        }
+    }
+}
+
 /// The worst-case (H∞) gain of the comfort channel: the road noise to the weighted comfort
 /// output on the design model, the design's and the passive car's (Hamiltonian bisection).
 #[derive(Debug, Clone, Serialize)]
@@ -543,6 +560,11 @@ pub struct Checked {
     pub step_s: Option<f64>,
     #[serde(skip_serializing_if = "String::is_empty")]
     pub why: String,
+    /// A stable continuous loop's limits on the design road ([`Limits`]; above 1 its strokes
+    /// reach a stop, or its forces a limit, more often than at the design's `limit_sigmas`, and
+    /// the linear prediction holds only off them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub limits: Option<Limits>,
 }
 
 impl Checked {
@@ -553,14 +575,17 @@ impl Checked {
             predicted_wk_rms_seat_m_s2: predicted,
             step_s: law.predictor.is_some().then_some(d.communication_step),
             why,
+            limits: None,
         };
         if law.predictor.is_none() {
             return match Loop::new(Some(law), conditions) {
-                Ok(lp) => checked(
-                    "stable",
-                    Some(lp.figures(&d.road).wk_rms_seat_m_s2),
-                    String::new(),
-                ),
+                Ok(lp) => {
+                    let figures = lp.figures(&d.road);
+                    Checked {
+                        limits: Some(Limits::of(&figures, d)),
+                        ..checked("stable", Some(figures.wk_rms_seat_m_s2), String::new())
+                    }
+                }
                 Err(e) => checked("unstable", None, e.to_string()),
             };
         }
@@ -1657,17 +1682,8 @@ fn limits_at(
     d: &ComfortDesign,
     accommodation: Option<f64>,
 ) -> Result<Limits, String> {
-    let limits = force_limits(d);
     let k = d.limit_sigmas;
-    let lim = Limits {
-        limit_sigmas: k,
-        stroke: predicted.rms_stroke_m.map(|s| k * s / d.stroke_max),
-        seat_stroke: d
-            .seat_stroke_max
-            .map(|max| k * predicted.rms_seat_stroke_m / max),
-        tire_load: predicted.rms_tire_load_ratio.map(|s| k * s),
-        force: std::array::from_fn(|i| k * predicted.rms_force_n[i] / limits[i]),
-    };
+    let lim = Limits::of(predicted, d);
     let names = CORNERS
         .iter()
         .map(|c| format!("stroke_{c}"))
