@@ -320,7 +320,7 @@ fn the_report_sets_the_certificates_predictions_beside_the_runs_at_their_conditi
 }
 
 /// A controller stepped beyond the communication steps its certificate calls stable
-/// (`ft_of` at 10 ms; `skyhook` is stable there) still runs, and its rows carry the FMU's
+/// (`robust_of` at 10 ms; `skyhook` is stable there) still runs, and its rows carry the FMU's
 /// warning: the `warnings` column, the report's share of runs an FMU warned in, and the
 /// message once with its count.
 #[test]
@@ -330,7 +330,7 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
     let spec = dir.join("sweep.json");
     std::fs::write(
         &spec,
-        r#"{"name": "w", "base": "bump.json", "controllers": ["skyhook", "ft_of"],
+        r#"{"name": "w", "base": "bump.json", "controllers": ["skyhook", "robust_of"],
             "parameters": {"plant.m_s": {"grid": [1400, 1600]}}}"#,
     )
     .unwrap();
@@ -345,10 +345,10 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
             .unwrap_or_else(|| panic!("{c}: {report}"))
             .to_string()
     };
-    assert!(row("ft_of").ends_with("| 100.0 % |"), "{report}");
+    assert!(row("robust_of").ends_with("| 100.0 % |"), "{report}");
     assert!(row("skyhook").ends_with("| 0.0 % |"), "{report}");
     assert!(
-        report.contains("- 2 × ft_of: fmi2DoStep: communication step 0.01 s"),
+        report.contains("- 2 × robust_of: fmi2DoStep: communication step 0.01 s"),
         "{report}"
     );
     let reader =
@@ -370,7 +370,7 @@ fn a_controller_stepped_beyond_its_stable_steps_warns_in_its_rows() {
         };
         assert_eq!(
             warnings.contains("communication step 0.01 s"),
-            controller == "ft_of",
+            controller == "robust_of",
             "{controller}: {warnings}"
         );
         seen += 1;

@@ -113,8 +113,10 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
     }
     // robust_of (on the car's sensors): at most 5 % worse than its nominal design hinf_of
     // anywhere in its mass range (the bound; it picks its filter within it, measured at
-    // most 3.6 % worse), better at both ends, where hinf_of degrades, and at its worst at least
-    // 15 % better than hinf_of's worst (measured 21 %).
+    // most 4.3 % worse), better at both ends, where hinf_of degrades, and at its worst better
+    // than hinf_of's worst (measured 5.4 %: 0.0744 against 0.0786 m/s² at 1200 kg; 21 % when
+    // hinf_of was designed behind ideal actuators, whose loop degraded more off its mass, and
+    // robust_of still is).
     let rows = beside_nominal(cert("robust_of"));
     for (label, own, nominal) in &rows {
         assert!(
@@ -133,7 +135,7 @@ fn comfort_designs_beat_the_passive_car_and_robust_designs_earn_their_name() {
             .map(|x| if i == 0 { x.1 } else { x.2 })
             .fold(0.0, f64::max)
     };
-    assert!(worst(&rows, 0) < 0.85 * worst(&rows, 1), "{rows:?}");
+    assert!(worst(&rows, 0) < 0.97 * worst(&rows, 1), "{rows:?}");
     // robust_sf: state feedback's comfort barely depends on the mass (hinf_sf is robust by
     // physics: 0.00848 to 0.00897 m/s² over the range), and the guaranteed-cost gain over the
     // range was 3–5.4 % worse everywhere; robust_sf takes the better of the two certified gains

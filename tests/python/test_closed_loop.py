@@ -160,20 +160,20 @@ def test_every_fmu_in_dist_validates():
 
 
 def test_fmpy_hears_a_controller_stepped_beyond_its_stable_communication_steps(capfd):
-    """ft_of's certificate finds its loop as a master runs it stable at steps up to 7.5 ms with
-    each of its faults (`comfort.communication_steps`): FMPy stepping it at 10 ms gets
+    """robust_of's certificate finds its loop as a master runs it stable at steps up to 7.5 ms with
+    each of its masses (`comfort.communication_steps`): FMPy stepping it at 10 ms gets
     fmi2Warning (and goes on) with the message through its default logger, once for that step
     size; 7.5 ms is silent."""
-    steps = json.loads((ROOT / "dist" / "ft_of" / "controller.json").read_text())["communication_steps"]
+    steps = json.loads((ROOT / "dist" / "robust_of" / "controller.json").read_text())["communication_steps"]
     assert steps["stable_up_to_s"] == 7.5e-3
-    ctrl = Fmu("ft_of")
+    ctrl = Fmu("robust_of")
     t = 0.0
     for h in (7.5e-3, 7.5e-3, 1e-2, 1e-2):
         ctrl.fmu.doStep(t, h)
         t += h
     ctrl.close()
     out = capfd.readouterr().out
-    assert out.count("communication step 0.01 s: ft_of's loop") == 1, out
+    assert out.count("communication step 0.01 s: robust_of's loop") == 1, out
     assert "use a step of at most 0.0075 s" in out and "0.0075 s:" not in out, out
 
 

@@ -474,9 +474,10 @@ fn anti_windup_keeps_the_commands_within_the_limits_and_its_designed_gain_buys_c
     );
 }
 
-/// The 5 cm bump with the plant's transport delay `tau` (15 s run at communication step `h`):
-/// |a_seat| over 13–15 s against the bump's peak, and the growth of the oscillation from
-/// 10–12 s to 13–15 s (≥ 1: no decay).
+/// The 5 cm bump with the plant's transport delay `tau` (30 s run at communication step `h`):
+/// |a_seat| over 28–30 s against the bump's peak, and the growth of the oscillation from
+/// 25–27 s to 28–30 s (≥ 1: no decay). 30 s, not 15: `ft_of` at 90 % of its 85 ms margin
+/// still rings at 2.4 % of the peak at 15 s, 0.2 % at 30 s.
 fn settle_after_bump(dir: &std::path::Path, variant: &str, tau: f64, h: f64) -> (f64, f64) {
     let plant = load_from(dir, "plant");
     let c = load_from(dir, variant);
@@ -486,16 +487,16 @@ fn settle_after_bump(dir: &std::path::Path, variant: &str, tau: f64, h: f64) -> 
         Some(&c),
         &bump(0.05),
         h,
-        at(15.0),
+        at(30.0),
         &RECORD,
         &[("tau", tau)],
     );
     let window = |a: usize, b: usize| log[a..b].iter().map(|r| r[0].abs()).fold(0.0, f64::max);
-    let (early, late) = (window(at(10.0), at(12.0)), window(at(13.0), at(15.0)));
+    let (early, late) = (window(at(25.0), at(27.0)), window(at(28.0), at(30.0)));
     let force = (8..12)
-        .map(|k| peak(&log[at(13.0)..], k))
+        .map(|k| peak(&log[at(28.0)..], k))
         .fold(0.0, f64::max);
-    eprintln!("{variant}, tau = {:.1} ms, h = {} ms: seat RMS {:.4} m/s² (first 4 s {:.4}), |a_seat| 10–12 s {early:.2e}, 13–15 s {late:.2e}, corner force 13–15 s {force:.0} N", tau * 1e3, h * 1e3, rms(&log, 0), rms(&log[..at(4.0)], 0));
+    eprintln!("{variant}, tau = {:.1} ms, h = {} ms: seat RMS {:.4} m/s² (first 4 s {:.4}), |a_seat| 25–27 s {early:.2e}, 28–30 s {late:.2e}, corner force 28–30 s {force:.0} N", tau * 1e3, h * 1e3, rms(&log, 0), rms(&log[..at(4.0)], 0));
     (late / peak(&log, 0), late / early)
 }
 
@@ -519,10 +520,12 @@ fn assert_delay_margin_holds(dir: &std::path::Path, variant: &str, m: f64, h: f6
 }
 
 /// Every shipped design tolerates the certificate's `tolerated_delay_s` (10 ms) and states the
-/// delay margin of its loop; the margins, about 16 ms each (the price of their comfort), must
-/// hold. The certificate's loop is
-/// continuous, so the check runs at 0.2 ms: at 1 ms the hold's extra 0.5 ms already leaves
-/// `ft_of` (margin 15.7 ms) in a 26 Hz oscillation of 1.3e-3 m/s² at 14.1 ms. `delay_sf` is
+/// delay margin of its loop, which must hold: about 16 ms for `hinf_sf` and `robust_of` (the
+/// price of their comfort), 85 ms for `hinf_of` and `ft_of` (designed behind 30 Hz actuators,
+/// whose lag rolls their gain off). The certificate's loop is continuous, so the check runs at
+/// 0.2 ms: at 1 ms the hold's extra 0.5 ms of delay left `ft_of`, before it was designed
+/// behind its actuators (margin 15.7 ms), in a 26 Hz oscillation of 1.3e-3 m/s² at 14.1 ms,
+/// within its margin. `delay_sf` is
 /// left out: its predictor takes the plant's known delay as a parameter.
 #[test]
 fn the_shipped_designs_certified_delay_margins_hold_in_cosimulation() {

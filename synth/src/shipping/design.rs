@@ -745,15 +745,19 @@ mod tests {
 
     /// `car.force_correction_hz` corrects a model of the actuators' forces: without
     /// `car.actuator_bandwidth_hz` there is none, and the file is refused by the name; so is a
-    /// rate that is not positive. With both it parses, and the shipped file has neither.
+    /// rate that is not positive. With both it parses; the shipped file has lagging actuators
+    /// (30 Hz) and no correction.
     #[test]
     fn a_force_correction_needs_lagging_actuators_and_a_positive_rate() {
-        let text = include_str!("../../designs/comfort.json");
-        let shipped = ComfortDesign::from_json(text).unwrap().car.unwrap();
+        let shipped_text = include_str!("../../designs/comfort.json");
+        let shipped = ComfortDesign::from_json(shipped_text).unwrap().car.unwrap();
         assert_eq!(
             (shipped.actuator_bandwidth_hz, shipped.force_correction_hz),
-            (None, None)
+            (Some(30.0), None)
         );
+        let lag = r#""actuator_bandwidth_hz": 30.0, "#;
+        assert!(shipped_text.contains(lag));
+        let text = shipped_text.replace(lag, "");
         let drift = r#""rigid_drift": { "position": 1e-3, "velocity": 1e-2 }"#;
         assert!(text.contains(drift));
         let with = |extra: &str| text.replace(drift, &format!("{drift}, {extra}"));
