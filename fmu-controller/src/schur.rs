@@ -22,8 +22,6 @@
 //! whole `A` would mix the blocks: its modes are the blocks' modes, but its basis is not.
 
 use nalgebra::DMatrix;
-#[cfg(test)]
-use nalgebra::DVector;
 
 /// The basis and what reads the state in it.
 #[derive(Debug, Clone)]
@@ -128,6 +126,7 @@ impl SchurBasis {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DVector;
 
     /// A basis that reproduces the system: `P T P⁻¹ = A`, `P⁻¹ B` the input, `T` quasi-upper-
     /// triangular with a 2×2 block for each complex pair.

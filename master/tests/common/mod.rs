@@ -92,7 +92,7 @@ pub fn contact_share(r: &Run, except: Option<&str>) -> f64 {
         let f = r.column(name).expect("recorded");
         f.iter().filter(|v| v.abs() >= 0.999 * limit).count() as f64 / f.len().max(1) as f64
     });
-    let stops = ["fl", "fr", "rl", "rr", "seat"]
+    let stops = vehicle::model::ACTUATORS
         .iter()
         .filter(|s| Some(**s) != except)
         .map(|s| {
