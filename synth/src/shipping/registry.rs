@@ -345,6 +345,11 @@ pub fn synthesise_all(
     params: &VehicleParams,
     file: &DesignFile,
 ) -> Result<Outcome, SynthError> {
+    // Before any LAPACK call, not only the SDPs': the eigen- and Schur decompositions of the
+    // certificates reach OpenBLAS's threaded kernels too, whose idle workers then spin beside
+    // the designs' own threads (`delay_sf` alone: 43.4 s wall, 12 s of it in the kernel, against
+    // 32.0 s), and whose sums' order depends on the core count.
+    crate::single_threaded_blas();
     for n in names {
         if variant(n).is_none() {
             return Err(SynthError::Usage(format!(
