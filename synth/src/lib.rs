@@ -43,8 +43,6 @@ pub enum SynthError {
 extern "C" {
     /// OpenBLAS's own thread count (Debian's library, linked through `openblas-src`).
     fn openblas_set_num_threads(n: std::os::raw::c_int);
-    #[cfg(test)]
-    fn openblas_get_num_threads() -> std::os::raw::c_int;
 }
 
 /// Run BLAS on the calling thread only (OpenBLAS's count is global: every thread's calls from
@@ -55,27 +53,4 @@ extern "C" {
 pub fn single_threaded_blas() {
     // SAFETY: a plain setter of OpenBLAS's global thread count, callable at any time.
     unsafe { openblas_set_num_threads(1) }
-}
-
-#[cfg(test)]
-mod tests {
-    /// A synthesis sets OpenBLAS to one thread before anything else it does, even one refused at
-    /// once (an unknown variant): the certificates' decompositions come before any SDP.
-    #[test]
-    fn a_synthesis_runs_blas_on_one_thread() {
-        // SAFETY: OpenBLAS's plain setter and getter of its global thread count.
-        unsafe { super::openblas_set_num_threads(2) };
-        let file = crate::shipping::registry::DesignFile::from_json(include_str!(
-            "../designs/comfort.json"
-        ))
-        .unwrap();
-        let refused = crate::shipping::registry::synthesise_all(
-            &["no_such_variant"],
-            &vehicle::VehicleParams::default(),
-            &file,
-        );
-        assert!(refused.is_err());
-        // SAFETY: as above.
-        assert_eq!(unsafe { super::openblas_get_num_threads() }, 1);
-    }
 }
